@@ -1,0 +1,291 @@
+//! Per-element Hessians in the complex view and their PSD modifications.
+//!
+//! The Hessian of one element is `H = A M^T K M` (complex-view paper, Eq. 2 and
+//! Appendix A) with the 4x4 matrix of Eq. 3,
+//! `K = [[2 a1 I + 4 b1 f f^T, 4 b3 f g^T], [4 b3 g f^T, 2 a2 I + 4 b2 g g^T]]`,
+//! `f = f_z`, `g = f_zbar` as real 2-vectors. A [`SystemBlock`] strategy turns an
+//! evaluated element into the 6x6 block of the Newton system; strategies are peers
+//! sharing the rest of the pipeline.
+
+pub mod cm;
+pub mod fp;
+pub mod kp;
+pub mod none;
+pub mod slim;
+
+use crate::energy::Modifiers;
+use crate::local::{LocalOp, Wirtinger};
+use nalgebra::{Matrix4, Matrix6, Vector4, Vector6};
+
+/// One element evaluated at the current map.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ElementState {
+    pub fz: [f64; 2],
+    pub fzb: [f64; 2],
+    pub m: Modifiers,
+}
+
+impl ElementState {
+    pub fn new(w: Wirtinger, m: Modifiers) -> Self {
+        ElementState { fz: w.fz, fzb: w.fzb, m }
+    }
+    #[inline]
+    pub fn x(&self) -> f64 {
+        self.fz[0] * self.fz[0] + self.fz[1] * self.fz[1]
+    }
+    #[inline]
+    pub fn y(&self) -> f64 {
+        self.fzb[0] * self.fzb[0] + self.fzb[1] * self.fzb[1]
+    }
+}
+
+/// `K` of Eq. 3 (per unit area).
+pub fn k_matrix(s: &ElementState) -> Matrix4<f64> {
+    let [f0, f1] = s.fz;
+    let [g0, g1] = s.fzb;
+    let m = &s.m;
+    let (a1, a2) = (2.0 * m.a1, 2.0 * m.a2);
+    let (b1, b2, b3) = (4.0 * m.b1, 4.0 * m.b2, 4.0 * m.b3);
+    // Written out entry by entry: the block-view version was miscompiled in release
+    // builds (wrong off-diagonal entries with rustc 1.95 / nalgebra 0.35), see the test
+    // `k_matrix_matches_its_definition`.
+    #[rustfmt::skip]
+    let k = Matrix4::new(
+        a1 + b1 * f0 * f0, b1 * f0 * f1,      b3 * f0 * g0,      b3 * f0 * g1,
+        b1 * f1 * f0,      a1 + b1 * f1 * f1, b3 * f1 * g0,      b3 * f1 * g1,
+        b3 * g0 * f0,      b3 * g0 * f1,      a2 + b2 * g0 * g0, b2 * g0 * g1,
+        b3 * g1 * f0,      b3 * g1 * f1,      b2 * g1 * g0,      a2 + b2 * g1 * g1,
+    );
+    k
+}
+
+/// Analytic eigensystem of `K` (Chen and Weber 2017, restated in Appendix B): the
+/// eigenvalues `2 a1` (direction `i f_z`), `2 a2` (direction `i f_zbar`) and the two
+/// eigenvalues of the 2x2 "radial" block in the basis `(f_z/|f_z|, f_zbar/|f_zbar|)`.
+/// Eigenvectors are orthonormal. When `f_zbar = 0` its direction is arbitrary and any unit
+/// vector gives a valid eigenbasis.
+#[derive(Clone, Copy, Debug)]
+pub struct KEigen {
+    pub values: [f64; 4],
+    pub vectors: [Vector4<f64>; 4],
+}
+
+pub fn k_eigen(s: &ElementState) -> KEigen {
+    let (x, y) = (s.x(), s.y());
+    let (nf, ng) = (x.sqrt(), y.sqrt());
+    let ef = if nf > 0.0 { [s.fz[0] / nf, s.fz[1] / nf] } else { [1.0, 0.0] };
+    let eg = if ng > 0.0 { [s.fzb[0] / ng, s.fzb[1] / ng] } else { [1.0, 0.0] };
+    let m = &s.m;
+    let p = 2.0 * m.a1 + 4.0 * m.b1 * x;
+    let r = 2.0 * m.a2 + 4.0 * m.b2 * y;
+    let q = 4.0 * m.b3 * nf * ng;
+    // 2x2 symmetric eigen by rotation angle: robust when q ~ 0.
+    let theta = 0.5 * (2.0 * q).atan2(p - r);
+    let (sn, cs) = theta.sin_cos();
+    let l3 = p * cs * cs + 2.0 * q * sn * cs + r * sn * sn;
+    let l4 = p * sn * sn - 2.0 * q * sn * cs + r * cs * cs;
+    KEigen {
+        values: [2.0 * m.a1, 2.0 * m.a2, l3, l4],
+        vectors: [
+            Vector4::new(-ef[1], ef[0], 0.0, 0.0),
+            Vector4::new(0.0, 0.0, -eg[1], eg[0]),
+            Vector4::new(cs * ef[0], cs * ef[1], sn * eg[0], sn * eg[1]),
+            Vector4::new(-sn * ef[0], -sn * ef[1], cs * eg[0], cs * eg[1]),
+        ],
+    }
+}
+
+/// Relative threshold under which an eigenvalue counts as zero rather than negative, so
+/// round-off at exactly-singular states (e.g. `2 a1 = 0` at an isometry) is not counted.
+pub const NEG_EIG_RTOL: f64 = 1e-12;
+
+/// Number of negative eigenvalues of the unmodified element Hessian. `M` has full row rank
+/// for a non-degenerate triangle, so by Sylvester's law of inertia this equals the count of
+/// `K` (verified in the reference notes, section 1.4).
+pub fn count_negative(s: &ElementState) -> usize {
+    let e = k_eigen(s);
+    let scale = e.values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    e.values.iter().filter(|&&v| v < -NEG_EIG_RTOL * scale).count()
+}
+
+/// Gradient of `A psi` with respect to the 6 local dofs (Appendix A):
+/// `A M^T (2 a1 f_z, 2 a2 f_zbar)`.
+pub fn element_gradient(op: &LocalOp, s: &ElementState) -> Vector6<f64> {
+    let w =
+        Vector4::new(2.0 * s.m.a1 * s.fz[0], 2.0 * s.m.a1 * s.fz[1], 2.0 * s.m.a2 * s.fzb[0], 2.0 * s.m.a2 * s.fzb[1]);
+    op.mt_times(w) * op.area
+}
+
+/// `A M^T K M` for any 4x4 `K`.
+pub fn triple_product(op: &LocalOp, k: &Matrix4<f64>) -> Matrix6<f64> {
+    let m = op.m();
+    (m.transpose() * k * m) * op.area
+}
+
+/// The unmodified element Hessian `A M^T K M`.
+pub fn element_hessian(op: &LocalOp, s: &ElementState) -> Matrix6<f64> {
+    triple_product(op, &k_matrix(s))
+}
+
+/// A strategy that turns an evaluated element into its block of the Newton system.
+/// Adding a Hessian modification is one implementation of this trait plus one registry line.
+pub trait SystemBlock: Send + Sync {
+    /// The 6x6 block (including the source-area weight) in local dofs `(u1, v1, u2, v2, u3, v3)`.
+    fn block(&self, op: &LocalOp, s: &ElementState) -> Matrix6<f64>;
+
+    /// A multiple of the identity added to the assembled matrix (SLIM's proximal term).
+    fn diagonal_shift(&self) -> f64 {
+        0.0
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::energy::tests::{all_energies, random_xy, Lcg};
+    use crate::energy::EnergyKind;
+
+    /// A random orientation-preserving element state of energy `e` on a random triangle.
+    pub fn random_element(rng: &mut Lcg, e: &EnergyKind) -> (LocalOp, [[f64; 2]; 3], ElementState) {
+        loop {
+            let z = [
+                [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
+                [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
+                [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
+            ];
+            let Some(op) = LocalOp::from_planar(z) else { continue };
+            if op.area < 0.05 {
+                continue;
+            }
+            let y = [
+                [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
+                [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
+                [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)],
+            ];
+            let w = op.wirtinger(y);
+            let (x, yy) = (w.x(), w.y());
+            if !(x > 1.2 * yy) || !(0.05..=20.0).contains(&x) {
+                continue;
+            }
+            let Some(m) = e.modifiers(x, yy) else { continue };
+            return (op, y, ElementState::new(w, m));
+        }
+    }
+
+    fn element_energy(op: &LocalOp, e: &EnergyKind, y: [[f64; 2]; 3]) -> f64 {
+        let w = op.wirtinger(y);
+        op.area * e.value(w.x(), w.y())
+    }
+
+    fn element_grad(op: &LocalOp, e: &EnergyKind, y: [[f64; 2]; 3]) -> Vector6<f64> {
+        let w = op.wirtinger(y);
+        element_gradient(op, &ElementState::new(w, e.modifiers(w.x(), w.y()).unwrap()))
+    }
+
+    fn perturb(y: [[f64; 2]; 3], i: usize, h: f64) -> [[f64; 2]; 3] {
+        let mut z = y;
+        z[i / 2][i % 2] += h;
+        z
+    }
+
+    #[test]
+    fn gradient_and_hessian_match_central_differences() {
+        let mut rng = Lcg(11);
+        for e in all_energies() {
+            for _ in 0..50 {
+                let (op, y, s) = random_element(&mut rng, &e);
+                let g = element_gradient(&op, &s);
+                let h = element_hessian(&op, &s);
+                let step = 1e-6;
+                for i in 0..6 {
+                    let fd = (element_energy(&op, &e, perturb(y, i, step))
+                        - element_energy(&op, &e, perturb(y, i, -step)))
+                        / (2.0 * step);
+                    assert!((fd - g[i]).abs() <= 1e-5 * g.amax().max(1.0), "{e:?} grad {i}: {fd} vs {}", g[i]);
+                    let fdg = (element_grad(&op, &e, perturb(y, i, step))
+                        - element_grad(&op, &e, perturb(y, i, -step)))
+                        / (2.0 * step);
+                    for j in 0..6 {
+                        assert!(
+                            (fdg[j] - h[(j, i)]).abs() <= 1e-5 * h.amax().max(1.0),
+                            "{e:?} hess ({j},{i}): {} vs {}",
+                            fdg[j],
+                            h[(j, i)]
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn k_matrix_matches_its_definition() {
+        // Eq. 3 built from outer products of embedded 4-vectors, a code path independent of
+        // `k_matrix` (whose first version was miscompiled in release builds).
+        let mut rng = Lcg(3);
+        for e in all_energies() {
+            for _ in 0..100 {
+                let (_, _, s) = random_element(&mut rng, &e);
+                let f = Vector4::new(s.fz[0], s.fz[1], 0.0, 0.0);
+                let g = Vector4::new(0.0, 0.0, s.fzb[0], s.fzb[1]);
+                let p = Matrix4::from_diagonal(&Vector4::new(1.0, 1.0, 0.0, 0.0));
+                let q = Matrix4::identity() - p;
+                let k = p * (2.0 * s.m.a1)
+                    + q * (2.0 * s.m.a2)
+                    + f * f.transpose() * (4.0 * s.m.b1)
+                    + g * g.transpose() * (4.0 * s.m.b2)
+                    + (f * g.transpose() + g * f.transpose()) * (4.0 * s.m.b3);
+                assert!((k - k_matrix(&s)).norm() <= 1e-13 * k.norm(), "{e:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn analytic_eigensystem_reconstructs_k() {
+        let mut rng = Lcg(5);
+        for e in all_energies() {
+            for _ in 0..200 {
+                let (_, _, s) = random_element(&mut rng, &e);
+                let k = k_matrix(&s);
+                let eig = k_eigen(&s);
+                let mut r = Matrix4::zeros();
+                for i in 0..4 {
+                    r += eig.vectors[i] * eig.vectors[i].transpose() * eig.values[i];
+                    assert!((k * eig.vectors[i] - eig.vectors[i] * eig.values[i]).norm() <= 1e-10 * k.norm());
+                }
+                assert!((r - k).norm() <= 1e-11 * k.norm(), "{e:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn inertia_of_h_equals_inertia_of_k() {
+        let mut rng = Lcg(9);
+        for e in all_energies() {
+            for _ in 0..200 {
+                let (op, _, s) = random_element(&mut rng, &e);
+                let h = element_hessian(&op, &s);
+                let ev = h.symmetric_eigenvalues();
+                let scale = ev.amax();
+                // H has a 2-dimensional null space (translations); count clear negatives.
+                let neg_h = ev.iter().filter(|&&v| v < -1e-9 * scale).count();
+                assert_eq!(neg_h, count_negative(&s), "{e:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn sd_negative_iff_alpha1_negative() {
+        // Notes 1.5: for SD at most one negative eigenvalue, exactly when a1 < 0, i.e. when
+        // sigma1^2 - sigma1 sigma2 + sigma2^2 > (sigma1 sigma2)^3.
+        let mut rng = Lcg(21);
+        for _ in 0..2000 {
+            let (x, y) = random_xy(&mut rng);
+            let m = EnergyKind::Sd.modifiers(x, y).unwrap();
+            let s = ElementState { fz: [x.sqrt(), 0.0], fzb: [0.0, y.sqrt()], m };
+            let (s1, s2) = (x.sqrt() + y.sqrt(), x.sqrt() - y.sqrt());
+            let closed = s1 * s1 - s1 * s2 + s2 * s2 > (s1 * s2).powi(3);
+            assert_eq!(count_negative(&s), usize::from(closed));
+        }
+    }
+}

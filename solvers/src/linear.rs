@@ -1,0 +1,203 @@
+//! Sparse SPD solves with faer: the symbolic Cholesky analysis is done once per pattern and
+//! the numeric factorization is recomputed into a reused buffer each iteration
+//! (`../shared/notes/rust-stack.md` section 2).
+//!
+//! Conventions of the complex-view reference code (notes 1.8): a Tikhonov shift `tau` is
+//! added to the diagonal, the matrix is scaled symmetrically by `S = diag(1/sqrt(a_ii))`
+//! (Jacobi), and `tau` is added again to the scaled diagonal; the step is `d = S y` with
+//! `(S A S + tau I) y = S b`.
+
+use crate::assembly::Pattern;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+use faer::{Conj, MatMut, Par, Side};
+
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum LinearError {
+    #[error("symbolic Cholesky analysis failed: {0}")]
+    Symbolic(String),
+    #[error("Cholesky factorization failed: matrix not positive definite (pivot {pivot})")]
+    NotPositiveDefinite { pivot: usize },
+    #[error("matrix diagonal entry {index} is {value} (not positive and finite)")]
+    BadDiagonal { index: usize, value: f64 },
+}
+
+/// Linear-system settings (`[linear]` in the config).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinearSettings {
+    /// Tikhonov shift, added before and after Jacobi scaling.
+    pub tikhonov: f64,
+    /// Symmetric Jacobi scaling (complex-view paper Section 6.1: without it Cholesky often
+    /// fails on cut meshes).
+    pub jacobi: bool,
+}
+
+impl Default for LinearSettings {
+    fn default() -> Self {
+        LinearSettings { tikhonov: 1e-10, jacobi: true }
+    }
+}
+
+pub struct SpdSolver {
+    n: usize,
+    symbolic_a: SymbolicSparseColMat<usize>,
+    diag: Vec<usize>,
+    symbolic: SymbolicCholesky<usize>,
+    l_values: Vec<f64>,
+    scaled: Vec<f64>,
+    scale: Vec<f64>,
+    mem: MemBuffer,
+}
+
+impl SpdSolver {
+    /// Analyse the pattern once (AMD ordering, supernodal when faer deems it worthwhile).
+    pub fn new(pattern: &Pattern) -> Result<SpdSolver, LinearError> {
+        Self::from_csc(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone(), pattern.diag.clone())
+    }
+
+    /// Analyse a lower-triangular CSC pattern (sorted rows, every diagonal present; `diag`
+    /// gives the value slot of each diagonal entry).
+    pub fn from_csc(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        diag: Vec<usize>,
+    ) -> Result<SpdSolver, LinearError> {
+        let symbolic_a = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
+        let symbolic = factorize_symbolic_cholesky(
+            symbolic_a.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams::default(),
+        )
+        .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
+        let par = Par::Seq;
+        let mem = MemBuffer::new(
+            symbolic
+                .factorize_numeric_llt_scratch::<f64>(par, Default::default())
+                .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
+        );
+        let l_values = vec![0.0; symbolic.len_val()];
+        Ok(SpdSolver { n, symbolic_a, diag, symbolic, l_values, scaled: Vec::new(), scale: vec![1.0; n], mem })
+    }
+
+    /// Number of stored entries of the Cholesky factor (with supernodal padding).
+    pub fn factor_len(&self) -> usize {
+        self.l_values.len()
+    }
+
+    /// Solve `A x = b` for the SPD matrix with lower-triangle `values` on the analysed
+    /// pattern, with the regularization and scaling of `settings`.
+    pub fn solve(&mut self, values: &[f64], b: &[f64], settings: &LinearSettings) -> Result<Vec<f64>, LinearError> {
+        let tau = settings.tikhonov;
+        self.scaled.clear();
+        self.scaled.extend_from_slice(values);
+        for &p in &self.diag {
+            self.scaled[p] += tau;
+        }
+        if settings.jacobi {
+            for (i, &p) in self.diag.iter().enumerate() {
+                let d = self.scaled[p];
+                if !(d > 0.0 && d.is_finite()) {
+                    return Err(LinearError::BadDiagonal { index: i, value: d });
+                }
+                self.scale[i] = 1.0 / d.sqrt();
+            }
+            let col_ptr = self.symbolic_a.col_ptr();
+            let row_idx = self.symbolic_a.row_idx();
+            for c in 0..self.n {
+                let sc = self.scale[c];
+                let range = col_ptr[c]..col_ptr[c + 1];
+                for (v, &r) in self.scaled[range.clone()].iter_mut().zip(&row_idx[range]) {
+                    *v *= sc * self.scale[r];
+                }
+            }
+            for &p in &self.diag {
+                self.scaled[p] += tau;
+            }
+        } else {
+            self.scale.iter_mut().for_each(|s| *s = 1.0);
+        }
+        let a = SparseColMatRef::new(self.symbolic_a.as_ref(), &self.scaled);
+        let par = Par::Seq;
+        let llt = self
+            .symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.l_values,
+                a,
+                Side::Lower,
+                LltRegularization::default(),
+                par,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| match e {
+                faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
+                    LinearError::NotPositiveDefinite { pivot: index }
+                }
+            })?;
+        let mut x: Vec<f64> = b.iter().zip(&self.scale).map(|(bi, si)| bi * si).collect();
+        let rhs = MatMut::from_column_major_slice_mut(&mut x, self.n, 1);
+        llt.solve_in_place_with_conj(Conj::No, rhs, par, MemStack::new(&mut self.mem));
+        for (xi, si) in x.iter_mut().zip(&self.scale) {
+            *xi *= si;
+        }
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            return Err(LinearError::BadDiagonal { index: i, value: x[i] });
+        }
+        Ok(x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix6;
+
+    #[test]
+    fn solves_laplacian_like_system() {
+        // A 2x2 grid of 8 triangles: blocks = cotan-like PSD blocks + identity shift makes SPD.
+        let faces = vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+        let pat = Pattern::new(&faces, 5);
+        let blocks: Vec<Matrix6<f64>> = (0..faces.len())
+            .map(|t| {
+                let b = Matrix6::from_fn(|i, j| (((i + 1) * (j + 2) + t) % 5) as f64 * 0.1);
+                b * b.transpose() + Matrix6::identity()
+            })
+            .collect();
+        let mut vals = Vec::new();
+        pat.assemble(&blocks, &mut vals);
+        let x_true: Vec<f64> = (0..10).map(|i| (i as f64).cos()).collect();
+        let b = pat.sym_mul(&vals, &x_true);
+        let mut solver = SpdSolver::new(&pat).unwrap();
+        for jacobi in [false, true] {
+            let x = solver.solve(&vals, &b, &LinearSettings { tikhonov: 0.0, jacobi }).unwrap();
+            for i in 0..10 {
+                assert!((x[i] - x_true[i]).abs() < 1e-10, "{jacobi} {i}");
+            }
+        }
+        // refactorization with new values reuses the analysis
+        let vals2: Vec<f64> = vals.iter().map(|v| 2.0 * v).collect();
+        let x = solver.solve(&vals2, &b, &LinearSettings::default()).unwrap();
+        assert!((x[3] - 0.5 * x_true[3]).abs() < 1e-8);
+    }
+
+    #[test]
+    fn indefinite_matrix_is_a_typed_error() {
+        let faces = vec![[0, 1, 2]];
+        let pat = Pattern::new(&faces, 3);
+        let blocks = vec![-Matrix6::<f64>::identity()];
+        let mut vals = Vec::new();
+        pat.assemble(&blocks, &mut vals);
+        let mut solver = SpdSolver::new(&pat).unwrap();
+        let b = vec![1.0; 6];
+        let err = solver.solve(&vals, &b, &LinearSettings { tikhonov: 0.0, jacobi: false }).unwrap_err();
+        assert!(matches!(err, LinearError::NotPositiveDefinite { .. }));
+        let err = solver.solve(&vals, &b, &LinearSettings::default()).unwrap_err();
+        assert!(matches!(err, LinearError::BadDiagonal { .. }));
+    }
+}

@@ -1,0 +1,222 @@
+//! Per-triangle local operators in the complex view (complex-view paper, Section 3.2).
+//!
+//! Each source triangle is placed in the plane (an isometric flattening of a 3D triangle,
+//! or the triangle itself for planar input) with vertices `z_1, z_2, z_3`. With the edges
+//! `e_1 = z_2 - z_3`, `e_2 = z_3 - z_1`, `e_3 = z_1 - z_2` and the area `A`, the operator
+//! `D = i/(4A) conj(e)` gives the Wirtinger derivatives of the linear map with target
+//! vertices `Y`: `f_z = D Y`, `f_zbar = conj(D) Y`.
+
+use crate::mesh::Mesh;
+use nalgebra::{Matrix4x6, Vector4, Vector6};
+
+/// The local operator of one triangle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalOp {
+    /// Source area (positive).
+    pub area: f64,
+    /// Real and imaginary parts of the three complex coefficients `D_k`.
+    pub d_re: [f64; 3],
+    pub d_im: [f64; 3],
+}
+
+/// Wirtinger derivatives of the linear map of one triangle, as real 2-vectors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wirtinger {
+    pub fz: [f64; 2],
+    pub fzb: [f64; 2],
+}
+
+impl Wirtinger {
+    /// `x = |f_z|^2`
+    #[inline]
+    pub fn x(&self) -> f64 {
+        self.fz[0] * self.fz[0] + self.fz[1] * self.fz[1]
+    }
+    /// `y = |f_zbar|^2`
+    #[inline]
+    pub fn y(&self) -> f64 {
+        self.fzb[0] * self.fzb[0] + self.fzb[1] * self.fzb[1]
+    }
+    /// The stacked 4-vector `(f_z, f_zbar)`.
+    #[inline]
+    pub fn stacked(&self) -> Vector4<f64> {
+        Vector4::new(self.fz[0], self.fz[1], self.fzb[0], self.fzb[1])
+    }
+}
+
+impl LocalOp {
+    /// Build the operator from the three planar source vertices (counter-clockwise).
+    /// Returns `None` for a degenerate or clockwise triangle.
+    pub fn from_planar(z: [[f64; 2]; 3]) -> Option<LocalOp> {
+        let e = [
+            [z[1][0] - z[2][0], z[1][1] - z[2][1]],
+            [z[2][0] - z[0][0], z[2][1] - z[0][1]],
+            [z[0][0] - z[1][0], z[0][1] - z[1][1]],
+        ];
+        // signed area = cross(z2 - z1, z3 - z1) / 2 = cross(-e3, e2) / 2
+        let area = 0.5 * ((-e[2][0]) * e[1][1] - (-e[2][1]) * e[1][0]);
+        if !(area > 0.0) || !area.is_finite() {
+            return None;
+        }
+        // D_k = i/(4A) * conj(e_k) = i/(4A) (er - i ei) = (ei + i er) / (4A)
+        let c = 1.0 / (4.0 * area);
+        let mut d_re = [0.0; 3];
+        let mut d_im = [0.0; 3];
+        for k in 0..3 {
+            d_re[k] = e[k][1] * c;
+            d_im[k] = e[k][0] * c;
+        }
+        Some(LocalOp { area, d_re, d_im })
+    }
+
+    /// Isometric flattening of a 3D triangle from its edge lengths (vertex 1 at 0, vertex 2
+    /// on the positive real axis, vertex 3 in the upper half plane), as the reference code does.
+    pub fn from_3d(p: [[f64; 3]; 3]) -> Option<LocalOp> {
+        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let u = sub(p[1], p[0]);
+        let v = sub(p[2], p[0]);
+        let lu = dot(u, u).sqrt();
+        if !(lu > 0.0) {
+            return None;
+        }
+        // coordinates of v in the frame (u/|u|, n x u/|u|): x = <u,v>/|u|, y = |u x v|/|u|
+        let cx = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+        let vx = dot(u, v) / lu;
+        let vy = dot(cx, cx).sqrt() / lu;
+        LocalOp::from_planar([[0.0, 0.0], [lu, 0.0], [vx, vy]])
+    }
+
+    /// Wirtinger derivatives of the map with target vertex positions `y` (u, v per vertex).
+    #[inline]
+    pub fn wirtinger(&self, y: [[f64; 2]; 3]) -> Wirtinger {
+        let mut fz = [0.0; 2];
+        let mut fzb = [0.0; 2];
+        for (k, &[u, v]) in y.iter().enumerate() {
+            let (dr, di) = (self.d_re[k], self.d_im[k]);
+            // D_k (u + iv)
+            fz[0] += dr * u - di * v;
+            fz[1] += di * u + dr * v;
+            // conj(D_k) (u + iv)
+            fzb[0] += dr * u + di * v;
+            fzb[1] += -di * u + dr * v;
+        }
+        Wirtinger { fz, fzb }
+    }
+
+    /// The real 4x6 matrix `M = [D; conj D]` mapping the local dofs
+    /// `(u_1, v_1, u_2, v_2, u_3, v_3)` to `(Re f_z, Im f_z, Re f_zbar, Im f_zbar)` (Eq. 2).
+    pub fn m(&self) -> Matrix4x6<f64> {
+        let mut m = Matrix4x6::zeros();
+        for k in 0..3 {
+            let (dr, di) = (self.d_re[k], self.d_im[k]);
+            m[(0, 2 * k)] = dr;
+            m[(1, 2 * k)] = di;
+            m[(2, 2 * k)] = dr;
+            m[(3, 2 * k)] = -di;
+            m[(0, 2 * k + 1)] = -di;
+            m[(1, 2 * k + 1)] = dr;
+            m[(2, 2 * k + 1)] = di;
+            m[(3, 2 * k + 1)] = dr;
+        }
+        m
+    }
+
+    /// `M^T w` for a 4-vector `w` without forming `M`.
+    #[inline]
+    pub fn mt_times(&self, w: Vector4<f64>) -> Vector6<f64> {
+        self.m().transpose() * w
+    }
+}
+
+/// Local operators of every face of a mesh: planar meshes use their own coordinates (so
+/// the identity is the rest pose of a deformation), 3D meshes are flattened per triangle.
+/// Returns the index of the first degenerate face on failure.
+pub fn local_ops(mesh: &Mesh) -> Result<Vec<LocalOp>, usize> {
+    let planar = mesh.is_planar();
+    mesh.faces
+        .iter()
+        .enumerate()
+        .map(|(t, f)| {
+            let p = [mesh.positions[f[0]], mesh.positions[f[1]], mesh.positions[f[2]]];
+            let op = if planar {
+                LocalOp::from_planar([[p[0][0], p[0][1]], [p[1][0], p[1][1]], [p[2][0], p[2][1]]])
+            } else {
+                LocalOp::from_3d(p)
+            };
+            op.ok_or(t)
+        })
+        .collect()
+}
+
+/// Signed area of a target triangle.
+#[inline]
+pub fn signed_area(y: [[f64; 2]; 3]) -> f64 {
+    0.5 * ((y[1][0] - y[0][0]) * (y[2][1] - y[0][1]) - (y[1][1] - y[0][1]) * (y[2][0] - y[0][0]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn op_unit() -> LocalOp {
+        LocalOp::from_planar([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]).unwrap()
+    }
+
+    #[test]
+    fn identity_map_has_fz_one_fzbar_zero() {
+        let z = [[0.3, -0.2], [1.4, 0.1], [0.2, 0.9]];
+        let op = LocalOp::from_planar(z).unwrap();
+        let w = op.wirtinger(z);
+        assert!((w.fz[0] - 1.0).abs() < 1e-14 && w.fz[1].abs() < 1e-14);
+        assert!(w.fzb[0].abs() < 1e-14 && w.fzb[1].abs() < 1e-14);
+    }
+
+    #[test]
+    fn reflection_is_antiholomorphic() {
+        let z = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        let op = op_unit();
+        // f(z) = conj(z): (u, v) -> (u, -v)
+        let y = z.map(|p| [p[0], -p[1]]);
+        let w = op.wirtinger(y);
+        assert!(w.fz[0].abs() < 1e-14 && w.fz[1].abs() < 1e-14);
+        assert!((w.fzb[0] - 1.0).abs() < 1e-14 && w.fzb[1].abs() < 1e-14);
+    }
+
+    #[test]
+    fn det_and_frobenius_identities() {
+        // |J| = x - y and ||J||_F^2 = 2 (x + y) for an arbitrary linear map
+        let op = op_unit();
+        let (a, b, c, d) = (1.3, -0.4, 0.7, 2.1); // J = [[a, b], [c, d]]
+        let y = [[0.0, 0.0], [a, c], [b, d]];
+        let w = op.wirtinger(y);
+        assert!(((w.x() - w.y()) - (a * d - b * c)).abs() < 1e-13);
+        assert!((2.0 * (w.x() + w.y()) - (a * a + b * b + c * c + d * d)).abs() < 1e-13);
+        assert!(((a * d - b * c) - 2.0 * signed_area(y)).abs() < 1e-13);
+    }
+
+    #[test]
+    fn flattening_preserves_lengths_and_area() {
+        let p = [[0.1, 0.2, 0.3], [1.0, -0.5, 0.7], [0.4, 0.9, -0.2]];
+        let op = LocalOp::from_3d(p).unwrap();
+        let mesh = Mesh::new("t", p.to_vec(), vec![[0, 1, 2]]);
+        assert!((op.area - mesh.face_area(0)).abs() < 1e-14);
+    }
+
+    #[test]
+    fn m_matches_wirtinger() {
+        let op = LocalOp::from_planar([[0.1, 0.0], [1.2, 0.3], [0.4, 1.1]]).unwrap();
+        let y = [[0.3, 0.5], [-0.2, 1.7], [1.1, 0.4]];
+        let w = op.wirtinger(y);
+        let yv = Vector6::new(y[0][0], y[0][1], y[1][0], y[1][1], y[2][0], y[2][1]);
+        let s = op.m() * yv;
+        assert!((s - w.stacked()).norm() < 1e-14);
+    }
+
+    #[test]
+    fn degenerate_triangles_are_rejected() {
+        assert!(LocalOp::from_planar([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]).is_none());
+        assert!(LocalOp::from_planar([[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]]).is_none());
+        assert!(LocalOp::from_3d([[0.0; 3], [0.0; 3], [1.0, 0.0, 0.0]]).is_none());
+    }
+}

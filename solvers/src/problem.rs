@@ -1,0 +1,234 @@
+//! A planar map optimization problem: the source mesh's local operators, an energy, and
+//! evaluation of energy, gradient and element states at a map.
+//!
+//! The energy is `sum_t A_t psi_t / sum_t A_t` (design.md): SD scores 2 at an isometry.
+//! Maps are stored as interleaved `[u0, v0, u1, v1, ...]`.
+
+use crate::energy::EnergyKind;
+use crate::hessian::{count_negative, element_gradient, ElementState};
+use crate::local::{local_ops, signed_area, LocalOp};
+use crate::mesh::Mesh;
+use rayon::prelude::*;
+
+/// Elements per parallel chunk; fixed so that floating-point sums do not depend on how
+/// rayon splits the work (deterministic results for any thread count).
+const CHUNK: usize = 2048;
+
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum EvalError {
+    #[error("element {element} is inverted or degenerate (det J = {det:e})")]
+    NotInDomain { element: usize, det: f64 },
+    #[error("element {element} has a non-finite energy or derivative (psi = {psi})")]
+    NonFinite { element: usize, psi: f64 },
+}
+
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[error("{source_name}: face {face} is degenerate (zero area) and has no local frame")]
+pub struct DegenerateFace {
+    pub source_name: String,
+    pub face: usize,
+}
+
+pub struct MapProblem {
+    pub n_vertices: usize,
+    pub faces: Vec<[usize; 3]>,
+    pub ops: Vec<LocalOp>,
+    pub total_area: f64,
+    pub energy: EnergyKind,
+}
+
+/// Result of a full evaluation (energy, gradient, per-element states and Hessian inertia).
+#[derive(Clone, Debug, Default)]
+pub struct Evaluation {
+    pub energy: f64,
+    pub grad: Vec<f64>,
+    pub states: Vec<ElementState>,
+    /// Negative eigenvalues summed over the unmodified element Hessians.
+    pub neg_eig: usize,
+    /// Elements with at least one negative eigenvalue.
+    pub indefinite_elems: usize,
+}
+
+impl MapProblem {
+    pub fn new(mesh: &Mesh, energy: EnergyKind) -> Result<Self, DegenerateFace> {
+        let ops = local_ops(mesh).map_err(|face| DegenerateFace { source_name: mesh.source.clone(), face })?;
+        let total_area = ops.iter().map(|o| o.area).sum();
+        Ok(MapProblem { n_vertices: mesh.n_vertices(), faces: mesh.faces.clone(), ops, total_area, energy })
+    }
+
+    pub fn n_dofs(&self) -> usize {
+        2 * self.n_vertices
+    }
+
+    pub fn n_faces(&self) -> usize {
+        self.faces.len()
+    }
+
+    #[inline]
+    pub fn target(&self, x: &[f64], t: usize) -> [[f64; 2]; 3] {
+        let f = self.faces[t];
+        [[x[2 * f[0]], x[2 * f[0] + 1]], [x[2 * f[1]], x[2 * f[1] + 1]], [x[2 * f[2]], x[2 * f[2] + 1]]]
+    }
+
+    /// Energy only (for line searches): `+inf` if any element is inverted or degenerate.
+    pub fn energy(&self, x: &[f64]) -> f64 {
+        let partial: Vec<f64> = (0..self.n_faces())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .chunks(CHUNK)
+            .map(|chunk| {
+                chunk
+                    .into_iter()
+                    .map(|t| {
+                        let w = self.ops[t].wirtinger(self.target(x, t));
+                        self.ops[t].area * self.energy.value(w.x(), w.y())
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        partial.iter().sum::<f64>() / self.total_area
+    }
+
+    /// Number of triangles whose image has non-positive signed area.
+    pub fn flips(&self, x: &[f64]) -> usize {
+        (0..self.n_faces()).into_par_iter().filter(|&t| signed_area(self.target(x, t)) <= 0.0).count()
+    }
+
+    /// Energy, gradient, element states and inertia counts at `x`, reusing `out`'s buffers.
+    pub fn evaluate(&self, x: &[f64], out: &mut Evaluation) -> Result<(), EvalError> {
+        let nf = self.n_faces();
+        out.states.resize(nf, ElementState::default());
+        // Per-element: state, weighted energy and local gradient, in fixed chunks.
+        let mut locals = vec![[0.0f64; 7]; nf];
+        let results: Vec<Result<(), EvalError>> = out
+            .states
+            .par_chunks_mut(CHUNK)
+            .zip(locals.par_chunks_mut(CHUNK))
+            .enumerate()
+            .map(|(c, (states, locals))| {
+                for (i, (st, loc)) in states.iter_mut().zip(locals.iter_mut()).enumerate() {
+                    let t = c * CHUNK + i;
+                    let op = &self.ops[t];
+                    let w = op.wirtinger(self.target(x, t));
+                    let (xx, yy) = (w.x(), w.y());
+                    let m = self.energy.modifiers(xx, yy).ok_or(EvalError::NotInDomain { element: t, det: xx - yy })?;
+                    *st = ElementState::new(w, m);
+                    let g = element_gradient(op, st);
+                    if !m.psi.is_finite() || g.iter().any(|v| !v.is_finite()) {
+                        return Err(EvalError::NonFinite { element: t, psi: m.psi });
+                    }
+                    loc[0] = op.area * m.psi;
+                    loc[1..].copy_from_slice(g.as_slice());
+                }
+                Ok(())
+            })
+            .collect();
+        // Report the lowest failing element for a stable message.
+        if let Some(e) = results.into_iter().find_map(|r| r.err()) {
+            return Err(e);
+        }
+        let inv = 1.0 / self.total_area;
+        out.grad.clear();
+        out.grad.resize(self.n_dofs(), 0.0);
+        let mut energy = 0.0;
+        for (t, loc) in locals.iter().enumerate() {
+            energy += loc[0];
+            let f = self.faces[t];
+            for k in 0..3 {
+                out.grad[2 * f[k]] += loc[1 + 2 * k] * inv;
+                out.grad[2 * f[k] + 1] += loc[2 + 2 * k] * inv;
+            }
+        }
+        out.energy = energy * inv;
+        let counts: (usize, usize) = out
+            .states
+            .par_iter()
+            .map(|s| {
+                let n = count_negative(s);
+                (n, usize::from(n > 0))
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        out.neg_eig = counts.0;
+        out.indefinite_elems = counts.1;
+        Ok(())
+    }
+
+    /// Area weight of element `t` in the normalized energy.
+    #[inline]
+    pub fn weight(&self) -> f64 {
+        1.0 / self.total_area
+    }
+}
+
+/// Euclidean norm.
+pub fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::tests::{all_energies, Lcg};
+
+    fn grid(n: usize) -> Mesh {
+        let mut p = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+                p.push([x, y, 0.3 * (3.0 * x).sin() * (2.0 * y).cos()]);
+            }
+        }
+        let mut f = Vec::new();
+        let id = |i: usize, j: usize| j * (n + 1) + i;
+        for j in 0..n {
+            for i in 0..n {
+                f.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                f.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        Mesh::new("grid", p, f)
+    }
+
+    #[test]
+    fn global_gradient_matches_central_differences() {
+        let mesh = grid(4);
+        let mut rng = Lcg(31);
+        for e in all_energies() {
+            let pb = MapProblem::new(&mesh, e).unwrap();
+            // a mildly distorted planar map of the grid
+            let x: Vec<f64> = mesh
+                .positions
+                .iter()
+                .flat_map(|p| [1.1 * p[0] + 0.2 * p[1] * p[1], 0.9 * p[1] + 0.1 * p[0]])
+                .map(|v| v + 0.003 * rng.range(-1.0, 1.0))
+                .collect();
+            let mut ev = Evaluation::default();
+            pb.evaluate(&x, &mut ev).unwrap();
+            assert!((ev.energy - pb.energy(&x)).abs() < 1e-12 * ev.energy.abs().max(1.0));
+            for i in 0..x.len() {
+                let h = 1e-6;
+                let mut xp = x.clone();
+                xp[i] += h;
+                let mut xm = x.clone();
+                xm[i] -= h;
+                let fd = (pb.energy(&xp) - pb.energy(&xm)) / (2.0 * h);
+                assert!(
+                    (fd - ev.grad[i]).abs() < 1e-6 * ev.grad.iter().fold(1.0f64, |a, v| a.max(v.abs())),
+                    "{e:?} {i}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn inverted_map_has_infinite_energy_and_typed_error() {
+        let mesh = grid(2);
+        let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let mut x: Vec<f64> = mesh.positions.iter().flat_map(|p| [p[0], p[1]]).collect();
+        x[2 * 4] = 2.0; // push the centre vertex far out: folds triangles
+        assert_eq!(pb.energy(&x), f64::INFINITY);
+        assert!(pb.flips(&x) > 0);
+        let err = pb.evaluate(&x, &mut Evaluation::default()).unwrap_err();
+        assert!(matches!(err, EvalError::NotInDomain { .. }));
+    }
+}

@@ -1,0 +1,162 @@
+//! Solvers and what they report.
+//!
+//! A solver never prints and never touches files: it calls [`Observer::observe`] once per
+//! iteration (row 0 is the initial state) and returns a [`Outcome`]. The harness owns I/O.
+
+pub mod newton;
+pub mod registry;
+
+pub use newton::{newton, NewtonSettings};
+pub use registry::{solver_names, SolverSpec};
+
+use crate::linear::LinearSettings;
+
+/// One row of the per-iteration CSV (design.md column order). Row `iter` describes the
+/// iterate after `iter` accepted steps; `neg_eig`/`indefinite_elems` come from the
+/// unmodified element Hessians of that same iterate; timings are those of the iteration
+/// that produced it (all zero in row 0).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct IterationRecord {
+    pub iter: usize,
+    pub energy: f64,
+    pub grad_norm: f64,
+    /// Accepted step length `t` (0 in row 0).
+    pub step: f64,
+    pub neg_eig: usize,
+    pub indefinite_elems: usize,
+    pub flips: usize,
+    /// Derivative evaluation at the new iterate plus scattering into the sparse matrix.
+    pub t_assemble_s: f64,
+    /// Per-element Hessian modification including the triple product `M^T K M`.
+    pub t_project_s: f64,
+    /// Numeric factorization plus triangular solves.
+    pub t_solve_s: f64,
+    /// Maximal injective step plus Armijo backtracking.
+    pub t_linesearch_s: f64,
+    pub t_iter_s: f64,
+    pub t_cum_s: f64,
+    /// Energy evaluations of the line search.
+    pub ls_evals: usize,
+}
+
+/// What the observer wants next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    Continue,
+    /// Stop after this row (timeouts, Ctrl-C); recorded as [`StopReason::Interrupted`].
+    Stop,
+}
+
+pub trait Observer {
+    fn observe(&mut self, record: &IterationRecord) -> Flow;
+}
+
+/// An observer that keeps every row (tests, small runs).
+#[derive(Default, Debug)]
+pub struct Recorder {
+    pub rows: Vec<IterationRecord>,
+}
+
+impl Observer for Recorder {
+    fn observe(&mut self, record: &IterationRecord) -> Flow {
+        self.rows.push(record.clone());
+        Flow::Continue
+    }
+}
+
+/// Why a solver stopped. `as_str` is the `stop_reason` column.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StopReason {
+    /// `|grad| <= grad_tol`.
+    GradientTolerance,
+    /// Energy decrease below `energy_decrease_tol` (SARAP in param, every energy in deform).
+    EnergyDecrease,
+    MaxIterations,
+    /// Armijo backtracking shrank the step below `t |d| <= min_step` without sufficient decrease.
+    LineSearchFailed,
+    /// The factorization failed even after increasing the regularization.
+    LinearSolveFailed(String),
+    /// The direction is not a descent direction (possible for unprojected Newton).
+    NotDescent,
+    /// Energy or gradient became non-finite.
+    NonFinite(String),
+    /// The observer asked to stop.
+    Interrupted,
+}
+
+impl StopReason {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            StopReason::GradientTolerance => "grad_tol",
+            StopReason::EnergyDecrease => "energy_decrease",
+            StopReason::MaxIterations => "max_iters",
+            StopReason::LineSearchFailed => "line_search_failed",
+            StopReason::LinearSolveFailed(_) => "linear_solve_failed",
+            StopReason::NotDescent => "not_descent",
+            StopReason::NonFinite(_) => "non_finite",
+            StopReason::Interrupted => "interrupted",
+        }
+    }
+
+    /// Convergence by one of the configured stopping rules.
+    pub fn is_converged(&self) -> bool {
+        matches!(self, StopReason::GradientTolerance | StopReason::EnergyDecrease)
+    }
+
+    /// Detail for the `error` column, if any.
+    pub fn detail(&self) -> Option<&str> {
+        match self {
+            StopReason::LinearSolveFailed(s) | StopReason::NonFinite(s) => Some(s),
+            _ => None,
+        }
+    }
+}
+
+/// Stopping rules (`[stop]`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StopSettings {
+    pub grad_tol: f64,
+    /// Stop when `E_old - E_new < energy_decrease_tol`; 0 disables the rule.
+    pub energy_decrease_tol: f64,
+    pub max_iters: usize,
+}
+
+/// Line search (`[line_search]`), shared by every Newton-like solver.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineSearchSettings {
+    /// `t0 = min(1, max_step_fraction * t_max)`.
+    pub max_step_fraction: f64,
+    /// Armijo constant `c` in `E(x + t d) <= E(x) + c t <g, d>`.
+    pub armijo_c: f64,
+    /// Backtracking factor.
+    pub shrink: f64,
+    /// Give up when `t |d| <= min_step`.
+    pub min_step: f64,
+}
+
+impl Default for LineSearchSettings {
+    fn default() -> Self {
+        LineSearchSettings { max_step_fraction: 0.9, armijo_c: 0.2, shrink: 0.5, min_step: 1e-12 }
+    }
+}
+
+/// Everything a solver run needs besides the problem.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pub stop: StopSettings,
+    pub line_search: LineSearchSettings,
+    pub linear: LinearSettings,
+}
+
+/// Result of a solver run.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// Final map, interleaved `[u0, v0, u1, v1, ...]`.
+    pub x: Vec<f64>,
+    pub iterations: usize,
+    pub stop_reason: StopReason,
+    pub init_energy: f64,
+    pub final_energy: f64,
+    pub grad_norm: f64,
+    pub flips: usize,
+}

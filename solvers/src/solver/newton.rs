@@ -1,0 +1,257 @@
+//! The Newton-type driver shared by every system-matrix strategy (complex-view paper,
+//! Algorithm 1): evaluate, build the per-element blocks, assemble, factorize and solve,
+//! injective step plus Armijo line search, repeat. "All methods share the same pipeline and
+//! we only replace the system matrix" (Section 6).
+
+use super::{Flow, IterationRecord, Observer, Outcome, Settings, StopReason};
+use crate::assembly::Pattern;
+use crate::hessian::SystemBlock;
+use crate::line_search::{armijo, max_injective_step};
+use crate::linear::{LinearError, LinearSettings, SpdSolver};
+use crate::problem::{norm, EvalError, Evaluation, MapProblem};
+use nalgebra::Matrix6;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Errors that prevent a run from starting; once iterating, problems become a
+/// [`StopReason`] and the run returns the last accepted iterate.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum SolveError {
+    #[error("initial map: {0}")]
+    InitialMap(#[from] EvalError),
+    #[error("linear solver setup: {0}")]
+    Linear(#[from] LinearError),
+}
+
+/// Alias kept for readability at call sites.
+pub type NewtonSettings = Settings;
+
+/// How many times the Tikhonov shift is increased (x1000 each) after a failed factorization.
+const MAX_REGULARIZATION_RETRIES: usize = 3;
+
+pub fn newton(
+    problem: &MapProblem,
+    x0: Vec<f64>,
+    strategy: &dyn SystemBlock,
+    settings: &Settings,
+    observer: &mut dyn Observer,
+) -> Result<Outcome, SolveError> {
+    let pattern = Pattern::new(&problem.faces, problem.n_vertices);
+    let mut linear = SpdSolver::new(&pattern)?;
+    let mut x = x0;
+    let mut ev = Evaluation::default();
+    problem.evaluate(&x, &mut ev)?;
+    let init_energy = ev.energy;
+    let mut record = IterationRecord {
+        iter: 0,
+        energy: ev.energy,
+        grad_norm: norm(&ev.grad),
+        neg_eig: ev.neg_eig,
+        indefinite_elems: ev.indefinite_elems,
+        flips: problem.flips(&x),
+        ..Default::default()
+    };
+    let mut interrupted = observer.observe(&record) == Flow::Stop;
+
+    let weight = problem.weight();
+    let mut blocks = vec![Matrix6::<f64>::zeros(); problem.n_faces()];
+    let mut values = Vec::new();
+    let mut x_new = Vec::with_capacity(x.len());
+    let mut last_decrease = f64::INFINITY;
+    let mut t_cum = 0.0;
+    let mut iter = 0usize;
+    let stop = loop {
+        if interrupted {
+            break StopReason::Interrupted;
+        }
+        if record.grad_norm <= settings.stop.grad_tol {
+            break StopReason::GradientTolerance;
+        }
+        if last_decrease < settings.stop.energy_decrease_tol {
+            break StopReason::EnergyDecrease;
+        }
+        if iter >= settings.stop.max_iters {
+            break StopReason::MaxIterations;
+        }
+        let t_start = Instant::now();
+
+        // Per-element system blocks (parallel; each block depends only on its element).
+        blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).for_each(|((b, s), op)| {
+            *b = strategy.block(op, s) * weight;
+        });
+        let t_project = t_start.elapsed().as_secs_f64();
+
+        let t0 = Instant::now();
+        pattern.assemble(&blocks, &mut values);
+        let shift = strategy.diagonal_shift();
+        if shift != 0.0 {
+            for &p in &pattern.diag {
+                values[p] += shift;
+            }
+        }
+        let t_scatter = t0.elapsed().as_secs_f64();
+
+        let t0 = Instant::now();
+        let rhs: Vec<f64> = ev.grad.iter().map(|g| -g).collect();
+        let mut lin = LinearSettings { ..settings.linear };
+        let mut solved = linear.solve(&values, &rhs, &lin);
+        for _ in 0..MAX_REGULARIZATION_RETRIES {
+            if solved.is_ok() {
+                break;
+            }
+            lin.tikhonov = (lin.tikhonov * 1e3).max(1e-8);
+            solved = linear.solve(&values, &rhs, &lin);
+        }
+        let t_solve = t0.elapsed().as_secs_f64();
+        let d = match solved {
+            Ok(d) => d,
+            Err(e) => break StopReason::LinearSolveFailed(e.to_string()),
+        };
+
+        let t0 = Instant::now();
+        let g_dot_d: f64 = ev.grad.iter().zip(&d).map(|(g, d)| g * d).sum();
+        if !(g_dot_d < 0.0) {
+            break StopReason::NotDescent;
+        }
+        let t_max = max_injective_step(problem, &x, &d);
+        let t_init = (settings.line_search.max_step_fraction * t_max).min(1.0);
+        let (accepted, ls_evals) =
+            armijo(problem, &x, &d, ev.energy, g_dot_d, t_init, &settings.line_search, &mut x_new);
+        let t_ls = t0.elapsed().as_secs_f64();
+        let Some(acc) = accepted else {
+            break StopReason::LineSearchFailed;
+        };
+        std::mem::swap(&mut x, &mut x_new);
+        last_decrease = ev.energy - acc.energy;
+
+        let t0 = Instant::now();
+        if let Err(e) = problem.evaluate(&x, &mut ev) {
+            // The line search only accepts finite energies, so this is a derivative overflow.
+            break StopReason::NonFinite(e.to_string());
+        }
+        let t_eval = t0.elapsed().as_secs_f64();
+        let flips = problem.flips(&x);
+        let t_iter = t_start.elapsed().as_secs_f64();
+        t_cum += t_iter;
+        iter += 1;
+        record = IterationRecord {
+            iter,
+            energy: ev.energy,
+            grad_norm: norm(&ev.grad),
+            step: acc.t,
+            neg_eig: ev.neg_eig,
+            indefinite_elems: ev.indefinite_elems,
+            flips,
+            t_assemble_s: t_eval + t_scatter,
+            t_project_s: t_project,
+            t_solve_s: t_solve,
+            t_linesearch_s: t_ls,
+            t_iter_s: t_iter,
+            t_cum_s: t_cum,
+            ls_evals,
+        };
+        interrupted = observer.observe(&record) == Flow::Stop;
+    };
+    Ok(Outcome {
+        iterations: iter,
+        stop_reason: stop,
+        init_energy,
+        final_energy: record.energy,
+        grad_norm: record.grad_norm,
+        flips: record.flips,
+        x,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::EnergyKind;
+    use crate::hessian::kp::Kp;
+    use crate::local::LocalOp;
+    use crate::mesh::Mesh;
+    use crate::solver::{LineSearchSettings, Recorder, StopSettings};
+
+    /// A 4-triangle fan mapped with a stretch, so SD has work to do.
+    fn problem() -> (MapProblem, Vec<f64>) {
+        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]];
+        let f = vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
+        let mesh = Mesh::new("fan", p.clone(), f);
+        let x = p.iter().flat_map(|q| [2.0 * q[0], 0.7 * q[1]]).collect();
+        (MapProblem::new(&mesh, EnergyKind::Sd).unwrap(), x)
+    }
+
+    fn settings() -> Settings {
+        Settings {
+            stop: StopSettings { grad_tol: 1e-9, energy_decrease_tol: 0.0, max_iters: 100 },
+            line_search: LineSearchSettings::default(),
+            linear: LinearSettings::default(),
+        }
+    }
+
+    /// A broken strategy: negative definite blocks make every factorization fail.
+    struct NegativeDefinite;
+    impl SystemBlock for NegativeDefinite {
+        fn block(&self, op: &LocalOp, _s: &crate::hessian::ElementState) -> Matrix6<f64> {
+            -Matrix6::identity() * op.area
+        }
+    }
+
+    #[test]
+    fn converges_on_a_fan_to_the_isometry() {
+        let (pb, x) = problem();
+        let mut rec = Recorder::default();
+        let out = newton(&pb, x, &Kp, &settings(), &mut rec).unwrap();
+        assert_eq!(out.stop_reason, StopReason::GradientTolerance);
+        assert!((out.final_energy - 2.0).abs() < 1e-12);
+        // rows: 0 = initial state, then one per accepted step; energies non-increasing
+        assert_eq!(rec.rows.len(), out.iterations + 1);
+        assert!(rec.rows.windows(2).all(|w| w[1].energy <= w[0].energy && w[1].iter == w[0].iter + 1));
+        assert!(rec.rows[1..].iter().all(|r| r.step > 0.0 && r.t_iter_s >= r.t_solve_s));
+    }
+
+    #[test]
+    fn failed_factorization_stops_with_a_reason_and_keeps_the_iterate() {
+        let (pb, x) = problem();
+        let mut rec = Recorder::default();
+        let out = newton(&pb, x.clone(), &NegativeDefinite, &settings(), &mut rec).unwrap();
+        assert_eq!(out.stop_reason.as_str(), "linear_solve_failed");
+        assert!(out.stop_reason.detail().is_some());
+        assert_eq!(out.iterations, 0);
+        assert_eq!(out.x, x);
+        assert_eq!(rec.rows.len(), 1);
+    }
+
+    #[test]
+    fn observer_can_interrupt() {
+        struct StopAfter(usize);
+        impl Observer for StopAfter {
+            fn observe(&mut self, r: &IterationRecord) -> Flow {
+                if r.iter >= self.0 {
+                    Flow::Stop
+                } else {
+                    Flow::Continue
+                }
+            }
+        }
+        let (pb, x) = problem();
+        let out = newton(&pb, x, &Kp, &settings(), &mut StopAfter(1)).unwrap();
+        assert_eq!(out.stop_reason, StopReason::Interrupted);
+        assert_eq!(out.iterations, 1);
+    }
+
+    #[test]
+    fn max_iterations_and_inverted_start() {
+        let (pb, x) = problem();
+        let mut s = settings();
+        s.stop.max_iters = 1;
+        let out = newton(&pb, x.clone(), &Kp, &s, &mut Recorder::default()).unwrap();
+        assert_eq!(out.stop_reason, StopReason::MaxIterations);
+        assert_eq!(out.iterations, 1);
+        // an inverted initial map is an error naming the element
+        let mut bad = x;
+        bad[2] = -5.0; // vertex 1 across vertex 0
+        let err = newton(&pb, bad, &Kp, &s, &mut Recorder::default()).unwrap_err();
+        assert!(err.to_string().contains("element"), "{err}");
+    }
+}
