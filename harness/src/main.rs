@@ -1,0 +1,118 @@
+//! mapbench: run every solver variant over a mesh corpus from one TOML config, record
+//! per-iteration CSVs and a summary (design.md "CLI").
+
+mod config;
+mod output;
+mod registry;
+mod runner;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use config::LoadedConfig;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "mapbench", version, about = "Benchmark harness for optimizers of planar piecewise-linear maps")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run every (dataset, energy, solver) of a config; exit 1 if any run failed.
+    Run {
+        config: PathBuf,
+        /// Output folder (default: reports/<name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Print the topology and degeneracy report of one mesh (an OBJ file or generated:<name>);
+    /// exit 1 when it is not usable for the task.
+    Validate {
+        mesh: String,
+        /// `param` and `authalic` need a topological disk; `deform` allows holes.
+        #[arg(long, value_enum, default_value = "param")]
+        task: ValidateTask,
+    },
+    /// List the registered datasets, solvers or energies.
+    List {
+        #[arg(value_enum, default_value = "datasets")]
+        what: ListWhat,
+        /// The dataset registry (default: ./datasets.toml).
+        #[arg(long, default_value = "datasets.toml")]
+        registry: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ValidateTask {
+    Param,
+    Deform,
+    Authalic,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ListWhat {
+    Datasets,
+    Solvers,
+    Energies,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match dispatch(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn dispatch(cli: Cli) -> Result<ExitCode> {
+    match cli.command {
+        Command::Run { config, out } => {
+            let cfg = LoadedConfig::load(&config)?;
+            let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&cfg.config.name));
+            let report = runner::run_batch(&cfg, &out, &mut |line| eprintln!("{line}"))?;
+            eprintln!(
+                "{} runs: {} ok, {} not converged, {} failed; results in {}",
+                report.runs,
+                report.ok,
+                report.not_converged,
+                report.failed,
+                report.out_dir.display()
+            );
+            Ok(if report.failed > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+        }
+        Command::Validate { mesh, task } => {
+            let mesh = match mesh.strip_prefix("generated:") {
+                Some(g) => solvers::generate::generate(g)?,
+                None => solvers::mesh::load_obj(std::path::Path::new(&mesh))?,
+            };
+            let require_disk = matches!(task, ValidateTask::Param | ValidateTask::Authalic);
+            let report = solvers::mesh::validate(&mesh, require_disk);
+            println!("{report}");
+            Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
+        }
+        Command::List { what, registry } => {
+            match what {
+                ListWhat::Solvers => solvers::solver::solver_names().iter().for_each(|s| println!("{s}")),
+                ListWhat::Energies => solvers::energy::ENERGY_NAMES.iter().for_each(|s| println!("{s}")),
+                ListWhat::Datasets => {
+                    let reg = registry::Registry::load(&registry)
+                        .with_context(|| "run from the repository root or pass --registry FILE")?;
+                    for e in &reg.dataset {
+                        let src = e.generator.as_ref().map(|g| format!("generated:{g}")).unwrap_or_else(|| {
+                            format!("${}/{}", registry::MESHES_ENV, e.file.as_deref().unwrap_or_default())
+                        });
+                        println!("{:<20} {:<36} tasks={} tags={}", e.name, src, e.tasks.join(","), e.tags.join(","));
+                    }
+                }
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}

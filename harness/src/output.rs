@@ -1,0 +1,206 @@
+//! CSV files of a run (design.md "Output of a run"): one per-iteration file per run and
+//! `summary.csv`, with exactly the documented columns. Files are written atomically
+//! (temporary file + rename) so an interrupted batch never leaves a half-written run.
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+use solvers::solver::IterationRecord;
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Per-iteration CSV columns, in design.md order; `ls_evals` follows as an extra.
+pub const ITERATION_COLUMNS: [&str; 15] = [
+    "iter",
+    "energy",
+    "energy_minus_best",
+    "grad_norm",
+    "step",
+    "neg_eig",
+    "indefinite_elems",
+    "flips",
+    "t_assemble_s",
+    "t_project_s",
+    "t_solve_s",
+    "t_linesearch_s",
+    "t_iter_s",
+    "t_cum_s",
+    "ls_evals",
+];
+
+/// `summary.csv` columns, in design.md order.
+pub const SUMMARY_COLUMNS: [&str; 20] = [
+    "dataset",
+    "task",
+    "energy",
+    "solver",
+    "vertices",
+    "faces",
+    "iterations",
+    "converged",
+    "stop_reason",
+    "init_energy",
+    "final_energy",
+    "grad_norm",
+    "time_s",
+    "ms_per_vertex",
+    "iter_ms_median",
+    "project_ms_median",
+    "solve_ms_median",
+    "flips",
+    "status",
+    "error",
+];
+
+#[derive(Clone, Debug, Serialize)]
+struct IterationRow {
+    iter: usize,
+    energy: f64,
+    energy_minus_best: f64,
+    grad_norm: f64,
+    step: f64,
+    neg_eig: usize,
+    indefinite_elems: usize,
+    flips: usize,
+    t_assemble_s: f64,
+    t_project_s: f64,
+    t_solve_s: f64,
+    t_linesearch_s: f64,
+    t_iter_s: f64,
+    t_cum_s: f64,
+    ls_evals: usize,
+}
+
+/// One row of `summary.csv`. Fields unknown for a failed run are empty.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct SummaryRow {
+    pub dataset: String,
+    pub task: String,
+    pub energy: String,
+    pub solver: String,
+    pub vertices: Option<usize>,
+    pub faces: Option<usize>,
+    pub iterations: Option<usize>,
+    pub converged: bool,
+    pub stop_reason: String,
+    pub init_energy: Option<f64>,
+    pub final_energy: Option<f64>,
+    pub grad_norm: Option<f64>,
+    pub time_s: Option<f64>,
+    pub ms_per_vertex: Option<f64>,
+    pub iter_ms_median: Option<f64>,
+    pub project_ms_median: Option<f64>,
+    pub solve_ms_median: Option<f64>,
+    pub flips: Option<usize>,
+    pub status: String,
+    pub error: String,
+}
+
+/// The file stem of a run: `<dataset>__<energy>__<solver>`.
+pub fn run_stem(dataset: &str, energy: &str, solver: &str) -> String {
+    format!("{dataset}__{energy}__{solver}")
+}
+
+/// Write `bytes` to `path` atomically: a temporary file in the same folder, then rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create folder", dir.display()))?;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp: PathBuf = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot rename into place", path.display()))?;
+    Ok(())
+}
+
+/// The per-iteration CSV of one run; `best` is the best final energy of the run's
+/// (dataset, energy) group over all solvers.
+pub fn iteration_csv(rows: &[IterationRecord], best: f64) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in rows {
+        w.serialize(IterationRow {
+            iter: r.iter,
+            energy: r.energy,
+            energy_minus_best: r.energy - best,
+            grad_norm: r.grad_norm,
+            step: r.step,
+            neg_eig: r.neg_eig,
+            indefinite_elems: r.indefinite_elems,
+            flips: r.flips,
+            t_assemble_s: r.t_assemble_s,
+            t_project_s: r.t_project_s,
+            t_solve_s: r.t_solve_s,
+            t_linesearch_s: r.t_linesearch_s,
+            t_iter_s: r.t_iter_s,
+            t_cum_s: r.t_cum_s,
+            ls_evals: r.ls_evals,
+        })?;
+    }
+    if rows.is_empty() {
+        w.write_record(ITERATION_COLUMNS)?;
+    }
+    w.into_inner().context("flushing CSV")
+}
+
+/// `summary.csv`, appended a row at a time as runs finish (flushed each time).
+pub struct SummaryWriter {
+    path: PathBuf,
+    file: File,
+}
+
+impl SummaryWriter {
+    /// Start a new summary (header only).
+    pub fn create(path: &Path) -> Result<SummaryWriter> {
+        let mut header = csv::Writer::from_writer(Vec::new());
+        header.write_record(SUMMARY_COLUMNS)?;
+        write_atomic(path, &header.into_inner()?)?;
+        let file =
+            OpenOptions::new().append(true).open(path).with_context(|| format!("{}: cannot open", path.display()))?;
+        Ok(SummaryWriter { path: path.to_path_buf(), file })
+    }
+
+    pub fn append(&mut self, row: &SummaryRow) -> Result<()> {
+        let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
+        w.serialize(row)?;
+        let bytes = w.into_inner()?;
+        self.file.write_all(&bytes).with_context(|| format!("{}: cannot append", self.path.display()))?;
+        self.file.flush()?;
+        Ok(())
+    }
+}
+
+/// Median of a non-empty slice (`None` when empty).
+pub fn median(values: &mut [f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    Some(if n % 2 == 1 { values[n / 2] } else { 0.5 * (values[n / 2 - 1] + values[n / 2]) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn headers_are_exactly_the_design_columns() {
+        let rows = vec![IterationRecord { iter: 0, energy: 3.0, ..Default::default() }];
+        let text = String::from_utf8(iteration_csv(&rows, 2.5).unwrap()).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next().unwrap(), ITERATION_COLUMNS.join(","));
+        assert!(lines.next().unwrap().starts_with("0,3.0,0.5,"));
+        let empty = String::from_utf8(iteration_csv(&[], 0.0).unwrap()).unwrap();
+        assert_eq!(empty.trim(), ITERATION_COLUMNS.join(","));
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(SummaryRow::default()).unwrap();
+        let s = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        assert_eq!(s.lines().next().unwrap(), SUMMARY_COLUMNS.join(","));
+    }
+
+    #[test]
+    fn medians() {
+        assert_eq!(median(&mut []), None);
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), Some(2.5));
+    }
+}

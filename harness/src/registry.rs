@@ -1,0 +1,213 @@
+//! The dataset registry (`datasets.toml`): generated meshes built by our own code and file
+//! entries looked up in `MAPBENCH_MESHES`, selected by name or `tag:<tag>`.
+
+use crate::config::LoadedConfig;
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use solvers::mesh::{load_obj, Mesh};
+use std::path::{Path, PathBuf};
+
+/// The environment variable naming the folder of file-based registry entries.
+pub const MESHES_ENV: &str = "MAPBENCH_MESHES";
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Entry {
+    pub name: String,
+    /// Name of a generated mesh (`solvers::generate`), or ...
+    pub generator: Option<String>,
+    /// ... an OBJ file name relative to `MAPBENCH_MESHES`.
+    pub file: Option<String>,
+    /// Tasks the mesh suits (`param`, `deform`, `authalic`).
+    #[serde(default)]
+    pub tasks: Vec<String>,
+    #[serde(default)]
+    pub tags: Vec<String>,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Registry {
+    #[serde(default)]
+    pub dataset: Vec<Entry>,
+}
+
+impl Registry {
+    pub fn load(path: &Path) -> Result<Registry> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+        let reg: Registry = toml::from_str(&text).with_context(|| format!("{}: invalid registry", path.display()))?;
+        let mut seen = std::collections::HashSet::new();
+        for e in &reg.dataset {
+            if !seen.insert(e.name.as_str()) {
+                bail!("{}: dataset '{}' appears twice", path.display(), e.name);
+            }
+            match (&e.generator, &e.file) {
+                (Some(g), None) => {
+                    if !solvers::generate::generated_names().contains(&g.as_str()) {
+                        bail!(
+                            "{}: dataset '{}': unknown generator '{g}' (known: {})",
+                            path.display(),
+                            e.name,
+                            solvers::generate::generated_names().join(", ")
+                        );
+                    }
+                }
+                (None, Some(_)) => {}
+                _ => bail!("{}: dataset '{}' needs exactly one of 'generator' and 'file'", path.display(), e.name),
+            }
+        }
+        Ok(reg)
+    }
+
+    /// Entries selected by names and `tag:<tag>` selectors, in selector order without
+    /// repeats. An unknown name or a tag that selects nothing is an error.
+    pub fn select(&self, selectors: &[String]) -> Result<Vec<&Entry>> {
+        let mut out: Vec<&Entry> = Vec::new();
+        for sel in selectors {
+            let picked: Vec<&Entry> = if let Some(tag) = sel.strip_prefix("tag:") {
+                let v: Vec<&Entry> = self.dataset.iter().filter(|e| e.tags.iter().any(|t| t == tag)).collect();
+                if v.is_empty() {
+                    bail!("no dataset has tag '{tag}'");
+                }
+                v
+            } else {
+                let e = self.dataset.iter().find(|e| &e.name == sel).with_context(|| {
+                    format!("unknown dataset '{sel}' (not in the registry; `mapbench list datasets` shows them)")
+                })?;
+                vec![e]
+            };
+            for e in picked {
+                if !out.iter().any(|o| o.name == e.name) {
+                    out.push(e);
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Where a dataset's mesh comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MeshSource {
+    Generated(String),
+    File(PathBuf),
+}
+
+impl MeshSource {
+    pub fn describe(&self) -> String {
+        match self {
+            MeshSource::Generated(g) => format!("generated:{g}"),
+            MeshSource::File(p) => p.display().to_string(),
+        }
+    }
+
+    /// Build or read the mesh. Errors name the file and the cause.
+    pub fn load(&self) -> Result<Mesh> {
+        match self {
+            MeshSource::Generated(g) => Ok(solvers::generate::generate(g)?),
+            MeshSource::File(p) => Ok(load_obj(p)?),
+        }
+    }
+}
+
+/// A dataset resolved for a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dataset {
+    pub name: String,
+    pub source: MeshSource,
+}
+
+/// The datasets of a config, in order: registry selections, then inline entries. File
+/// entries whose folder (`MAPBENCH_MESHES`) is unset or whose file is absent are skipped;
+/// the returned notices say which and why (one line each).
+pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
+    let mut out = Vec::new();
+    let mut notices = Vec::new();
+    if !cfg.config.datasets.is_empty() {
+        let path = cfg.registry_path().with_context(|| {
+            format!(
+                "{}: 'datasets' needs a datasets.toml (none found in the config's folder or above)",
+                cfg.path.display()
+            )
+        })?;
+        let reg = Registry::load(&path)?;
+        let meshes_dir = std::env::var_os(MESHES_ENV).map(PathBuf::from);
+        for e in reg.select(&cfg.config.datasets)? {
+            let source = match (&e.generator, &e.file) {
+                (Some(g), _) => MeshSource::Generated(g.clone()),
+                (None, Some(f)) => {
+                    let Some(dir) = &meshes_dir else {
+                        notices.push(format!("skipping {}: {MESHES_ENV} is not set", e.name));
+                        continue;
+                    };
+                    let p = dir.join(f);
+                    if !p.is_file() {
+                        notices.push(format!("skipping {}: {} not found", e.name, p.display()));
+                        continue;
+                    }
+                    MeshSource::File(p)
+                }
+                (None, None) => unreachable!("checked when the registry was loaded"),
+            };
+            out.push(Dataset { name: e.name.clone(), source });
+        }
+    }
+    for d in &cfg.config.dataset {
+        if out.iter().any(|o: &Dataset| o.name == d.name) {
+            bail!("dataset '{}' is both selected from the registry and given inline", d.name);
+        }
+        out.push(Dataset { name: d.name.clone(), source: MeshSource::File(cfg.dir.join(&d.path)) });
+    }
+    Ok((out, notices))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn reg() -> Registry {
+        toml::from_str(
+            r#"
+            [[dataset]]
+            name = "a"
+            generator = "bumpy_1k"
+            tags = ["small", "generated"]
+            [[dataset]]
+            name = "b"
+            file = "b.obj"
+            tags = ["small"]
+            [[dataset]]
+            name = "c"
+            generator = "cap_2k"
+            "#,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn selection_by_name_and_tag_without_repeats() {
+        let r = reg();
+        let names = |s: &[&str]| {
+            r.select(&s.iter().map(|x| x.to_string()).collect::<Vec<_>>())
+                .unwrap()
+                .iter()
+                .map(|e| e.name.clone())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(names(&["c", "tag:small"]), ["c", "a", "b"]);
+        assert_eq!(names(&["tag:generated", "a"]), ["a"]);
+        assert!(r.select(&["zzz".into()]).unwrap_err().to_string().contains("unknown dataset 'zzz'"));
+        assert!(r.select(&["tag:none".into()]).unwrap_err().to_string().contains("tag 'none'"));
+    }
+
+    #[test]
+    fn the_shipped_registry_is_valid() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../datasets.toml");
+        let r = Registry::load(&path).unwrap();
+        assert!(r.dataset.iter().any(|e| e.name == "camelhead"));
+        // every generated mesh is registered
+        for g in solvers::generate::generated_names() {
+            assert!(r.dataset.iter().any(|e| e.generator.as_deref() == Some(g)), "{g}");
+        }
+    }
+}

@@ -1,0 +1,232 @@
+//! The batch runner: every (dataset, energy, solver) of a config, one after the other, each
+//! run's failure recorded without stopping the batch.
+
+use crate::config::LoadedConfig;
+use crate::output::{iteration_csv, median, run_stem, write_atomic, SummaryRow, SummaryWriter};
+use crate::registry::{resolve, Dataset};
+use anyhow::{Context, Result};
+use solvers::mesh::Mesh;
+use solvers::param::solve_param;
+use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
+use std::collections::BTreeMap;
+use std::panic::AssertUnwindSafe;
+use std::path::{Path, PathBuf};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+/// Keeps every row of a run (a run has at most `max_iters + 1` rows).
+#[derive(Default)]
+struct Rows(Vec<IterationRecord>);
+
+impl Observer for Rows {
+    fn observe(&mut self, record: &IterationRecord) -> Flow {
+        self.0.push(record.clone());
+        Flow::Continue
+    }
+}
+
+/// What one run produced.
+struct RunResult {
+    summary: SummaryRow,
+    rows: Vec<IterationRecord>,
+}
+
+/// Totals of a batch.
+#[derive(Debug, Default, PartialEq)]
+pub struct BatchReport {
+    pub runs: usize,
+    pub ok: usize,
+    pub not_converged: usize,
+    pub failed: usize,
+    pub skipped_datasets: Vec<String>,
+    pub out_dir: PathBuf,
+}
+
+/// Run a whole config into `out_dir`. `log` receives one human-readable line per event.
+pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) -> Result<BatchReport> {
+    let (datasets, notices) = resolve(cfg)?;
+    for n in &notices {
+        log(n);
+    }
+    std::fs::create_dir_all(out_dir.join("runs")).with_context(|| format!("{}: cannot create", out_dir.display()))?;
+    let started = SystemTime::now();
+    write_meta(cfg, out_dir, started, None)?;
+    let mut summary = SummaryWriter::create(&out_dir.join("summary.csv"))?;
+    let c = &cfg.config;
+    let total = datasets.len() * c.energies.len() * c.solvers.len();
+    let mut report = BatchReport { skipped_datasets: notices, out_dir: out_dir.to_path_buf(), ..Default::default() };
+    // Rows by (dataset, energy) group, kept to fill `energy_minus_best` once the group is done.
+    let mut done = 0;
+    for ds in &datasets {
+        let mesh = ds.source.load();
+        for energy in &c.energies {
+            let mut group: Vec<RunResult> = Vec::new();
+            for solver in &c.solvers {
+                done += 1;
+                let result = run_one(cfg, ds, mesh.as_ref(), energy, solver);
+                let s = &result.summary;
+                log(&format!(
+                    "[{done}/{total}] {} {} {}: {}{}",
+                    ds.name,
+                    energy,
+                    solver,
+                    s.status,
+                    match (&s.iterations, &s.final_energy, &s.time_s) {
+                        (Some(it), Some(e), Some(t)) =>
+                            format!(" ({}), {it} iterations, E = {e:.8}, {t:.2} s", s.stop_reason),
+                        _ => format!(": {}", s.error),
+                    }
+                ));
+                match s.status.as_str() {
+                    "ok" => report.ok += 1,
+                    "not_converged" => report.not_converged += 1,
+                    _ => report.failed += 1,
+                }
+                report.runs += 1;
+                // Written now with this run's own best; rewritten with the group's best below.
+                let own_best = result.rows.iter().map(|r| r.energy).fold(f64::INFINITY, f64::min);
+                write_run(out_dir, &result, own_best)?;
+                summary.append(&result.summary)?;
+                group.push(result);
+            }
+            let best = group
+                .iter()
+                .filter(|r| r.summary.status != "failed")
+                .flat_map(|r| r.rows.iter().map(|x| x.energy))
+                .filter(|e| e.is_finite())
+                .fold(f64::INFINITY, f64::min);
+            if best.is_finite() {
+                for r in &group {
+                    write_run(out_dir, r, best)?;
+                }
+            }
+        }
+    }
+    write_meta(cfg, out_dir, started, Some(SystemTime::now()))?;
+    Ok(report)
+}
+
+fn write_run(out_dir: &Path, r: &RunResult, best: f64) -> Result<()> {
+    let s = &r.summary;
+    let path = out_dir.join("runs").join(format!("{}.csv", run_stem(&s.dataset, &s.energy, &s.solver)));
+    write_atomic(&path, &iteration_csv(&r.rows, best)?)
+}
+
+/// One run; never returns an error or panics: failures become a `failed` summary row.
+fn run_one(
+    cfg: &LoadedConfig,
+    ds: &Dataset,
+    mesh: Result<&Mesh, &anyhow::Error>,
+    energy: &str,
+    solver: &str,
+) -> RunResult {
+    let mut summary = SummaryRow {
+        dataset: ds.name.clone(),
+        task: cfg.config.task.as_str().to_string(),
+        energy: energy.to_string(),
+        solver: solver.to_string(),
+        ..Default::default()
+    };
+    let fail = |mut summary: SummaryRow, error: String| {
+        summary.status = "failed".into();
+        summary.stop_reason = "error".into();
+        summary.error = error;
+        RunResult { summary, rows: Vec::new() }
+    };
+    let mesh = match mesh {
+        Ok(m) => m,
+        Err(e) => return fail(summary, format!("{e:#}")),
+    };
+    summary.vertices = Some(mesh.n_vertices());
+    summary.faces = Some(mesh.n_faces());
+    let kind = match cfg.config.energy_kind(energy) {
+        Ok(k) => k,
+        Err(e) => return fail(summary, format!("{e:#}")),
+    };
+    let settings = cfg.config.param_settings(&kind);
+    let mut rows = Rows::default();
+    let t0 = Instant::now();
+    let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve_param(mesh, kind, solver, &settings, &mut rows)));
+    let elapsed = t0.elapsed().as_secs_f64();
+    let outcome: Outcome = match result {
+        Ok(Ok(o)) => o,
+        Ok(Err(e)) => return fail(summary, format!("{}: {e}", ds.source.describe())),
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            return fail(summary, format!("{}: internal error (panic): {msg}", ds.source.describe()));
+        }
+    };
+    let rows = rows.0;
+    let per_iter = |f: fn(&IterationRecord) -> f64| {
+        let mut v: Vec<f64> = rows.iter().skip(1).map(|r| 1e3 * f(r)).collect();
+        median(&mut v)
+    };
+    summary.iterations = Some(outcome.iterations);
+    summary.converged = outcome.stop_reason.is_converged();
+    summary.stop_reason = outcome.stop_reason.as_str().to_string();
+    summary.init_energy = Some(outcome.init_energy);
+    summary.final_energy = Some(outcome.final_energy);
+    summary.grad_norm = Some(outcome.grad_norm);
+    summary.time_s = Some(elapsed);
+    summary.ms_per_vertex = Some(1e3 * elapsed / mesh.n_vertices().max(1) as f64);
+    summary.iter_ms_median = per_iter(|r| r.t_iter_s);
+    summary.project_ms_median = per_iter(|r| r.t_project_s);
+    summary.solve_ms_median = per_iter(|r| r.t_solve_s);
+    summary.flips = Some(outcome.flips);
+    summary.status = if summary.converged { "ok" } else { "not_converged" }.into();
+    summary.error = match &outcome.stop_reason {
+        StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", ds.source.describe()),
+        _ => String::new(),
+    };
+    RunResult { summary, rows }
+}
+
+/// `meta.json`: the resolved config and provenance (code version, git revision, machine).
+fn write_meta(cfg: &LoadedConfig, out_dir: &Path, started: SystemTime, ended: Option<SystemTime>) -> Result<()> {
+    let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let (rev, dirty) = git_revision(&cfg.dir);
+    let mut stop = BTreeMap::new();
+    for e in &cfg.config.energies {
+        if let Ok(k) = cfg.config.energy_kind(e) {
+            let s = cfg.config.param_settings(&k).solver.stop;
+            stop.insert(e.clone(), (s.grad_tol, s.energy_decrease_tol, s.max_iters));
+        }
+    }
+    let meta = serde_json::json!({
+        "config_path": cfg.path.display().to_string(),
+        "config": cfg.config,
+        "stop_per_energy": stop.iter().map(|(e, (g, d, m))| (e.clone(), serde_json::json!({
+            "grad_tol": g, "energy_decrease_tol": d, "max_iters": m
+        }))).collect::<serde_json::Map<_, _>>(),
+        "meshes_dir": std::env::var(crate::registry::MESHES_ENV).ok(),
+        "mapbench_version": env!("CARGO_PKG_VERSION"),
+        "git_revision": rev,
+        "git_dirty": dirty,
+        "host": std::env::var("HOSTNAME").ok().or_else(|| std::fs::read_to_string("/etc/hostname").ok().map(|s| s.trim().to_string())),
+        "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        "rayon_threads": rayon::current_num_threads(),
+        "started_unix": secs(started),
+        "ended_unix": ended.map(secs),
+    });
+    write_atomic(&out_dir.join("meta.json"), serde_json::to_string_pretty(&meta)?.as_bytes())
+}
+
+/// The git revision of the folder holding the config, and whether the tree is dirty.
+fn git_revision(dir: &Path) -> (Option<String>, Option<bool>) {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .current_dir(dir)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    let rev = git(&["rev-parse", "HEAD"]);
+    let dirty =
+        rev.as_ref().and_then(|_| git(&["status", "--porcelain", "--untracked-files=no"])).map(|s| !s.is_empty());
+    (rev, dirty)
+}

@@ -1,0 +1,176 @@
+//! The `mapbench` binary end to end, in temporary folders.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn mapbench(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mapbench"))
+        .args(args)
+        .current_dir(dir)
+        .env_remove("MAPBENCH_MESHES")
+        .output()
+        .expect("the binary runs")
+}
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+/// A config in `dir` using the repository's registry.
+fn write_config(dir: &Path, body: &str) -> PathBuf {
+    let reg = repo_root().join("datasets.toml");
+    let path = dir.join("c.toml");
+    std::fs::write(&path, format!("registry = {:?}\n{body}", reg.display().to_string())).unwrap();
+    path
+}
+
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let header = r.headers().unwrap().iter().map(String::from).collect();
+    let rows = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
+    (header, rows)
+}
+
+const QUAD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+const TWO_LOOPS_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 0\nv 6 5 0\nv 5 6 0\nf 1 2 3\nf 4 5 6\n";
+
+#[test]
+fn a_broken_mesh_fails_its_runs_and_the_batch_goes_on() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("quad.obj"), QUAD_OBJ).unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        r#"name = "t"
+datasets = ["bumpy_1k"]
+energies = ["sd"]
+solvers = ["kp-newton"]
+[[dataset]]
+name = "broken"
+path = "quad.obj"
+"#,
+    );
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error");
+    assert_eq!(rows.len(), 2);
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let good = &rows[0];
+    assert_eq!(good[col("dataset")], "bumpy_1k");
+    assert_eq!(good[col("status")], "ok");
+    assert_eq!(good[col("stop_reason")], "grad_tol");
+    assert_eq!(good[col("flips")], "0");
+    let bad = &rows[1];
+    assert_eq!(bad[col("status")], "failed");
+    assert!(bad[col("error")].contains("quad.obj") && bad[col("error")].contains("4 vertices"), "{:?}", bad);
+    // per-iteration CSV with the design columns; the best run's last row is 0 above the best
+    let (h, it) = read_csv(&out.join("runs/bumpy_1k__sd__kp-newton.csv"));
+    assert_eq!(
+        h.join(","),
+        "iter,energy,energy_minus_best,grad_norm,step,neg_eig,indefinite_elems,flips,t_assemble_s,t_project_s,t_solve_s,t_linesearch_s,t_iter_s,t_cum_s,ls_evals"
+    );
+    assert_eq!(it.len() - 1, good[col("iterations")].parse::<usize>().unwrap());
+    assert_eq!(it.last().unwrap()[2].parse::<f64>().unwrap(), 0.0);
+    assert!(out.join("runs/broken__sd__kp-newton.csv").is_file());
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+    assert_eq!(meta["config"]["name"], "t");
+    assert!(meta["ended_unix"].as_u64().is_some());
+}
+
+#[test]
+fn two_runs_of_the_same_config_are_identical() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"d\"\ndatasets = [\"cap_2k\"]\nenergies = [\"sd\", \"bconf\"]\nsolvers = [\"kp-newton\"]\n",
+    );
+    let run = |sub: &str| {
+        let out = tmp.path().join(sub);
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        let (h, rows) = read_csv(&out.join("summary.csv"));
+        let keep = ["dataset", "energy", "solver", "iterations", "init_energy", "final_energy", "grad_norm", "status"];
+        rows.iter()
+            .map(|r| keep.iter().map(|k| r[h.iter().position(|x| x == k).unwrap()].clone()).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
+    };
+    let (a, b) = (run("a"), run("b"));
+    assert_eq!(a.len(), 2);
+    assert_eq!(a, b);
+}
+
+#[test]
+fn config_errors_name_the_file_and_key_and_exit_2() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cases = [
+        ("name = \"x\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp\"]\n", "unknown solver 'kp'"),
+        (
+            "name = \"x\"\ndatasets = [\"nope\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\"]\n",
+            "unknown dataset 'nope'",
+        ),
+        ("name = \"x\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\"]\nfoo = 1\n", "foo"),
+    ];
+    for (body, needle) in cases {
+        let cfg = write_config(tmp.path(), body);
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "o"], tmp.path());
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{t}");
+        assert!(t.contains(needle), "{needle}: {t}");
+        assert!(t.contains("c.toml") || needle.starts_with("unknown dataset"), "{t}");
+    }
+}
+
+#[test]
+fn shared_entries_are_skipped_with_a_notice_without_the_corpus() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"s\"\ndatasets = [\"flat_disk_1k\", \"camelhead\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\"]\n",
+    );
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "o"], tmp.path());
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{t}");
+    assert!(t.contains("skipping camelhead: MAPBENCH_MESHES is not set"), "{t}");
+    let (_, rows) = read_csv(&tmp.path().join("o/summary.csv"));
+    assert_eq!(rows.len(), 1);
+}
+
+#[test]
+fn validate_reports_bad_meshes_by_name() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("two.obj"), TWO_LOOPS_OBJ).unwrap();
+    std::fs::write(tmp.path().join("junk.obj"), "v 0 0\nf 1 2 x\n").unwrap();
+    let o = mapbench(&["validate", "two.obj"], tmp.path());
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(t.contains("two.obj") && t.contains("2 connected components"), "{t}");
+    // a deformation shape may have holes but still needs one component
+    let o = mapbench(&["validate", "two.obj", "--task", "deform"], tmp.path());
+    assert_eq!(o.status.code(), Some(1));
+    for (file, needle) in [("junk.obj", "junk.obj"), ("missing.obj", "missing.obj")] {
+        let o = mapbench(&["validate", file], tmp.path());
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{t}");
+        assert!(t.contains(needle) && !t.contains("panicked"), "{t}");
+    }
+    let o = mapbench(&["validate", "generated:bumpy_1k"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}
+
+#[test]
+fn list_shows_registry_solvers_and_energies() {
+    let root = repo_root();
+    let o = mapbench(&["list", "datasets"], &root);
+    let t = text(&o);
+    assert!(o.status.success() && t.contains("camelhead") && t.contains("generated:bumpy_10k"), "{t}");
+    let o = mapbench(&["list", "solvers"], &root);
+    assert!(text(&o).contains("kp-newton"));
+    let o = mapbench(&["list", "energies"], &root);
+    assert_eq!(text(&o).lines().count(), 6);
+}
