@@ -5,6 +5,7 @@ mod config;
 mod output;
 mod registry;
 mod runner;
+mod tables;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};

@@ -94,13 +94,6 @@ pub enum MeshSource {
 }
 
 impl MeshSource {
-    pub fn describe(&self) -> String {
-        match self {
-            MeshSource::Generated(g) => format!("generated:{g}"),
-            MeshSource::File(p) => p.display().to_string(),
-        }
-    }
-
     /// Build or read the mesh. Errors name the file and the cause.
     pub fn load(&self) -> Result<Mesh> {
         match self {

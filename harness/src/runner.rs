@@ -56,6 +56,7 @@ pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) 
     let mut report = BatchReport { skipped_datasets: notices, out_dir: out_dir.to_path_buf(), ..Default::default() };
     // Rows by (dataset, energy) group, kept to fill `energy_minus_best` once the group is done.
     let mut done = 0;
+    let mut summaries: Vec<SummaryRow> = Vec::new();
     for ds in &datasets {
         let mesh = ds.source.load();
         for energy in &c.energies {
@@ -86,6 +87,7 @@ pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) 
                 let own_best = result.rows.iter().map(|r| r.energy).fold(f64::INFINITY, f64::min);
                 write_run(out_dir, &result, own_best)?;
                 summary.append(&result.summary)?;
+                summaries.push(result.summary.clone());
                 group.push(result);
             }
             let best = group
@@ -100,6 +102,9 @@ pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) 
                 }
             }
         }
+    }
+    if let Some(t) = crate::tables::projection_table(&summaries) {
+        t.write(&out_dir.join("tables"), "projection")?;
     }
     write_meta(cfg, out_dir, started, Some(SystemTime::now()))?;
     Ok(report)
@@ -149,14 +154,19 @@ fn run_one(
     let elapsed = t0.elapsed().as_secs_f64();
     let outcome: Outcome = match result {
         Ok(Ok(o)) => o,
-        Ok(Err(e)) => return fail(summary, format!("{}: {e}", ds.source.describe())),
+        Ok(Err(e)) => {
+            // Most solver errors already start with the mesh source; name it where they do not.
+            let msg = e.to_string();
+            let msg = if msg.starts_with(&mesh.source) { msg } else { format!("{}: {msg}", mesh.source) };
+            return fail(summary, msg);
+        }
         Err(panic) => {
             let msg = panic
                 .downcast_ref::<String>()
                 .cloned()
                 .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
                 .unwrap_or_else(|| "unknown panic".into());
-            return fail(summary, format!("{}: internal error (panic): {msg}", ds.source.describe()));
+            return fail(summary, format!("{}: internal error (panic): {msg}", mesh.source));
         }
     };
     let rows = rows.0;
@@ -178,7 +188,7 @@ fn run_one(
     summary.flips = Some(outcome.flips);
     summary.status = if summary.converged { "ok" } else { "not_converged" }.into();
     summary.error = match &outcome.stop_reason {
-        StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", ds.source.describe()),
+        StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
         _ => String::new(),
     };
     RunResult { summary, rows }

@@ -1,0 +1,180 @@
+//! Paper-style tables computed from `summary.csv` rows, written as `.csv`, `.md` and `.html`.
+
+use crate::output::{write_atomic, SummaryRow};
+use anyhow::Result;
+use std::path::Path;
+
+/// A rectangular table of already formatted cells.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    pub title: String,
+    pub columns: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+    /// A sentence under the table saying what the numbers are.
+    pub caption: String,
+}
+
+impl Table {
+    pub fn to_csv(&self) -> Result<Vec<u8>> {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.write_record(&self.columns)?;
+        for r in &self.rows {
+            w.write_record(r)?;
+        }
+        Ok(w.into_inner()?)
+    }
+
+    pub fn to_markdown(&self) -> String {
+        let mut s = format!(
+            "### {}\n\n| {} |\n|{}|\n",
+            self.title,
+            self.columns.join(" | "),
+            "---|".repeat(self.columns.len())
+        );
+        for r in &self.rows {
+            s += &format!("| {} |\n", r.join(" | "));
+        }
+        s += &format!("\n{}\n", self.caption);
+        s
+    }
+
+    pub fn to_html(&self) -> String {
+        let esc = |t: &str| t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+        let mut s = format!(
+            "<!doctype html>\n<meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\">\n\
+             <title>{t}</title>\n<style>body{{font-family:sans-serif}}table{{border-collapse:collapse}}\
+             td,th{{border:1px solid #bbb;padding:2px 6px;text-align:right}}th{{background:#eee}}</style>\n\
+             <h3>{t}</h3>\n<table>\n<tr>",
+            t = esc(&self.title)
+        );
+        for c in &self.columns {
+            s += &format!("<th>{}</th>", esc(c));
+        }
+        s += "</tr>\n";
+        for r in &self.rows {
+            s += "<tr>";
+            for c in r {
+                s += &format!("<td>{}</td>", esc(c));
+            }
+            s += "</tr>\n";
+        }
+        s += &format!("</table>\n<p>{}</p>\n", esc(&self.caption));
+        s
+    }
+
+    /// Write `dir/<stem>.csv|.md|.html`.
+    pub fn write(&self, dir: &Path, stem: &str) -> Result<()> {
+        write_atomic(&dir.join(format!("{stem}.csv")), &self.to_csv()?)?;
+        write_atomic(&dir.join(format!("{stem}.md")), self.to_markdown().as_bytes())?;
+        write_atomic(&dir.join(format!("{stem}.html")), self.to_html().as_bytes())
+    }
+}
+
+/// The solvers whose per-element projection the projection table compares, with short labels.
+const PROJECTIONS: [(&str, &str); 3] = [("kp-newton", "KP"), ("fp-newton-4x4", "FP4"), ("fp-newton-6x6", "FP6")];
+
+/// The complex-view paper's Table 5 shape: per mesh and energy, the median per-iteration time
+/// of each projection next to the linear solve, and their ratio. `None` when no run of a
+/// projection solver finished.
+pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
+    let present: Vec<(&str, &str)> = PROJECTIONS
+        .iter()
+        .copied()
+        .filter(|(s, _)| rows.iter().any(|r| r.solver == *s && r.status != "failed"))
+        .collect();
+    if present.is_empty() {
+        return None;
+    }
+    let mut columns = vec!["dataset".to_string(), "energy".into(), "vertices".into(), "solve_ms".into()];
+    for (_, l) in &present {
+        columns.push(format!("{l}_project_ms"));
+        columns.push(format!("{l}_project/solve"));
+    }
+    let mut groups: Vec<(&str, &str)> = Vec::new();
+    for r in rows {
+        if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
+            groups.push((&r.dataset, &r.energy));
+        }
+    }
+    let ms = |v: f64| format!("{v:.3}");
+    let mut out = Vec::new();
+    for (d, e) in groups {
+        let runs: Vec<&SummaryRow> = rows
+            .iter()
+            .filter(|r| r.dataset == d && r.energy == e && r.status != "failed" && r.iterations.unwrap_or(0) > 0)
+            .collect();
+        let of = |s: &str| runs.iter().find(|r| r.solver == s).copied();
+        // The solve costs the same for every strategy (same pattern): report the median over them.
+        let mut solves: Vec<f64> =
+            present.iter().filter_map(|(s, _)| of(s).and_then(|r| r.solve_ms_median)).collect::<Vec<_>>();
+        let Some(solve) = crate::output::median(&mut solves) else { continue };
+        let vertices = runs.first().and_then(|r| r.vertices).map(|v| v.to_string()).unwrap_or_default();
+        let mut row = vec![d.to_string(), e.to_string(), vertices, ms(solve)];
+        for (s, _) in &present {
+            match of(s).and_then(|r| r.project_ms_median.zip(r.solve_ms_median)) {
+                Some((p, sv)) => {
+                    row.push(ms(p));
+                    row.push(format!("{:.3}", p / sv));
+                }
+                None => row.extend(["".to_string(), "".to_string()]),
+            }
+        }
+        out.push(row);
+    }
+    Some(Table {
+        title: "Per-iteration projection vs linear solve (complex-view paper, Table 5)".into(),
+        columns,
+        rows: out,
+        caption: "Median over iterations of one run each: projection = per-element Hessian modification \
+                  including M^T K M; solve = numeric Cholesky factorization plus triangular solves; \
+                  project/solve uses the same run's solve time."
+            .into(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(d: &str, s: &str, p: f64, sv: f64) -> SummaryRow {
+        SummaryRow {
+            dataset: d.into(),
+            energy: "sd".into(),
+            solver: s.into(),
+            vertices: Some(100),
+            iterations: Some(5),
+            project_ms_median: Some(p),
+            solve_ms_median: Some(sv),
+            status: "ok".into(),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn projection_table_has_one_row_per_mesh_and_ratios() {
+        let rows = vec![
+            row("a", "kp-newton", 1.0, 10.0),
+            row("a", "fp-newton-6x6", 4.0, 12.0),
+            row("b", "kp-newton", 2.0, 8.0),
+        ];
+        let t = projection_table(&rows).unwrap();
+        assert_eq!(
+            t.columns,
+            [
+                "dataset",
+                "energy",
+                "vertices",
+                "solve_ms",
+                "KP_project_ms",
+                "KP_project/solve",
+                "FP6_project_ms",
+                "FP6_project/solve"
+            ]
+        );
+        assert_eq!(t.rows[0], ["a", "sd", "100", "11.000", "1.000", "0.100", "4.000", "0.333"]);
+        assert_eq!(t.rows[1], ["b", "sd", "100", "8.000", "2.000", "0.250", "", ""]);
+        assert!(t.to_markdown().contains("| a | sd | 100 |"));
+        assert!(t.to_html().contains("<td>0.333</td>"));
+        assert!(projection_table(&[row("a", "cm", 1.0, 1.0)]).is_none());
+    }
+}
