@@ -25,12 +25,8 @@ impl Table {
     }
 
     pub fn to_markdown(&self) -> String {
-        let mut s = format!(
-            "### {}\n\n| {} |\n|{}|\n",
-            self.title,
-            self.columns.join(" | "),
-            "---|".repeat(self.columns.len())
-        );
+        let mut s =
+            format!("### {}\n\n| {} |\n|{}\n", self.title, self.columns.join(" | "), "---|".repeat(self.columns.len()));
         for r in &self.rows {
             s += &format!("| {} |\n", r.join(" | "));
         }
@@ -173,7 +169,9 @@ mod tests {
         );
         assert_eq!(t.rows[0], ["a", "sd", "100", "11.000", "1.000", "0.100", "4.000", "0.333"]);
         assert_eq!(t.rows[1], ["b", "sd", "100", "8.000", "2.000", "0.250", "", ""]);
-        assert!(t.to_markdown().contains("| a | sd | 100 |"));
+        let md = t.to_markdown();
+        assert!(md.contains("| a | sd | 100 |"));
+        assert!(md.contains(&format!("\n|{}\n", "---|".repeat(8))), "{md}");
         assert!(t.to_html().contains("<td>0.333</td>"));
         assert!(projection_table(&[row("a", "cm", 1.0, 1.0)]).is_none());
     }

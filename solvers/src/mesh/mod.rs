@@ -51,10 +51,10 @@ impl Mesh {
         (0..self.n_faces()).map(|f| self.face_area(f)).sum()
     }
 
-    /// Length of the bounding-box diagonal (0 for an empty mesh).
-    pub fn bbox_diagonal(&self) -> f64 {
+    /// Axis-aligned bounding box `(lo, hi)`; `None` for a mesh without vertices.
+    pub fn bbox(&self) -> Option<([f64; 3], [f64; 3])> {
         if self.positions.is_empty() {
-            return 0.0;
+            return None;
         }
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
@@ -64,20 +64,20 @@ impl Mesh {
                 hi[k] = hi[k].max(p[k]);
             }
         }
-        ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt()
+        Some((lo, hi))
+    }
+
+    /// Length of the bounding-box diagonal (0 for an empty mesh).
+    pub fn bbox_diagonal(&self) -> f64 {
+        self.bbox().map_or(0.0, |(lo, hi)| {
+            ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt()
+        })
     }
 
     /// Centre on the bounding-box midpoint and scale uniformly to total surface area 1
     /// (the convention of the complex-view reference code, design.md).
     pub fn normalized(&self) -> Mesh {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &self.positions {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
+        let (lo, hi) = self.bbox().unwrap_or(([0.0; 3], [0.0; 3]));
         let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];
         let s = 1.0 / self.total_area().sqrt();
         let positions =
