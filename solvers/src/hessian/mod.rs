@@ -7,6 +7,7 @@
 //! evaluated element into the 6x6 block of the Newton system; strategies are peers
 //! sharing the rest of the pipeline.
 
+pub mod akvf;
 pub mod cm;
 pub mod fp;
 pub mod kp;

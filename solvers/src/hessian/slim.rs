@@ -99,10 +99,15 @@ impl Slim {
 impl SystemBlock for Slim {
     fn block(&self, op: &LocalOp, s: &ElementState) -> Matrix6<f64> {
         // Hessian of ||W (J - R)||^2 in vec(J) is blockdiag(2 W^2, 2 W^2).
-        let w2 = Self::w_sq(s) * 2.0;
-        let mut hj = Matrix4::zeros();
-        hj.fixed_view_mut::<2, 2>(0, 0).copy_from(&w2);
-        hj.fixed_view_mut::<2, 2>(2, 2).copy_from(&w2);
+        let w = Self::w_sq(s) * 2.0;
+        // Entry by entry rather than through block views (see `k_matrix`).
+        #[rustfmt::skip]
+        let hj = Matrix4::new(
+            w[(0, 0)], w[(0, 1)], 0.0, 0.0,
+            w[(1, 0)], w[(1, 1)], 0.0, 0.0,
+            0.0, 0.0, w[(0, 0)], w[(0, 1)],
+            0.0, 0.0, w[(1, 0)], w[(1, 1)],
+        );
         let p = p_matrix();
         triple_product(op, &(p.transpose() * hj * p))
     }

@@ -2,7 +2,7 @@
 //! strategy file plus one line here.
 
 use crate::energy::EnergyKind;
-use crate::hessian::{cm::Cm, fp::Fp4, fp::Fp6, kp::Kp, none::Unprojected, slim::Slim, SystemBlock};
+use crate::hessian::{akvf::Akvf, cm::Cm, fp::Fp4, fp::Fp6, kp::Kp, none::Unprojected, slim::Slim, SystemBlock};
 
 pub struct SolverSpec {
     pub name: &'static str,
@@ -27,6 +27,7 @@ const REGISTRY: &[(&str, Builder)] = &[
     ("cm", |e| spec("cm", Cm::for_energy(e)?, false)),
     ("newton", |_| spec("newton", Unprojected, false)),
     ("slim", |_| spec("slim", Slim, false)),
+    ("akvf", |_| spec("akvf", Akvf, false)),
 ];
 
 /// Why a solver could not be built.
