@@ -35,6 +35,9 @@ fn meshes() -> Vec<Mesh> {
     let mut v = vec![generate("bumpy_1k").unwrap(), generate("cap_2k").unwrap()];
     if let Ok(dir) = std::env::var("MAPBENCH_MESHES") {
         v.push(load_obj(&std::path::Path::new(&dir).join("bimba_5k.obj")).unwrap());
+        // Long and thin: round-off differences between KP and CM grew into different
+        // iteration counts here before KP used CM's arithmetic for the cone term.
+        v.push(load_obj(&std::path::Path::new(&dir).join("hilbert.obj")).unwrap());
     }
     v
 }

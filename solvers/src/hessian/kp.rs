@@ -16,6 +16,16 @@ pub fn project_k(s: &ElementState) -> Matrix4<f64> {
     if e.values.iter().all(|&v| v >= 0.0) {
         return k_matrix(s);
     }
+    if e.values[1..].iter().all(|&v| v >= 0.0) {
+        // Only the cone eigenvalue 2 a1 is negative (always the case for SD, ExpSD, BCONF
+        // k <= 1, BARAP k <= 2): Eq. 4 clamps it in the modifiers, leaving the radial block
+        // unchanged. Same result as the eigen-clamp, cheaper, and the same arithmetic as
+        // CM's cone term, so `cm` and `kp-newton-noscale` produce identical iterates.
+        let mut t = *s;
+        t.m.b1 += t.m.a1 / (2.0 * s.x());
+        t.m.a1 = 0.0;
+        return k_matrix(&t);
+    }
     let mut k = Matrix4::zeros();
     for i in 0..4 {
         if e.values[i] > 0.0 {
