@@ -1,6 +1,7 @@
 //! mapbench: run every solver variant over a mesh corpus from one TOML config, record
 //! per-iteration CSVs and a summary (design.md "CLI").
 
+mod check;
 mod config;
 mod output;
 mod registry;
@@ -28,6 +29,19 @@ enum Command {
         /// Output folder (default: reports/<name>).
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Compare a run folder with a baseline: exit 1 on a regression (more iterations, higher
+    /// final energy, worse status, new flips), 2 when a baseline run is missing.
+    Check {
+        run_dir: PathBuf,
+        #[arg(long)]
+        baseline: PathBuf,
+    },
+    /// Write a baseline (JSON) from a run folder's summary.csv.
+    Baseline {
+        run_dir: PathBuf,
+        #[arg(long)]
+        write: PathBuf,
     },
     /// Print the topology and degeneracy report of one mesh (an OBJ file or generated:<name>);
     /// exit 1 when it is not usable for the task.
@@ -87,6 +101,22 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 report.out_dir.display()
             );
             Ok(if report.failed > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+        }
+        Command::Check { run_dir, baseline } => {
+            let text = std::fs::read_to_string(&baseline)
+                .with_context(|| format!("{}: cannot read baseline", baseline.display()))?;
+            let base: check::Baseline =
+                serde_json::from_str(&text).with_context(|| format!("{}: invalid baseline", baseline.display()))?;
+            let cmp = check::compare(&base, &check::read_summary(&run_dir)?);
+            print!("{}", check::render(&cmp));
+            Ok(ExitCode::from(cmp.exit_code()))
+        }
+        Command::Baseline { run_dir, write } => {
+            let base = check::make_baseline(&run_dir)?;
+            let json = serde_json::to_string_pretty(&base)? + "\n";
+            output::write_atomic(&write, json.as_bytes())?;
+            eprintln!("wrote {} runs to {}", base.runs.len(), write.display());
+            Ok(ExitCode::SUCCESS)
         }
         Command::Validate { mesh, task } => {
             let mesh = match mesh.strip_prefix("generated:") {

@@ -174,3 +174,62 @@ fn list_shows_registry_solvers_and_energies() {
     let o = mapbench(&["list", "energies"], &root);
     assert_eq!(text(&o).lines().count(), 6);
 }
+
+#[test]
+fn the_gate_passes_on_its_own_baseline_and_catches_regressions() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"g\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n",
+    );
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "run"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = mapbench(&["baseline", "run", "--write", "base.json"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = mapbench(&["check", "run", "--baseline", "base.json"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("2 runs compared: 0 regressions"), "{}", text(&o));
+
+    let base: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("base.json")).unwrap()).unwrap();
+    let edit = |f: &dyn Fn(&mut serde_json::Value), name: &str| {
+        let mut b = base.clone();
+        f(&mut b);
+        std::fs::write(tmp.path().join(name), serde_json::to_string(&b).unwrap()).unwrap();
+    };
+    // a lowered iteration count in the baseline means this run needs more: regression
+    edit(
+        &|b| {
+            let it = b["runs"][0]["iterations"].as_u64().unwrap();
+            b["runs"][0]["iterations"] = (it - 1).into();
+        },
+        "lower.json",
+    );
+    let o = mapbench(&["check", "run", "--baseline", "lower.json"], tmp.path());
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(t.contains("REGRESSIONS") && t.contains("bumpy_1k param sd kp-newton") && t.contains("+1"), "{t}");
+    // a raised one is an improvement: reported, not failed
+    edit(
+        &|b| {
+            let it = b["runs"][1]["iterations"].as_u64().unwrap();
+            b["runs"][1]["iterations"] = (it + 3).into();
+        },
+        "higher.json",
+    );
+    let o = mapbench(&["check", "run", "--baseline", "higher.json"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("Improvements"));
+    // a baseline run the folder does not have: exit 2
+    edit(
+        &|b| {
+            let mut extra = b["runs"][0].clone();
+            extra["dataset"] = "cap_2k".into();
+            b["runs"].as_array_mut().unwrap().push(extra);
+        },
+        "missing.json",
+    );
+    let o = mapbench(&["check", "run", "--baseline", "missing.json"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("MISSING") && text(&o).contains("cap_2k"));
+}

@@ -1,0 +1,305 @@
+//! The regression gate: a JSON baseline of iteration counts and final energies per run, and
+//! the comparison of a run folder against it (`baseline`, `check`).
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Default relative tolerance on the final energy.
+pub const DEFAULT_ENERGY_RTOL: f64 = 1e-6;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Record {
+    pub dataset: String,
+    pub task: String,
+    pub energy: String,
+    pub solver: String,
+    pub iterations: Option<usize>,
+    pub final_energy: Option<f64>,
+    pub status: String,
+    pub flips: Option<usize>,
+    /// Allowed increase of `iterations` before it counts as a regression (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iterations_tolerance: Option<usize>,
+    /// Wall time of the run when the baseline was written; shown, never gated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_s: Option<f64>,
+}
+
+impl Record {
+    fn key(&self) -> (&str, &str, &str, &str) {
+        (&self.dataset, &self.task, &self.energy, &self.solver)
+    }
+    fn label(&self) -> String {
+        format!("{} {} {} {}", self.dataset, self.task, self.energy, self.solver)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Baseline {
+    /// Relative tolerance on `final_energy`.
+    #[serde(default = "default_rtol")]
+    pub energy_rtol: f64,
+    pub runs: Vec<Record>,
+}
+
+fn default_rtol() -> f64 {
+    DEFAULT_ENERGY_RTOL
+}
+
+/// Read the records of a run folder's `summary.csv`.
+pub fn read_summary(run_dir: &Path) -> Result<Vec<Record>> {
+    let path = run_dir.join("summary.csv");
+    let mut r = csv::Reader::from_path(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+    #[derive(Deserialize)]
+    struct Row {
+        dataset: String,
+        task: String,
+        energy: String,
+        solver: String,
+        iterations: Option<usize>,
+        final_energy: Option<f64>,
+        status: String,
+        flips: Option<usize>,
+        time_s: Option<f64>,
+    }
+    let mut out = Vec::new();
+    for (i, row) in r.deserialize::<Row>().enumerate() {
+        let row = row.with_context(|| format!("{}: row {}", path.display(), i + 2))?;
+        out.push(Record {
+            dataset: row.dataset,
+            task: row.task,
+            energy: row.energy,
+            solver: row.solver,
+            iterations: row.iterations,
+            final_energy: row.final_energy,
+            status: row.status,
+            flips: row.flips,
+            iterations_tolerance: None,
+            time_s: row.time_s,
+        });
+    }
+    Ok(out)
+}
+
+/// A baseline from a run folder.
+pub fn make_baseline(run_dir: &Path) -> Result<Baseline> {
+    Ok(Baseline { energy_rtol: DEFAULT_ENERGY_RTOL, runs: read_summary(run_dir)? })
+}
+
+/// One metric that moved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Change {
+    pub run: String,
+    pub metric: &'static str,
+    pub before: String,
+    pub after: String,
+    pub delta: String,
+    pub regression: bool,
+}
+
+/// The outcome of a comparison.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Comparison {
+    pub changes: Vec<Change>,
+    pub missing: Vec<String>,
+    pub compared: usize,
+    /// Advisory wall-time lines (baseline vs now) for the runs compared.
+    pub timings: Vec<(String, f64, f64)>,
+}
+
+impl Comparison {
+    pub fn regressions(&self) -> usize {
+        self.changes.iter().filter(|c| c.regression).count()
+    }
+    pub fn improvements(&self) -> usize {
+        self.changes.iter().filter(|c| !c.regression).count()
+    }
+    /// 2 when a baseline run is missing, 1 on any regression, else 0.
+    pub fn exit_code(&self) -> u8 {
+        if !self.missing.is_empty() {
+            2
+        } else if self.regressions() > 0 {
+            1
+        } else {
+            0
+        }
+    }
+}
+
+fn status_rank(s: &str) -> u8 {
+    match s {
+        "ok" => 2,
+        "not_converged" => 1,
+        _ => 0,
+    }
+}
+
+/// Compare the runs of a folder with a baseline.
+pub fn compare(baseline: &Baseline, runs: &[Record]) -> Comparison {
+    let mut cmp = Comparison::default();
+    let fmt_opt = |v: Option<usize>| v.map_or("-".to_string(), |x| x.to_string());
+    for b in &baseline.runs {
+        let Some(a) = runs.iter().find(|r| r.key() == b.key()) else {
+            cmp.missing.push(b.label());
+            continue;
+        };
+        cmp.compared += 1;
+        let mut push = |metric, before: String, after: String, delta: String, regression| {
+            cmp.changes.push(Change { run: b.label(), metric, before, after, delta, regression })
+        };
+        if a.status != b.status {
+            let regression = status_rank(&a.status) < status_rank(&b.status) || a.status == "failed";
+            push("status", b.status.clone(), a.status.clone(), String::new(), regression);
+        }
+        match (b.iterations, a.iterations) {
+            (Some(bi), Some(ai)) if ai != bi => {
+                let tol = b.iterations_tolerance.unwrap_or(0);
+                let delta = format!("{:+}", ai as i64 - bi as i64);
+                if ai > bi + tol {
+                    push("iterations", bi.to_string(), ai.to_string(), delta, true);
+                } else if ai < bi {
+                    push("iterations", bi.to_string(), ai.to_string(), delta, false);
+                }
+            }
+            (bi, ai) if bi.is_some() != ai.is_some() => {
+                push("iterations", fmt_opt(bi), fmt_opt(ai), String::new(), ai.is_none());
+            }
+            _ => {}
+        }
+        if let (Some(be), Some(ae)) = (b.final_energy, a.final_energy) {
+            let rel = (ae - be) / be.abs().max(1e-300);
+            // NaN counts as moved, and as a regression.
+            let within = rel.abs() <= baseline.energy_rtol;
+            if !within {
+                let lower = ae < be;
+                push("final_energy", format!("{be:.10}"), format!("{ae:.10}"), format!("{rel:+.2e} rel"), !lower);
+            }
+        }
+        if b.flips == Some(0) && a.flips.unwrap_or(0) > 0 {
+            push("flips", "0".into(), fmt_opt(a.flips), String::new(), true);
+        }
+        if let (Some(bt), Some(at)) = (b.time_s, a.time_s) {
+            cmp.timings.push((b.label(), bt, at));
+        }
+    }
+    cmp
+}
+
+/// A human-readable report of a comparison.
+pub fn render(cmp: &Comparison) -> String {
+    let mut s = String::new();
+    let table = |rows: Vec<&Change>, title: &str| {
+        let mut t =
+            format!("{title}:\n  {:<48} {:<13} {:>16} {:>16} {:>12}\n", "run", "metric", "before", "after", "delta");
+        for c in rows {
+            t += &format!("  {:<48} {:<13} {:>16} {:>16} {:>12}\n", c.run, c.metric, c.before, c.after, c.delta);
+        }
+        t
+    };
+    let regs: Vec<&Change> = cmp.changes.iter().filter(|c| c.regression).collect();
+    let imps: Vec<&Change> = cmp.changes.iter().filter(|c| !c.regression).collect();
+    if !regs.is_empty() {
+        s += &table(regs, "REGRESSIONS");
+    }
+    if !imps.is_empty() {
+        s += &table(
+            imps,
+            "Improvements (not a failure; refresh the baseline with `mapbench baseline RUN_DIR --write FILE`)",
+        );
+    }
+    if !cmp.missing.is_empty() {
+        s += &format!("MISSING from the run folder ({}):\n", cmp.missing.len());
+        for m in &cmp.missing {
+            s += &format!("  {m}\n");
+        }
+    }
+    if !cmp.timings.is_empty() {
+        let (bt, at): (f64, f64) = cmp.timings.iter().fold((0.0, 0.0), |(x, y), (_, b, a)| (x + b, y + a));
+        s += &format!(
+            "timings (advisory, not gated): total {bt:.2} s in the baseline, {at:.2} s now ({:.2}x)\n",
+            at / bt.max(1e-12)
+        );
+    }
+    s += &format!(
+        "{} runs compared: {} regressions, {} improvements, {} missing\n",
+        cmp.compared,
+        cmp.regressions(),
+        cmp.improvements(),
+        cmp.missing.len()
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(solver: &str, it: usize, e: f64) -> Record {
+        Record {
+            dataset: "d".into(),
+            task: "param".into(),
+            energy: "sd".into(),
+            solver: solver.into(),
+            iterations: Some(it),
+            final_energy: Some(e),
+            status: "ok".into(),
+            flips: Some(0),
+            iterations_tolerance: None,
+            time_s: Some(1.0),
+        }
+    }
+
+    fn base(runs: Vec<Record>) -> Baseline {
+        Baseline { energy_rtol: 1e-6, runs }
+    }
+
+    #[test]
+    fn identical_runs_pass() {
+        let runs = vec![rec("a", 10, 2.0), rec("b", 20, 2.0)];
+        let c = compare(&base(runs.clone()), &runs);
+        assert_eq!((c.exit_code(), c.compared, c.changes.len()), (0, 2, 0));
+    }
+
+    #[test]
+    fn more_iterations_fail_fewer_are_reported() {
+        let b = base(vec![rec("a", 10, 2.0), rec("b", 20, 2.0)]);
+        let c = compare(&b, &[rec("a", 11, 2.0), rec("b", 18, 2.0)]);
+        assert_eq!(c.exit_code(), 1);
+        assert_eq!(c.regressions(), 1);
+        assert_eq!(c.improvements(), 1);
+        let text = render(&c);
+        assert!(text.contains("REGRESSIONS") && text.contains("+1") && text.contains("-2") && text.contains("refresh"));
+        // within a per-record tolerance it passes
+        let mut tolerant = b.clone();
+        tolerant.runs[0].iterations_tolerance = Some(2);
+        assert_eq!(compare(&tolerant, &[rec("a", 12, 2.0), rec("b", 20, 2.0)]).exit_code(), 0);
+    }
+
+    #[test]
+    fn energy_status_and_flips_are_gated() {
+        let b = base(vec![rec("a", 10, 2.0)]);
+        assert_eq!(compare(&b, &[rec("a", 10, 2.0 * (1.0 + 1e-7))]).exit_code(), 0);
+        assert_eq!(compare(&b, &[rec("a", 10, 2.01)]).exit_code(), 1);
+        assert_eq!(compare(&b, &[rec("a", 10, 1.99)]).exit_code(), 0); // lower energy: improvement
+        let mut worse = rec("a", 10, 2.0);
+        worse.status = "not_converged".into();
+        assert_eq!(compare(&b, &[worse]).exit_code(), 1);
+        let mut flipped = rec("a", 10, 2.0);
+        flipped.flips = Some(3);
+        assert_eq!(compare(&b, &[flipped]).exit_code(), 1);
+        let mut nan = rec("a", 10, 2.0);
+        nan.final_energy = Some(f64::NAN);
+        assert_eq!(compare(&b, &[nan]).exit_code(), 1);
+    }
+
+    #[test]
+    fn missing_runs_exit_2() {
+        let b = base(vec![rec("a", 10, 2.0), rec("b", 20, 2.0)]);
+        let c = compare(&b, &[rec("a", 10, 2.0)]);
+        assert_eq!(c.exit_code(), 2);
+        assert!(render(&c).contains("MISSING") && render(&c).contains("d param sd b"));
+    }
+}
