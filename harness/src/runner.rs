@@ -43,7 +43,7 @@ pub struct BatchReport {
 
 /// Run a whole config into `out_dir`. `log` receives one human-readable line per event.
 pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) -> Result<BatchReport> {
-    let (datasets, notices) = resolve(cfg)?;
+    let (datasets, notices) = resolve(cfg).with_context(|| format!("{}: datasets", cfg.path.display()))?;
     for n in &notices {
         log(n);
     }
