@@ -1,6 +1,7 @@
 //! The regression gate: a JSON baseline of iteration counts and final energies per run, and
 //! the comparison of a run folder against it (`baseline`, `check`).
 
+use crate::output::SummaryRow;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -53,20 +54,8 @@ fn default_rtol() -> f64 {
 pub fn read_summary(run_dir: &Path) -> Result<Vec<Record>> {
     let path = run_dir.join("summary.csv");
     let mut r = csv::Reader::from_path(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-    #[derive(Deserialize)]
-    struct Row {
-        dataset: String,
-        task: String,
-        energy: String,
-        solver: String,
-        iterations: Option<usize>,
-        final_energy: Option<f64>,
-        status: String,
-        flips: Option<usize>,
-        time_s: Option<f64>,
-    }
     let mut out = Vec::new();
-    for (i, row) in r.deserialize::<Row>().enumerate() {
+    for (i, row) in r.deserialize::<SummaryRow>().enumerate() {
         let row = row.with_context(|| format!("{}: row {}", path.display(), i + 2))?;
         out.push(Record {
             dataset: row.dataset,

@@ -3,7 +3,7 @@
 //! (temporary file + rename) so an interrupted batch never leaves a half-written run.
 
 use anyhow::{Context, Result};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use solvers::solver::IterationRecord;
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -72,7 +72,7 @@ struct IterationRow {
 }
 
 /// One row of `summary.csv`. Fields unknown for a failed run are empty.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SummaryRow {
     pub dataset: String,
     pub task: String,
