@@ -11,7 +11,7 @@ use crate::assembly::Pattern;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
@@ -24,6 +24,8 @@ pub enum LinearError {
     NotPositiveDefinite { pivot: usize },
     #[error("matrix diagonal entry {index} is {value} (not positive and finite)")]
     BadDiagonal { index: usize, value: f64 },
+    #[error("solve requested before a successful factorization")]
+    NotFactored,
 }
 
 /// Linear-system settings (`[linear]` in the config).
@@ -51,6 +53,7 @@ pub struct SpdSolver {
     scaled: Vec<f64>,
     scale: Vec<f64>,
     mem: MemBuffer,
+    factored: bool,
 }
 
 impl SpdSolver {
@@ -82,7 +85,17 @@ impl SpdSolver {
                 .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
         );
         let l_values = vec![0.0; symbolic.len_val()];
-        Ok(SpdSolver { n, symbolic_a, diag, symbolic, l_values, scaled: Vec::new(), scale: vec![1.0; n], mem })
+        Ok(SpdSolver {
+            n,
+            symbolic_a,
+            diag,
+            symbolic,
+            l_values,
+            scaled: Vec::new(),
+            scale: vec![1.0; n],
+            mem,
+            factored: false,
+        })
     }
 
     /// Number of stored entries of the Cholesky factor (with supernodal padding).
@@ -93,6 +106,14 @@ impl SpdSolver {
     /// Solve `A x = b` for the SPD matrix with lower-triangle `values` on the analysed
     /// pattern, with the regularization and scaling of `settings`.
     pub fn solve(&mut self, values: &[f64], b: &[f64], settings: &LinearSettings) -> Result<Vec<f64>, LinearError> {
+        self.factorize(values, settings)?;
+        self.solve_factored(b)
+    }
+
+    /// Numeric factorization of `values` (scaled and shifted per `settings`), kept for any
+    /// number of [`SpdSolver::solve_factored`] calls until the next factorization.
+    pub fn factorize(&mut self, values: &[f64], settings: &LinearSettings) -> Result<(), LinearError> {
+        self.factored = false;
         let tau = settings.tikhonov;
         self.scaled.clear();
         self.scaled.extend_from_slice(values);
@@ -123,15 +144,13 @@ impl SpdSolver {
             self.scale.iter_mut().for_each(|s| *s = 1.0);
         }
         let a = SparseColMatRef::new(self.symbolic_a.as_ref(), &self.scaled);
-        let par = Par::Seq;
-        let llt = self
-            .symbolic
+        self.symbolic
             .factorize_numeric_llt::<f64>(
                 &mut self.l_values,
                 a,
                 Side::Lower,
                 LltRegularization::default(),
-                par,
+                Par::Seq,
                 MemStack::new(&mut self.mem),
                 Default::default(),
             )
@@ -140,9 +159,19 @@ impl SpdSolver {
                     LinearError::NotPositiveDefinite { pivot: index }
                 }
             })?;
+        self.factored = true;
+        Ok(())
+    }
+
+    /// Solve with the factor of the last successful [`SpdSolver::factorize`].
+    pub fn solve_factored(&mut self, b: &[f64]) -> Result<Vec<f64>, LinearError> {
+        if !self.factored {
+            return Err(LinearError::NotFactored);
+        }
         let mut x: Vec<f64> = b.iter().zip(&self.scale).map(|(bi, si)| bi * si).collect();
         let rhs = MatMut::from_column_major_slice_mut(&mut x, self.n, 1);
-        llt.solve_in_place_with_conj(Conj::No, rhs, par, MemStack::new(&mut self.mem));
+        let llt = LltRef::new(&self.symbolic, &self.l_values);
+        llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.mem));
         for (xi, si) in x.iter_mut().zip(&self.scale) {
             *xi *= si;
         }
