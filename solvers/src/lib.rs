@@ -13,6 +13,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod assembly;
+pub mod authalic;
 pub mod energy;
 pub mod error;
 pub mod generate;

@@ -37,6 +37,9 @@ pub struct IterationRecord {
     pub t_cum_s: f64,
     /// Energy evaluations of the line search.
     pub ls_evals: usize,
+    /// Solver-specific columns appended after the design.md ones (same names in every row
+    /// of a run), e.g. the safeguards of `aem-cg-safe`.
+    pub extra: Vec<(&'static str, f64)>,
 }
 
 /// What the observer wants next.
@@ -80,6 +83,8 @@ pub enum StopReason {
     NotDescent,
     /// Energy or gradient became non-finite.
     NonFinite(String),
+    /// A fixed-point step would increase the energy; the previous iterate is kept (SEM).
+    EnergyIncreased,
     /// The observer asked to stop.
     Interrupted,
 }
@@ -94,6 +99,7 @@ impl StopReason {
             StopReason::LinearSolveFailed(_) => "linear_solve_failed",
             StopReason::NotDescent => "not_descent",
             StopReason::NonFinite(_) => "non_finite",
+            StopReason::EnergyIncreased => "energy_increased",
             StopReason::Interrupted => "interrupted",
         }
     }

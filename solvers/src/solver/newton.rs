@@ -149,6 +149,7 @@ pub fn newton(
             t_iter_s: t_iter,
             t_cum_s: t_cum,
             ls_evals,
+            extra: Vec::new(),
         };
         interrupted = observer.observe(&record) == Flow::Stop;
     };

@@ -1,0 +1,228 @@
+//! `aem-cg` and `aem-cg-safe`: the preconditioned nonlinear conjugate gradient method of
+//! authalic energy minimization (AEM paper, Algorithm 1).
+//!
+//! Faithful variant: preconditioner `M = blockdiag(I_2 (x) [L_S(f0)]_II, [L_S(f0)]_BB)`
+//! factored once (Eq. 20-21), preconditioned Fletcher-Reeves (Eq. 19), and the step of the
+//! quadratic through `Phi(0)`, `Phi'(0)`, `Phi(alpha_prev)` (Eq. 18) with `alpha_0 = 2`. It
+//! never checks the step, so the energy may increase; every such row has `ascent = 1`.
+//!
+//! Safe variant: the same direction and trial step, plus (a) a restart `p = -h` (with the
+//! trial step reset to `alpha_0`) when `p` is not a descent direction or the fold guard cut
+//! the previous step, (b) `alpha = alpha_prev` when the quadratic has no minimum,
+//! (c) Armijo (22a) with halving, (d) a fold guard ([`FoldGuard`]; by default it rejects
+//! steps that break the boundary ordering `theta_1 < ... < theta_nB < theta_1 + 2 pi` of
+//! Eq. 10, which Algorithm 1 does not enforce), and (e) one restart along `-h` if backtracking fails. The columns
+//! `restarted`, `quad_fallback`, `backtracks`, `fold_rejects` say which fired; `wolfe` says
+//! whether the accepted step meets the curvature condition (22b) that the convergence proof
+//! assumes (recorded for both variants, never enforced).
+
+use super::{
+    dot, norm, tolerance_stop, AuthalicOutcome, AuthalicProblem, AuthalicSettings, Extras, FoldGuard, Reporter, Terms,
+    Timings, EXACT,
+};
+use crate::linear::{LinearError, SpdSolver};
+use crate::solver::{Observer, StopReason};
+use std::time::Instant;
+
+/// The block-diagonal preconditioner, factored once.
+struct Preconditioner {
+    ni: usize,
+    interior: SpdSolver,
+    boundary: SpdSolver,
+}
+
+impl Preconditioner {
+    fn new(problem: &AuthalicProblem, z0: &[f64]) -> Result<Preconditioner, LinearError> {
+        let mut values = Vec::new();
+        problem.laplacian(Some(&problem.positions_of(z0)), &mut values);
+        let (bi, bb) = (&problem.block_i, &problem.block_b);
+        let mut interior = SpdSolver::from_csc(bi.n, bi.col_ptr.clone(), bi.row_idx.clone(), bi.diag.clone())?;
+        interior.factorize(&bi.gather(&values), &EXACT)?;
+        let mut boundary = SpdSolver::from_csc(bb.n, bb.col_ptr.clone(), bb.row_idx.clone(), bb.diag.clone())?;
+        boundary.factorize(&bb.gather(&values), &EXACT)?;
+        Ok(Preconditioner { ni: problem.n_interior(), interior, boundary })
+    }
+
+    /// `h = M^{-1} g` by triangular solves with the stored factors (Eq. 21).
+    fn apply(&mut self, g: &[f64]) -> Result<Vec<f64>, LinearError> {
+        let ni = self.ni;
+        let mut h = self.interior.solve_factored(&g[..ni])?;
+        h.extend(self.interior.solve_factored(&g[ni..2 * ni])?);
+        h.extend(self.boundary.solve_factored(&g[2 * ni..])?);
+        Ok(h)
+    }
+}
+
+fn axpy(z: &[f64], a: f64, p: &[f64]) -> Vec<f64> {
+    z.iter().zip(p).map(|(x, d)| x + a * d).collect()
+}
+
+/// What the step rule of one iteration produced.
+struct Step {
+    alpha: f64,
+    z: Vec<f64>,
+    extras: Extras,
+}
+
+pub fn aem_cg(
+    problem: &AuthalicProblem,
+    z0: Vec<f64>,
+    settings: &AuthalicSettings,
+    safe: bool,
+    observer: &mut dyn Observer,
+) -> AuthalicOutcome {
+    let mut z = z0;
+    let (mut terms, mut g) = problem.terms_and_gradient(&z);
+    let mut gnorm = norm(&g);
+    let mut rep = Reporter { observer, t_cum: 0.0, init_energy: terms.energy, iterations: 0 };
+    if rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
+        return rep.finish(problem, &z, &terms, gnorm, StopReason::Interrupted);
+    }
+    let linear_failed = |e: LinearError| StopReason::LinearSolveFailed(format!("preconditioner: {e}"));
+    let mut precond = match Preconditioner::new(problem, &z) {
+        Ok(m) => m,
+        Err(e) => return rep.finish(problem, &z, &terms, gnorm, linear_failed(e)),
+    };
+    let mut h = match precond.apply(&g) {
+        Ok(h) => h,
+        Err(e) => return rep.finish(problem, &z, &terms, gnorm, linear_failed(e)),
+    };
+    let mut p: Vec<f64> = h.iter().map(|v| -v).collect();
+    let mut hg = dot(&h, &g);
+    let mut alpha_prev = settings.alpha0;
+    // Set when the fold guard truncated the last step: conjugacy is lost, so restart.
+    let mut truncated = false;
+    let stop = loop {
+        if rep.iterations >= settings.stop.max_iters {
+            break StopReason::MaxIterations;
+        }
+        let t_start = Instant::now();
+        let phi0 = terms.energy;
+        let step = if safe {
+            if truncated {
+                alpha_prev = settings.alpha0;
+            }
+            match safe_step(problem, settings, &z, &terms, &mut p, &h, hg, &g, alpha_prev, truncated) {
+                Some(s) => s,
+                None => break StopReason::LineSearchFailed,
+            }
+        } else {
+            // Eq. 18 with one evaluation at the previous step length.
+            let dphi0 = dot(&p, &g);
+            let phi_a = problem.terms(&axpy(&z, alpha_prev, &p)).energy;
+            let alpha = -alpha_prev * alpha_prev * dphi0 / (2.0 * (phi_a - phi0 - alpha_prev * dphi0));
+            if !alpha.is_finite() {
+                break StopReason::NonFinite(format!(
+                    "quadratic step {alpha} (Phi(0) = {phi0}, Phi'(0) = {dphi0}, Phi({alpha_prev}) = {phi_a})"
+                ));
+            }
+            Step { alpha, z: axpy(&z, alpha, &p), extras: Extras { ls_evals: 1, ..Default::default() } }
+        };
+        let t_ls = t_start.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        let (t_new, g_new) = problem.terms_and_gradient(&step.z);
+        let t_assemble = t0.elapsed().as_secs_f64();
+        if !(t_new.energy.is_finite() && g_new.iter().all(|v| v.is_finite())) {
+            break StopReason::NonFinite(format!("energy {} after step {}", t_new.energy, step.alpha));
+        }
+        let mut extras = step.extras;
+        truncated = extras.fold_rejects > 0;
+        let dphi0 = dot(&p, &g);
+        extras.ascent = t_new.energy > phi0;
+        extras.wolfe = Some(dot(&g_new, &p).abs() <= settings.wolfe_c2 * dphi0.abs());
+        // Preconditioned Fletcher-Reeves (Eq. 19b; Algorithm 1, lines 18-22).
+        let t1 = Instant::now();
+        let h_new = match precond.apply(&g_new) {
+            Ok(h) => h,
+            Err(e) => break linear_failed(e),
+        };
+        let t_solve = t1.elapsed().as_secs_f64();
+        let hg_new = dot(&h_new, &g_new);
+        let beta = hg_new / hg;
+        p = h_new.iter().zip(&p).map(|(hn, pk)| -hn + beta * pk).collect();
+        h = h_new;
+        hg = hg_new;
+        g = g_new;
+        z = step.z;
+        alpha_prev = step.alpha;
+        let decrease = phi0 - t_new.energy;
+        terms = t_new;
+        gnorm = norm(&g);
+        let tm =
+            Timings { assemble: t_assemble, solve: t_solve, linesearch: t_ls, iter: t_start.elapsed().as_secs_f64() };
+        let iter = rep.iterations + 1;
+        if rep.report(iter, &terms, gnorm, step.alpha, tm, extras) {
+            break StopReason::Interrupted;
+        }
+        if let Some(s) = tolerance_stop(&settings.stop, decrease, gnorm) {
+            break s;
+        }
+    };
+    rep.finish(problem, &z, &terms, gnorm, stop)
+}
+
+/// The safeguarded step of `aem-cg-safe`; may replace `p` by `-h` (restart). `None` when
+/// no acceptable step exists even along `-h`.
+#[allow(clippy::too_many_arguments)]
+fn safe_step(
+    problem: &AuthalicProblem,
+    settings: &AuthalicSettings,
+    z: &[f64],
+    terms: &Terms,
+    p: &mut Vec<f64>,
+    h: &[f64],
+    hg: f64,
+    g: &[f64],
+    alpha_prev: f64,
+    force_restart: bool,
+) -> Option<Step> {
+    let mut extras = Extras::default();
+    let mut dphi0 = dot(p, g);
+    let restart = |p: &mut Vec<f64>| {
+        *p = h.iter().map(|v| -v).collect();
+        -hg
+    };
+    if force_restart || !(dphi0 < 0.0) {
+        dphi0 = restart(p);
+        extras.restarted = true;
+    }
+    loop {
+        let phi0 = terms.energy;
+        let trial = problem.terms(&axpy(z, alpha_prev, p));
+        extras.ls_evals += 1;
+        let a2 = (trial.energy - phi0 - alpha_prev * dphi0) / (alpha_prev * alpha_prev);
+        let mut alpha = -dphi0 / (2.0 * a2);
+        if !(a2 > 0.0 && alpha.is_finite() && alpha > 0.0) {
+            alpha = alpha_prev;
+            extras.quad_fallback = true;
+        }
+        for _ in 0..=settings.max_backtracks {
+            let zt = axpy(z, alpha, p);
+            let t = if alpha == alpha_prev {
+                trial
+            } else {
+                extras.ls_evals += 1;
+                problem.terms(&zt)
+            };
+            let armijo = t.energy.is_finite() && t.energy <= phi0 + settings.armijo_c * alpha * dphi0;
+            let folds_ok = match settings.fold_guard {
+                FoldGuard::None => true,
+                FoldGuard::Boundary => problem.boundary_ordered(&zt),
+                FoldGuard::All => t.folded <= terms.folded,
+            };
+            if armijo && folds_ok {
+                return Some(Step { alpha, z: zt, extras });
+            }
+            if !folds_ok {
+                extras.fold_rejects += 1;
+            }
+            alpha *= 0.5;
+            extras.backtracks += 1;
+        }
+        if extras.restarted {
+            return None;
+        }
+        dphi0 = restart(p);
+        extras.restarted = true;
+    }
+}

@@ -1,0 +1,590 @@
+//! The `authalic` task: disk area-preserving parameterization by minimizing the normalized
+//! authalic energy of Liu & Yueh (`../shared/papers/liu-yueh-authalic-energy-minimization.txt`).
+//!
+//! Unknowns (Eq. 7): interior image coordinates `f_I^1, f_I^2` and the boundary angles
+//! `theta`, the boundary staying on the unit circle. The variable vector is laid out as in the
+//! paper, `z = [f_I^1; f_I^2; theta]`. The source mesh is scaled to total area `pi`, the area
+//! of the unit disk, so that the paper's area ratio `|f(tau)| / |tau|` (Eq. 45) is 1 for an
+//! area-preserving map; the normalized energy itself does not depend on this scale.
+//!
+//! Image areas are signed (positive for the faces' orientation), which makes the stretch
+//! energy `E_S = sum |f(tau)|^2 / |tau|` a polynomial and its gradient exact everywhere.
+
+pub mod aem;
+pub mod laplacian;
+pub mod sem;
+
+use crate::linear::{LinearError, LinearSettings, SpdSolver};
+use crate::mesh::topology::boundary_loops;
+use crate::mesh::{validate, Mesh};
+use crate::solver::{IterationRecord, Observer, Outcome, StopReason, StopSettings};
+use laplacian::{stretch_weights, LaplacianPattern, SubBlock};
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// Faces per parallel chunk (fixed: sums do not depend on the thread count).
+const CHUNK: usize = 2048;
+
+/// Solvers of the `authalic` task.
+pub const AUTHALIC_SOLVERS: [&str; 3] = ["sem", "aem-cg", "aem-cg-safe"];
+
+/// The only energy of the `authalic` task (the name in CSVs and configs).
+pub const AUTHALIC_ENERGY: &str = "authalic";
+
+#[derive(Debug, thiserror::Error)]
+pub enum AuthalicError {
+    #[error("unknown authalic solver '{0}' (known: sem, aem-cg, aem-cg-safe)")]
+    UnknownSolver(String),
+    #[error(transparent)]
+    Mesh(#[from] crate::error::MeshError),
+    #[error("{source_name}: face {face} has zero source area")]
+    DegenerateFace { source_name: String, face: usize },
+    #[error("{source_name}: the mesh has {count} boundary loops; the authalic task needs exactly one (a disk)")]
+    BoundaryLoops { source_name: String, count: usize },
+    #[error("{source_name}: the mesh has no interior vertex")]
+    NoInterior { source_name: String },
+    #[error("{source_name}: initialization failed: {what}: {err}")]
+    Init { source_name: String, what: &'static str, err: LinearError },
+    #[error("{source_name}: the initial map is not valid: {what}")]
+    InitNotFinite { source_name: String, what: String },
+}
+
+/// What the fold guard of `aem-cg-safe` rejects.
+///
+/// The normalized authalic energy has no barrier: on the shared corpus the faithful method's
+/// path folds a few interior triangles for some iterations and unfolds them later (human_face:
+/// 2 folds at iterations 42-47, none at 100). Forbidding any new fold (`All`) therefore stalls
+/// the descent against the fold constraint; the default guards only the constraint of Eq. 10.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FoldGuard {
+    /// No guard.
+    None,
+    /// Reject steps that break the cyclic order of the boundary angles (Eq. 10).
+    #[default]
+    Boundary,
+    /// Reject steps that fold more triangles than the current map has.
+    All,
+}
+
+/// Settings of an `authalic` run (`[authalic]` and `[stop]` in a config).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AuthalicSettings {
+    pub stop: StopSettings,
+    /// Fixed-boundary stretch steps of the initialization (Algorithm 1, lines 4-7).
+    pub init_steps: usize,
+    /// Initial trial step `alpha_0` of the quadratic step rule (Section 3.1).
+    pub alpha0: f64,
+    /// `aem-cg-safe`: Armijo constant `c1` of (22a).
+    pub armijo_c: f64,
+    /// Curvature constant `c2` of (22b), recorded (`wolfe` column) for both AEM variants;
+    /// the convergence proof needs `c2 < 1/2`.
+    pub wolfe_c2: f64,
+    /// `aem-cg-safe`: step halvings before a restart / giving up.
+    pub max_backtracks: usize,
+    /// `aem-cg-safe`: what the fold guard rejects.
+    pub fold_guard: FoldGuard,
+    /// `sem`: stop and keep the previous iterate when a step increases the energy (the
+    /// reference code SEMc); off by default, as the paper's Table 1 runs a fixed budget.
+    pub sem_stop_on_increase: bool,
+}
+
+impl Default for AuthalicSettings {
+    fn default() -> Self {
+        AuthalicSettings {
+            stop: default_stop(),
+            init_steps: 5,
+            alpha0: 2.0,
+            armijo_c: 1e-4,
+            wolfe_c2: 0.45,
+            max_backtracks: 30,
+            fold_guard: FoldGuard::Boundary,
+            sem_stop_on_increase: false,
+        }
+    }
+}
+
+/// The paper's Table 1 protocol: a fixed budget of 100 iterations, no tolerance stop.
+pub fn default_stop() -> StopSettings {
+    StopSettings { grad_tol: 0.0, energy_decrease_tol: 0.0, max_iters: 100 }
+}
+
+/// Names of the extra per-iteration CSV columns of every authalic solver, in order.
+pub const EXTRA_COLUMNS: [&str; 8] =
+    ["image_area", "stretch_energy", "ascent", "wolfe", "backtracks", "restarted", "fold_rejects", "quad_fallback"];
+
+/// Area-distortion metrics of a map (design.md): the normalized ratio
+/// `r = (|f(t)| / A(f)) / (|t| / |S|)` per face.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AreaMetrics {
+    /// Population standard deviation of `r`.
+    pub area_ratio_sd: f64,
+    /// Mean of `|r - 1|`.
+    pub area_ratio_mad: f64,
+    /// Normalized authalic energy (Eq. 4).
+    pub authalic_energy: f64,
+    /// Faces with non-positive signed image area.
+    pub folded: usize,
+}
+
+/// Result of an authalic run: the solver outcome plus the final metrics.
+#[derive(Clone, Debug)]
+pub struct AuthalicOutcome {
+    pub outcome: Outcome,
+    pub metrics: AreaMetrics,
+}
+
+/// Energy terms at a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Terms {
+    /// Normalized authalic energy `(|S| / A) E_S - A` (Eq. 4).
+    pub energy: f64,
+    /// Stretch energy `E_S = sum |f(tau)|^2 / |tau|` (Eq. 2b, Lemma in Theorem 1's proof).
+    pub stretch: f64,
+    /// Image area from the boundary polygon (Eq. 8).
+    pub area: f64,
+    pub folded: usize,
+    /// Faces with non-zero image area (each contributes two negative eigenvalues).
+    pub nonzero: usize,
+}
+
+/// A disk mesh prepared for the authalic task.
+pub struct AuthalicProblem {
+    pub source: String,
+    pub faces: Vec<[usize; 3]>,
+    pub n: usize,
+    /// Source positions scaled to total area `pi`, flat `[x, y, z, ...]`.
+    pub positions: Vec<f64>,
+    /// Source face areas `|tau|` (summing to `|S| = pi`).
+    pub area: Vec<f64>,
+    pub total_area: f64,
+    /// Boundary loop in the faces' orientation (counter-clockwise in the image).
+    pub boundary: Vec<usize>,
+    pub interior: Vec<usize>,
+    pub pattern: LaplacianPattern,
+    pub block_i: SubBlock,
+    pub block_b: SubBlock,
+}
+
+impl AuthalicProblem {
+    /// Validate `mesh` (a disk, no degenerate faces) and scale it to area `pi`.
+    pub fn new(mesh: &Mesh) -> Result<AuthalicProblem, AuthalicError> {
+        validate(mesh, true).into_result()?;
+        let n = mesh.n_vertices();
+        let s = (PI / mesh.total_area()).sqrt();
+        let positions: Vec<f64> = mesh.positions.iter().flat_map(|p| p.map(|c| c * s)).collect();
+        let area: Vec<f64> = (0..mesh.n_faces()).map(|t| mesh.face_area(t) * s * s).collect();
+        if let Some(face) = area.iter().position(|a| !(*a > 0.0)) {
+            return Err(AuthalicError::DegenerateFace { source_name: mesh.source.clone(), face });
+        }
+        let total_area = area.iter().sum();
+        let loops = boundary_loops(&mesh.faces, n);
+        if loops.len() != 1 {
+            return Err(AuthalicError::BoundaryLoops { source_name: mesh.source.clone(), count: loops.len() });
+        }
+        let boundary = loops.into_iter().next().unwrap_or_default();
+        let mut is_b = vec![false; n];
+        boundary.iter().for_each(|&v| is_b[v] = true);
+        let interior: Vec<usize> = (0..n).filter(|&v| !is_b[v]).collect();
+        if interior.is_empty() {
+            return Err(AuthalicError::NoInterior { source_name: mesh.source.clone() });
+        }
+        let pattern = LaplacianPattern::new(&mesh.faces, n);
+        let local = |set: &[usize]| {
+            let mut l = vec![usize::MAX; n];
+            set.iter().enumerate().for_each(|(c, &v)| l[v] = c);
+            l
+        };
+        let block_i = SubBlock::new(&pattern, &interior, &local(&interior));
+        let block_b = SubBlock::new(&pattern, &boundary, &local(&boundary));
+        Ok(AuthalicProblem {
+            source: mesh.source.clone(),
+            faces: mesh.faces.clone(),
+            n,
+            positions,
+            area,
+            total_area,
+            boundary,
+            interior,
+            pattern,
+            block_i,
+            block_b,
+        })
+    }
+
+    pub fn n_interior(&self) -> usize {
+        self.interior.len()
+    }
+
+    pub fn n_boundary(&self) -> usize {
+        self.boundary.len()
+    }
+
+    /// Length of the variable vector `z = [f_I^1; f_I^2; theta]`.
+    pub fn n_vars(&self) -> usize {
+        2 * self.n_interior() + self.n_boundary()
+    }
+
+    /// The interleaved image positions `[u0, v0, u1, v1, ...]` of `z`.
+    pub fn positions_of(&self, z: &[f64]) -> Vec<f64> {
+        let ni = self.n_interior();
+        let mut x = vec![0.0; 2 * self.n];
+        for (i, &v) in self.interior.iter().enumerate() {
+            x[2 * v] = z[i];
+            x[2 * v + 1] = z[ni + i];
+        }
+        for (b, &v) in self.boundary.iter().enumerate() {
+            let th = z[2 * ni + b];
+            x[2 * v] = th.cos();
+            x[2 * v + 1] = th.sin();
+        }
+        x
+    }
+
+    /// `z` of interleaved positions whose boundary lies on the unit circle; the angles are
+    /// unwrapped along the loop starting in `[0, 2 pi)`.
+    pub fn vars_of(&self, x: &[f64]) -> Vec<f64> {
+        let ni = self.n_interior();
+        let mut z = Vec::with_capacity(self.n_vars());
+        z.extend(self.interior.iter().map(|&v| x[2 * v]));
+        z.extend(self.interior.iter().map(|&v| x[2 * v + 1]));
+        let mut prev: Option<f64> = None;
+        for &v in &self.boundary {
+            let a = x[2 * v + 1].atan2(x[2 * v]);
+            let a = match prev {
+                None => a.rem_euclid(2.0 * PI),
+                Some(p) => p + (a - p + PI).rem_euclid(2.0 * PI) - PI,
+            };
+            prev = Some(a);
+            z.push(a);
+        }
+        debug_assert_eq!(z.len(), 2 * ni + self.n_boundary());
+        z
+    }
+
+    /// Whether the boundary angles of `z` keep their cyclic order (every gap positive, the
+    /// loop winding once): the constraint of Eq. 10.
+    pub fn boundary_ordered(&self, z: &[f64]) -> bool {
+        let theta = &z[2 * self.n_interior()..];
+        let nb = theta.len();
+        theta.windows(2).all(|w| w[1] > w[0]) && theta[nb - 1] < theta[0] + 2.0 * PI
+    }
+
+    /// Signed image area of face `t`.
+    fn image_area(&self, x: &[f64], t: usize) -> f64 {
+        let f = self.faces[t];
+        crate::local::signed_area(f.map(|k| [x[2 * k], x[2 * k + 1]]))
+    }
+
+    /// Image area of the boundary polygon, `1/2 sum sin(theta_{i+1} - theta_i)` (Eq. 8).
+    pub fn polygon_area(&self, theta: &[f64]) -> f64 {
+        let nb = theta.len();
+        0.5 * (0..nb).map(|i| (theta[(i + 1) % nb] - theta[i]).sin()).sum::<f64>()
+    }
+
+    /// `E_S` (deterministic chunked sum), folded faces, faces with non-zero image area.
+    fn stretch(&self, x: &[f64]) -> (f64, usize, usize) {
+        let parts: Vec<(f64, usize, usize)> = (0..self.faces.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .chunks(CHUNK)
+            .map(|chunk| {
+                chunk.into_iter().fold((0.0, 0, 0), |(e, k, nz), t| {
+                    let a = self.image_area(x, t);
+                    (e + a * a / self.area[t], k + usize::from(!(a > 0.0)), nz + usize::from(a != 0.0))
+                })
+            })
+            .collect();
+        parts.iter().fold((0.0, 0, 0), |(e, k, nz), p| (e + p.0, k + p.1, nz + p.2))
+    }
+
+    /// Energy terms at `z`.
+    pub fn terms(&self, z: &[f64]) -> Terms {
+        let x = self.positions_of(z);
+        let (stretch, folded, nonzero) = self.stretch(&x);
+        let area = self.polygon_area(&z[2 * self.n_interior()..]);
+        Terms { energy: self.total_area / area * stretch - area, stretch, area, folded, nonzero }
+    }
+
+    /// `nabla_x E_S` per vertex, interleaved: each face adds `2 |f(tau)| / |tau| nabla |f(tau)|`,
+    /// which equals `2 (I_2 (x) L_S(f)) f` of Eq. 11.
+    pub fn stretch_gradient(&self, x: &[f64]) -> Vec<f64> {
+        let per_face: Vec<[f64; 6]> = (0..self.faces.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|t| {
+                let f = self.faces[t];
+                let p = f.map(|k| [x[2 * k], x[2 * k + 1]]);
+                let c = 2.0 * crate::local::signed_area(p) / self.area[t];
+                let mut g = [0.0; 6];
+                for a in 0..3 {
+                    let (j, k) = ((a + 1) % 3, (a + 2) % 3);
+                    // d|f(tau)|/d f_a = 1/2 (y_j - y_k, x_k - x_j)
+                    g[2 * a] = c * 0.5 * (p[j][1] - p[k][1]);
+                    g[2 * a + 1] = c * 0.5 * (p[k][0] - p[j][0]);
+                }
+                g
+            })
+            .collect();
+        let mut grad = vec![0.0; 2 * self.n];
+        for (f, g) in self.faces.iter().zip(&per_face) {
+            for a in 0..3 {
+                grad[2 * f[a]] += g[2 * a];
+                grad[2 * f[a] + 1] += g[2 * a + 1];
+            }
+        }
+        grad
+    }
+
+    /// Energy terms and the gradient of the normalized authalic energy in `z` (Eq. 13):
+    /// interior `(|S| / A) nabla E_S`; angles through `f_B = (cos theta, sin theta)` plus the
+    /// derivatives of `|S| / A` and of `A` (Eq. 13c).
+    pub fn terms_and_gradient(&self, z: &[f64]) -> (Terms, Vec<f64>) {
+        let ni = self.n_interior();
+        let nb = self.n_boundary();
+        let x = self.positions_of(z);
+        let (stretch, folded, nonzero) = self.stretch(&x);
+        let theta = &z[2 * ni..];
+        let area = self.polygon_area(theta);
+        let s = self.total_area;
+        let gs = self.stretch_gradient(&x);
+        let mut g = Vec::with_capacity(self.n_vars());
+        g.extend(self.interior.iter().map(|&v| s / area * gs[2 * v]));
+        g.extend(self.interior.iter().map(|&v| s / area * gs[2 * v + 1]));
+        let coef_area = s * stretch / (area * area) + 1.0;
+        for (b, &v) in self.boundary.iter().enumerate() {
+            let th = theta[b];
+            let d_es = -th.sin() * gs[2 * v] + th.cos() * gs[2 * v + 1];
+            let (prev, next) = (theta[(b + nb - 1) % nb], theta[(b + 1) % nb]);
+            let d_area = 0.5 * ((th - prev).cos() - (next - th).cos());
+            g.push(s / area * d_es - coef_area * d_area);
+        }
+        (Terms { energy: s / area * stretch - area, stretch, area, folded, nonzero }, g)
+    }
+
+    /// `L_S` values at interleaved image positions `x`, or at the identity map (`None`).
+    pub fn laplacian(&self, x: Option<&[f64]>, values: &mut Vec<f64>) {
+        let w = match x {
+            Some(x) => stretch_weights(&self.faces, &self.area, x, 2),
+            None => stretch_weights(&self.faces, &self.area, &self.positions, 3),
+        };
+        self.pattern.assemble(&w, values);
+    }
+
+    /// Area metrics of the map `z`.
+    pub fn metrics(&self, z: &[f64]) -> AreaMetrics {
+        let x = self.positions_of(z);
+        let x = &x;
+        let t = self.terms(z);
+        let r: Vec<f64> = (0..self.faces.len())
+            .map(|f| (self.image_area(x, f) / t.area) / (self.area[f] / self.total_area))
+            .collect();
+        let m = r.len().max(1) as f64;
+        let mean = r.iter().sum::<f64>() / m;
+        let sd = (r.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / m).sqrt();
+        let mad = r.iter().map(|v| (v - 1.0).abs()).sum::<f64>() / m;
+        AreaMetrics { area_ratio_sd: sd, area_ratio_mad: mad, authalic_energy: t.energy, folded: t.folded }
+    }
+
+    /// The initial map of every authalic solver (Algorithm 1, lines 2-7): arc-length boundary
+    /// on the unit circle, then `steps` fixed-boundary stretch steps `L_II f_I = -L_IB b`
+    /// starting from `L = L_S(id)`, updating `L = L_S(f)` after each. Returns the variables.
+    pub fn initial_map(&self, steps: usize) -> Result<Vec<f64>, AuthalicError> {
+        let nb = self.n_boundary();
+        let p = &self.positions;
+        let len = |a: usize, b: usize| (0..3).map(|d| (p[3 * a + d] - p[3 * b + d]).powi(2)).sum::<f64>().sqrt();
+        let mut acc = vec![0.0; nb];
+        for k in 1..nb {
+            acc[k] = acc[k - 1] + len(self.boundary[k - 1], self.boundary[k]);
+        }
+        let total = acc[nb - 1] + len(self.boundary[nb - 1], self.boundary[0]);
+        let theta: Vec<f64> = acc.iter().map(|a| 2.0 * PI * a / total).collect();
+        let ni = self.n_interior();
+        let mut z = vec![0.0; 2 * ni];
+        z.extend(&theta);
+        let mut values = Vec::new();
+        self.laplacian(None, &mut values);
+        let init_err = |what, err| AuthalicError::Init { source_name: self.source.clone(), what, err };
+        let mut solver = SpdSolver::from_csc(
+            ni,
+            self.block_i.col_ptr.clone(),
+            self.block_i.row_idx.clone(),
+            self.block_i.diag.clone(),
+        )
+        .map_err(|e| init_err("analysis of L_II", e))?;
+        for _ in 0..steps.max(1) {
+            let x = self.positions_of(&z);
+            let fi = self.interior_solve(&mut solver, &values, &x).map_err(|e| init_err("L_II solve", e))?;
+            z[..2 * ni].copy_from_slice(&fi);
+            let x = self.positions_of(&z);
+            self.laplacian(Some(&x), &mut values);
+        }
+        if let Some(i) = z.iter().position(|v| !v.is_finite()) {
+            return Err(AuthalicError::InitNotFinite {
+                source_name: self.source.clone(),
+                what: format!("variable {i}"),
+            });
+        }
+        Ok(z)
+    }
+
+    /// `f_I^s = -[L]_II^{-1} [L]_IB f_B^s`, s = 1, 2 (Eq. 14a), as `[f_I^1; f_I^2]`.
+    pub(crate) fn interior_solve(
+        &self,
+        solver: &mut SpdSolver,
+        values: &[f64],
+        x: &[f64],
+    ) -> Result<Vec<f64>, LinearError> {
+        let ni = self.n_interior();
+        solver.factorize(&self.block_i.gather(values), &EXACT)?;
+        let mut out = Vec::with_capacity(2 * ni);
+        for d in 0..2 {
+            // L_IB f_B = (L f_B-only)_I
+            let mut fb = vec![0.0; self.n];
+            self.boundary.iter().for_each(|&v| fb[v] = x[2 * v + d]);
+            let lf = self.pattern.mul(values, &fb);
+            let rhs: Vec<f64> = self.interior.iter().map(|&v| -lf[v]).collect();
+            out.extend(solver.solve_factored(&rhs)?);
+        }
+        Ok(out)
+    }
+}
+
+/// Solves of `L_II` and `L_BB` are plain (no Jacobi scaling, no shift): `L_S` at a valid map
+/// is a Laplacian with a Dirichlet boundary.
+const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false };
+
+/// Row `iter` of an authalic run, with the extra columns in [`EXTRA_COLUMNS`] order.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Extras {
+    pub ascent: bool,
+    pub wolfe: Option<bool>,
+    pub backtracks: usize,
+    pub restarted: bool,
+    pub fold_rejects: usize,
+    pub quad_fallback: bool,
+    /// Energy evaluations of the step rule.
+    pub ls_evals: usize,
+}
+
+/// Timings of one iteration, in seconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Timings {
+    pub assemble: f64,
+    pub solve: f64,
+    pub linesearch: f64,
+    /// The whole iteration.
+    pub iter: f64,
+}
+
+/// Builds rows and the outcome; shared by the three solvers.
+pub(crate) struct Reporter<'a> {
+    pub observer: &'a mut dyn Observer,
+    /// Sum of the iteration times so far.
+    pub t_cum: f64,
+    pub init_energy: f64,
+    pub iterations: usize,
+}
+
+impl Reporter<'_> {
+    /// Report the iterate `iter` and return whether the observer wants to stop.
+    pub fn report(&mut self, iter: usize, t: &Terms, grad_norm: f64, step: f64, tm: Timings, ex: Extras) -> bool {
+        self.iterations = iter;
+        self.t_cum += tm.iter;
+        let b = |v: bool| f64::from(u8::from(v));
+        let record = IterationRecord {
+            iter,
+            energy: t.energy,
+            grad_norm,
+            step,
+            // Each face's term |f(tau)|^2 / |tau| of E_S has a Hessian with exactly two negative
+            // eigenvalues whenever |f(tau)| != 0 (see `element_hessian_inertia` test).
+            neg_eig: 2 * t.nonzero,
+            indefinite_elems: t.nonzero,
+            flips: t.folded,
+            t_assemble_s: tm.assemble,
+            t_project_s: 0.0,
+            t_solve_s: tm.solve,
+            t_linesearch_s: tm.linesearch,
+            t_iter_s: tm.iter,
+            t_cum_s: self.t_cum,
+            ls_evals: ex.ls_evals,
+            extra: vec![
+                ("image_area", t.area),
+                ("stretch_energy", t.stretch),
+                ("ascent", b(ex.ascent)),
+                ("wolfe", ex.wolfe.map_or(f64::NAN, b)),
+                ("backtracks", ex.backtracks as f64),
+                ("restarted", b(ex.restarted)),
+                ("fold_rejects", ex.fold_rejects as f64),
+                ("quad_fallback", b(ex.quad_fallback)),
+            ],
+        };
+        self.observer.observe(&record) == crate::solver::Flow::Stop
+    }
+
+    pub fn finish(
+        self,
+        problem: &AuthalicProblem,
+        z: &[f64],
+        t: &Terms,
+        grad_norm: f64,
+        stop: StopReason,
+    ) -> AuthalicOutcome {
+        let x = problem.positions_of(z);
+        let metrics = problem.metrics(z);
+        AuthalicOutcome {
+            outcome: Outcome {
+                x,
+                iterations: self.iterations,
+                stop_reason: stop,
+                init_energy: self.init_energy,
+                final_energy: t.energy,
+                grad_norm,
+                flips: t.folded,
+            },
+            metrics,
+        }
+    }
+}
+
+/// The `[stop]` tolerance rules (each off when its tolerance is 0).
+pub(crate) fn tolerance_stop(stop: &StopSettings, decrease: f64, grad_norm: f64) -> Option<StopReason> {
+    if stop.grad_tol > 0.0 && grad_norm <= stop.grad_tol {
+        return Some(StopReason::GradientTolerance);
+    }
+    if stop.energy_decrease_tol > 0.0 && decrease < stop.energy_decrease_tol {
+        return Some(StopReason::EnergyDecrease);
+    }
+    None
+}
+
+pub(crate) fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Run the named authalic solver on `mesh` (validated here).
+pub fn solve_authalic(
+    mesh: &Mesh,
+    solver: &str,
+    settings: &AuthalicSettings,
+    observer: &mut dyn Observer,
+) -> Result<AuthalicOutcome, AuthalicError> {
+    if !AUTHALIC_SOLVERS.contains(&solver) {
+        return Err(AuthalicError::UnknownSolver(solver.to_string()));
+    }
+    let problem = AuthalicProblem::new(mesh)?;
+    let z0 = problem.initial_map(settings.init_steps)?;
+    Ok(match solver {
+        "sem" => sem::sem(&problem, z0, settings, observer),
+        "aem-cg" => aem::aem_cg(&problem, z0, settings, false, observer),
+        _ => aem::aem_cg(&problem, z0, settings, true, observer),
+    })
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,144 @@
+//! `sem`: the fixed-point iteration of stretch energy minimization with boundary update
+//! (Yueh, Lin, Wu, Yau 2019), as restated in the AEM paper, Eq. 14a-e.
+//!
+//! Each iteration, with `L = L_S(f^(k))`:
+//! interior `f_I = -L_II^{-1} L_IB f_B` (14a); boundary `f_B = -N C L_BB^{-1} L_BI R f_I` (14b)
+//! with `R` the inversion `f_l / |f_l|^2` of the new interior points (14c), `C` the
+//! centring (14d) and `N` the projection of each boundary point to the unit circle (14e).
+//! Convergence is not guaranteed (AEM paper, Section 3): rows whose energy rose have
+//! `ascent = 1` (human_face: the first step raises it fivefold, then it falls below the start
+//! by iteration 5). With `sem_stop_on_increase` it stops and keeps the previous iterate
+//! instead, as the reference code SEMc does.
+
+use super::{norm, AuthalicOutcome, AuthalicProblem, AuthalicSettings, Extras, Reporter, Timings, EXACT};
+use crate::linear::{LinearError, SpdSolver};
+use crate::solver::{Observer, StopReason};
+use std::time::Instant;
+
+pub fn sem(
+    problem: &AuthalicProblem,
+    z0: Vec<f64>,
+    settings: &AuthalicSettings,
+    observer: &mut dyn Observer,
+) -> AuthalicOutcome {
+    let mut z = z0;
+    let (mut terms, g) = problem.terms_and_gradient(&z);
+    let mut gnorm = norm(&g);
+    let mut rep = Reporter { observer, t_cum: 0.0, init_energy: terms.energy, iterations: 0 };
+    if rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
+        return rep.finish(problem, &z, &terms, gnorm, StopReason::Interrupted);
+    }
+    let solvers = SpdSolver::from_csc(
+        problem.n_interior(),
+        problem.block_i.col_ptr.clone(),
+        problem.block_i.row_idx.clone(),
+        problem.block_i.diag.clone(),
+    )
+    .and_then(|si| {
+        let b = &problem.block_b;
+        Ok((si, SpdSolver::from_csc(b.n, b.col_ptr.clone(), b.row_idx.clone(), b.diag.clone())?))
+    });
+    let (mut solver_i, mut solver_b) = match solvers {
+        Ok(s) => s,
+        Err(e) => return rep.finish(problem, &z, &terms, gnorm, StopReason::LinearSolveFailed(e.to_string())),
+    };
+    let mut values = Vec::new();
+    let stop = loop {
+        if rep.iterations >= settings.stop.max_iters {
+            break StopReason::MaxIterations;
+        }
+        let t_start = Instant::now();
+        let x = problem.positions_of(&z);
+        problem.laplacian(Some(&x), &mut values);
+        let t_assemble = t_start.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        let x_new = match step(problem, &mut solver_i, &mut solver_b, &values, &x) {
+            Ok(x) => x,
+            Err(e) => break StopReason::LinearSolveFailed(e.to_string()),
+        };
+        let t_solve = t0.elapsed().as_secs_f64();
+        if let Some(i) = x_new.iter().position(|v| !v.is_finite()) {
+            break StopReason::NonFinite(format!("coordinate {i} of the SEM update"));
+        }
+        let t1 = Instant::now();
+        let z_new = problem.vars_of(&x_new);
+        let (t_new, g_new) = problem.terms_and_gradient(&z_new);
+        let t_eval = t1.elapsed().as_secs_f64();
+        if !t_new.energy.is_finite() {
+            break StopReason::NonFinite(format!("energy {} after the SEM update", t_new.energy));
+        }
+        let ascent = t_new.energy > terms.energy;
+        if ascent && settings.sem_stop_on_increase {
+            break StopReason::EnergyIncreased;
+        }
+        let decrease = terms.energy - t_new.energy;
+        // |x_new - x| in image coordinates (angles may unwrap differently).
+        let step_len = norm(&x_new.iter().zip(&x).map(|(a, b)| a - b).collect::<Vec<_>>());
+        z = z_new;
+        terms = t_new;
+        gnorm = norm(&g_new);
+        let tm = Timings {
+            assemble: t_assemble + t_eval,
+            solve: t_solve,
+            linesearch: 0.0,
+            iter: t_start.elapsed().as_secs_f64(),
+        };
+        let iter = rep.iterations + 1;
+        let extras = Extras { ascent, ..Default::default() };
+        if rep.report(iter, &terms, gnorm, step_len, tm, extras) {
+            break StopReason::Interrupted;
+        }
+        if let Some(s) = super::tolerance_stop(&settings.stop, decrease, gnorm) {
+            break s;
+        }
+    };
+    rep.finish(problem, &z, &terms, gnorm, stop)
+}
+
+/// One SEM update (Eq. 14a-e) from interleaved positions `x` with `L = L_S(x)` in `values`,
+/// in the order of the reference code SEMc: the boundary first, from the inverted interior
+/// of `x` (14b-e), then the interior for that boundary (14a). The returned map is therefore
+/// consistent (its interior solves the Dirichlet problem of its own boundary), as the initial
+/// map is; the paper's order (interior first) would leave the interior one boundary behind.
+fn step(
+    problem: &AuthalicProblem,
+    solver_i: &mut SpdSolver,
+    solver_b: &mut SpdSolver,
+    values: &[f64],
+    x: &[f64],
+) -> Result<Vec<f64>, LinearError> {
+    let nb = problem.n_boundary();
+    // R: inversion of the interior points in the unit circle (14c).
+    let mut w = [vec![0.0; problem.n], vec![0.0; problem.n]];
+    for &v in &problem.interior {
+        let (u, t) = (x[2 * v], x[2 * v + 1]);
+        let r2 = u * u + t * t;
+        w[0][v] = u / r2;
+        w[1][v] = t / r2;
+    }
+    solver_b.factorize(&problem.block_b.gather(values), &EXACT)?;
+    let mut fb = [vec![0.0; nb], vec![0.0; nb]];
+    for (out, wd) in fb.iter_mut().zip(&w) {
+        let lw = problem.pattern.mul(values, wd);
+        let rhs: Vec<f64> = problem.boundary.iter().map(|&v| -lw[v]).collect();
+        let y = solver_b.solve_factored(&rhs)?;
+        // C: centring (14d).
+        let mean = y.iter().sum::<f64>() / nb as f64;
+        *out = y.iter().map(|v| v - mean).collect();
+    }
+    let mut x_new = x.to_vec();
+    // N: each boundary point to unit length (14e).
+    for (b, &v) in problem.boundary.iter().enumerate() {
+        let r = fb[0][b].hypot(fb[1][b]);
+        x_new[2 * v] = fb[0][b] / r;
+        x_new[2 * v + 1] = fb[1][b] / r;
+    }
+    // 14a with the new boundary and the same L.
+    let ni = problem.n_interior();
+    let fi = problem.interior_solve(solver_i, values, &x_new)?;
+    for (i, &v) in problem.interior.iter().enumerate() {
+        x_new[2 * v] = fi[i];
+        x_new[2 * v + 1] = fi[ni + i];
+    }
+    Ok(x_new)
+}

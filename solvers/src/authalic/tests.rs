@@ -1,0 +1,268 @@
+use super::*;
+use crate::generate::generate;
+use crate::solver::Recorder;
+use nalgebra::{Matrix6, SymmetricEigen};
+
+/// A deterministic pseudo-random sequence in [-1, 1].
+fn noise(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    move || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((s >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+}
+
+fn problem(name: &str) -> AuthalicProblem {
+    AuthalicProblem::new(&generate(name).unwrap()).unwrap()
+}
+
+/// The initial map of `bumpy_1k` with interior and angles perturbed.
+fn perturbed(p: &AuthalicProblem, amount: f64, seed: u64) -> Vec<f64> {
+    let mut z = p.initial_map(5).unwrap();
+    let mut r = noise(seed);
+    let ni = p.n_interior();
+    for v in &mut z[..2 * ni] {
+        *v += amount * r();
+    }
+    for v in &mut z[2 * ni..] {
+        *v += 0.2 * amount * r();
+    }
+    z
+}
+
+#[test]
+fn gradient_matches_finite_differences_in_interior_and_angles() {
+    let p = problem("bumpy_1k");
+    let z = perturbed(&p, 0.01, 7);
+    let (_, g) = p.terms_and_gradient(&z);
+    let ni = p.n_interior();
+    let h = 1e-6;
+    let mut worst = [0.0f64; 2];
+    for i in (0..z.len()).step_by(7) {
+        let (mut zp, mut zm) = (z.clone(), z.clone());
+        zp[i] += h;
+        zm[i] -= h;
+        let fd = (p.terms(&zp).energy - p.terms(&zm).energy) / (2.0 * h);
+        let err = (fd - g[i]).abs() / (1e-3 + g[i].abs());
+        let part = usize::from(i >= 2 * ni);
+        worst[part] = worst[part].max(err);
+    }
+    assert!(worst[0] < 1e-5, "interior: {worst:?}");
+    assert!(worst[1] < 1e-5, "angles: {worst:?}");
+    // every angle checked too (the boundary has few entries)
+    for i in 2 * ni..z.len() {
+        let (mut zp, mut zm) = (z.clone(), z.clone());
+        zp[i] += h;
+        zm[i] -= h;
+        let fd = (p.terms(&zp).energy - p.terms(&zm).energy) / (2.0 * h);
+        assert!((fd - g[i]).abs() <= 1e-5 * (1e-3 + g[i].abs()), "theta {}: fd {fd} vs {}", i - 2 * ni, g[i]);
+    }
+}
+
+#[test]
+fn stretch_gradient_is_twice_the_stretch_laplacian_times_f() {
+    // Eq. 11: nabla E_S = 2 (I_2 (x) L_S(f)) f
+    let p = problem("cap_2k");
+    let z = perturbed(&p, 0.02, 3);
+    let x = p.positions_of(&z);
+    let gs = p.stretch_gradient(&x);
+    let mut values = Vec::new();
+    p.laplacian(Some(&x), &mut values);
+    for d in 0..2 {
+        let xd: Vec<f64> = (0..p.n).map(|v| x[2 * v + d]).collect();
+        let lx = p.pattern.mul(&values, &xd);
+        for v in 0..p.n {
+            assert!((2.0 * lx[v] - gs[2 * v + d]).abs() < 1e-10 * (1.0 + gs[2 * v + d].abs()), "vertex {v}");
+        }
+    }
+    // and E_S = 1/2 f^T (I_2 (x) L_S) f (Eq. 2b)
+    let half_form: f64 = (0..2)
+        .map(|d| {
+            let xd: Vec<f64> = (0..p.n).map(|v| x[2 * v + d]).collect();
+            0.5 * dot(&xd, &p.pattern.mul(&values, &xd))
+        })
+        .sum();
+    let t = p.terms(&z);
+    assert!((half_form - t.stretch).abs() < 1e-10 * t.stretch);
+}
+
+#[test]
+fn image_area_is_the_boundary_polygon_area() {
+    let p = problem("bumpy_1k");
+    let z = perturbed(&p, 0.01, 11);
+    let x = p.positions_of(&z);
+    let b = &p.boundary;
+    let shoelace: f64 = 0.5
+        * (0..b.len())
+            .map(|i| {
+                let (u, v) = (b[i], b[(i + 1) % b.len()]);
+                x[2 * u] * x[2 * v + 1] - x[2 * v] * x[2 * u + 1]
+            })
+            .sum::<f64>();
+    let t = p.terms(&z);
+    assert!((t.area - shoelace).abs() < 1e-12, "{} vs {shoelace}", t.area);
+    // and equal to the sum of the signed image areas of the faces
+    let faces: f64 = (0..p.faces.len()).map(|f| p.image_area(&x, f)).sum();
+    assert!((t.area - faces).abs() < 1e-10);
+    // a regular n-gon: n/2 sin(2 pi / n)
+    let n = 12;
+    let theta: Vec<f64> = (0..n).map(|k| 2.0 * PI * k as f64 / n as f64).collect();
+    assert!((p.polygon_area(&theta) - 0.5 * n as f64 * (2.0 * PI / n as f64).sin()).abs() < 1e-14);
+}
+
+#[test]
+fn authalic_energy_is_nonnegative_and_zero_for_an_area_preserving_map() {
+    // flat_disk_1k is planar with its boundary on the unit circle: the identity is authalic.
+    let mesh = generate("flat_disk_1k").unwrap();
+    let p = AuthalicProblem::new(&mesh).unwrap();
+    let x: Vec<f64> = mesh.positions.iter().flat_map(|q| [q[0], q[1]]).collect();
+    let m = p.metrics(&p.vars_of(&x));
+    assert!(m.authalic_energy.abs() < 1e-12, "{}", m.authalic_energy);
+    assert!(m.area_ratio_sd < 1e-12 && m.area_ratio_mad < 1e-12 && m.folded == 0);
+    // random maps (folds included) of several meshes: E >= 0
+    for (name, amount) in [("bumpy_1k", 0.05), ("cap_2k", 0.2), ("strip_thin", 0.5)] {
+        let p = problem(name);
+        for seed in 0..4 {
+            let t = p.terms(&perturbed(&p, amount, seed));
+            assert!(t.area > 0.0);
+            assert!(t.energy >= -1e-12 * t.stretch, "{name} {seed}: {}", t.energy);
+        }
+    }
+}
+
+#[test]
+fn variables_round_trip_and_angles_unwrap_along_the_loop() {
+    let p = problem("bumpy_1k");
+    let z = p.initial_map(5).unwrap();
+    let theta = &z[2 * p.n_interior()..];
+    assert!(theta.windows(2).all(|w| w[1] > w[0]), "arc-length angles increase along the loop");
+    let z2 = p.vars_of(&p.positions_of(&z));
+    for (a, b) in z.iter().zip(&z2) {
+        assert!((a - b).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn element_stretch_hessian_has_exactly_two_negative_eigenvalues() {
+    // Justifies `neg_eig = 2 * (faces with non-zero image area)` in authalic CSV rows: the
+    // Hessian of A(f)^2 is 2 (grad A grad A^T + A Q) with Q the constant Hessian of the area.
+    let mut r = noise(5);
+    let area = |y: &[f64; 6]| 0.5 * ((y[2] - y[0]) * (y[5] - y[1]) - (y[3] - y[1]) * (y[4] - y[0]));
+    for _ in 0..200 {
+        let y: [f64; 6] = std::array::from_fn(|_| r());
+        let e = |y: &[f64; 6]| area(y).powi(2);
+        let h = 1e-3; // e is a quartic: central differences are exact up to round-off
+        let hess = Matrix6::from_fn(|i, j| {
+            let at = |di: f64, dj: f64| {
+                let mut q = y;
+                q[i] += di;
+                q[j] += dj;
+                e(&q)
+            };
+            (at(h, h) - at(h, -h) - at(-h, h) + at(-h, -h)) / (4.0 * h * h)
+        });
+        let ev = SymmetricEigen::new(hess).eigenvalues;
+        let scale = ev.amax();
+        let neg = ev.iter().filter(|&&l| l < -1e-6 * scale).count();
+        assert_eq!(neg, 2, "A = {}: {ev:?}", area(&y));
+    }
+}
+
+fn run_with(
+    name: &str,
+    solver: &str,
+    settings: &AuthalicSettings,
+) -> (AuthalicOutcome, Vec<crate::solver::IterationRecord>) {
+    let mut rec = Recorder::default();
+    let out = solve_authalic(&generate(name).unwrap(), solver, settings, &mut rec).unwrap();
+    (out, rec.rows)
+}
+
+fn run(name: &str, solver: &str, iters: usize) -> (AuthalicOutcome, Vec<crate::solver::IterationRecord>) {
+    let settings = AuthalicSettings { stop: StopSettings { max_iters: iters, ..default_stop() }, ..Default::default() };
+    run_with(name, solver, &settings)
+}
+
+fn extra(r: &crate::solver::IterationRecord, name: &str) -> f64 {
+    r.extra.iter().find(|e| e.0 == name).map(|e| e.1).unwrap()
+}
+
+#[test]
+fn aem_cg_beats_sem_on_the_thin_strip() {
+    // strip_thin (50:1): SEM oscillates (energy rises in about half of its steps) and folds.
+    let (sem, sem_rows) = run("strip_thin", "sem", 60);
+    let (aem, aem_rows) = run("strip_thin", "aem-cg", 60);
+    let (safe, safe_rows) = run("strip_thin", "aem-cg-safe", 60);
+    // same initial map for all three
+    assert_eq!(sem_rows[0].energy, aem_rows[0].energy);
+    assert_eq!(sem_rows[0].energy, safe_rows[0].energy);
+    for (label, o, rows) in [("sem", &sem, &sem_rows), ("aem-cg", &aem, &aem_rows), ("aem-cg-safe", &safe, &safe_rows)]
+    {
+        assert_eq!(rows.len(), 61, "{label}: the fixed budget of the paper's Table 1");
+        assert!(o.outcome.final_energy >= 0.0 && o.outcome.final_energy < rows[0].energy, "{label}");
+        assert_eq!(o.metrics.authalic_energy, o.outcome.final_energy);
+        for r in rows.iter() {
+            assert_eq!(r.extra.iter().map(|e| e.0).collect::<Vec<_>>(), EXTRA_COLUMNS);
+            assert_eq!(
+                extra(r, "ascent") == 1.0,
+                r.iter > 0 && r.energy > rows[r.iter - 1].energy,
+                "{label} {}",
+                r.iter
+            );
+        }
+    }
+    let sem_ascents = sem_rows.iter().filter(|r| extra(r, "ascent") == 1.0).count();
+    assert!(sem_ascents >= 5, "{sem_ascents}");
+    assert!(
+        aem.outcome.final_energy < 0.2 * sem.outcome.final_energy,
+        "{} vs {}",
+        aem.outcome.final_energy,
+        sem.outcome.final_energy
+    );
+    assert!(aem.metrics.area_ratio_sd < sem.metrics.area_ratio_sd);
+    assert_eq!(aem.metrics.folded, 0);
+    assert_eq!(safe.metrics.folded, 0);
+    // SEMc's rule: stop at the first increase, keeping the previous iterate
+    let settings = AuthalicSettings { sem_stop_on_increase: true, ..Default::default() };
+    let (semc, semc_rows) = run_with("strip_thin", "sem", &settings);
+    assert_eq!(semc.outcome.stop_reason, StopReason::EnergyIncreased);
+    assert!(semc_rows.windows(2).all(|w| w[1].energy <= w[0].energy));
+}
+
+#[test]
+fn safeguards_fire_and_keep_the_descent_monotone_where_the_faithful_method_ascends() {
+    // A tiny first trial step drowns the curvature of Eq. 18 in round-off: its quadratic has
+    // a2 <= 0 or a meaningless minimizer.
+    let settings =
+        AuthalicSettings { stop: StopSettings { max_iters: 40, ..default_stop() }, alpha0: 1e-9, ..Default::default() };
+    let (faithful, f_rows) = run_with("bumpy_1k", "aem-cg", &settings);
+    let (safe, s_rows) = run_with("bumpy_1k", "aem-cg-safe", &settings);
+    let fired = |name: &str| s_rows.iter().map(|r| extra(r, name)).sum::<f64>();
+    assert!(fired("backtracks") + fired("quad_fallback") + fired("restarted") > 0.0);
+    assert!(s_rows.windows(2).all(|w| w[1].energy <= w[0].energy), "Armijo keeps the energy monotone");
+    assert!(safe.outcome.final_energy < s_rows[0].energy);
+    assert_eq!(safe.metrics.folded, 0);
+    // the faithful method records whatever happens (ascent rows, folds), it never hides them
+    let ascents = f_rows.iter().filter(|r| extra(r, "ascent") == 1.0).count();
+    assert!(
+        ascents > 0 || faithful.outcome.stop_reason != StopReason::MaxIterations || faithful.metrics.folded > 0,
+        "alpha0 = 1e-9 should derail the faithful step rule: {:?}",
+        faithful.outcome.stop_reason
+    );
+}
+
+#[test]
+fn bad_meshes_are_typed_errors_naming_the_source() {
+    let mut mesh = generate("bumpy_1k").unwrap();
+    mesh.source = "holes.obj".into();
+    // cut a hole: drop the faces around the centre vertex
+    mesh.faces.retain(|f| !f.contains(&0));
+    mesh.positions[0] = [9.0, 9.0, 9.0];
+    let err = AuthalicProblem::new(&mesh).err().unwrap().to_string();
+    assert!(err.contains("holes.obj"), "{err}");
+    let err = solve_authalic(&generate("bumpy_1k").unwrap(), "sem2", &Default::default(), &mut Recorder::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(err.contains("unknown authalic solver 'sem2'"));
+}
