@@ -3,6 +3,7 @@
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
+use solvers::authalic::{AuthalicSettings, FoldGuard, AUTHALIC_ENERGY, AUTHALIC_SOLVERS};
 use solvers::energy::{EnergyKind, ENERGY_NAMES};
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
@@ -80,6 +81,26 @@ pub struct InitConfig {
     pub scaling_jump: Option<f64>,
 }
 
+/// The `authalic` task's solver settings (`[authalic]`); defaults in `AuthalicSettings`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AuthalicConfig {
+    /// Fixed-boundary stretch steps of the initial map, default 5.
+    pub init_steps: Option<usize>,
+    /// First trial step of the quadratic step rule (Eq. 18), default 2.
+    pub alpha0: Option<f64>,
+    /// `aem-cg-safe` Armijo constant, default 1e-4.
+    pub armijo_c: Option<f64>,
+    /// Curvature constant of the recorded strong-Wolfe check, default 0.45.
+    pub wolfe_c2: Option<f64>,
+    /// `aem-cg-safe` step halvings before restart, default 30.
+    pub max_backtracks: Option<usize>,
+    /// `aem-cg-safe` fold guard: `boundary` (default), `all` or `none`.
+    pub fold_guard: Option<FoldGuard>,
+    /// `sem` stops at the first energy increase (reference code SEMc), default false.
+    pub sem_stop_on_increase: Option<bool>,
+}
+
 /// Parameters of one energy (`[energy.<name>]`); which keys apply depends on the energy.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -104,6 +125,8 @@ pub struct Config {
     /// Names or `tag:<tag>` selectors of `datasets.toml` entries.
     #[serde(default)]
     pub datasets: Vec<String>,
+    /// `param`/`deform`: energy names. `authalic` has one energy and may omit this.
+    #[serde(default)]
     pub energies: Vec<String>,
     pub solvers: Vec<String>,
     /// Inline datasets.
@@ -122,6 +145,8 @@ pub struct Config {
     pub init: InitConfig,
     #[serde(default)]
     pub energy: BTreeMap<String, EnergyParams>,
+    #[serde(default)]
+    pub authalic: Option<AuthalicConfig>,
 }
 
 fn default_task() -> Task {
@@ -160,11 +185,17 @@ impl Config {
     /// Checks names and values that serde cannot (unknown solver/energy names, parameters
     /// that do not belong to an energy, out-of-range values).
     pub fn check(&self) -> Result<()> {
-        if self.task != Task::Param {
+        if self.task == Task::Deform {
             bail!(
-                "task '{}' is not available yet in this version of mapbench (only 'param' runs today)",
+                "task '{}' is not available yet in this version of mapbench (param and authalic run today)",
                 self.task.as_str()
             );
+        }
+        if self.task == Task::Authalic {
+            return self.check_authalic();
+        }
+        if self.authalic.is_some() {
+            bail!("[authalic] applies only to task = \"authalic\"");
         }
         if self.energies.is_empty() {
             bail!("'energies' is empty: name at least one of {}", ENERGY_NAMES.join(", "));
@@ -225,6 +256,90 @@ impl Config {
             }
         }
         Ok(())
+    }
+
+    /// The `authalic` task's rules: one energy, its own solvers, no Newton sections.
+    fn check_authalic(&self) -> Result<()> {
+        if self.energies.iter().any(|e| e != AUTHALIC_ENERGY) {
+            bail!("task authalic has the one energy '{AUTHALIC_ENERGY}' (got {:?}); omit 'energies'", self.energies);
+        }
+        if self.solvers.is_empty() {
+            bail!("'solvers' is empty: name at least one of {}", AUTHALIC_SOLVERS.join(", "));
+        }
+        for s in &self.solvers {
+            if !AUTHALIC_SOLVERS.contains(&s.as_str()) {
+                bail!("unknown solver '{s}' for task authalic (known: {})", AUTHALIC_SOLVERS.join(", "));
+            }
+        }
+        if self.datasets.is_empty() && self.dataset.is_empty() {
+            bail!("no datasets: give 'datasets = [...]' (names or tag:<tag>) or [[dataset]] entries");
+        }
+        let defaults = (LineSearchConfig::default(), LinearConfig::default(), InitConfig::default());
+        for (section, unused) in [
+            ("[line_search]", self.line_search != defaults.0),
+            ("[linear]", self.linear != defaults.1),
+            ("[init]", self.init != defaults.2),
+            ("[energy.*]", !self.energy.is_empty()),
+        ] {
+            if unused {
+                bail!("{section} does not apply to task authalic (its settings are in [authalic])");
+            }
+        }
+        if let Some(t) = self.stop.energy_decrease_tol {
+            if !(t >= 0.0 && t.is_finite()) {
+                bail!("[stop] energy_decrease_tol = {t} must be non-negative");
+            }
+        }
+        if let Some(t) = self.stop.grad_tol {
+            if !(t >= 0.0 && t.is_finite()) {
+                bail!("[stop] grad_tol = {t} must be non-negative");
+            }
+        }
+        if let Some(a) = &self.authalic {
+            for (key, v) in [("alpha0", a.alpha0), ("armijo_c", a.armijo_c), ("wolfe_c2", a.wolfe_c2)] {
+                if let Some(x) = v {
+                    if !(x > 0.0 && x.is_finite()) {
+                        bail!("[authalic] {key} = {x} must be positive and finite");
+                    }
+                }
+            }
+            if let Some(c) = a.armijo_c.or(a.wolfe_c2) {
+                if c >= 1.0 {
+                    bail!("[authalic] armijo_c and wolfe_c2 must be below 1");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The energies of the runs: the configured ones, or the authalic task's one energy.
+    pub fn energy_names(&self) -> Vec<String> {
+        if self.task == Task::Authalic {
+            vec![AUTHALIC_ENERGY.to_string()]
+        } else {
+            self.energies.clone()
+        }
+    }
+
+    /// The `authalic` settings: `AuthalicSettings` defaults (the paper's Table 1 protocol:
+    /// 100 iterations, no tolerance stop) overridden by `[stop]` and `[authalic]`.
+    pub fn authalic_settings(&self) -> AuthalicSettings {
+        let d = AuthalicSettings::default();
+        let a = self.authalic.clone().unwrap_or_default();
+        AuthalicSettings {
+            stop: StopSettings {
+                grad_tol: self.stop.grad_tol.unwrap_or(d.stop.grad_tol),
+                energy_decrease_tol: self.stop.energy_decrease_tol.unwrap_or(d.stop.energy_decrease_tol),
+                max_iters: self.stop.max_iters.unwrap_or(d.stop.max_iters),
+            },
+            init_steps: a.init_steps.unwrap_or(d.init_steps),
+            alpha0: a.alpha0.unwrap_or(d.alpha0),
+            armijo_c: a.armijo_c.unwrap_or(d.armijo_c),
+            wolfe_c2: a.wolfe_c2.unwrap_or(d.wolfe_c2),
+            max_backtracks: a.max_backtracks.unwrap_or(d.max_backtracks),
+            fold_guard: a.fold_guard.unwrap_or(d.fold_guard),
+            sem_stop_on_increase: a.sem_stop_on_increase.unwrap_or(d.sem_stop_on_increase),
+        }
     }
 
     /// The energy `name` with the config's parameters applied over the defaults.
@@ -304,6 +419,34 @@ impl Config {
 mod tests {
     use super::*;
 
+    const AUTH: &str =
+        "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"bumpy_1k\"]\nsolvers = [\"sem\", \"aem-cg\"]\n";
+
+    #[test]
+    fn authalic_configs_default_to_the_papers_protocol_and_reject_newton_sections() {
+        let c = parse(AUTH).unwrap();
+        assert_eq!(c.energy_names(), ["authalic"]);
+        let s = c.authalic_settings();
+        assert_eq!(s, AuthalicSettings::default());
+        assert_eq!((s.stop.max_iters, s.stop.grad_tol, s.stop.energy_decrease_tol), (100, 0.0, 0.0));
+        let c = parse(&format!(
+            "{AUTH}[stop]\nmax_iters = 7\n[authalic]\nalpha0 = 0.5\nfold_guard = \"all\"\nsem_stop_on_increase = true\n"
+        ))
+        .unwrap();
+        let s = c.authalic_settings();
+        assert_eq!((s.stop.max_iters, s.alpha0, s.fold_guard, s.sem_stop_on_increase), (7, 0.5, FoldGuard::All, true));
+        let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+        assert!(
+            err(&AUTH.replace("\"aem-cg\"", "\"kp-newton\"")).contains("unknown solver 'kp-newton' for task authalic")
+        );
+        assert!(err(&format!("{AUTH}energies = [\"sd\"]\n")).contains("one energy 'authalic'"));
+        assert!(err(&format!("{AUTH}[line_search]\narmijo_c = 0.1\n")).contains("[line_search] does not apply"));
+        assert!(err(&format!("{AUTH}[authalic]\nalpha0 = -1.0\n")).contains("alpha0 = -1"));
+        assert!(err(&format!("{AUTH}[authalic]\nfold_guard = \"some\"\n")).contains("unknown variant"));
+        assert!(err(&format!("{AUTH}[authalic]\nalpha = 1.0\n")).contains("unknown field `alpha`"));
+        assert!(parse(&format!("{AUTH}energies = [\"authalic\"]\n")).is_ok());
+    }
+
     fn parse(text: &str) -> Result<Config> {
         let c: Config = toml::from_str(text)?;
         c.check()?;
@@ -353,6 +496,7 @@ mod tests {
         assert!(err(&format!("{MIN}[line_search]\nshrink = 1.5\n")).contains("shrink"));
         assert!(err(&MIN.replace("[\"bumpy_1k\"]", "[]")).contains("no datasets"));
         assert!(err(&format!("task = \"deform\"\n{MIN}")).contains("not available yet"));
+        assert!(err(&format!("{MIN}[authalic]\nalpha0 = 1.0\n")).contains("only to task = \"authalic\""));
         assert!(err(&format!("{MIN}[stop]\ngrad_tol = \"x\"\n")).contains("invalid type"));
     }
 }

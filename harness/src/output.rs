@@ -28,8 +28,8 @@ pub const ITERATION_COLUMNS: [&str; 15] = [
     "ls_evals",
 ];
 
-/// `summary.csv` columns, in design.md order.
-pub const SUMMARY_COLUMNS: [&str; 20] = [
+/// `summary.csv` columns, in design.md order; the last four are filled by `authalic` runs.
+pub const SUMMARY_COLUMNS: [&str; 24] = [
     "dataset",
     "task",
     "energy",
@@ -50,6 +50,10 @@ pub const SUMMARY_COLUMNS: [&str; 20] = [
     "flips",
     "status",
     "error",
+    "area_ratio_sd",
+    "area_ratio_mad",
+    "authalic_energy",
+    "folded",
 ];
 
 #[derive(Clone, Debug, Serialize)]
@@ -94,6 +98,14 @@ pub struct SummaryRow {
     pub flips: Option<usize>,
     pub status: String,
     pub error: String,
+    #[serde(default)]
+    pub area_ratio_sd: Option<f64>,
+    #[serde(default)]
+    pub area_ratio_mad: Option<f64>,
+    #[serde(default)]
+    pub authalic_energy: Option<f64>,
+    #[serde(default)]
+    pub folded: Option<usize>,
 }
 
 /// The file stem of a run: `<dataset>__<energy>__<solver>`.
@@ -113,11 +125,29 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 }
 
 /// The per-iteration CSV of one run; `best` is the best final energy of the run's
-/// (dataset, energy) group over all solvers.
+/// (dataset, energy) group over all solvers. A solver's extra columns
+/// ([`IterationRecord::extra`], named by the first row) follow the design.md ones.
 pub fn iteration_csv(rows: &[IterationRecord], best: f64) -> Result<Vec<u8>> {
-    let mut w = csv::Writer::from_writer(Vec::new());
+    let extra_names: Vec<&str> = rows.first().map(|r| r.extra.iter().map(|e| e.0).collect()).unwrap_or_default();
+    let mut header = csv::Writer::from_writer(Vec::new());
+    header.write_record(ITERATION_COLUMNS.iter().copied().chain(extra_names.iter().copied()))?;
+    let mut out = header.into_inner().context("flushing CSV")?;
+    // Each part goes through csv's serializer so numbers are formatted the same way.
+    let record = |value: &dyn erased::Record| -> Result<Vec<u8>> {
+        let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
+        value.write(&mut w)?;
+        let mut bytes = w.into_inner().context("flushing CSV")?;
+        while bytes.last().is_some_and(|b| *b == b'\n' || *b == b'\r') {
+            bytes.pop();
+        }
+        Ok(bytes)
+    };
     for r in rows {
-        w.serialize(IterationRow {
+        let names: Vec<&str> = r.extra.iter().map(|e| e.0).collect();
+        if names != extra_names {
+            anyhow::bail!("row {} has extra columns {names:?}, the first row {extra_names:?}", r.iter);
+        }
+        out.extend(record(&IterationRow {
             iter: r.iter,
             energy: r.energy,
             energy_minus_best: r.energy - best,
@@ -133,12 +163,26 @@ pub fn iteration_csv(rows: &[IterationRecord], best: f64) -> Result<Vec<u8>> {
             t_iter_s: r.t_iter_s,
             t_cum_s: r.t_cum_s,
             ls_evals: r.ls_evals,
-        })?;
+        })?);
+        if !r.extra.is_empty() {
+            out.push(b',');
+            out.extend(record(&r.extra.iter().map(|e| e.1).collect::<Vec<f64>>())?);
+        }
+        out.push(b'\n');
     }
-    if rows.is_empty() {
-        w.write_record(ITERATION_COLUMNS)?;
+    Ok(out)
+}
+
+/// Serializing either a row struct or a list of numbers through one csv writer.
+mod erased {
+    pub trait Record {
+        fn write(&self, w: &mut csv::Writer<Vec<u8>>) -> csv::Result<()>;
     }
-    w.into_inner().context("flushing CSV")
+    impl<T: serde::Serialize> Record for T {
+        fn write(&self, w: &mut csv::Writer<Vec<u8>>) -> csv::Result<()> {
+            w.serialize(self)
+        }
+    }
 }
 
 /// `summary.csv`, appended a row at a time as runs finish (flushed each time).
@@ -189,6 +233,18 @@ mod tests {
         let mut lines = text.lines();
         assert_eq!(lines.next().unwrap(), ITERATION_COLUMNS.join(","));
         assert!(lines.next().unwrap().starts_with("0,3.0,0.5,"));
+        let with_extra = vec![
+            IterationRecord { iter: 0, energy: 3.0, extra: vec![("a", 1.5), ("b", f64::NAN)], ..Default::default() },
+            IterationRecord { iter: 1, energy: 2.75, extra: vec![("a", 0.0), ("b", 1e-20)], ..Default::default() },
+        ];
+        let text = String::from_utf8(iteration_csv(&with_extra, 2.5).unwrap()).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], format!("{},a,b", ITERATION_COLUMNS.join(",")));
+        assert!(lines[1].starts_with("0,3.0,0.5,") && lines[1].ends_with(",0,1.5,NaN"), "{}", lines[1]);
+        assert!(lines[2].ends_with(",0.0,1e-20"), "{}", lines[2]);
+        let mut bad = with_extra.clone();
+        bad[1].extra.pop();
+        assert!(iteration_csv(&bad, 0.0).is_err());
         let empty = String::from_utf8(iteration_csv(&[], 0.0).unwrap()).unwrap();
         assert_eq!(empty.trim(), ITERATION_COLUMNS.join(","));
         let mut w = csv::Writer::from_writer(Vec::new());

@@ -1,10 +1,11 @@
 //! The batch runner: every (dataset, energy, solver) of a config, one after the other, each
 //! run's failure recorded without stopping the batch.
 
-use crate::config::LoadedConfig;
+use crate::config::{LoadedConfig, Task};
 use crate::output::{iteration_csv, median, run_stem, write_atomic, SummaryRow, SummaryWriter};
 use crate::registry::{resolve, Dataset};
 use anyhow::{Context, Result};
+use solvers::authalic::{solve_authalic, AreaMetrics, AUTHALIC_ENERGY};
 use solvers::mesh::Mesh;
 use solvers::param::solve_param;
 use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
@@ -52,14 +53,15 @@ pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) 
     write_meta(cfg, out_dir, started, None)?;
     let mut summary = SummaryWriter::create(&out_dir.join("summary.csv"))?;
     let c = &cfg.config;
-    let total = datasets.len() * c.energies.len() * c.solvers.len();
+    let energies = c.energy_names();
+    let total = datasets.len() * energies.len() * c.solvers.len();
     let mut report = BatchReport { skipped_datasets: notices, out_dir: out_dir.to_path_buf(), ..Default::default() };
     // Rows by (dataset, energy) group, kept to fill `energy_minus_best` once the group is done.
     let mut done = 0;
     let mut summaries: Vec<SummaryRow> = Vec::new();
     for ds in &datasets {
         let mesh = ds.source.load();
-        for energy in &c.energies {
+        for energy in &energies {
             let mut group: Vec<RunResult> = Vec::new();
             for solver in &c.solvers {
                 done += 1;
@@ -106,6 +108,9 @@ pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) 
     if let Some(t) = crate::tables::projection_table(&summaries) {
         t.write(&out_dir.join("tables"), "projection")?;
     }
+    if let Some(t) = crate::tables::authalic_table(&summaries) {
+        t.write(&out_dir.join("tables"), "authalic")?;
+    }
     write_meta(cfg, out_dir, started, Some(SystemTime::now()))?;
     Ok(report)
 }
@@ -143,20 +148,15 @@ fn run_one(
     };
     summary.vertices = Some(mesh.n_vertices());
     summary.faces = Some(mesh.n_faces());
-    let kind = match cfg.config.energy_kind(energy) {
-        Ok(k) => k,
-        Err(e) => return fail(summary, format!("{e:#}")),
-    };
-    let settings = cfg.config.param_settings(&kind);
     let mut rows = Rows::default();
     let t0 = Instant::now();
-    let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve_param(mesh, kind, solver, &settings, &mut rows)));
+    let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(cfg, mesh, energy, solver, &mut rows)));
     let elapsed = t0.elapsed().as_secs_f64();
-    let outcome: Outcome = match result {
+    let (outcome, metrics) = match result {
         Ok(Ok(o)) => o,
         Ok(Err(e)) => {
             // Most solver errors already start with the mesh source; name it where they do not.
-            let msg = e.to_string();
+            let msg = format!("{e:#}");
             let msg = if msg.starts_with(&mesh.source) { msg } else { format!("{}: {msg}", mesh.source) };
             return fail(summary, msg);
         }
@@ -169,6 +169,12 @@ fn run_one(
             return fail(summary, format!("{}: internal error (panic): {msg}", mesh.source));
         }
     };
+    if let Some(m) = metrics {
+        summary.area_ratio_sd = Some(m.area_ratio_sd);
+        summary.area_ratio_mad = Some(m.area_ratio_mad);
+        summary.authalic_energy = Some(m.authalic_energy);
+        summary.folded = Some(m.folded);
+    }
     let rows = rows.0;
     let per_iter = |f: fn(&IterationRecord) -> f64| {
         let mut v: Vec<f64> = rows.iter().skip(1).map(|r| 1e3 * f(r)).collect();
@@ -194,11 +200,37 @@ fn run_one(
     RunResult { summary, rows }
 }
 
+/// One solve of the config's task; `authalic` runs also return their area metrics.
+fn solve(
+    cfg: &LoadedConfig,
+    mesh: &Mesh,
+    energy: &str,
+    solver: &str,
+    rows: &mut Rows,
+) -> Result<(Outcome, Option<AreaMetrics>)> {
+    match cfg.config.task {
+        Task::Authalic => {
+            let out = solve_authalic(mesh, solver, &cfg.config.authalic_settings(), rows)?;
+            Ok((out.outcome, Some(out.metrics)))
+        }
+        Task::Param => {
+            let kind = cfg.config.energy_kind(energy)?;
+            let settings = cfg.config.param_settings(&kind);
+            Ok((solve_param(mesh, kind, solver, &settings, rows)?, None))
+        }
+        Task::Deform => anyhow::bail!("task deform is not available yet"),
+    }
+}
+
 /// `meta.json`: the resolved config and provenance (code version, git revision, machine).
 fn write_meta(cfg: &LoadedConfig, out_dir: &Path, started: SystemTime, ended: Option<SystemTime>) -> Result<()> {
     let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let (rev, dirty) = git_revision(&cfg.dir);
     let mut stop = BTreeMap::new();
+    if cfg.config.task == Task::Authalic {
+        let s = cfg.config.authalic_settings();
+        stop.insert(AUTHALIC_ENERGY.to_string(), (s.stop.grad_tol, s.stop.energy_decrease_tol, s.stop.max_iters));
+    }
     for e in &cfg.config.energies {
         if let Ok(k) = cfg.config.energy_kind(e) {
             let s = cfg.config.param_settings(&k).solver.stop;

@@ -57,7 +57,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];
@@ -81,6 +81,54 @@ path = "quad.obj"
         serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
     assert_eq!(meta["config"]["name"], "t");
     assert!(meta["ended_unix"].as_u64().is_some());
+}
+
+#[test]
+fn an_authalic_batch_writes_metrics_extra_columns_and_the_table_1_shape() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("two.obj"), TWO_LOOPS_OBJ).unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        r#"name = "auth"
+task = "authalic"
+datasets = ["bumpy_1k"]
+solvers = ["sem", "aem-cg", "aem-cg-safe"]
+[stop]
+max_iters = 20
+[[dataset]]
+name = "two"
+path = "two.obj"
+"#,
+    );
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(1), "the two-component mesh fails: {}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert_eq!(rows.len(), 6);
+    for r in &rows[..3] {
+        assert_eq!(r[col("energy")], "authalic");
+        assert_eq!(r[col("iterations")], "20");
+        assert_eq!(r[col("stop_reason")], "max_iters");
+        assert_eq!(r[col("folded")], "0");
+        let e: f64 = r[col("authalic_energy")].parse().unwrap();
+        assert!(e > 0.0 && e < r[col("init_energy")].parse::<f64>().unwrap());
+        assert_eq!(r[col("final_energy")], r[col("authalic_energy")]);
+        assert!(r[col("area_ratio_sd")].parse::<f64>().unwrap() > 0.0);
+    }
+    for r in &rows[3..] {
+        assert_eq!(r[col("status")], "failed");
+        assert!(r[col("error")].contains("two.obj"), "{:?}", r);
+    }
+    let (h, it) = read_csv(&out.join("runs/bumpy_1k__authalic__aem-cg-safe.csv"));
+    assert_eq!(
+        h[14..].join(","),
+        "ls_evals,image_area,stretch_energy,ascent,wolfe,backtracks,restarted,fold_rejects,quad_fallback"
+    );
+    assert_eq!(it.len(), 21);
+    let table = std::fs::read_to_string(out.join("tables/authalic.md")).unwrap();
+    assert!(table.contains("| bumpy_1k |") && table.contains("AEM-CG-safe E_A"), "{table}");
+    assert!(out.join("tables/authalic.html").is_file());
 }
 
 #[test]
