@@ -1,0 +1,79 @@
+//! One Newton iteration's stages on generated meshes of 5k and 50k vertices (SD at the
+//! Tutte map): evaluation (energy, gradient, element states), KP projection of every
+//! element, sparse assembly, numeric factorization + solve, and the maximal injective step;
+//! plus the authalic energy gradient and one AEM preconditioner application.
+//! Run with `cargo bench -p mapbench-solvers --bench pipeline`; `cargo test --benches`
+//! runs each benchmark once as a smoke test.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::Matrix6;
+use rayon::prelude::*;
+use solvers::assembly::Pattern;
+use solvers::authalic::AuthalicProblem;
+use solvers::energy::EnergyKind;
+use solvers::generate::generate;
+use solvers::hessian::{kp::Kp, SystemBlock};
+use solvers::init::{tutte, TutteBoundary};
+use solvers::line_search::max_injective_step;
+use solvers::linear::{LinearSettings, SpdSolver};
+use solvers::problem::{Evaluation, MapProblem};
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    for (label, name) in [("5k", "bumpy_5k"), ("50k", "bumpy_50k")] {
+        let mesh = generate(name).expect("generated mesh").normalized();
+        let problem = MapProblem::new(&mesh, EnergyKind::Sd).expect("no degenerate faces");
+        let x = tutte(&mesh, TutteBoundary::Uniform).expect("Tutte embedding");
+        let mut ev = Evaluation::default();
+        problem.evaluate(&x, &mut ev).expect("Tutte map is in the domain");
+        let project = |blocks: &mut Vec<Matrix6<f64>>, ev: &Evaluation| {
+            blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).for_each(|((b, s), op)| {
+                *b = Kp.block(op, s) * problem.weight();
+            });
+        };
+        let mut blocks = vec![Matrix6::zeros(); problem.n_faces()];
+        project(&mut blocks, &ev);
+        let pattern = Pattern::new(&problem.faces, problem.n_vertices);
+        let mut values = Vec::new();
+        pattern.assemble(&blocks, &mut values);
+        let mut solver = SpdSolver::new(&pattern).expect("symbolic analysis");
+        let rhs: Vec<f64> = ev.grad.iter().map(|g| -g).collect();
+        let settings = LinearSettings::default();
+        let d = solver.solve(&values, &rhs, &settings).expect("KP system is SPD");
+
+        let mut group = c.benchmark_group(format!("pipeline/{label}"));
+        group.sample_size(10);
+        group.bench_function("evaluate", |b| {
+            let mut out = Evaluation::default();
+            b.iter(|| problem.evaluate(black_box(&x), &mut out).map(|_| out.energy))
+        });
+        group.bench_function("project_kp", |b| {
+            let mut bl = blocks.clone();
+            b.iter(|| {
+                project(&mut bl, black_box(&ev));
+                bl[0][(0, 0)]
+            })
+        });
+        group.bench_function("assemble", |b| {
+            let mut v = Vec::new();
+            b.iter(|| {
+                pattern.assemble(black_box(&blocks), &mut v);
+                v[0]
+            })
+        });
+        group.bench_function("factorize_solve", |b| {
+            b.iter(|| solver.solve(black_box(&values), black_box(&rhs), &settings).map(|x| x[0]))
+        });
+        group.bench_function("max_injective_step", |b| {
+            b.iter(|| max_injective_step(&problem, black_box(&x), black_box(&d)))
+        });
+
+        let auth = AuthalicProblem::new(&generate(name).expect("generated mesh")).expect("disk mesh");
+        let z = auth.initial_map(5).expect("initial map");
+        group.bench_function("authalic_gradient", |b| b.iter(|| auth.terms_and_gradient(black_box(&z)).0.energy));
+        group.finish();
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
