@@ -23,6 +23,11 @@ pub struct Entry {
     pub tasks: Vec<String>,
     #[serde(default)]
     pub tags: Vec<String>,
+    /// Provenance written by `scripts/prepare_datasets.py` (not verified here).
+    pub sha256: Option<String>,
+    /// Expected vertex and face counts; a file that disagrees fails its runs.
+    pub vertices: Option<usize>,
+    pub faces: Option<usize>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -108,6 +113,28 @@ impl MeshSource {
 pub struct Dataset {
     pub name: String,
     pub source: MeshSource,
+    /// Vertex and face counts the registry expects, if it says.
+    pub expected: (Option<usize>, Option<usize>),
+}
+
+impl Dataset {
+    /// Build or read the mesh and check the registry's counts.
+    pub fn load(&self) -> Result<Mesh> {
+        let mesh = self.source.load()?;
+        let (v, f) = self.expected;
+        if v.is_some_and(|v| v != mesh.n_vertices()) || f.is_some_and(|f| f != mesh.n_faces()) {
+            bail!(
+                "{}: has {} vertices and {} faces, the registry entry '{}' expects {} and {}",
+                mesh.source,
+                mesh.n_vertices(),
+                mesh.n_faces(),
+                self.name,
+                v.map_or("any".into(), |v| v.to_string()),
+                f.map_or("any".into(), |f| f.to_string()),
+            );
+        }
+        Ok(mesh)
+    }
 }
 
 /// The datasets of a config, in order: registry selections, then inline entries. File
@@ -142,14 +169,18 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
                 }
                 (None, None) => unreachable!("checked when the registry was loaded"),
             };
-            out.push(Dataset { name: e.name.clone(), source });
+            out.push(Dataset { name: e.name.clone(), source, expected: (e.vertices, e.faces) });
         }
     }
     for d in &cfg.config.dataset {
         if out.iter().any(|o: &Dataset| o.name == d.name) {
             bail!("dataset '{}' is both selected from the registry and given inline", d.name);
         }
-        out.push(Dataset { name: d.name.clone(), source: MeshSource::File(cfg.dir.join(&d.path)) });
+        out.push(Dataset {
+            name: d.name.clone(),
+            source: MeshSource::File(cfg.dir.join(&d.path)),
+            expected: (None, None),
+        });
     }
     Ok((out, notices))
 }
@@ -191,6 +222,25 @@ mod tests {
         assert_eq!(names(&["tag:generated", "a"]), ["a"]);
         assert!(r.select(&["zzz".into()]).unwrap_err().to_string().contains("unknown dataset 'zzz'"));
         assert!(r.select(&["tag:none".into()]).unwrap_err().to_string().contains("tag 'none'"));
+    }
+
+    #[test]
+    fn prepared_entries_carry_counts_that_are_checked() {
+        let r: Registry = toml::from_str(
+            "[[dataset]]\nname = \"p\"\ngenerator = \"cap_2k\"\nsha256 = \"ab\"\nvertices = 1850\nfaces = 3584\n",
+        )
+        .unwrap();
+        let e = &r.dataset[0];
+        assert_eq!((e.vertices, e.faces, e.sha256.as_deref()), (Some(1850), Some(3584), Some("ab")));
+        let ds = Dataset {
+            name: "p".into(),
+            source: MeshSource::Generated("cap_2k".into()),
+            expected: (Some(1850), Some(3584)),
+        };
+        assert!(ds.load().is_ok());
+        let wrong = Dataset { expected: (Some(1851), None), ..ds };
+        let err = wrong.load().unwrap_err().to_string();
+        assert!(err.contains("generated:cap_2k: has 1850 vertices") && err.contains("expects 1851 and any"), "{err}");
     }
 
     #[test]

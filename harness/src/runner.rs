@@ -60,7 +60,7 @@ pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) 
     let mut done = 0;
     let mut summaries: Vec<SummaryRow> = Vec::new();
     for ds in &datasets {
-        let mesh = ds.source.load();
+        let mesh = ds.load();
         for energy in &energies {
             let mut group: Vec<RunResult> = Vec::new();
             for solver in &c.solvers {
