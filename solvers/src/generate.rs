@@ -5,7 +5,11 @@
 //! vertices proportional to its 3D circumference, and consecutive rings are zipped by angle
 //! into counter-clockwise triangles. Every mesh here is a topological disk (one boundary
 //! loop, Euler characteristic 1), manifold and consistently oriented.
+//!
+//! The planar shapes of the `deform` task (`planar_*`, z = 0) are unions of grid cells with
+//! their handles given by rule ([`generated_handles`]).
 
+use crate::deform::Handle;
 use crate::mesh::Mesh;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -21,6 +25,8 @@ pub const GENERATED: &[(&str, &str)] = &[
     ("cap_2k", "spherical cap of polar angle 0.45 pi (hemisphere-like), ~2k vertices"),
     ("strip_thin", "long thin gently bent strip, 50:1 aspect ratio, ~1.3k vertices"),
     ("short_boundary_3k", "unit sphere minus a small polar cap (very short boundary), ~3k vertices"),
+    ("planar_bar_2k", "deform: 10 x 1 bar, ~2k vertices; left end held, right end bent a quarter turn"),
+    ("planar_limbs_2k", "deform: plus-shaped figure with four limbs, ~2k vertices; three limb tips moved"),
 ];
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -46,6 +52,8 @@ pub fn generate(name: &str) -> Result<Mesh, UnknownGenerated> {
         "cap_2k" => ring_disk(26, &sphere(0.45 * PI)),
         "short_boundary_3k" => ring_disk(42, &sphere(PI - 0.55)),
         "strip_thin" => strip(250, 5, 10.0, 0.2),
+        "planar_bar_2k" => cells_2d(BAR.0, BAR.1, BAR.2, |_, _| true),
+        "planar_limbs_2k" => cells_2d(LIMBS.0, LIMBS.0, LIMBS.2, limbs_mask),
         _ => return Err(UnknownGenerated(name.to_string())),
     };
     Ok(Mesh::new(source, positions, faces))
@@ -139,6 +147,96 @@ fn zip_rings(inner: (usize, usize, f64), outer: (usize, usize, f64), faces: &mut
     }
 }
 
+/// Cells along, cells across, cell size of `planar_bar_2k` (a 10 x 1 bar).
+const BAR: (usize, usize, f64) = (160, 12, 1.0 / 16.0);
+/// Cells per side, arm width in cells, cell size of `planar_limbs_2k` (3 x 3 units).
+const LIMBS: (usize, usize, f64) = (60, 20, 1.0 / 20.0);
+
+fn limbs_mask(i: usize, j: usize) -> bool {
+    let (lo, hi) = ((LIMBS.0 - LIMBS.1) / 2, (LIMBS.0 + LIMBS.1) / 2);
+    (lo..hi).contains(&i) || (lo..hi).contains(&j)
+}
+
+/// The handles of a generated `deform` shape, in the mesh's own frame; `None` for the others.
+pub fn generated_handles(name: &str) -> Option<Vec<Handle>> {
+    let mesh = generate(name).ok()?;
+    let at = |pred: &dyn Fn(f64, f64) -> bool| -> Vec<usize> {
+        (0..mesh.n_vertices()).filter(|&v| pred(mesh.positions[v][0], mesh.positions[v][1])).collect()
+    };
+    let eps = 1e-9;
+    match name {
+        "planar_bar_2k" => {
+            // Bend the midline y = w/2 into a quarter circle of the same length: the left end
+            // stays, the right end lands rotated by 90 degrees (CM paper, Figure 1 setting).
+            let (len, w) = (BAR.0 as f64 * BAR.2, BAR.1 as f64 * BAR.2);
+            let r = len / FRAC_PI_2;
+            let mut h: Vec<Handle> =
+                at(&|x, _| x < eps).into_iter().map(|v| Handle { vertex: v, target: xy(&mesh, v) }).collect();
+            h.extend(at(&|x, _| x > len - eps).into_iter().map(|v| {
+                let o = mesh.positions[v][1] - 0.5 * w;
+                Handle { vertex: v, target: [r - o, 0.5 * w + r] }
+            }));
+            Some(h)
+        }
+        "planar_limbs_2k" => {
+            // Hold the bottom limb's tip; swing the right tip up, the left tip down and pull the
+            // top tip sideways.
+            let side = LIMBS.0 as f64 * LIMBS.2;
+            let mut h = Vec::new();
+            for (pred, shift) in [
+                (&(|_: f64, y: f64| y < eps) as &dyn Fn(f64, f64) -> bool, [0.0, 0.0]),
+                (&|x: f64, _: f64| x > side - eps, [-0.3, 0.9]),
+                (&|x: f64, _: f64| x < eps, [0.3, -0.9]),
+                (&|_: f64, y: f64| y > side - eps, [0.8, -0.2]),
+            ] {
+                h.extend(at(pred).into_iter().map(|v| {
+                    let p = xy(&mesh, v);
+                    Handle { vertex: v, target: [p[0] + shift[0], p[1] + shift[1]] }
+                }));
+            }
+            Some(h)
+        }
+        _ => None,
+    }
+}
+
+fn xy(mesh: &Mesh, v: usize) -> [f64; 2] {
+    [mesh.positions[v][0], mesh.positions[v][1]]
+}
+
+/// A planar (z = 0) mesh of the unit cells `(i, j)` of an `nx x ny` grid kept by `keep`, each
+/// split into two counter-clockwise triangles (alternating diagonals), scaled by `h`.
+fn cells_2d(nx: usize, ny: usize, h: f64, keep: impl Fn(usize, usize) -> bool) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let mut index = vec![usize::MAX; (nx + 1) * (ny + 1)];
+    let mut positions = Vec::new();
+    let mut faces = Vec::new();
+    let mut vid = |i: usize, j: usize, positions: &mut Vec<[f64; 3]>| {
+        let k = j * (nx + 1) + i;
+        if index[k] == usize::MAX {
+            index[k] = positions.len();
+            positions.push([i as f64 * h, j as f64 * h, 0.0]);
+        }
+        index[k]
+    };
+    for j in 0..ny {
+        for i in 0..nx {
+            if !keep(i, j) {
+                continue;
+            }
+            let p = vid(i, j, &mut positions);
+            let q = vid(i + 1, j, &mut positions);
+            let r = vid(i + 1, j + 1, &mut positions);
+            let s = vid(i, j + 1, &mut positions);
+            if (i + j) % 2 == 0 {
+                faces.extend([[p, q, r], [p, r, s]]);
+            } else {
+                faces.extend([[p, q, s], [q, r, s]]);
+            }
+        }
+    }
+    (positions, faces)
+}
+
 /// A `length x width` strip gridded `nx x ny` (alternating diagonals), bent gently out of
 /// the plane along its length.
 fn strip(nx: usize, ny: usize, length: f64, width: f64) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
@@ -198,6 +296,22 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn deform_shapes_have_handles_inside_the_mesh_and_the_others_none() {
+        for name in ["planar_bar_2k", "planar_limbs_2k"] {
+            let mesh = generate(name).unwrap();
+            assert!(mesh.is_planar());
+            let h = generated_handles(name).unwrap();
+            assert!(h.len() >= 20 && h.iter().all(|h| h.vertex < mesh.n_vertices()), "{name}");
+            assert!(h.iter().any(|h| h.target != xy(&mesh, h.vertex)), "{name}: something moves");
+        }
+        // the bar's right end lands a quarter turn up: x = r - o, y = w/2 + r
+        let h = generated_handles("planar_bar_2k").unwrap();
+        let top = h.iter().map(|h| h.target[1]).fold(0.0, f64::max);
+        assert!((top - (0.375 + 10.0 / FRAC_PI_2)).abs() < 1e-12);
+        assert!(generated_handles("bumpy_1k").is_none());
     }
 
     #[test]

@@ -14,6 +14,7 @@
 
 pub mod assembly;
 pub mod authalic;
+pub mod deform;
 pub mod energy;
 pub mod error;
 pub mod generate;

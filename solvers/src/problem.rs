@@ -35,6 +35,36 @@ pub struct MapProblem {
     pub ops: Vec<LocalOp>,
     pub total_area: f64,
     pub energy: EnergyKind,
+    /// Soft positional constraints of the `deform` task.
+    pub penalty: Option<Penalty>,
+}
+
+/// Soft handles `lambda * sum |z_P - c|^2` (design.md: gradient `2 lambda (z_P - c)`,
+/// Hessian `2 lambda`, one consistent convention); added to the normalized energy.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Penalty {
+    pub lambda: f64,
+    /// `(vertex, target)` pairs.
+    pub handles: Vec<(usize, [f64; 2])>,
+}
+
+impl Penalty {
+    pub fn value(&self, x: &[f64]) -> f64 {
+        self.lambda
+            * self.handles.iter().map(|&(v, c)| (x[2 * v] - c[0]).powi(2) + (x[2 * v + 1] - c[1]).powi(2)).sum::<f64>()
+    }
+
+    pub fn add_gradient(&self, x: &[f64], grad: &mut [f64]) {
+        for &(v, c) in &self.handles {
+            grad[2 * v] += 2.0 * self.lambda * (x[2 * v] - c[0]);
+            grad[2 * v + 1] += 2.0 * self.lambda * (x[2 * v + 1] - c[1]);
+        }
+    }
+
+    /// The Hessian: `2 lambda` on both dofs of every handle (repeats add up).
+    pub fn diagonal(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.handles.iter().flat_map(move |&(v, _)| [(2 * v, 2.0 * self.lambda), (2 * v + 1, 2.0 * self.lambda)])
+    }
 }
 
 /// Result of a full evaluation (energy, gradient, per-element states and Hessian inertia).
@@ -53,7 +83,14 @@ impl MapProblem {
     pub fn new(mesh: &Mesh, energy: EnergyKind) -> Result<Self, DegenerateFace> {
         let ops = local_ops(mesh).map_err(|face| DegenerateFace { source_name: mesh.source.clone(), face })?;
         let total_area = ops.iter().map(|o| o.area).sum();
-        Ok(MapProblem { n_vertices: mesh.n_vertices(), faces: mesh.faces.clone(), ops, total_area, energy })
+        Ok(MapProblem {
+            n_vertices: mesh.n_vertices(),
+            faces: mesh.faces.clone(),
+            ops,
+            total_area,
+            energy,
+            penalty: None,
+        })
     }
 
     pub fn n_dofs(&self) -> usize {
@@ -86,7 +123,7 @@ impl MapProblem {
                     .sum::<f64>()
             })
             .collect();
-        partial.iter().sum::<f64>() / self.total_area
+        partial.iter().sum::<f64>() / self.total_area + self.penalty.as_ref().map_or(0.0, |p| p.value(x))
     }
 
     /// Number of triangles whose image has non-positive signed area.
@@ -140,6 +177,10 @@ impl MapProblem {
             }
         }
         out.energy = energy * inv;
+        if let Some(p) = &self.penalty {
+            out.energy += p.value(x);
+            p.add_gradient(x, &mut out.grad);
+        }
         let counts: (usize, usize) = out
             .states
             .par_iter()

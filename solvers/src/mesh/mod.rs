@@ -77,11 +77,16 @@ impl Mesh {
     /// Centre on the bounding-box midpoint and scale uniformly to total surface area 1
     /// (the convention of the complex-view reference code, design.md).
     pub fn normalized(&self) -> Mesh {
-        let (lo, hi) = self.bbox().unwrap_or(([0.0; 3], [0.0; 3]));
-        let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];
-        let s = 1.0 / self.total_area().sqrt();
+        let (mid, s) = self.normalization();
         let positions =
             self.positions.iter().map(|p| [(p[0] - mid[0]) * s, (p[1] - mid[1]) * s, (p[2] - mid[2]) * s]).collect();
         Mesh { source: self.source.clone(), positions, faces: self.faces.clone() }
+    }
+
+    /// The transform of [`Mesh::normalized`]: `p -> (p - mid) * s`.
+    pub fn normalization(&self) -> ([f64; 3], f64) {
+        let (lo, hi) = self.bbox().unwrap_or(([0.0; 3], [0.0; 3]));
+        let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];
+        (mid, 1.0 / self.total_area().sqrt())
     }
 }

@@ -89,6 +89,11 @@ pub fn newton(
                 values[p] += shift;
             }
         }
+        if let Some(pen) = &problem.penalty {
+            for (dof, h) in pen.diagonal() {
+                values[pattern.diag[dof]] += h;
+            }
+        }
         let t_scatter = t0.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
