@@ -4,6 +4,7 @@
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use solvers::authalic::{AuthalicSettings, FoldGuard, AUTHALIC_ENERGY, AUTHALIC_SOLVERS};
+use solvers::deform::DeformSettings;
 use solvers::energy::{EnergyKind, ENERGY_NAMES};
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
@@ -37,6 +38,12 @@ pub struct InlineDataset {
     pub name: String,
     /// OBJ file; relative paths resolve against the config file's folder.
     pub path: PathBuf,
+    /// `deform`: a `*.p2p.json` handles file (relative to the config's folder) ...
+    pub handles: Option<PathBuf>,
+    /// ... and its constraint set (default 0);
+    pub handles_set: Option<usize>,
+    /// or a handles rule (`stretch`, `twist`).
+    pub handles_rule: Option<String>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -79,6 +86,14 @@ pub struct InitConfig {
     pub tutte_boundary: Option<TutteBoundary>,
     /// Jump threshold of the global-scaling heuristic, default 0.1.
     pub scaling_jump: Option<f64>,
+}
+
+/// The `deform` task's settings (`[deform]`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeformConfig {
+    /// Handle penalty weight on the area-1 mesh, default `solvers::deform::DEFAULT_LAMBDA`.
+    pub lambda: Option<f64>,
 }
 
 /// The `authalic` task's solver settings (`[authalic]`); defaults in `AuthalicSettings`.
@@ -147,6 +162,8 @@ pub struct Config {
     pub energy: BTreeMap<String, EnergyParams>,
     #[serde(default)]
     pub authalic: Option<AuthalicConfig>,
+    #[serde(default)]
+    pub deform: Option<DeformConfig>,
 }
 
 fn default_task() -> Task {
@@ -185,11 +202,22 @@ impl Config {
     /// Checks names and values that serde cannot (unknown solver/energy names, parameters
     /// that do not belong to an energy, out-of-range values).
     pub fn check(&self) -> Result<()> {
+        if self.task != Task::Deform && self.deform.is_some() {
+            bail!("[deform] applies only to task = \"deform\"");
+        }
         if self.task == Task::Deform {
-            bail!(
-                "task '{}' is not available yet in this version of mapbench (param and authalic run today)",
-                self.task.as_str()
-            );
+            if self.init != InitConfig::default() {
+                bail!("[init] does not apply to task deform (it starts from the rest pose)");
+            }
+            if let Some(l) = self.deform.as_ref().and_then(|d| d.lambda) {
+                if !(l > 0.0 && l.is_finite()) {
+                    bail!("[deform] lambda = {l} must be positive and finite");
+                }
+            }
+        }
+        for d in &self.dataset {
+            crate::registry::check_handles(d.handles.is_some(), d.handles_set, d.handles_rule.as_deref())
+                .with_context(|| format!("[[dataset]] '{}'", d.name))?;
         }
         if self.task == Task::Authalic {
             return self.check_authalic();
@@ -387,9 +415,23 @@ impl Config {
         Ok(kind)
     }
 
+    /// The `deform` settings for one energy: deform defaults (energy decrease < 1e-6, no
+    /// global scaling) overridden by `[stop]`, `[line_search]`, `[linear]`, `[deform]`.
+    pub fn deform_settings(&self, energy: &EnergyKind) -> DeformSettings {
+        let p = self.param_settings_with(energy, solvers::deform::default_stop());
+        DeformSettings {
+            solver: p.solver,
+            lambda: self.deform.as_ref().and_then(|d| d.lambda).unwrap_or(solvers::deform::DEFAULT_LAMBDA),
+        }
+    }
+
     /// The solver settings for one energy: design.md conventions overridden by the config.
     pub fn param_settings(&self, energy: &EnergyKind) -> ParamSettings {
-        let d = default_stop(energy);
+        self.param_settings_with(energy, default_stop(energy))
+    }
+
+    fn param_settings_with(&self, energy: &EnergyKind, d: StopSettings) -> ParamSettings {
+        let _ = energy;
         let stop = StopSettings {
             grad_tol: self.stop.grad_tol.unwrap_or(d.grad_tol),
             energy_decrease_tol: self.stop.energy_decrease_tol.unwrap_or(d.energy_decrease_tol),
@@ -495,7 +537,16 @@ mod tests {
         assert!(err(&format!("{MIN}[energy.foo]\nk = 1.0\n")).contains("[energy.foo]: unknown energy"));
         assert!(err(&format!("{MIN}[line_search]\nshrink = 1.5\n")).contains("shrink"));
         assert!(err(&MIN.replace("[\"bumpy_1k\"]", "[]")).contains("no datasets"));
-        assert!(err(&format!("task = \"deform\"\n{MIN}")).contains("not available yet"));
+        assert!(err(&format!("{MIN}[deform]\nlambda = 1.0\n")).contains("only to task = \"deform\""));
+        let def = format!("task = \"deform\"\n{MIN}");
+        assert!(err(&format!("{def}[deform]\nlambda = 0.0\n")).contains("lambda = 0 must be positive"));
+        assert!(err(&format!("{def}[init]\nscaling_jump = 0.2\n")).contains("[init] does not apply to task deform"));
+        let c = parse(&format!("{def}[deform]\nlambda = 50.0\n")).unwrap();
+        let s = c.deform_settings(&EnergyKind::Sd);
+        assert_eq!((s.lambda, s.solver.stop.energy_decrease_tol, s.solver.stop.grad_tol), (50.0, 1e-6, 1e-10));
+        assert_eq!(parse(&def).unwrap().deform_settings(&EnergyKind::Sd).lambda, solvers::deform::DEFAULT_LAMBDA);
+        let inline = "[[dataset]]\nname = \"x\"\npath = \"x.obj\"\nhandles = \"x.json\"\nhandles_rule = \"twist\"\n";
+        assert!(err(&format!("{def}{inline}")).contains("not both"));
         assert!(err(&format!("{MIN}[authalic]\nalpha0 = 1.0\n")).contains("only to task = \"authalic\""));
         assert!(err(&format!("{MIN}[stop]\ngrad_tol = \"x\"\n")).contains("invalid type"));
     }

@@ -3,6 +3,7 @@
 
 mod check;
 mod config;
+mod handles;
 mod output;
 mod registry;
 mod runner;

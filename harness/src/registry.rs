@@ -2,6 +2,7 @@
 //! entries looked up in `MAPBENCH_MESHES`, selected by name or `tag:<tag>`.
 
 use crate::config::LoadedConfig;
+use crate::handles::HandleSource;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use solvers::mesh::{load_obj, Mesh};
@@ -28,6 +29,12 @@ pub struct Entry {
     /// Expected vertex and face counts; a file that disagrees fails its runs.
     pub vertices: Option<usize>,
     pub faces: Option<usize>,
+    /// `deform`: a `*.p2p.json` handles file relative to `MAPBENCH_MESHES` ...
+    pub handles: Option<String>,
+    /// ... and the index of its constraint set (default 0);
+    pub handles_set: Option<usize>,
+    /// or a rule of `solvers::deform::HANDLE_RULES` (generated shapes bring their own).
+    pub handles_rule: Option<String>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -60,6 +67,8 @@ impl Registry {
                 (None, Some(_)) => {}
                 _ => bail!("{}: dataset '{}' needs exactly one of 'generator' and 'file'", path.display(), e.name),
             }
+            check_handles(e.handles.is_some(), e.handles_set, e.handles_rule.as_deref())
+                .with_context(|| format!("{}: dataset '{}'", path.display(), e.name))?;
         }
         Ok(reg)
     }
@@ -91,6 +100,22 @@ impl Registry {
     }
 }
 
+/// `handles` and `handles_rule` exclude each other; `handles_set` needs `handles`.
+pub fn check_handles(file: bool, set: Option<usize>, rule: Option<&str>) -> Result<()> {
+    if file && rule.is_some() {
+        bail!("give 'handles' or 'handles_rule', not both");
+    }
+    if set.is_some() && !file {
+        bail!("'handles_set' needs 'handles'");
+    }
+    if let Some(r) = rule {
+        if !solvers::deform::HANDLE_RULES.contains(&r) {
+            bail!("unknown handles_rule '{r}' (known: {})", solvers::deform::HANDLE_RULES.join(", "));
+        }
+    }
+    Ok(())
+}
+
 /// Where a dataset's mesh comes from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshSource {
@@ -115,6 +140,8 @@ pub struct Dataset {
     pub source: MeshSource,
     /// Vertex and face counts the registry expects, if it says.
     pub expected: (Option<usize>, Option<usize>),
+    /// Handles of the `deform` task.
+    pub handles: HandleSource,
 }
 
 impl Dataset {
@@ -169,17 +196,34 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
                 }
                 (None, None) => unreachable!("checked when the registry was loaded"),
             };
-            out.push(Dataset { name: e.name.clone(), source, expected: (e.vertices, e.faces) });
+            let handles = match (&e.handles, &e.handles_rule, &e.generator) {
+                (Some(h), _, _) => match &meshes_dir {
+                    Some(dir) => HandleSource::File { path: dir.join(h), set: e.handles_set.unwrap_or(0) },
+                    None => HandleSource::None,
+                },
+                (None, Some(r), _) => HandleSource::Rule(r.clone()),
+                (None, None, Some(g)) if solvers::generate::generated_handles(g).is_some() => {
+                    HandleSource::Generated(g.clone())
+                }
+                _ => HandleSource::None,
+            };
+            out.push(Dataset { name: e.name.clone(), source, expected: (e.vertices, e.faces), handles });
         }
     }
     for d in &cfg.config.dataset {
         if out.iter().any(|o: &Dataset| o.name == d.name) {
             bail!("dataset '{}' is both selected from the registry and given inline", d.name);
         }
+        let handles = match (&d.handles, &d.handles_rule) {
+            (Some(h), _) => HandleSource::File { path: cfg.dir.join(h), set: d.handles_set.unwrap_or(0) },
+            (None, Some(r)) => HandleSource::Rule(r.clone()),
+            (None, None) => HandleSource::None,
+        };
         out.push(Dataset {
             name: d.name.clone(),
             source: MeshSource::File(cfg.dir.join(&d.path)),
             expected: (None, None),
+            handles,
         });
     }
     Ok((out, notices))
@@ -236,6 +280,7 @@ mod tests {
             name: "p".into(),
             source: MeshSource::Generated("cap_2k".into()),
             expected: (Some(1850), Some(3584)),
+            handles: HandleSource::None,
         };
         assert!(ds.load().is_ok());
         let wrong = Dataset { expected: (Some(1851), None), ..ds };

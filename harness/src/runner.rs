@@ -6,6 +6,7 @@ use crate::output::{iteration_csv, median, run_stem, write_atomic, SummaryRow, S
 use crate::registry::{resolve, Dataset};
 use anyhow::{Context, Result};
 use solvers::authalic::{solve_authalic, AreaMetrics, AUTHALIC_ENERGY};
+use solvers::deform::solve_deform;
 use solvers::mesh::Mesh;
 use solvers::param::solve_param;
 use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
@@ -108,6 +109,9 @@ pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) 
     if let Some(t) = crate::tables::projection_table(&summaries) {
         t.write(&out_dir.join("tables"), "projection")?;
     }
+    if let Some(t) = crate::tables::deform_table(&summaries) {
+        t.write(&out_dir.join("tables"), "deform")?;
+    }
     if let Some(t) = crate::tables::authalic_table(&summaries) {
         t.write(&out_dir.join("tables"), "authalic")?;
     }
@@ -150,7 +154,7 @@ fn run_one(
     summary.faces = Some(mesh.n_faces());
     let mut rows = Rows::default();
     let t0 = Instant::now();
-    let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(cfg, mesh, energy, solver, &mut rows)));
+    let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(cfg, ds, mesh, energy, solver, &mut rows)));
     let elapsed = t0.elapsed().as_secs_f64();
     let (outcome, metrics) = match result {
         Ok(Ok(o)) => o,
@@ -203,6 +207,7 @@ fn run_one(
 /// One solve of the config's task; `authalic` runs also return their area metrics.
 fn solve(
     cfg: &LoadedConfig,
+    ds: &Dataset,
     mesh: &Mesh,
     energy: &str,
     solver: &str,
@@ -218,7 +223,12 @@ fn solve(
             let settings = cfg.config.param_settings(&kind);
             Ok((solve_param(mesh, kind, solver, &settings, rows)?, None))
         }
-        Task::Deform => anyhow::bail!("task deform is not available yet"),
+        Task::Deform => {
+            let kind = cfg.config.energy_kind(energy)?;
+            let handles = ds.handles.load(mesh)?;
+            let settings = cfg.config.deform_settings(&kind);
+            Ok((solve_deform(mesh, &handles, kind, solver, &settings, rows)?, None))
+        }
     }
 }
 
@@ -233,7 +243,10 @@ fn write_meta(cfg: &LoadedConfig, out_dir: &Path, started: SystemTime, ended: Op
     }
     for e in &cfg.config.energies {
         if let Ok(k) = cfg.config.energy_kind(e) {
-            let s = cfg.config.param_settings(&k).solver.stop;
+            let s = match cfg.config.task {
+                Task::Deform => cfg.config.deform_settings(&k).solver.stop,
+                _ => cfg.config.param_settings(&k).solver.stop,
+            };
             stop.insert(e.clone(), (s.grad_tol, s.energy_decrease_tol, s.max_iters));
         }
     }

@@ -128,6 +128,59 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
     })
 }
 
+/// The complex-view paper's Table 6 shape: per solver (rows) and energy (columns), the mean
+/// number of iterations and the mean run time in seconds over the deformation shapes,
+/// `it/t`. Cells with a run that did not converge are marked `*`; failed runs are left out
+/// and counted in the caption. `None` when no deform run finished.
+pub fn deform_table(rows: &[SummaryRow]) -> Option<Table> {
+    let done: Vec<&SummaryRow> = rows.iter().filter(|r| r.task == "deform" && r.status != "failed").collect();
+    if done.is_empty() {
+        return None;
+    }
+    let mut energies: Vec<&str> = Vec::new();
+    let mut solvers: Vec<&str> = Vec::new();
+    for r in rows.iter().filter(|r| r.task == "deform") {
+        if !energies.contains(&r.energy.as_str()) {
+            energies.push(&r.energy);
+        }
+        if !solvers.contains(&r.solver.as_str()) {
+            solvers.push(&r.solver);
+        }
+    }
+    let mut columns = vec!["it/t".to_string()];
+    columns.extend(energies.iter().map(|e| e.to_string()));
+    let mut out = Vec::new();
+    for s in &solvers {
+        let mut row = vec![s.to_string()];
+        for e in &energies {
+            let cell: Vec<&&SummaryRow> = done.iter().filter(|r| r.solver == *s && r.energy == *e).collect();
+            if cell.is_empty() {
+                row.push(String::new());
+                continue;
+            }
+            let n = cell.len() as f64;
+            let it = cell.iter().filter_map(|r| r.iterations).sum::<usize>() as f64 / n;
+            let t = cell.iter().filter_map(|r| r.time_s).sum::<f64>() / n;
+            let mark = if cell.iter().any(|r| r.status != "ok") { "*" } else { "" };
+            row.push(format!("{it:.1}/{t:.3}{mark}"));
+        }
+        out.push(row);
+    }
+    let shapes: std::collections::BTreeSet<&str> = done.iter().map(|r| r.dataset.as_str()).collect();
+    let failed = rows.iter().filter(|r| r.task == "deform" && r.status == "failed").count();
+    Some(Table {
+        title: "Shape deformation (complex-view paper, Table 6)".into(),
+        columns,
+        rows: out,
+        caption: format!(
+            "Mean iterations / mean run time in seconds over {} shapes ({}); * = at least one run did not \
+             converge (its iterations count as run); {failed} failed runs left out.",
+            shapes.len(),
+            shapes.into_iter().collect::<Vec<_>>().join(", ")
+        ),
+    })
+}
+
 /// Short labels of the authalic solvers, in the column order of the AEM paper's Table 1.
 const AUTHALIC: [(&str, &str); 3] = [("sem", "SEM"), ("aem-cg", "AEM-CG"), ("aem-cg-safe", "AEM-CG-safe")];
 
@@ -204,6 +257,33 @@ mod tests {
             status: "ok".into(),
             ..Default::default()
         }
+    }
+
+    #[test]
+    fn deform_table_averages_over_shapes() {
+        let d = |shape: &str, e: &str, s: &str, it: usize, t: f64, status: &str| SummaryRow {
+            dataset: shape.into(),
+            task: "deform".into(),
+            energy: e.into(),
+            solver: s.into(),
+            iterations: Some(it),
+            time_s: Some(t),
+            status: status.into(),
+            ..Default::default()
+        };
+        let rows = vec![
+            d("a", "sd", "kp-newton", 20, 0.5, "ok"),
+            d("b", "sd", "kp-newton", 30, 0.7, "ok"),
+            d("a", "sd", "akvf", 100, 2.0, "not_converged"),
+            d("a", "bconf", "kp-newton", 10, 0.1, "ok"),
+            d("b", "bconf", "akvf", 0, 0.0, "failed"),
+        ];
+        let t = deform_table(&rows).unwrap();
+        assert_eq!(t.columns, ["it/t", "sd", "bconf"]);
+        assert_eq!(t.rows[0], ["kp-newton", "25.0/0.600", "10.0/0.100"]);
+        assert_eq!(t.rows[1], ["akvf", "100.0/2.000*", ""]);
+        assert!(t.caption.contains("2 shapes (a, b)") && t.caption.contains("1 failed"));
+        assert!(deform_table(&[row("a", "kp-newton", 1.0, 1.0)]).is_none());
     }
 
     #[test]

@@ -131,6 +131,71 @@ path = "two.obj"
     assert!(out.join("tables/authalic.html").is_file());
 }
 
+/// A planar 4 x 4 vertex grid (z = 0), counter-clockwise faces.
+fn grid_obj() -> String {
+    let mut s = String::new();
+    for j in 0..4 {
+        for i in 0..4 {
+            s += &format!("v {i} {j} 0\n");
+        }
+    }
+    for j in 0..3 {
+        for i in 0..3 {
+            let (a, b, c, d) = (j * 4 + i + 1, j * 4 + i + 2, (j + 1) * 4 + i + 2, (j + 1) * 4 + i + 1);
+            s += &format!("f {a} {b} {c}\nf {a} {c} {d}\n");
+        }
+    }
+    s
+}
+
+#[test]
+fn a_deform_batch_runs_generated_file_and_rule_handles() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("grid.obj"), grid_obj()).unwrap();
+    std::fs::write(
+        tmp.path().join("grid.p2p.json"),
+        r#"{"p2p_sets": [{"src_vertex": [0, 3], "dst": [[0.0, 0.0], [3.5, 0.5]]}]}"#,
+    )
+    .unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        r#"name = "def"
+task = "deform"
+datasets = ["planar_bar_2k"]
+energies = ["sd", "nh"]
+solvers = ["kp-newton", "cm"]
+[[dataset]]
+name = "grid_file"
+path = "grid.obj"
+handles = "grid.p2p.json"
+[[dataset]]
+name = "grid_rule"
+path = "grid.obj"
+handles_rule = "twist"
+[[dataset]]
+name = "grid_none"
+path = "grid.obj"
+"#,
+    );
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(1), "grid_none has no handles: {}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert_eq!(rows.len(), 16);
+    for r in &rows[..12] {
+        assert_eq!(r[col("status")], "ok", "{r:?}");
+        assert_eq!(r[col("stop_reason")], "energy_decrease");
+        assert_eq!(r[col("flips")], "0");
+    }
+    for r in &rows[12..] {
+        assert_eq!(r[col("status")], "failed");
+        assert!(r[col("error")].contains("grid.obj: no handles"), "{r:?}");
+    }
+    let table = std::fs::read_to_string(out.join("tables/deform.md")).unwrap();
+    assert!(table.contains("| it/t | sd | nh |") && table.contains("| kp-newton |"), "{table}");
+}
+
 #[test]
 fn two_runs_of_the_same_config_are_identical() {
     let tmp = tempfile::tempdir().unwrap();
