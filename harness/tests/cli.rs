@@ -197,6 +197,46 @@ path = "grid.obj"
 }
 
 #[test]
+fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
+    // Issue "Deformation task": SD and NH (mu/kappa = 0.25, Figure 4) converge on every
+    // shape of the shared corpus with its handles, without flips.
+    let Ok(meshes) = std::env::var("MAPBENCH_MESHES") else {
+        eprintln!("MAPBENCH_MESHES not set: shared deform shapes skipped");
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"defs\"\ntask = \"deform\"\ndatasets = [\"tag:deform\"]\nenergies = [\"sd\", \"nh\"]\n\
+         solvers = [\"kp-newton\"]\n[energy.nh]\nmu = 0.2\nkappa = 0.8\n",
+    );
+    let out = tmp.path().join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
+        .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .env("MAPBENCH_MESHES", meshes)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let shared = ["archer", "rex", "raptor", "alligator", "octopus_2d", "robot_2d", "worm_2d"];
+    for name in shared {
+        assert_eq!(rows.iter().filter(|r| r[col("dataset")] == name).count(), 2, "{name}");
+    }
+    for r in &rows {
+        assert_eq!(r[col("status")], "ok", "{r:?}");
+        assert_eq!(r[col("flips")], "0", "{r:?}");
+        eprintln!(
+            "{} {}: {} iterations, {} s",
+            r[col("dataset")],
+            r[col("energy")],
+            r[col("iterations")],
+            r[col("time_s")]
+        );
+    }
+}
+
+#[test]
 fn two_runs_of_the_same_config_are_identical() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(
