@@ -30,6 +30,10 @@ enum Command {
         /// Output folder (default: reports/<name>).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Only the runs whose `<dataset>__<energy>__<solver>` matches this glob (`*`, `?`);
+        /// repeat for several.
+        #[arg(long)]
+        only: Vec<String>,
     },
     /// Compare a run folder with a baseline: exit 1 on a regression (more iterations, higher
     /// final energy, worse status, new flips), 2 when a baseline run is missing.
@@ -89,10 +93,10 @@ fn main() -> ExitCode {
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Run { config, out } => {
+        Command::Run { config, out, only } => {
             let cfg = LoadedConfig::load(&config)?;
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&cfg.config.name));
-            let report = runner::run_batch(&cfg, &out, &mut |line| eprintln!("{line}"))?;
+            let report = runner::run_batch(&cfg, &out, &only, &mut |line| eprintln!("{line}"))?;
             eprintln!(
                 "{} runs: {} ok, {} not converged, {} failed; results in {}",
                 report.runs,

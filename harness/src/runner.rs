@@ -44,27 +44,45 @@ pub struct BatchReport {
 }
 
 /// Run a whole config into `out_dir`. `log` receives one human-readable line per event.
-pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) -> Result<BatchReport> {
+/// `only` filters runs by glob on `<dataset>__<energy>__<solver>` (empty: every run).
+pub fn run_batch(
+    cfg: &LoadedConfig,
+    out_dir: &Path,
+    only: &[String],
+    log: &mut dyn FnMut(&str),
+) -> Result<BatchReport> {
     let (datasets, notices) = resolve(cfg).with_context(|| format!("{}: datasets", cfg.path.display()))?;
     for n in &notices {
         log(n);
     }
     std::fs::create_dir_all(out_dir.join("runs")).with_context(|| format!("{}: cannot create", out_dir.display()))?;
     let started = SystemTime::now();
-    write_meta(cfg, out_dir, started, None)?;
+    write_meta(cfg, out_dir, only, started, None)?;
     let mut summary = SummaryWriter::create(&out_dir.join("summary.csv"))?;
     let c = &cfg.config;
     let energies = c.energy_names();
-    let total = datasets.len() * energies.len() * c.solvers.len();
+    let selected =
+        |d: &str, e: &str, s: &str| only.is_empty() || only.iter().any(|g| glob_match(g, &run_stem(d, e, s)));
+    let total = datasets
+        .iter()
+        .flat_map(|d| energies.iter().flat_map(move |e| c.solvers.iter().map(move |s| (d, e, s))))
+        .filter(|(d, e, s)| selected(&d.name, e, s))
+        .count();
+    if total == 0 {
+        anyhow::bail!("--only {} selects no run of {}", only.join(" "), cfg.path.display());
+    }
     let mut report = BatchReport { skipped_datasets: notices, out_dir: out_dir.to_path_buf(), ..Default::default() };
     // Rows by (dataset, energy) group, kept to fill `energy_minus_best` once the group is done.
     let mut done = 0;
     let mut summaries: Vec<SummaryRow> = Vec::new();
     for ds in &datasets {
+        if !energies.iter().any(|e| c.solvers.iter().any(|s| selected(&ds.name, e, s))) {
+            continue;
+        }
         let mesh = ds.load();
         for energy in &energies {
             let mut group: Vec<RunResult> = Vec::new();
-            for solver in &c.solvers {
+            for solver in c.solvers.iter().filter(|s| selected(&ds.name, energy, s)) {
                 done += 1;
                 let result = run_one(cfg, ds, mesh.as_ref(), energy, solver);
                 let s = &result.summary;
@@ -115,7 +133,7 @@ pub fn run_batch(cfg: &LoadedConfig, out_dir: &Path, log: &mut dyn FnMut(&str)) 
     if let Some(t) = crate::tables::authalic_table(&summaries) {
         t.write(&out_dir.join("tables"), "authalic")?;
     }
-    write_meta(cfg, out_dir, started, Some(SystemTime::now()))?;
+    write_meta(cfg, out_dir, only, started, Some(SystemTime::now()))?;
     Ok(report)
 }
 
@@ -232,8 +250,38 @@ fn solve(
     }
 }
 
+/// Glob match of `text` against `pattern` with `*` (any run of characters) and `?` (one).
+pub fn glob_match(pattern: &str, text: &str) -> bool {
+    let (p, t): (Vec<char>, Vec<char>) = (pattern.chars().collect(), text.chars().collect());
+    // Iterative matching with one backtrack point for the last `*`.
+    let (mut i, mut j, mut star, mut mark) = (0, 0, None, 0);
+    while j < t.len() {
+        if i < p.len() && (p[i] == '?' || p[i] == t[j]) {
+            i += 1;
+            j += 1;
+        } else if i < p.len() && p[i] == '*' {
+            star = Some(i);
+            mark = j;
+            i += 1;
+        } else if let Some(s) = star {
+            i = s + 1;
+            mark += 1;
+            j = mark;
+        } else {
+            return false;
+        }
+    }
+    p[i..].iter().all(|&c| c == '*')
+}
+
 /// `meta.json`: the resolved config and provenance (code version, git revision, machine).
-fn write_meta(cfg: &LoadedConfig, out_dir: &Path, started: SystemTime, ended: Option<SystemTime>) -> Result<()> {
+fn write_meta(
+    cfg: &LoadedConfig,
+    out_dir: &Path,
+    only: &[String],
+    started: SystemTime,
+    ended: Option<SystemTime>,
+) -> Result<()> {
     let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let (rev, dirty) = git_revision(&cfg.dir);
     let mut stop = BTreeMap::new();
@@ -253,6 +301,7 @@ fn write_meta(cfg: &LoadedConfig, out_dir: &Path, started: SystemTime, ended: Op
     let meta = serde_json::json!({
         "config_path": cfg.path.display().to_string(),
         "config": cfg.config,
+        "only": only,
         "stop_per_energy": stop.iter().map(|(e, (g, d, m))| (e.clone(), serde_json::json!({
             "grad_tol": g, "energy_decrease_tol": d, "max_iters": m
         }))).collect::<serde_json::Map<_, _>>(),
@@ -284,4 +333,22 @@ fn git_revision(dir: &Path) -> (Option<String>, Option<bool>) {
     let dirty =
         rev.as_ref().and_then(|_| git(&["status", "--porcelain", "--untracked-files=no"])).map(|s| !s.is_empty());
     (rev, dirty)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::glob_match;
+
+    #[test]
+    fn globs() {
+        assert!(glob_match("*", "a__sd__kp-newton"));
+        assert!(glob_match("*__sd__*", "cow__sd__kp-newton"));
+        assert!(!glob_match("*__sd__*", "cow__sarap__kp-newton"));
+        assert!(glob_match("cow__*__kp-newton", "cow__bconf__kp-newton"));
+        assert!(glob_match("c?w*", "cow__sd__cm"));
+        assert!(!glob_match("cow", "cow__sd__cm"));
+        assert!(glob_match("*cm", "cow__sd__cm"));
+        assert!(glob_match("a*b*c", "aXXbYYbZc"));
+        assert!(!glob_match("a*b*c", "aXXbYYbZ"));
+    }
 }

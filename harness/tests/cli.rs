@@ -237,6 +237,31 @@ fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
 }
 
 #[test]
+fn only_filters_runs_by_glob() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"o\"\ndatasets = [\"bumpy_1k\", \"cap_2k\"]\nenergies = [\"sd\", \"bconf\"]\nsolvers = [\"kp-newton\", \"cm\"]\n",
+    );
+    let out = tmp.path().join("out");
+    let args = ["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--only", "*__sd__kp-newton"];
+    let o = mapbench(&[&args[..], &["--only", "cap_2k__bconf__*"]].concat(), tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let stem = |r: &Vec<String>| {
+        ["dataset", "energy", "solver"].map(|k| r[header.iter().position(|h| h == k).unwrap()].clone()).join("__")
+    };
+    let stems: Vec<String> = rows.iter().map(stem).collect();
+    assert_eq!(
+        stems,
+        ["bumpy_1k__sd__kp-newton", "cap_2k__sd__kp-newton", "cap_2k__bconf__kp-newton", "cap_2k__bconf__cm"]
+    );
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--only", "cow*"], tmp.path());
+    assert_ne!(o.status.code(), Some(0));
+    assert!(text(&o).contains("--only cow* selects no run"), "{}", text(&o));
+}
+
+#[test]
 fn two_runs_of_the_same_config_are_identical() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(
