@@ -374,10 +374,9 @@ impl AuthalicProblem {
     /// Area metrics of the map `z`.
     pub fn metrics(&self, z: &[f64]) -> AreaMetrics {
         let x = self.positions_of(z);
-        let x = &x;
         let t = self.terms(z);
         let r: Vec<f64> = (0..self.faces.len())
-            .map(|f| (self.image_area(x, f) / t.area) / (self.area[f] / self.total_area))
+            .map(|f| (self.image_area(&x, f) / t.area) / (self.area[f] / self.total_area))
             .collect();
         let m = r.len().max(1) as f64;
         let mean = r.iter().sum::<f64>() / m;
@@ -454,7 +453,7 @@ impl AuthalicProblem {
 /// is a Laplacian with a Dirichlet boundary.
 const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false };
 
-/// Row `iter` of an authalic run, with the extra columns in [`EXTRA_COLUMNS`] order.
+/// What the step rule of one iteration did (the extra columns, [`EXTRA_COLUMNS`]).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Extras {
     pub ascent: bool,
@@ -509,16 +508,20 @@ impl Reporter<'_> {
             t_iter_s: tm.iter,
             t_cum_s: self.t_cum,
             ls_evals: ex.ls_evals,
-            extra: vec![
-                ("image_area", t.area),
-                ("stretch_energy", t.stretch),
-                ("ascent", b(ex.ascent)),
-                ("wolfe", ex.wolfe.map_or(f64::NAN, b)),
-                ("backtracks", ex.backtracks as f64),
-                ("restarted", b(ex.restarted)),
-                ("fold_rejects", ex.fold_rejects as f64),
-                ("quad_fallback", b(ex.quad_fallback)),
-            ],
+            // In EXTRA_COLUMNS order.
+            extra: EXTRA_COLUMNS
+                .into_iter()
+                .zip([
+                    t.area,
+                    t.stretch,
+                    b(ex.ascent),
+                    ex.wolfe.map_or(f64::NAN, b),
+                    ex.backtracks as f64,
+                    b(ex.restarted),
+                    ex.fold_rejects as f64,
+                    b(ex.quad_fallback),
+                ])
+                .collect(),
         };
         self.observer.observe(&record) == crate::solver::Flow::Stop
     }
