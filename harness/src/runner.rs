@@ -30,6 +30,8 @@ impl Observer for Rows {
 struct RunResult {
     summary: SummaryRow,
     rows: Vec<IterationRecord>,
+    /// The final map as OBJ text (`uv/<run>.obj`), taken when written.
+    map_obj: Option<Vec<u8>>,
 }
 
 /// Totals of a batch.
@@ -84,7 +86,11 @@ pub fn run_batch(
             let mut group: Vec<RunResult> = Vec::new();
             for solver in c.solvers.iter().filter(|s| selected(&ds.name, energy, s)) {
                 done += 1;
-                let result = run_one(cfg, ds, mesh.as_ref(), energy, solver);
+                let mut result = run_one(cfg, ds, mesh.as_ref(), energy, solver);
+                if let Some(obj) = result.map_obj.take() {
+                    let stem = run_stem(&ds.name, energy, solver);
+                    write_atomic(&out_dir.join("uv").join(format!("{stem}.obj")), &obj)?;
+                }
                 let s = &result.summary;
                 log(&format!(
                     "[{done}/{total}] {} {} {}: {}{}",
@@ -137,6 +143,21 @@ pub fn run_batch(
     Ok(report)
 }
 
+/// The final map as an OBJ (`v u v 0`, the mesh's faces), so it can be opened in any viewer.
+/// Coordinates are those the solver works in: the area-1 frame for `param` and `deform`, the
+/// unit disk for `authalic`.
+fn map_obj(mesh: &Mesh, x: &[f64]) -> Vec<u8> {
+    use std::fmt::Write as _;
+    let mut s = format!("# final map: {} vertices, {} faces\n", mesh.n_vertices(), mesh.n_faces());
+    for p in x.chunks_exact(2) {
+        let _ = writeln!(s, "v {:?} {:?} 0", p[0], p[1]);
+    }
+    for f in &mesh.faces {
+        let _ = writeln!(s, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1);
+    }
+    s.into_bytes()
+}
+
 fn write_run(out_dir: &Path, r: &RunResult, best: f64) -> Result<()> {
     let s = &r.summary;
     let path = out_dir.join("runs").join(format!("{}.csv", run_stem(&s.dataset, &s.energy, &s.solver)));
@@ -162,7 +183,7 @@ fn run_one(
         summary.status = "failed".into();
         summary.stop_reason = "error".into();
         summary.error = error;
-        RunResult { summary, rows: Vec::new() }
+        RunResult { summary, rows: Vec::new(), map_obj: None }
     };
     let mesh = match mesh {
         Ok(m) => m,
@@ -219,7 +240,8 @@ fn run_one(
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
         _ => String::new(),
     };
-    RunResult { summary, rows }
+    let map_obj = Some(map_obj(mesh, &outcome.x));
+    RunResult { summary, rows, map_obj }
 }
 
 /// One solve of the config's task; `authalic` runs also return their area metrics.

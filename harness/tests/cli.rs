@@ -77,6 +77,17 @@ path = "quad.obj"
     assert_eq!(it.len() - 1, good[col("iterations")].parse::<usize>().unwrap());
     assert_eq!(it.last().unwrap()[2].parse::<f64>().unwrap(), 0.0);
     assert!(out.join("runs/broken__sd__kp-newton.csv").is_file());
+    // the final map as OBJ: same vertices and faces, no flipped triangle; none for a failed run
+    let uv = solvers::mesh::load_obj(&out.join("uv/bumpy_1k__sd__kp-newton.obj")).unwrap();
+    let src = solvers::generate::generate("bumpy_1k").unwrap();
+    assert_eq!((uv.n_vertices(), uv.faces.clone()), (src.n_vertices(), src.faces.clone()));
+    assert!(uv.positions.iter().all(|p| p[2] == 0.0));
+    for f in &uv.faces {
+        let p = f.map(|v| uv.positions[v]);
+        let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+        assert!(cross > 0.0);
+    }
+    assert!(!out.join("uv/broken__sd__kp-newton.obj").exists());
     let meta: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
     assert_eq!(meta["config"]["name"], "t");
