@@ -164,6 +164,9 @@ pub struct Config {
     pub authalic: Option<AuthalicConfig>,
     #[serde(default)]
     pub deform: Option<DeformConfig>,
+    /// Wall-clock limit per run, e.g. "90s", "10m", "1h" (checked after every iteration;
+    /// a run that passes it stops with `stop_reason = timeout`). Default: none.
+    pub timeout: Option<String>,
 }
 
 fn default_task() -> Task {
@@ -202,6 +205,7 @@ impl Config {
     /// Checks names and values that serde cannot (unknown solver/energy names, parameters
     /// that do not belong to an energy, out-of-range values).
     pub fn check(&self) -> Result<()> {
+        self.timeout_secs()?;
         if self.task != Task::Deform && self.deform.is_some() {
             bail!("[deform] applies only to task = \"deform\"");
         }
@@ -284,6 +288,23 @@ impl Config {
             }
         }
         Ok(())
+    }
+
+    /// `timeout` in seconds (`None` when not set).
+    pub fn timeout_secs(&self) -> Result<Option<f64>> {
+        let Some(t) = &self.timeout else { return Ok(None) };
+        let t = t.trim();
+        let (num, unit) = t.split_at(t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len()));
+        let factor = match unit {
+            "" | "s" => 1.0,
+            "m" | "min" => 60.0,
+            "h" => 3600.0,
+            _ => bail!("timeout = \"{t}\": unknown unit '{unit}' (use s, m or h, e.g. \"10m\")"),
+        };
+        match num.trim().parse::<f64>() {
+            Ok(v) if v > 0.0 && v.is_finite() => Ok(Some(v * factor)),
+            _ => bail!("timeout = \"{t}\" is not a positive duration (e.g. \"90s\", \"10m\", \"1h\")"),
+        }
     }
 
     /// The `authalic` task's rules: one energy, its own solvers, no Newton sections.
@@ -463,6 +484,18 @@ mod tests {
 
     const AUTH: &str =
         "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"bumpy_1k\"]\nsolvers = [\"sem\", \"aem-cg\"]\n";
+
+    #[test]
+    fn timeouts_parse_with_units() {
+        let t = |v: &str| parse(&format!("timeout = \"{v}\"\n{MIN}")).map(|c| c.timeout_secs().unwrap());
+        assert_eq!(t("90s").unwrap(), Some(90.0));
+        assert_eq!(t("10m").unwrap(), Some(600.0));
+        assert_eq!(t("1.5h").unwrap(), Some(5400.0));
+        assert_eq!(t("30").unwrap(), Some(30.0));
+        assert!(format!("{:#}", t("10d").unwrap_err()).contains("unknown unit 'd'"));
+        assert!(format!("{:#}", t("-1m").unwrap_err()).contains("not a positive duration"));
+        assert_eq!(parse(MIN).unwrap().timeout_secs().unwrap(), None);
+    }
 
     #[test]
     fn authalic_configs_default_to_the_papers_protocol_and_reject_newton_sections() {

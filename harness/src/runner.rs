@@ -13,15 +13,24 @@ use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
-use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-/// Keeps every row of a run (a run has at most `max_iters + 1` rows).
+/// Keeps every row of a run (a run has at most `max_iters + 1` rows) and stops the solver
+/// after the row that passes the run's deadline (`timeout` in the config).
 #[derive(Default)]
-struct Rows(Vec<IterationRecord>);
+struct Rows {
+    rows: Vec<IterationRecord>,
+    deadline: Option<Instant>,
+    timed_out: bool,
+}
 
 impl Observer for Rows {
     fn observe(&mut self, record: &IterationRecord) -> Flow {
-        self.0.push(record.clone());
+        self.rows.push(record.clone());
+        if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            self.timed_out = true;
+            return Flow::Stop;
+        }
         Flow::Continue
     }
 }
@@ -191,7 +200,9 @@ fn run_one(
     };
     summary.vertices = Some(mesh.n_vertices());
     summary.faces = Some(mesh.n_faces());
-    let mut rows = Rows::default();
+    let timeout = cfg.config.timeout_secs().ok().flatten();
+    let mut rows =
+        Rows { deadline: timeout.map(|t| Instant::now() + Duration::from_secs_f64(t)), ..Default::default() };
     let t0 = Instant::now();
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(cfg, ds, mesh, energy, solver, &mut rows)));
     let elapsed = t0.elapsed().as_secs_f64();
@@ -218,14 +229,18 @@ fn run_one(
         summary.authalic_energy = Some(m.authalic_energy);
         summary.folded = Some(m.folded);
     }
-    let rows = rows.0;
+    let timed_out = rows.timed_out;
+    let rows = rows.rows;
     let per_iter = |f: fn(&IterationRecord) -> f64| {
         let mut v: Vec<f64> = rows.iter().skip(1).map(|r| 1e3 * f(r)).collect();
         median(&mut v)
     };
     summary.iterations = Some(outcome.iterations);
     summary.converged = outcome.stop_reason.is_converged();
-    summary.stop_reason = outcome.stop_reason.as_str().to_string();
+    summary.stop_reason = match (&outcome.stop_reason, timed_out) {
+        (StopReason::Interrupted, true) => "timeout".to_string(),
+        (r, _) => r.as_str().to_string(),
+    };
     summary.init_energy = Some(outcome.init_energy);
     summary.final_energy = Some(outcome.final_energy);
     summary.grad_norm = Some(outcome.grad_norm);

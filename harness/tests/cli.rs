@@ -273,6 +273,23 @@ fn only_filters_runs_by_glob() {
 }
 
 #[test]
+fn a_run_past_its_timeout_stops_with_reason_timeout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"t\"\ntimeout = \"0.001s\"\ndatasets = [\"bumpy_5k\"]\nenergies = [\"sd\"]\nsolvers = [\"slim\"]\n",
+    );
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "a timeout is not a failure: {}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert_eq!(rows[0][col("stop_reason")], "timeout");
+    assert_eq!(rows[0][col("status")], "not_converged");
+    assert_eq!(rows[0][col("iterations")], "0", "the deadline passed before the first iteration ended");
+}
+
+#[test]
 fn two_runs_of_the_same_config_are_identical() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(
