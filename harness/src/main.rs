@@ -6,6 +6,7 @@ mod config;
 mod handles;
 mod output;
 mod registry;
+mod resume;
 mod runner;
 mod tables;
 
@@ -34,6 +35,10 @@ enum Command {
         /// repeat for several.
         #[arg(long)]
         only: Vec<String>,
+        /// Reuse the runs a previous batch finished in the same folder with the same code,
+        /// settings, mesh and handles (keys in runs/<run>.json); run the rest.
+        #[arg(long)]
+        resume: bool,
     },
     /// Compare a run folder with a baseline: exit 1 on a regression (more iterations, higher
     /// final energy, worse status, new flips), 2 when a baseline run is missing.
@@ -93,10 +98,11 @@ fn main() -> ExitCode {
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Run { config, out, only } => {
+        Command::Run { config, out, only, resume } => {
             let cfg = LoadedConfig::load(&config)?;
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&cfg.config.name));
-            let report = runner::run_batch(&cfg, &out, &only, &mut |line| eprintln!("{line}"))?;
+            let report =
+                runner::run_batch(&cfg, &out, &runner::RunOptions { only, resume }, &mut |line| eprintln!("{line}"))?;
             eprintln!(
                 "{} runs: {} ok, {} not converged, {} failed; results in {}",
                 report.runs,

@@ -54,21 +54,30 @@ pub struct BatchReport {
     pub out_dir: PathBuf,
 }
 
+/// How to run a batch (the `run` flags).
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Globs on `<dataset>__<energy>__<solver>`; empty: every run.
+    pub only: Vec<String>,
+    /// Reuse finished runs of a previous batch in the same folder with the same key.
+    pub resume: bool,
+}
+
 /// Run a whole config into `out_dir`. `log` receives one human-readable line per event.
-/// `only` filters runs by glob on `<dataset>__<energy>__<solver>` (empty: every run).
 pub fn run_batch(
     cfg: &LoadedConfig,
     out_dir: &Path,
-    only: &[String],
+    opts: &RunOptions,
     log: &mut dyn FnMut(&str),
 ) -> Result<BatchReport> {
+    let only = &opts.only[..];
     let (datasets, notices) = resolve(cfg).with_context(|| format!("{}: datasets", cfg.path.display()))?;
     for n in &notices {
         log(n);
     }
     std::fs::create_dir_all(out_dir.join("runs")).with_context(|| format!("{}: cannot create", out_dir.display()))?;
     let started = SystemTime::now();
-    write_meta(cfg, out_dir, only, started, None)?;
+    write_meta(cfg, out_dir, opts, started, None)?;
     let mut summary = SummaryWriter::create(&out_dir.join("summary.csv"))?;
     let c = &cfg.config;
     let energies = c.energy_names();
@@ -86,26 +95,44 @@ pub fn run_batch(
     // Rows by (dataset, energy) group, kept to fill `energy_minus_best` once the group is done.
     let mut done = 0;
     let mut summaries: Vec<SummaryRow> = Vec::new();
+    let (rev, dirty) = git_revision(&cfg.dir);
+    let code = format!("mapbench {} {} dirty={dirty:?}", env!("CARGO_PKG_VERSION"), rev.unwrap_or_default());
     for ds in &datasets {
         if !energies.iter().any(|e| c.solvers.iter().any(|s| selected(&ds.name, e, s))) {
             continue;
         }
-        let mesh = ds.load();
+        // Loaded on the first run that is not resumed.
+        let mut mesh: Option<Result<Mesh>> = None;
         for energy in &energies {
             let mut group: Vec<RunResult> = Vec::new();
             for solver in c.solvers.iter().filter(|s| selected(&ds.name, energy, s)) {
                 done += 1;
-                let mut result = run_one(cfg, ds, mesh.as_ref(), energy, solver);
+                let stem = run_stem(&ds.name, energy, solver);
+                // An unreadable mesh file has no key; its run fails below as usual.
+                let key = crate::resume::run_key(cfg, ds, energy, solver, &code).ok();
+                let previous = match (&key, opts.resume) {
+                    (Some(k), true) => crate::resume::previous(out_dir, &stem, k),
+                    _ => None,
+                };
+                let resumed = previous.is_some();
+                let mut result = match previous {
+                    Some((summary, rows)) => RunResult { summary, rows, map_obj: None },
+                    None => {
+                        let m = mesh.get_or_insert_with(|| ds.load());
+                        run_one(cfg, ds, m.as_ref(), energy, solver)
+                    }
+                };
                 if let Some(obj) = result.map_obj.take() {
                     let stem = run_stem(&ds.name, energy, solver);
                     write_atomic(&out_dir.join("uv").join(format!("{stem}.obj")), &obj)?;
                 }
                 let s = &result.summary;
                 log(&format!(
-                    "[{done}/{total}] {} {} {}: {}{}",
+                    "[{done}/{total}] {} {} {}: {}{}{}",
                     ds.name,
                     energy,
                     solver,
+                    if resumed { "resumed, " } else { "" },
                     s.status,
                     match (&s.iterations, &s.final_energy, &s.time_s) {
                         (Some(it), Some(e), Some(t)) =>
@@ -122,6 +149,9 @@ pub fn run_batch(
                 // Written now with this run's own best; rewritten with the group's best below.
                 let own_best = result.rows.iter().map(|r| r.energy).fold(f64::INFINITY, f64::min);
                 write_run(out_dir, &result, own_best)?;
+                if let (Some(k), false) = (&key, resumed) {
+                    crate::resume::write_sidecar(out_dir, &stem, k, &result.summary)?;
+                }
                 summary.append(&result.summary)?;
                 summaries.push(result.summary.clone());
                 group.push(result);
@@ -148,7 +178,7 @@ pub fn run_batch(
     if let Some(t) = crate::tables::authalic_table(&summaries) {
         t.write(&out_dir.join("tables"), "authalic")?;
     }
-    write_meta(cfg, out_dir, only, started, Some(SystemTime::now()))?;
+    write_meta(cfg, out_dir, opts, started, Some(SystemTime::now()))?;
     Ok(report)
 }
 
@@ -315,7 +345,7 @@ pub fn glob_match(pattern: &str, text: &str) -> bool {
 fn write_meta(
     cfg: &LoadedConfig,
     out_dir: &Path,
-    only: &[String],
+    opts: &RunOptions,
     started: SystemTime,
     ended: Option<SystemTime>,
 ) -> Result<()> {
@@ -338,7 +368,8 @@ fn write_meta(
     let meta = serde_json::json!({
         "config_path": cfg.path.display().to_string(),
         "config": cfg.config,
-        "only": only,
+        "only": opts.only,
+        "resume": opts.resume,
         "stop_per_energy": stop.iter().map(|(e, (g, d, m))| (e.clone(), serde_json::json!({
             "grad_tol": g, "energy_decrease_tol": d, "max_iters": m
         }))).collect::<serde_json::Map<_, _>>(),

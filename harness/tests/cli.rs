@@ -290,6 +290,38 @@ fn a_run_past_its_timeout_stops_with_reason_timeout() {
 }
 
 #[test]
+fn resume_reruns_nothing_that_finished_and_everything_whose_settings_changed() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("quad.obj"), QUAD_OBJ).unwrap();
+    let body = "name = \"r\"\ndatasets = [\"cap_2k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n\
+                [[dataset]]\nname = \"broken\"\npath = \"quad.obj\"\n";
+    let cfg = write_config(tmp.path(), body);
+    let out = tmp.path().join("out");
+    let run = |extra: &[&str]| {
+        let o =
+            mapbench(&[&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], extra].concat(), tmp.path());
+        // exit 1 whenever the broken mesh is in the batch (resumed or not)
+        let broken_in = !extra.contains(&"--only");
+        assert_eq!(o.status.code(), Some(if broken_in { 1 } else { 0 }), "{}", text(&o));
+        (text(&o), std::fs::read_to_string(out.join("summary.csv")).unwrap())
+    };
+    let (_, first) = run(&[]);
+    let csv = std::fs::read_to_string(out.join("runs/cap_2k__sd__cm.csv")).unwrap();
+    let (log, again) = run(&["--resume"]);
+    assert_eq!(log.matches("resumed, ").count(), 4, "{log}");
+    assert_eq!(again, first, "the resumed summary is the finished one, timings included");
+    assert_eq!(std::fs::read_to_string(out.join("runs/cap_2k__sd__cm.csv")).unwrap(), csv);
+    // a setting that changes results invalidates every run; --only still applies
+    write_config(tmp.path(), &format!("{body}[stop]\nmax_iters = 3\n"));
+    let (log, _) = run(&["--resume", "--only", "cap_2k*"]);
+    assert_eq!(log.matches("resumed, ").count(), 0, "{log}");
+    assert!(log.contains("cap_2k sd cm: not_converged (max_iters), 3 iterations"), "{log}");
+    // without --resume everything runs again
+    let (log, _) = run(&[]);
+    assert_eq!(log.matches("resumed, ").count(), 0, "{log}");
+}
+
+#[test]
 fn two_runs_of_the_same_config_are_identical() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(
