@@ -26,4 +26,5 @@ pub mod local;
 pub mod mesh;
 pub mod param;
 pub mod problem;
+pub mod smoothness;
 pub mod solver;
