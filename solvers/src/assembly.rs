@@ -1,4 +1,5 @@
-//! Sparse assembly of per-element 6x6 blocks into the lower triangle of a symmetric
+//! Sparse assembly of per-element 6x6 blocks (faces) and, optionally, 8x8 blocks (pairs of
+//! faces sharing an edge: the smoothness term) into the lower triangle of a symmetric
 //! `2n x 2n` matrix in compressed-column form.
 //!
 //! The pattern and a scatter map (for every element, the value slot of each of its 21
@@ -7,6 +8,7 @@
 //! value slots with a gather map (the scatter map inverted), summing each slot's
 //! contributions in element order: the result is the same bits for any thread count.
 
+use crate::smoothness::Matrix8;
 use nalgebra::Matrix6;
 use rayon::prelude::*;
 
@@ -24,8 +26,11 @@ pub struct Pattern {
     /// Per element, the slots of local entries `(a, b)` with `a >= b` in the order of
     /// [`LOWER`].
     pub scatter: Vec<[u32; 21]>,
+    /// Per edge block (4 vertices), the slots of its entries in the order of [`LOWER8`].
+    pub edge_scatter: Vec<[u32; 36]>,
     /// Gather map: the contributions to value slot `p` are `gather_src[gather_ptr[p]..gather_ptr[p + 1]]`,
-    /// each `21 * element + k` (local entry `LOWER[k]`), in increasing element order.
+    /// each `21 * element + k` (local entry `LOWER[k]`) or, past `21 * elements`,
+    /// `36 * edge + k` (entry `LOWER8[k]`), in increasing element order.
     gather_ptr: Vec<usize>,
     gather_src: Vec<u32>,
 }
@@ -47,15 +52,42 @@ pub const LOWER: [(usize, usize); 21] = {
     out
 };
 
+/// Local lower-triangular entries of an 8x8 block, row-major.
+pub const LOWER8: [(usize, usize); 36] = {
+    let mut out = [(0, 0); 36];
+    let mut k = 0;
+    let mut a = 0;
+    while a < 8 {
+        let mut b = 0;
+        while b <= a {
+            out[k] = (a, b);
+            k += 1;
+            b += 1;
+        }
+        a += 1;
+    }
+    out
+};
+
 #[inline]
 fn local_dofs(f: &[usize; 3]) -> [usize; 6] {
     [2 * f[0], 2 * f[0] + 1, 2 * f[1], 2 * f[1] + 1, 2 * f[2], 2 * f[2] + 1]
+}
+
+#[inline]
+fn edge_dofs(e: &[usize; 4]) -> [usize; 8] {
+    std::array::from_fn(|i| 2 * e[i / 2] + i % 2)
 }
 
 impl Pattern {
     /// Build the pattern for `faces` over `n_vertices` vertices (every vertex gets its
     /// diagonal entries even if unreferenced, so the matrix is never structurally singular).
     pub fn new(faces: &[[usize; 3]], n_vertices: usize) -> Pattern {
+        Self::with_edges(faces, &[], n_vertices)
+    }
+
+    /// The pattern of face blocks plus 8x8 blocks over the 4 vertices of each `edges` entry.
+    pub fn with_edges(faces: &[[usize; 3]], edges: &[[usize; 4]], n_vertices: usize) -> Pattern {
         let n = 2 * n_vertices;
         // column -> rows (row >= col)
         let mut cols: Vec<Vec<u32>> = vec![Vec::new(); n];
@@ -65,6 +97,13 @@ impl Pattern {
         for f in faces {
             let d = local_dofs(f);
             for &(a, b) in LOWER.iter() {
+                let (r, c) = if d[a] >= d[b] { (d[a], d[b]) } else { (d[b], d[a]) };
+                cols[c].push(r as u32);
+            }
+        }
+        for e in edges {
+            let d = edge_dofs(e);
+            for &(a, b) in LOWER8.iter() {
                 let (r, c) = if d[a] >= d[b] { (d[a], d[b]) } else { (d[b], d[a]) };
                 cols[c].push(r as u32);
             }
@@ -96,13 +135,23 @@ impl Pattern {
                 s
             })
             .collect::<Vec<[u32; 21]>>();
-        // Invert the scatter map by counting sort (stable: element order is kept).
+        let edge_scatter = edges
+            .iter()
+            .map(|e| {
+                let d = edge_dofs(e);
+                let mut s = [0u32; 36];
+                for (k, &(a, b)) in LOWER8.iter().enumerate() {
+                    let (r, c) = if d[a] >= d[b] { (d[a], d[b]) } else { (d[b], d[a]) };
+                    s[k] = slot(r, c) as u32;
+                }
+                s
+            })
+            .collect::<Vec<[u32; 36]>>();
+        // Invert the scatter maps by counting sort (stable: element order is kept).
         let nnz = row_idx.len();
         let mut gather_ptr = vec![0usize; nnz + 1];
-        for s in &scatter {
-            for &slot in s {
-                gather_ptr[slot as usize + 1] += 1;
-            }
+        for &slot in scatter.iter().flatten().chain(edge_scatter.iter().flatten()) {
+            gather_ptr[slot as usize + 1] += 1;
         }
         for p in 0..nnz {
             gather_ptr[p + 1] += gather_ptr[p];
@@ -115,7 +164,14 @@ impl Pattern {
                 fill[slot as usize] += 1;
             }
         }
-        Pattern { n, col_ptr, row_idx, diag, scatter, gather_ptr, gather_src }
+        let base = 21 * scatter.len();
+        for (e, s) in edge_scatter.iter().enumerate() {
+            for (k, &slot) in s.iter().enumerate() {
+                gather_src[fill[slot as usize]] = (base + 36 * e + k) as u32;
+                fill[slot as usize] += 1;
+            }
+        }
+        Pattern { n, col_ptr, row_idx, diag, scatter, edge_scatter, gather_ptr, gather_src }
     }
 
     pub fn nnz(&self) -> usize {
@@ -126,14 +182,26 @@ impl Pattern {
     /// each slot sums its contributions in element order, so the result does not depend on
     /// the thread count.
     pub fn assemble(&self, blocks: &[Matrix6<f64>], values: &mut Vec<f64>) {
+        self.assemble_with_edges(blocks, &[], values)
+    }
+
+    /// [`Pattern::assemble`] with one 8x8 block per edge of [`Pattern::with_edges`].
+    pub fn assemble_with_edges(&self, blocks: &[Matrix6<f64>], edge_blocks: &[Matrix8], values: &mut Vec<f64>) {
         assert_eq!(blocks.len(), self.scatter.len(), "one block per element");
+        assert_eq!(edge_blocks.len(), self.edge_scatter.len(), "one block per edge");
+        let base = 21 * blocks.len();
         values.resize(self.nnz(), 0.0);
         values.par_iter_mut().with_min_len(SLOTS_PER_TASK).enumerate().for_each(|(p, v)| {
             let mut sum = 0.0;
             for &src in &self.gather_src[self.gather_ptr[p]..self.gather_ptr[p + 1]] {
-                let (e, k) = (src as usize / 21, src as usize % 21);
-                let (i, j) = LOWER[k];
-                sum += blocks[e][(i, j)];
+                let src = src as usize;
+                if src < base {
+                    let (i, j) = LOWER[src % 21];
+                    sum += blocks[src / 21][(i, j)];
+                } else {
+                    let (i, j) = LOWER8[(src - base) % 36];
+                    sum += edge_blocks[(src - base) / 36][(i, j)];
+                }
             }
             *v = sum;
         });
@@ -203,6 +271,43 @@ mod tests {
                 assert!(pat.row_idx[p] >= c);
             }
         }
+    }
+
+    #[test]
+    fn edge_blocks_assemble_like_a_dense_sum() {
+        let faces = vec![[0, 1, 2], [1, 3, 2]];
+        let edges = vec![[1, 2, 0, 3]];
+        let pat = Pattern::with_edges(&faces, &edges, 4);
+        let blocks: Vec<Matrix6<f64>> = (0..2)
+            .map(|t| Matrix6::from_fn(|i, j| ((i + j + t) % 5) as f64 + if i == j { 9.0 } else { 0.0 }))
+            .collect();
+        let a = Matrix8::from_fn(|i, j| ((i * j + 3) % 7) as f64 - 2.0 + if i == j { 20.0 } else { 0.0 });
+        let eb = vec![(a + a.transpose()) * 0.5];
+        let mut vals = Vec::new();
+        pat.assemble_with_edges(&blocks, &eb, &mut vals);
+        let mut dense = vec![vec![0.0; 8]; 8];
+        for (f, b) in faces.iter().zip(&blocks) {
+            let d = local_dofs(f);
+            for a in 0..6 {
+                for c in 0..6 {
+                    dense[d[a]][d[c]] += b[(a, c)];
+                }
+            }
+        }
+        let d = edge_dofs(&edges[0]);
+        for a in 0..8 {
+            for c in 0..8 {
+                dense[d[a]][d[c]] += eb[0][(a, c)];
+            }
+        }
+        // vertices 0 and 3 are coupled only through the edge block
+        let x: Vec<f64> = (0..8).map(|i| (i as f64 * 0.61).cos()).collect();
+        let y = pat.sym_mul(&vals, &x);
+        for r in 0..8 {
+            let yr: f64 = (0..8).map(|c| dense[r][c] * x[c]).sum();
+            assert!((yr - y[r]).abs() < 1e-12, "{r}");
+        }
+        assert!(pat.nnz() > Pattern::new(&faces, 4).nnz());
     }
 
     #[test]

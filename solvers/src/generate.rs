@@ -27,6 +27,7 @@ pub const GENERATED: &[(&str, &str)] = &[
     ("short_boundary_3k", "unit sphere minus a small polar cap (very short boundary), ~3k vertices"),
     ("planar_bar_2k", "deform: 10 x 1 bar, ~2k vertices; left end held, right end bent a quarter turn"),
     ("planar_limbs_2k", "deform: plus-shaped figure with four limbs, ~2k vertices; three limb tips moved"),
+    ("planar_limbs_8k", "deform: the four-limbed figure at twice the resolution, ~8k vertices (Table 7 scaling)"),
 ];
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -54,6 +55,7 @@ pub fn generate(name: &str) -> Result<Mesh, UnknownGenerated> {
         "strip_thin" => strip(250, 5, 10.0, 0.2),
         "planar_bar_2k" => cells_2d(BAR.0, BAR.1, BAR.2, |_, _| true),
         "planar_limbs_2k" => cells_2d(LIMBS.0, LIMBS.0, LIMBS.2, limbs_mask),
+        "planar_limbs_8k" => cells_2d(2 * LIMBS.0, 2 * LIMBS.0, 0.5 * LIMBS.2, |i, j| limbs_mask(i / 2, j / 2)),
         _ => return Err(UnknownGenerated(name.to_string())),
     };
     Ok(Mesh::new(source, positions, faces))
@@ -178,7 +180,7 @@ pub fn generated_handles(name: &str) -> Option<Vec<Handle>> {
             }));
             Some(h)
         }
-        "planar_limbs_2k" => {
+        "planar_limbs_2k" | "planar_limbs_8k" => {
             // Hold the bottom limb's tip; swing the right tip up, the left tip down and pull the
             // top tip sideways.
             let side = LIMBS.0 as f64 * LIMBS.2;

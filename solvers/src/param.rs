@@ -6,6 +6,7 @@ use crate::error::MeshError;
 use crate::init::{global_scale, tutte, InitError, TutteBoundary};
 use crate::mesh::{validate, Mesh};
 use crate::problem::{DegenerateFace, MapProblem};
+use crate::smoothness::Projection;
 use crate::solver::registry::SpecError;
 use crate::solver::{newton, Observer, Outcome, Settings, SolverSpec, StopSettings};
 
@@ -16,6 +17,8 @@ pub struct ParamSettings {
     pub tutte_boundary: TutteBoundary,
     /// Jump threshold of the global-scaling heuristic (Section 4.2; the paper uses 0.1).
     pub scaling_jump: f64,
+    /// The smoothness term (Section 4.3): weight and projection of its 8x8 blocks.
+    pub smoothness: Option<(f64, Projection)>,
 }
 
 /// design.md defaults: `|grad| <= 1e-3`, SARAP on energy decrease `< 1e-8` (its gradient
@@ -57,7 +60,10 @@ pub fn solve_param(
     energy.check().map_err(ParamError::Energy)?;
     validate(mesh, true).into_result()?;
     let mesh = mesh.normalized();
-    let problem = MapProblem::new(&mesh, energy)?;
+    let mut problem = MapProblem::new(&mesh, energy)?;
+    if let Some((w, proj)) = settings.smoothness {
+        problem = problem.with_smoothness(&mesh, w, spec.smoothness_projection.unwrap_or(proj));
+    }
     let init_err = |err| ParamError::Init { source_name: mesh.source.clone(), err };
     let mut x = tutte(&mesh, settings.tutte_boundary).map_err(init_err)?;
     if spec.global_scaling {

@@ -8,6 +8,7 @@ use crate::energy::EnergyKind;
 use crate::hessian::{count_negative, element_gradient, ElementState};
 use crate::local::{local_ops, signed_area, LocalOp};
 use crate::mesh::Mesh;
+use crate::smoothness::{self, Projection, Smoothness, Vector8};
 use rayon::prelude::*;
 
 /// Elements per parallel chunk; fixed so that floating-point sums do not depend on how
@@ -37,6 +38,8 @@ pub struct MapProblem {
     pub energy: EnergyKind,
     /// Soft positional constraints of the `deform` task.
     pub penalty: Option<Penalty>,
+    /// The energy smoothness term (Section 4.3), added to the normalized energy.
+    pub smoothness: Option<Smoothness>,
 }
 
 /// Soft handles `lambda * sum |z_P - c|^2` (design.md: gradient `2 lambda (z_P - c)`,
@@ -90,7 +93,15 @@ impl MapProblem {
             total_area,
             energy,
             penalty: None,
+            smoothness: None,
         })
+    }
+
+    /// Add the smoothness term `w sum_e l_e (psi_i - psi_j)^2` over the interior edges of
+    /// `mesh` (the rest mesh this problem was built from).
+    pub fn with_smoothness(mut self, mesh: &Mesh, weight: f64, projection: Projection) -> Self {
+        self.smoothness = Some(Smoothness::new(weight, projection, &self.faces, &mesh.positions, &self.ops));
+        self
     }
 
     pub fn n_dofs(&self) -> usize {
@@ -109,21 +120,36 @@ impl MapProblem {
 
     /// Energy only (for line searches): `+inf` if any element is inverted or degenerate.
     pub fn energy(&self, x: &[f64]) -> f64 {
+        let psi = |t: usize| {
+            let w = self.ops[t].wirtinger(self.target(x, t));
+            self.energy.value(w.x(), w.y())
+        };
         let partial: Vec<f64> = (0..self.n_faces())
             .into_par_iter()
             .with_min_len(CHUNK)
             .chunks(CHUNK)
-            .map(|chunk| {
-                chunk
-                    .into_iter()
-                    .map(|t| {
-                        let w = self.ops[t].wirtinger(self.target(x, t));
-                        self.ops[t].area * self.energy.value(w.x(), w.y())
-                    })
-                    .sum::<f64>()
-            })
+            .map(|chunk| chunk.into_iter().map(|t| self.ops[t].area * psi(t)).sum::<f64>())
             .collect();
-        partial.iter().sum::<f64>() / self.total_area + self.penalty.as_ref().map_or(0.0, |p| p.value(x))
+        let mut e = partial.iter().sum::<f64>() / self.total_area + self.penalty.as_ref().map_or(0.0, |p| p.value(x));
+        if let Some(sm) = &self.smoothness {
+            if e.is_finite() {
+                let parts: Vec<f64> = (0..sm.pairs.len())
+                    .into_par_iter()
+                    .with_min_len(CHUNK)
+                    .chunks(CHUNK)
+                    .map(|chunk| {
+                        chunk
+                            .into_iter()
+                            .map(|k| {
+                                sm.coefficient(k) * (psi(sm.pairs[k].faces[0]) - psi(sm.pairs[k].faces[1])).powi(2)
+                            })
+                            .sum::<f64>()
+                    })
+                    .collect();
+                e += parts.iter().sum::<f64>();
+            }
+        }
+        e
     }
 
     /// Number of triangles whose image has non-positive signed area.
@@ -180,6 +206,26 @@ impl MapProblem {
         if let Some(p) = &self.penalty {
             out.energy += p.value(x);
             p.add_gradient(x, &mut out.grad);
+        }
+        if let Some(sm) = &self.smoothness {
+            let st = &out.states;
+            let per_edge: Vec<(f64, Vector8)> = (0..sm.pairs.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .map(|k| {
+                    let [i, j] = sm.pairs[k].faces;
+                    let c = sm.coefficient(k);
+                    (smoothness::value(c, &st[i], &st[j]), smoothness::gradient(c, &st[i], &st[j], &sm.ops[k]))
+                })
+                .collect();
+            // Sequential sums and scatter: the same bits for any thread count.
+            for ((v, g), pair) in per_edge.iter().zip(&sm.pairs) {
+                out.energy += v;
+                for (slot, &vert) in pair.verts.iter().enumerate() {
+                    out.grad[2 * vert] += g[2 * slot];
+                    out.grad[2 * vert + 1] += g[2 * slot + 1];
+                }
+            }
         }
         let counts: (usize, usize) = out
             .states

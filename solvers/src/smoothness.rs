@@ -44,6 +44,41 @@ pub struct EdgePair {
     pub len: f64,
 }
 
+/// The smoothness term of a problem: weight `w`, projection, and per interior edge its pair
+/// and operator `M`.
+#[derive(Clone, Debug)]
+pub struct Smoothness {
+    pub weight: f64,
+    pub projection: Projection,
+    pub pairs: Vec<EdgePair>,
+    pub ops: Vec<Matrix8>,
+}
+
+impl Smoothness {
+    pub fn new(
+        weight: f64,
+        projection: Projection,
+        faces: &[[usize; 3]],
+        positions: &[[f64; 3]],
+        face_ops: &[LocalOp],
+    ) -> Smoothness {
+        let pairs = edge_pairs(faces, positions);
+        let ops = pairs.iter().map(|p| edge_operator([&face_ops[p.faces[0]], &face_ops[p.faces[1]]], p)).collect();
+        Smoothness { weight, projection, pairs, ops }
+    }
+
+    /// The 4-vertex lists of the edge blocks (for the sparsity pattern).
+    pub fn edge_vertices(&self) -> Vec<[usize; 4]> {
+        self.pairs.iter().map(|p| p.verts).collect()
+    }
+
+    /// `c = w l` of edge `e`.
+    #[inline]
+    pub fn coefficient(&self, e: usize) -> f64 {
+        self.weight * self.pairs[e].len
+    }
+}
+
 /// The interior edges of a manifold mesh (edges with exactly two faces), in edge order.
 pub fn edge_pairs(faces: &[[usize; 3]], positions: &[[f64; 3]]) -> Vec<EdgePair> {
     let mut half: Vec<(usize, usize, usize)> = Vec::with_capacity(3 * faces.len());

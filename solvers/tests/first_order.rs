@@ -14,6 +14,7 @@ fn run(mesh: &Mesh, solver: &str) -> (Outcome, Recorder) {
         solver: Settings { stop: default_stop(&e), line_search: Default::default(), linear: Default::default() },
         tutte_boundary: TutteBoundary::Uniform,
         scaling_jump: 0.1,
+        smoothness: None,
     };
     let mut rec = Recorder::default();
     let out = solve_param(mesh, e, solver, &settings, &mut rec).unwrap_or_else(|err| panic!("{solver}: {err}"));

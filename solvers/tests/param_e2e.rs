@@ -13,6 +13,7 @@ fn settings(energy: &EnergyKind) -> ParamSettings {
         solver: Settings { stop: default_stop(energy), line_search: Default::default(), linear: Default::default() },
         tutte_boundary: TutteBoundary::Uniform,
         scaling_jump: 0.1,
+        smoothness: None,
     }
 }
 

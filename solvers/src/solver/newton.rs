@@ -9,6 +9,7 @@ use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::problem::{norm, EvalError, Evaluation, MapProblem};
+use crate::smoothness::{self, Matrix8};
 use nalgebra::Matrix6;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -36,7 +37,11 @@ pub fn newton(
     settings: &Settings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, SolveError> {
-    let pattern = Pattern::new(&problem.faces, problem.n_vertices);
+    let pattern = match &problem.smoothness {
+        Some(sm) => Pattern::with_edges(&problem.faces, &sm.edge_vertices(), problem.n_vertices),
+        None => Pattern::new(&problem.faces, problem.n_vertices),
+    };
+    let mut edge_blocks: Vec<Matrix8> = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
     let mut linear = SpdSolver::new(&pattern)?;
     let mut x = x0;
     let mut ev = Evaluation::default();
@@ -79,10 +84,17 @@ pub fn newton(
         blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).for_each(|((b, s), op)| {
             *b = strategy.block(op, s) * weight;
         });
+        // Edge blocks of the smoothness term, projected as configured (Section 4.3).
+        if let Some(sm) = &problem.smoothness {
+            edge_blocks.par_iter_mut().enumerate().for_each(|(k, b)| {
+                let [i, j] = sm.pairs[k].faces;
+                *b = smoothness::block(sm.coefficient(k), &ev.states[i], &ev.states[j], &sm.ops[k], sm.projection);
+            });
+        }
         let t_project = t_start.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
-        pattern.assemble(&blocks, &mut values);
+        pattern.assemble_with_edges(&blocks, &edge_blocks, &mut values);
         let shift = strategy.diagonal_shift();
         if shift != 0.0 {
             for &p in &pattern.diag {

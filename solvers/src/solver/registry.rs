@@ -3,6 +3,7 @@
 
 use crate::energy::EnergyKind;
 use crate::hessian::{akvf::Akvf, cm::Cm, fp::Fp4, fp::Fp6, kp::Kp, none::Unprojected, slim::Slim, SystemBlock};
+use crate::smoothness::Projection;
 
 pub struct SolverSpec {
     pub name: &'static str,
@@ -10,18 +11,25 @@ pub struct SolverSpec {
     /// Apply the global-scaling heuristic of Section 4.2 to the `param` initialization
     /// (for the energies that define it: SD, BCONF, BARAP).
     pub global_scaling: bool,
+    /// Overrides how the smoothness term's 8x8 blocks are projected.
+    pub smoothness_projection: Option<Projection>,
 }
 
 /// Builds a solver for an energy, or says why the combination is not defined.
 type Builder = fn(&EnergyKind) -> Result<SolverSpec, String>;
 
 fn spec(name: &'static str, block: impl SystemBlock + 'static, global_scaling: bool) -> Result<SolverSpec, String> {
-    Ok(SolverSpec { name, block: Box::new(block), global_scaling })
+    Ok(SolverSpec { name, block: Box::new(block), global_scaling, smoothness_projection: None })
 }
 
 const REGISTRY: &[(&str, Builder)] = &[
     ("kp-newton", |_| spec("kp-newton", Kp, true)),
     ("kp-newton-noscale", |_| spec("kp-newton-noscale", Kp, false)),
+    // KP with the smoothness term's 8x8 blocks eigen-projected (Table 7's numeric column);
+    // the same as kp-newton without a smoothness term.
+    ("kp-newton-eig8", |_| {
+        spec("kp-newton-eig8", Kp, true).map(|s| SolverSpec { smoothness_projection: Some(Projection::Numeric), ..s })
+    }),
     ("fp-newton-4x4", |_| spec("fp-newton-4x4", Fp4, false)),
     ("fp-newton-6x6", |_| spec("fp-newton-6x6", Fp6, false)),
     ("cm", |e| spec("cm", Cm::for_energy(e)?, false)),
