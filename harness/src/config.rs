@@ -9,6 +9,7 @@ use solvers::energy::{EnergyKind, ENERGY_NAMES};
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
 use solvers::param::{default_stop, ParamSettings};
+use solvers::smoothness::Projection;
 use solvers::solver::{solver_names, LineSearchSettings, Settings, StopSettings};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -128,6 +129,11 @@ pub struct EnergyParams {
     pub kappa: Option<f64>,
     /// barap / bconf barrier weight.
     pub k: Option<f64>,
+    /// Weight `w` of the smoothness term `w sum_e l_e (psi_i - psi_j)^2` (Section 4.3), any
+    /// energy; default 0 (off).
+    pub smoothness: Option<f64>,
+    /// `analytic` (default, Appendix B) or `numeric` (8x8 eigen-decomposition).
+    pub smoothness_projection: Option<Projection>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -433,7 +439,22 @@ impl Config {
             }
         }
         kind.check().map_err(anyhow::Error::msg)?;
+        if let Some(p) = self.energy.get(name) {
+            match (p.smoothness, p.smoothness_projection) {
+                (Some(w), _) if !(w >= 0.0 && w.is_finite()) => {
+                    bail!("[energy.{name}] smoothness = {w} must be non-negative and finite")
+                }
+                (None, Some(_)) => bail!("[energy.{name}] smoothness_projection needs smoothness = <weight>"),
+                _ => {}
+            }
+        }
         Ok(kind)
+    }
+
+    /// The smoothness term of energy `name`: weight and projection, `None` when off.
+    pub fn smoothness_for(&self, name: &str) -> Option<(f64, Projection)> {
+        let p = self.energy.get(name)?;
+        p.smoothness.filter(|w| *w > 0.0).map(|w| (w, p.smoothness_projection.unwrap_or_default()))
     }
 
     /// The `deform` settings for one energy: deform defaults (energy decrease < 1e-6, no
@@ -443,6 +464,7 @@ impl Config {
         DeformSettings {
             solver: p.solver,
             lambda: self.deform.as_ref().and_then(|d| d.lambda).unwrap_or(solvers::deform::DEFAULT_LAMBDA),
+            smoothness: None,
         }
     }
 
@@ -474,6 +496,7 @@ impl Config {
             solver: Settings { stop, line_search, linear },
             tutte_boundary: self.init.tutte_boundary.unwrap_or_default(),
             scaling_jump: self.init.scaling_jump.unwrap_or(0.1),
+            smoothness: None,
         }
     }
 }
@@ -484,6 +507,20 @@ mod tests {
 
     const AUTH: &str =
         "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"bumpy_1k\"]\nsolvers = [\"sem\", \"aem-cg\"]\n";
+
+    #[test]
+    fn smoothness_is_an_energy_option() {
+        let c = parse(&format!(
+            "{MIN}[energy.sd]\nsmoothness = 0.25\n[energy.nh]\nsmoothness = 0.5\nsmoothness_projection = \"numeric\"\n"
+        ))
+        .unwrap();
+        assert_eq!(c.smoothness_for("sd"), Some((0.25, Projection::Analytic)));
+        assert_eq!(c.smoothness_for("nh"), Some((0.5, Projection::Numeric)));
+        assert_eq!(c.smoothness_for("bconf"), None);
+        let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+        assert!(err(&format!("{MIN}[energy.sd]\nsmoothness = -1.0\n")).contains("must be non-negative"));
+        assert!(err(&format!("{MIN}[energy.sd]\nsmoothness_projection = \"numeric\"\n")).contains("needs smoothness"));
+    }
 
     #[test]
     fn timeouts_parse_with_units() {

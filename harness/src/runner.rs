@@ -172,6 +172,9 @@ pub fn run_batch(
     if let Some(t) = crate::tables::projection_table(&summaries) {
         t.write(&out_dir.join("tables"), "projection")?;
     }
+    if let Some(t) = crate::tables::smoothness_table(&summaries) {
+        t.write(&out_dir.join("tables"), "smoothness")?;
+    }
     if let Some(t) = crate::tables::deform_table(&summaries) {
         t.write(&out_dir.join("tables"), "deform")?;
     }
@@ -305,13 +308,15 @@ fn solve(
         }
         Task::Param => {
             let kind = cfg.config.energy_kind(energy)?;
-            let settings = cfg.config.param_settings(&kind);
+            let mut settings = cfg.config.param_settings(&kind);
+            settings.smoothness = cfg.config.smoothness_for(energy);
             Ok((solve_param(mesh, kind, solver, &settings, rows)?, None))
         }
         Task::Deform => {
             let kind = cfg.config.energy_kind(energy)?;
             let handles = ds.handles.load(mesh)?;
-            let settings = cfg.config.deform_settings(&kind);
+            let mut settings = cfg.config.deform_settings(&kind);
+            settings.smoothness = cfg.config.smoothness_for(energy);
             Ok((solve_deform(mesh, &handles, kind, solver, &settings, rows)?, None))
         }
     }

@@ -128,6 +128,68 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
     })
 }
 
+/// The complex-view paper's Table 7 shape: per mesh and energy with a smoothness term, the
+/// median per-iteration linear solve next to the Hessian projection with the analytic 8x8
+/// edge projection (`kp-newton`) and the numeric one (`kp-newton-eig8`). `None` unless a
+/// `kp-newton-eig8` run finished.
+pub fn smoothness_table(rows: &[SummaryRow]) -> Option<Table> {
+    let ok = |r: &&SummaryRow| r.status != "failed" && r.iterations.unwrap_or(0) > 0;
+    if !rows.iter().filter(ok).any(|r| r.solver == "kp-newton-eig8") {
+        return None;
+    }
+    let mut groups: Vec<(&str, &str)> = Vec::new();
+    for r in rows.iter().filter(ok) {
+        if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
+            groups.push((&r.dataset, &r.energy));
+        }
+    }
+    let ms = |v: Option<f64>| v.map(|v| format!("{v:.3}")).unwrap_or_default();
+    let ratio = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| format!("{:.3}", a / b)).unwrap_or_default();
+    let mut out = Vec::new();
+    for (d, e) in groups {
+        let of = |s: &str| rows.iter().filter(ok).find(|r| r.dataset == d && r.energy == e && r.solver == s);
+        let (an, nu) = (of("kp-newton"), of("kp-newton-eig8"));
+        let mut solves: Vec<f64> = [an, nu].iter().flatten().filter_map(|r| r.solve_ms_median).collect();
+        let solve = crate::output::median(&mut solves);
+        let (pa, pn) = (an.and_then(|r| r.project_ms_median), nu.and_then(|r| r.project_ms_median));
+        let vertices = an.or(nu).and_then(|r| r.vertices).map(|v| v.to_string()).unwrap_or_default();
+        out.push(vec![
+            d.to_string(),
+            e.to_string(),
+            vertices,
+            ms(solve),
+            ms(pa),
+            ratio(pa, solve),
+            ms(pn),
+            ratio(pn, solve),
+            ms(an.and_then(|r| r.iter_ms_median)),
+            ms(nu.and_then(|r| r.iter_ms_median)),
+        ]);
+    }
+    Some(Table {
+        title: "Smoothness term: projection vs linear solve (complex-view paper, Table 7)".into(),
+        columns: [
+            "dataset",
+            "energy",
+            "vertices",
+            "solve_ms",
+            "analytic_project_ms",
+            "analytic/solve",
+            "numeric_project_ms",
+            "numeric/solve",
+            "analytic_iter_ms",
+            "numeric_iter_ms",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: out,
+        caption: "Medians over iterations: project = all per-element (6x6 face and 8x8 edge) Hessian \
+                  projections of an iteration; analytic = kp-newton (Section 4.3 / Appendix B), numeric = \
+                  kp-newton-eig8 (eigen-decomposition of every 8x8 edge block)."
+            .into(),
+    })
+}
+
 /// The complex-view paper's Table 6 shape: per solver (rows) and energy (columns), the mean
 /// number of iterations and the mean run time in seconds over the deformation shapes,
 /// `it/t`. Cells with a run that did not converge are marked `*`; failed runs are left out

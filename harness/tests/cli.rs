@@ -322,6 +322,24 @@ fn resume_reruns_nothing_that_finished_and_everything_whose_settings_changed() {
 }
 
 #[test]
+fn a_smoothness_batch_writes_the_table_7_shape() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"sm\"\ntask = \"deform\"\ndatasets = [\"planar_bar_2k\"]\nenergies = [\"sd\"]\n\
+         solvers = [\"kp-newton\", \"kp-newton-eig8\"]\n[energy.sd]\nsmoothness = 0.25\n",
+    );
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert!(rows.iter().all(|r| r[col("status")] == "ok" && r[col("flips")] == "0"), "{rows:?}");
+    let table = std::fs::read_to_string(out.join("tables/smoothness.md")).unwrap();
+    assert!(table.contains("| planar_bar_2k | sd |") && table.contains("numeric_project_ms"), "{table}");
+}
+
+#[test]
 fn two_runs_of_the_same_config_are_identical() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(
