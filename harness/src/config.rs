@@ -457,10 +457,10 @@ impl Config {
         p.smoothness.filter(|w| *w > 0.0).map(|w| (w, p.smoothness_projection.unwrap_or_default()))
     }
 
-    /// The `deform` settings for one energy: deform defaults (energy decrease < 1e-6, no
+    /// The `deform` settings (the same for every energy): deform defaults (energy decrease < 1e-6, no
     /// global scaling) overridden by `[stop]`, `[line_search]`, `[linear]`, `[deform]`.
-    pub fn deform_settings(&self, energy: &EnergyKind) -> DeformSettings {
-        let p = self.param_settings_with(energy, solvers::deform::default_stop());
+    pub fn deform_settings(&self) -> DeformSettings {
+        let p = self.param_settings_with(solvers::deform::default_stop());
         DeformSettings {
             solver: p.solver,
             lambda: self.deform.as_ref().and_then(|d| d.lambda).unwrap_or(solvers::deform::DEFAULT_LAMBDA),
@@ -470,11 +470,10 @@ impl Config {
 
     /// The solver settings for one energy: design.md conventions overridden by the config.
     pub fn param_settings(&self, energy: &EnergyKind) -> ParamSettings {
-        self.param_settings_with(energy, default_stop(energy))
+        self.param_settings_with(default_stop(energy))
     }
 
-    fn param_settings_with(&self, energy: &EnergyKind, d: StopSettings) -> ParamSettings {
-        let _ = energy;
+    fn param_settings_with(&self, d: StopSettings) -> ParamSettings {
         let stop = StopSettings {
             grad_tol: self.stop.grad_tol.unwrap_or(d.grad_tol),
             energy_decrease_tol: self.stop.energy_decrease_tol.unwrap_or(d.energy_decrease_tol),
@@ -612,9 +611,9 @@ mod tests {
         assert!(err(&format!("{def}[deform]\nlambda = 0.0\n")).contains("lambda = 0 must be positive"));
         assert!(err(&format!("{def}[init]\nscaling_jump = 0.2\n")).contains("[init] does not apply to task deform"));
         let c = parse(&format!("{def}[deform]\nlambda = 50.0\n")).unwrap();
-        let s = c.deform_settings(&EnergyKind::Sd);
+        let s = c.deform_settings();
         assert_eq!((s.lambda, s.solver.stop.energy_decrease_tol, s.solver.stop.grad_tol), (50.0, 1e-6, 1e-10));
-        assert_eq!(parse(&def).unwrap().deform_settings(&EnergyKind::Sd).lambda, solvers::deform::DEFAULT_LAMBDA);
+        assert_eq!(parse(&def).unwrap().deform_settings().lambda, solvers::deform::DEFAULT_LAMBDA);
         let inline = "[[dataset]]\nname = \"x\"\npath = \"x.obj\"\nhandles = \"x.json\"\nhandles_rule = \"twist\"\n";
         assert!(err(&format!("{def}{inline}")).contains("not both"));
         assert!(err(&format!("{MIN}[authalic]\nalpha0 = 1.0\n")).contains("only to task = \"authalic\""));

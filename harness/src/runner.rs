@@ -315,7 +315,7 @@ fn solve(
         Task::Deform => {
             let kind = cfg.config.energy_kind(energy)?;
             let handles = ds.handles.load(mesh)?;
-            let mut settings = cfg.config.deform_settings(&kind);
+            let mut settings = cfg.config.deform_settings();
             settings.smoothness = cfg.config.smoothness_for(energy);
             Ok((solve_deform(mesh, &handles, kind, solver, &settings, rows)?, None))
         }
@@ -364,7 +364,7 @@ fn write_meta(
     for e in &cfg.config.energies {
         if let Ok(k) = cfg.config.energy_kind(e) {
             let s = match cfg.config.task {
-                Task::Deform => cfg.config.deform_settings(&k).solver.stop,
+                Task::Deform => cfg.config.deform_settings().solver.stop,
                 _ => cfg.config.param_settings(&k).solver.stop,
             };
             stop.insert(e.clone(), (s.grad_tol, s.energy_decrease_tol, s.max_iters));

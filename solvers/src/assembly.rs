@@ -35,12 +35,13 @@ pub struct Pattern {
     gather_src: Vec<u32>,
 }
 
-/// Local lower-triangular entries `(a, b)`, `a >= b`, row-major.
-pub const LOWER: [(usize, usize); 21] = {
-    let mut out = [(0, 0); 21];
+/// The lower-triangular entries `(a, b)`, `a >= b`, of an `N x N` block, row-major
+/// (`M = N (N + 1) / 2`).
+const fn lower_entries<const N: usize, const M: usize>() -> [(usize, usize); M] {
+    let mut out = [(0, 0); M];
     let mut k = 0;
     let mut a = 0;
-    while a < 6 {
+    while a < N {
         let mut b = 0;
         while b <= a {
             out[k] = (a, b);
@@ -50,24 +51,13 @@ pub const LOWER: [(usize, usize); 21] = {
         a += 1;
     }
     out
-};
+}
 
-/// Local lower-triangular entries of an 8x8 block, row-major.
-pub const LOWER8: [(usize, usize); 36] = {
-    let mut out = [(0, 0); 36];
-    let mut k = 0;
-    let mut a = 0;
-    while a < 8 {
-        let mut b = 0;
-        while b <= a {
-            out[k] = (a, b);
-            k += 1;
-            b += 1;
-        }
-        a += 1;
-    }
-    out
-};
+/// Local lower-triangular entries of a 6x6 face block.
+pub const LOWER: [(usize, usize); 21] = lower_entries::<6, 21>();
+
+/// Local lower-triangular entries of an 8x8 edge block.
+pub const LOWER8: [(usize, usize); 36] = lower_entries::<8, 36>();
 
 #[inline]
 fn local_dofs(f: &[usize; 3]) -> [usize; 6] {

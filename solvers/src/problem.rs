@@ -124,14 +124,20 @@ impl MapProblem {
             let w = self.ops[t].wirtinger(self.target(x, t));
             self.energy.value(w.x(), w.y())
         };
+        // With a smoothness term each density is needed by up to four sums: compute it once.
+        let densities: Option<Vec<f64>> = self
+            .smoothness
+            .as_ref()
+            .map(|_| (0..self.n_faces()).into_par_iter().with_min_len(CHUNK).map(psi).collect());
+        let density = |t: usize| densities.as_ref().map_or_else(|| psi(t), |d| d[t]);
         let partial: Vec<f64> = (0..self.n_faces())
             .into_par_iter()
             .with_min_len(CHUNK)
             .chunks(CHUNK)
-            .map(|chunk| chunk.into_iter().map(|t| self.ops[t].area * psi(t)).sum::<f64>())
+            .map(|chunk| chunk.into_iter().map(|t| self.ops[t].area * density(t)).sum::<f64>())
             .collect();
         let mut e = partial.iter().sum::<f64>() / self.total_area + self.penalty.as_ref().map_or(0.0, |p| p.value(x));
-        if let Some(sm) = &self.smoothness {
+        if let (Some(sm), Some(d)) = (&self.smoothness, &densities) {
             if e.is_finite() {
                 let parts: Vec<f64> = (0..sm.pairs.len())
                     .into_par_iter()
@@ -141,7 +147,8 @@ impl MapProblem {
                         chunk
                             .into_iter()
                             .map(|k| {
-                                sm.coefficient(k) * (psi(sm.pairs[k].faces[0]) - psi(sm.pairs[k].faces[1])).powi(2)
+                                let [i, j] = sm.pairs[k].faces;
+                                sm.coefficient(k) * (d[i] - d[j]).powi(2)
                             })
                             .sum::<f64>()
                     })
