@@ -4,6 +4,7 @@
 mod check;
 mod config;
 mod handles;
+mod mapfile;
 mod output;
 mod registry;
 mod resume;

@@ -185,21 +185,6 @@ pub fn run_batch(
     Ok(report)
 }
 
-/// The final map as an OBJ (`v u v 0`, the mesh's faces), so it can be opened in any viewer.
-/// Coordinates are those the solver works in: the area-1 frame for `param` and `deform`, the
-/// unit disk for `authalic`.
-fn map_obj(mesh: &Mesh, x: &[f64]) -> Vec<u8> {
-    use std::fmt::Write as _;
-    let mut s = format!("# final map: {} vertices, {} faces\n", mesh.n_vertices(), mesh.n_faces());
-    for p in x.chunks_exact(2) {
-        let _ = writeln!(s, "v {:?} {:?} 0", p[0], p[1]);
-    }
-    for f in &mesh.faces {
-        let _ = writeln!(s, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1);
-    }
-    s.into_bytes()
-}
-
 fn write_run(out_dir: &Path, r: &RunResult, best: f64) -> Result<()> {
     let s = &r.summary;
     let path = out_dir.join("runs").join(format!("{}.csv", run_stem(&s.dataset, &s.energy, &s.solver)));
@@ -288,7 +273,7 @@ fn run_one(
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
         _ => String::new(),
     };
-    let map_obj = Some(map_obj(mesh, &outcome.x));
+    let map_obj = Some(crate::mapfile::to_obj(mesh, &outcome.x));
     RunResult { summary, rows, map_obj }
 }
 

@@ -78,12 +78,22 @@ path = "quad.obj"
     assert_eq!(it.last().unwrap()[2].parse::<f64>().unwrap(), 0.0);
     assert!(out.join("runs/broken__sd__kp-newton.csv").is_file());
     // the final map as OBJ: same vertices and faces, no flipped triangle; none for a failed run
-    let uv = solvers::mesh::load_obj(&out.join("uv/bumpy_1k__sd__kp-newton.obj")).unwrap();
+    let obj = std::fs::read_to_string(out.join("uv/bumpy_1k__sd__kp-newton.obj")).unwrap();
     let src = solvers::generate::generate("bumpy_1k").unwrap();
-    assert_eq!((uv.n_vertices(), uv.faces.clone()), (src.n_vertices(), src.faces.clone()));
-    assert!(uv.positions.iter().all(|p| p[2] == 0.0));
-    for f in &uv.faces {
-        let p = f.map(|v| uv.positions[v]);
+    let lines = |tag: &str| -> Vec<Vec<f64>> {
+        obj.lines()
+            .filter_map(|l| l.strip_prefix(tag))
+            .map(|l| l.split_whitespace().map(|t| t.split('/').next().unwrap().parse().unwrap()).collect())
+            .collect()
+    };
+    let v = lines("v ");
+    assert_eq!(v, src.positions.iter().map(|p| p.to_vec()).collect::<Vec<_>>());
+    let uv = lines("vt ");
+    let faces: Vec<Vec<f64>> = lines("f ");
+    assert_eq!((uv.len(), faces.len()), (src.n_vertices(), src.n_faces()));
+    for (f, g) in faces.iter().zip(&src.faces) {
+        assert_eq!(f.iter().map(|&i| i as usize - 1).collect::<Vec<_>>(), g.to_vec());
+        let p = g.map(|i| &uv[i]);
         let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
         assert!(cross > 0.0);
     }
