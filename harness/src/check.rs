@@ -1,8 +1,7 @@
 //! The regression gate: a JSON baseline of iteration counts and final energies per run, and
 //! the comparison of a run folder against it (`baseline`, `check`).
 
-use crate::output::SummaryRow;
-use anyhow::{Context, Result};
+use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -52,12 +51,9 @@ fn default_rtol() -> f64 {
 
 /// Read the records of a run folder's `summary.csv`.
 pub fn read_summary(run_dir: &Path) -> Result<Vec<Record>> {
-    let path = run_dir.join("summary.csv");
-    let mut r = csv::Reader::from_path(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let mut out = Vec::new();
-    for (i, row) in r.deserialize::<SummaryRow>().enumerate() {
-        let row = row.with_context(|| format!("{}: row {}", path.display(), i + 2))?;
-        out.push(Record {
+    Ok(crate::output::read_summary(run_dir)?
+        .into_iter()
+        .map(|row| Record {
             dataset: row.dataset,
             task: row.task,
             energy: row.energy,
@@ -68,9 +64,8 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<Record>> {
             flips: row.flips,
             iterations_tolerance: None,
             time_s: row.time_s,
-        });
-    }
-    Ok(out)
+        })
+        .collect())
 }
 
 /// A baseline from a run folder.

@@ -173,6 +173,10 @@ pub struct Config {
     /// Wall-clock limit per run, e.g. "90s", "10m", "1h" (checked after every iteration;
     /// a run that passes it stops with `stop_reason = timeout`). Default: none.
     pub timeout: Option<String>,
+    /// rayon threads inside each run. Default: 1 while the batch has at least as many runs as
+    /// `--jobs` workers, otherwise the cores divided among the runs. Results do not depend on
+    /// it (every reduction is in a fixed order); timings do.
+    pub threads_per_run: Option<usize>,
 }
 
 fn default_task() -> Task {
@@ -212,6 +216,9 @@ impl Config {
     /// that do not belong to an energy, out-of-range values).
     pub fn check(&self) -> Result<()> {
         self.timeout_secs()?;
+        if self.threads_per_run == Some(0) {
+            bail!("threads_per_run must be at least 1");
+        }
         if self.task != Task::Deform && self.deform.is_some() {
             bail!("[deform] applies only to task = \"deform\"");
         }

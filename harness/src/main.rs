@@ -5,8 +5,11 @@ mod check;
 mod config;
 mod handles;
 mod mapfile;
+mod merge;
 mod output;
+mod progress;
 mod registry;
+mod report;
 mod resume;
 mod runner;
 mod tables;
@@ -16,6 +19,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 use config::LoadedConfig;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 #[derive(Parser)]
 #[command(name = "mapbench", version, about = "Benchmark harness for optimizers of planar piecewise-linear maps")]
@@ -40,6 +45,24 @@ enum Command {
         /// settings, mesh and handles (keys in runs/<run>.json); run the rest.
         #[arg(long)]
         resume: bool,
+        /// Runs at once (default: the machine's cores). Each run uses `threads_per_run`
+        /// threads inside (config; default 1 while runs outnumber jobs).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Run only shard I of N (1-based): every N-th run of the batch's canonical order.
+        /// Give each shard its own --out and combine them with `merge`.
+        #[arg(long)]
+        shard: Option<runner::Shard>,
+    },
+    /// Re-render the tables, plots and index.html of a run folder from its CSVs alone.
+    Report { run_dir: PathBuf },
+    /// Combine the folders of `run --shard I/N` batches into one run folder and report.
+    Merge {
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Output folder (default: reports/<name> of the shards' config).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Compare a run folder with a baseline: exit 1 on a regression (more iterations, higher
     /// final energy, worse status, new flips), 2 when a baseline run is missing.
@@ -99,20 +122,62 @@ fn main() -> ExitCode {
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Run { config, out, only, resume } => {
+        Command::Run { config, out, only, resume, jobs, shard } => {
+            if jobs == Some(0) {
+                anyhow::bail!("--jobs must be at least 1");
+            }
             let cfg = LoadedConfig::load(&config)?;
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&cfg.config.name));
-            let report =
-                runner::run_batch(&cfg, &out, &runner::RunOptions { only, resume }, &mut |line| eprintln!("{line}"))?;
+            let interrupt = Arc::new(AtomicBool::new(false));
+            let flag = interrupt.clone();
+            // First Ctrl-C: finish cleanly (finished runs stay on disk); second: exit now.
+            let _ = ctrlc::set_handler(move || {
+                if flag.swap(true, Ordering::SeqCst) {
+                    std::process::exit(130);
+                }
+                eprintln!("\ninterrupt: stopping the running runs (Ctrl-C again to exit at once)");
+            });
+            let opts = runner::RunOptions { only, resume, jobs, shard, interrupt };
+            let progress = progress::for_stderr();
+            let report = runner::run_batch(&cfg, &out, &opts, progress.as_ref())?;
             eprintln!(
-                "{} runs: {} ok, {} not converged, {} failed; results in {}",
+                "{} runs: {} ok, {} not converged, {} failed{}; results in {}",
                 report.runs,
                 report.ok,
                 report.not_converged,
                 report.failed,
+                if report.interrupted > 0 {
+                    format!(", {} not run (interrupted)", report.interrupted)
+                } else {
+                    String::new()
+                },
                 report.out_dir.display()
             );
-            Ok(if report.failed > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+            Ok(if opts.interrupt.load(Ordering::SeqCst) {
+                ExitCode::from(130)
+            } else if report.failed > 0 {
+                ExitCode::from(1)
+            } else {
+                ExitCode::SUCCESS
+            })
+        }
+        Command::Report { run_dir } => {
+            let rows = output::read_summary(&run_dir)?;
+            report::refresh(&run_dir, &rows)?;
+            eprintln!("report of {} runs in {}", rows.len(), run_dir.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Merge { shards, out } => {
+            let m = merge::merge(&shards, out.as_deref())?;
+            if !m.missing.is_empty() {
+                eprintln!(
+                    "warning: {} planned runs are in no shard (first: {}); the report covers the rest",
+                    m.missing.len(),
+                    m.missing[0]
+                );
+            }
+            eprintln!("merged {} runs from {} shards into {}", m.runs, shards.len(), m.out_dir.display());
+            Ok(if m.missing.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(2) })
         }
         Command::Check { run_dir, baseline } => {
             let text = std::fs::read_to_string(&baseline)

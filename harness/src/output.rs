@@ -212,6 +212,27 @@ impl SummaryWriter {
     }
 }
 
+/// Write a whole `summary.csv` atomically (the batch's final, canonically ordered one).
+pub fn write_summary(path: &Path, rows: &[SummaryRow]) -> Result<()> {
+    // The header is written by hand so that an empty summary has one too.
+    let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
+    w.write_record(SUMMARY_COLUMNS)?;
+    for r in rows {
+        w.serialize(r)?;
+    }
+    write_atomic(path, &w.into_inner().context("flushing CSV")?)
+}
+
+/// Read a run folder's `summary.csv`.
+pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
+    let path = run_dir.join("summary.csv");
+    let mut r = csv::Reader::from_path(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+    r.deserialize::<SummaryRow>()
+        .enumerate()
+        .map(|(i, row)| row.with_context(|| format!("{}: row {}", path.display(), i + 2)))
+        .collect()
+}
+
 /// Median of a non-empty slice (`None` when empty).
 pub fn median(values: &mut [f64]) -> Option<f64> {
     if values.is_empty() {

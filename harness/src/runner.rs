@@ -1,10 +1,12 @@
-//! The batch runner: every (dataset, energy, solver) of a config, one after the other, each
-//! run's failure recorded without stopping the batch.
+//! The batch runner: every (dataset, energy, solver) of a config, on `--jobs` worker threads,
+//! each run's failure recorded without stopping the batch. Workers solve; the calling thread
+//! writes every file, so each file has one writer.
 
 use crate::config::{LoadedConfig, Task};
 use crate::output::{iteration_csv, median, run_stem, write_atomic, SummaryRow, SummaryWriter};
+use crate::progress::Progress;
 use crate::registry::{resolve, Dataset};
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use solvers::authalic::{solve_authalic, AreaMetrics, AUTHALIC_ENERGY};
 use solvers::deform::solve_deform;
 use solvers::mesh::Mesh;
@@ -13,20 +15,29 @@ use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-/// Keeps every row of a run (a run has at most `max_iters + 1` rows) and stops the solver
-/// after the row that passes the run's deadline (`timeout` in the config).
-#[derive(Default)]
-struct Rows {
+/// Keeps every row of a run (a run has at most `max_iters + 1` rows), shows progress, and
+/// stops the solver after the row that passes the run's deadline (`timeout` in the config)
+/// or when the batch is interrupted.
+struct Rows<'a> {
     rows: Vec<IterationRecord>,
     deadline: Option<Instant>,
     timed_out: bool,
+    interrupt: &'a AtomicBool,
+    progress: &'a dyn Progress,
+    worker: usize,
 }
 
-impl Observer for Rows {
+impl Observer for Rows<'_> {
     fn observe(&mut self, record: &IterationRecord) -> Flow {
         self.rows.push(record.clone());
+        self.progress.iteration(self.worker, record.iter, record.energy);
+        if self.interrupt.load(Ordering::Relaxed) {
+            return Flow::Stop;
+        }
         if self.deadline.is_some_and(|d| Instant::now() >= d) {
             self.timed_out = true;
             return Flow::Stop;
@@ -41,6 +52,8 @@ struct RunResult {
     rows: Vec<IterationRecord>,
     /// The final map as OBJ text (`uv/<run>.obj`), taken when written.
     map_obj: Option<Vec<u8>>,
+    /// Stopped by an interrupt of the batch: not a result, nothing is written.
+    interrupted: bool,
 }
 
 /// Totals of a batch.
@@ -50,8 +63,34 @@ pub struct BatchReport {
     pub ok: usize,
     pub not_converged: usize,
     pub failed: usize,
+    /// Runs not done because the batch was interrupted.
+    pub interrupted: usize,
     pub skipped_datasets: Vec<String>,
     pub out_dir: PathBuf,
+}
+
+/// `--shard I/N`: the runs whose position in the batch's canonical order is `I-1` modulo `N`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Shard, String> {
+        let parse = |t: &str| t.trim().parse::<usize>().ok();
+        match s.split_once('/').map(|(i, n)| (parse(i), parse(n))) {
+            Some((Some(index), Some(count))) if (1..=count).contains(&index) => Ok(Shard { index, count }),
+            _ => Err(format!("'{s}' is not I/N with 1 <= I <= N (e.g. 3/8)")),
+        }
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
 }
 
 /// How to run a batch (the `run` flags).
@@ -61,128 +100,207 @@ pub struct RunOptions {
     pub only: Vec<String>,
     /// Reuse finished runs of a previous batch in the same folder with the same key.
     pub resume: bool,
+    /// Runs at once (worker threads); default: the machine's cores.
+    pub jobs: Option<usize>,
+    pub shard: Option<Shard>,
+    /// Set (by Ctrl-C) to stop: running runs are abandoned, no new run starts.
+    pub interrupt: Arc<AtomicBool>,
 }
 
-/// Run a whole config into `out_dir`. `log` receives one human-readable line per event.
+/// One planned run.
+struct Planned {
+    dataset: usize,
+    energy: String,
+    solver: String,
+    stem: String,
+}
+
+/// The runs of a config in canonical order (datasets, then energies, then solvers, as the
+/// config lists them), filtered by `--only`.
+fn plan(datasets: &[Dataset], energies: &[String], solvers: &[String], only: &[String]) -> Vec<Planned> {
+    let mut out = Vec::new();
+    for (d, ds) in datasets.iter().enumerate() {
+        for e in energies {
+            for s in solvers {
+                let stem = run_stem(&ds.name, e, s);
+                if only.is_empty() || only.iter().any(|g| glob_match(g, &stem)) {
+                    out.push(Planned { dataset: d, energy: e.clone(), solver: s.clone(), stem });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Meshes shared by the workers: loaded by the first run that needs one, dropped after the
+/// dataset's last run.
+struct MeshCache {
+    slots: Vec<Mutex<Option<Arc<Result<Mesh>>>>>,
+    remaining: Vec<AtomicUsize>,
+}
+
+impl MeshCache {
+    fn new(runs: &[&Planned], n_datasets: usize) -> MeshCache {
+        let remaining: Vec<AtomicUsize> = (0..n_datasets).map(|_| AtomicUsize::new(0)).collect();
+        for r in runs {
+            remaining[r.dataset].fetch_add(1, Ordering::Relaxed);
+        }
+        MeshCache { slots: (0..n_datasets).map(|_| Mutex::new(None)).collect(), remaining }
+    }
+
+    fn get(&self, d: usize, ds: &Dataset) -> Arc<Result<Mesh>> {
+        let mut slot = self.slots[d].lock().unwrap_or_else(|e| e.into_inner());
+        slot.get_or_insert_with(|| Arc::new(ds.load())).clone()
+    }
+
+    fn done(&self, d: usize) {
+        if self.remaining[d].fetch_sub(1, Ordering::AcqRel) == 1 {
+            *self.slots[d].lock().unwrap_or_else(|e| e.into_inner()) = None;
+        }
+    }
+}
+
+/// Run a whole config into `out_dir`, then render its report.
 pub fn run_batch(
     cfg: &LoadedConfig,
     out_dir: &Path,
     opts: &RunOptions,
-    log: &mut dyn FnMut(&str),
+    progress: &dyn Progress,
 ) -> Result<BatchReport> {
-    let only = &opts.only[..];
     let (datasets, notices) = resolve(cfg).with_context(|| format!("{}: datasets", cfg.path.display()))?;
     for n in &notices {
-        log(n);
+        progress.notice(n);
     }
-    std::fs::create_dir_all(out_dir.join("runs")).with_context(|| format!("{}: cannot create", out_dir.display()))?;
-    let started = SystemTime::now();
-    write_meta(cfg, out_dir, opts, started, None)?;
-    let mut summary = SummaryWriter::create(&out_dir.join("summary.csv"))?;
     let c = &cfg.config;
     let energies = c.energy_names();
-    let selected =
-        |d: &str, e: &str, s: &str| only.is_empty() || only.iter().any(|g| glob_match(g, &run_stem(d, e, s)));
-    let total = datasets
-        .iter()
-        .flat_map(|d| energies.iter().flat_map(move |e| c.solvers.iter().map(move |s| (d, e, s))))
-        .filter(|(d, e, s)| selected(&d.name, e, s))
-        .count();
-    if total == 0 {
-        anyhow::bail!("--only {} selects no run of {}", only.join(" "), cfg.path.display());
+    let planned = plan(&datasets, &energies, &c.solvers, &opts.only);
+    if planned.is_empty() {
+        bail!("--only {} selects no run of {}", opts.only.join(" "), cfg.path.display());
     }
+    let mine: Vec<&Planned> = planned
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| opts.shard.is_none_or(|s| i % s.count == s.index - 1))
+        .map(|(_, p)| p)
+        .collect();
+    std::fs::create_dir_all(out_dir.join("runs")).with_context(|| format!("{}: cannot create", out_dir.display()))?;
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let jobs = opts.jobs.unwrap_or(cores).clamp(1, mine.len().max(1));
+    let threads = c.threads_per_run.unwrap_or_else(|| (opts.jobs.unwrap_or(cores) / mine.len().max(1)).max(1));
+    let meta = Meta { cfg, opts, planned: &planned, jobs, threads, started: SystemTime::now() };
+    meta.write(out_dir, None, false)?;
+    let mut summary = SummaryWriter::create(&out_dir.join("summary.csv"))?;
     let mut report = BatchReport { skipped_datasets: notices, out_dir: out_dir.to_path_buf(), ..Default::default() };
-    // Rows by (dataset, energy) group, kept to fill `energy_minus_best` once the group is done.
-    let mut done = 0;
-    let mut summaries: Vec<SummaryRow> = Vec::new();
     let (rev, dirty) = git_revision(&cfg.dir);
     let code = format!("mapbench {} {} dirty={dirty:?}", env!("CARGO_PKG_VERSION"), rev.unwrap_or_default());
-    for ds in &datasets {
-        if !energies.iter().any(|e| c.solvers.iter().any(|s| selected(&ds.name, e, s))) {
-            continue;
-        }
-        // Loaded on the first run that is not resumed.
-        let mut mesh: Option<Result<Mesh>> = None;
-        for energy in &energies {
-            let mut group: Vec<RunResult> = Vec::new();
-            for solver in c.solvers.iter().filter(|s| selected(&ds.name, energy, s)) {
-                done += 1;
-                let stem = run_stem(&ds.name, energy, solver);
-                // An unreadable mesh file has no key; its run fails below as usual.
-                let key = crate::resume::run_key(cfg, ds, energy, solver, &code).ok();
-                let previous = match (&key, opts.resume) {
-                    (Some(k), true) => crate::resume::previous(out_dir, &stem, k),
-                    _ => None,
-                };
-                let resumed = previous.is_some();
-                let mut result = match previous {
-                    Some((summary, rows)) => RunResult { summary, rows, map_obj: None },
-                    None => {
-                        let m = mesh.get_or_insert_with(|| ds.load());
-                        run_one(cfg, ds, m.as_ref(), energy, solver)
+    let meshes = MeshCache::new(&mine, datasets.len());
+    let next = AtomicUsize::new(0);
+    let total = mine.len();
+    progress.start(total, jobs);
+    let mut finished: Vec<(usize, SummaryRow)> = Vec::new();
+    let (tx, rx) = mpsc::channel::<(usize, usize, RunResult, bool, Option<String>)>();
+    let outcome: Result<()> = std::thread::scope(|scope| {
+        for worker in 0..jobs {
+            let tx = tx.clone();
+            let (mine, datasets, meshes, next, code) = (&mine, &datasets, &meshes, &next, &code);
+            scope.spawn(move || {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+                let work = || loop {
+                    if opts.interrupt.load(Ordering::Relaxed) {
+                        break;
+                    }
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(p) = mine.get(i) else { break };
+                    let ds = &datasets[p.dataset];
+                    progress.run_started(worker, &format!("{} {} {}", ds.name, p.energy, p.solver));
+                    // An unreadable mesh file has no key; its run fails below as usual.
+                    let key = crate::resume::run_key(cfg, ds, &p.energy, &p.solver, code).ok();
+                    let previous = match (&key, opts.resume) {
+                        (Some(k), true) => crate::resume::previous(out_dir, &p.stem, k),
+                        _ => None,
+                    };
+                    let resumed = previous.is_some();
+                    let result = match previous {
+                        Some((summary, rows)) => RunResult { summary, rows, map_obj: None, interrupted: false },
+                        None => {
+                            let mesh = meshes.get(p.dataset, ds);
+                            let ctx = RunContext { interrupt: &opts.interrupt, progress, worker };
+                            run_one(cfg, ds, mesh.as_ref().as_ref(), &p.energy, &p.solver, &ctx)
+                        }
+                    };
+                    meshes.done(p.dataset);
+                    if tx.send((i, worker, result, resumed, key)).is_err() {
+                        break;
                     }
                 };
-                if let Some(obj) = result.map_obj.take() {
-                    let stem = run_stem(&ds.name, energy, solver);
-                    write_atomic(&out_dir.join("uv").join(format!("{stem}.obj")), &obj)?;
+                match pool {
+                    Ok(pool) => pool.install(work),
+                    Err(_) => work(),
                 }
-                let s = &result.summary;
-                log(&format!(
-                    "[{done}/{total}] {} {} {}: {}{}{}",
-                    ds.name,
-                    energy,
-                    solver,
-                    if resumed { "resumed, " } else { "" },
-                    s.status,
-                    match (&s.iterations, &s.final_energy, &s.time_s) {
-                        (Some(it), Some(e), Some(t)) =>
-                            format!(" ({}), {it} iterations, E = {e:.8}, {t:.2} s", s.stop_reason),
-                        _ => format!(": {}", s.error),
-                    }
-                ));
-                match s.status.as_str() {
-                    "ok" => report.ok += 1,
-                    "not_converged" => report.not_converged += 1,
-                    _ => report.failed += 1,
-                }
-                report.runs += 1;
-                // Written now with this run's own best; rewritten with the group's best below.
-                let own_best = result.rows.iter().map(|r| r.energy).fold(f64::INFINITY, f64::min);
-                write_run(out_dir, &result, own_best)?;
-                if let (Some(k), false) = (&key, resumed) {
-                    crate::resume::write_sidecar(out_dir, &stem, k, &result.summary)?;
-                }
-                summary.append(&result.summary)?;
-                summaries.push(result.summary.clone());
-                group.push(result);
-            }
-            let best = group
-                .iter()
-                .filter(|r| r.summary.status != "failed")
-                .flat_map(|r| r.rows.iter().map(|x| x.energy))
-                .filter(|e| e.is_finite())
-                .fold(f64::INFINITY, f64::min);
-            if best.is_finite() {
-                for r in &group {
-                    write_run(out_dir, r, best)?;
-                }
-            }
+            });
         }
+        drop(tx);
+        // The calling thread writes every file as results arrive.
+        for (i, worker, mut result, resumed, key) in rx {
+            if result.interrupted {
+                continue;
+            }
+            let p = mine[i];
+            if let Some(obj) = result.map_obj.take() {
+                write_atomic(&out_dir.join("uv").join(format!("{}.obj", p.stem)), &obj)?;
+            }
+            let s = &result.summary;
+            progress.run_finished(worker, &run_line(finished.len() + 1, total, s, resumed));
+            match s.status.as_str() {
+                "ok" => report.ok += 1,
+                "not_converged" => report.not_converged += 1,
+                _ => report.failed += 1,
+            }
+            report.runs += 1;
+            // With this run's own best; `report::refresh` fills in the group's best at the end.
+            let own_best = result.rows.iter().map(|r| r.energy).fold(f64::INFINITY, f64::min);
+            write_run(out_dir, &result, own_best)?;
+            if let (Some(k), false) = (&key, resumed) {
+                crate::resume::write_sidecar(out_dir, &p.stem, k, s)?;
+            }
+            summary.append(s)?;
+            finished.push((i, result.summary));
+        }
+        Ok(())
+    });
+    progress.finish();
+    outcome?;
+    let interrupted = opts.interrupt.load(Ordering::Relaxed);
+    report.interrupted = total - report.runs;
+    if interrupted {
+        progress.notice(&format!(
+            "interrupted: {} runs finished and written, {} not run (`--resume` runs them)",
+            report.runs, report.interrupted
+        ));
     }
-    if let Some(t) = crate::tables::projection_table(&summaries) {
-        t.write(&out_dir.join("tables"), "projection")?;
-    }
-    if let Some(t) = crate::tables::smoothness_table(&summaries) {
-        t.write(&out_dir.join("tables"), "smoothness")?;
-    }
-    if let Some(t) = crate::tables::deform_table(&summaries) {
-        t.write(&out_dir.join("tables"), "deform")?;
-    }
-    if let Some(t) = crate::tables::authalic_table(&summaries) {
-        t.write(&out_dir.join("tables"), "authalic")?;
-    }
-    write_meta(cfg, out_dir, opts, started, Some(SystemTime::now()))?;
+    // summary.csv in canonical order, whatever order the workers finished in.
+    finished.sort_by_key(|(i, _)| *i);
+    let rows: Vec<SummaryRow> = finished.into_iter().map(|(_, s)| s).collect();
+    crate::output::write_summary(&out_dir.join("summary.csv"), &rows)?;
+    crate::report::refresh(out_dir, &rows)?;
+    meta.write(out_dir, Some(SystemTime::now()), interrupted)?;
     Ok(report)
+}
+
+/// The line a finished run prints.
+fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String {
+    format!(
+        "[{done}/{total}] {} {} {}: {}{}{}",
+        s.dataset,
+        s.energy,
+        s.solver,
+        if resumed { "resumed, " } else { "" },
+        s.status,
+        match (&s.iterations, &s.final_energy, &s.time_s) {
+            (Some(it), Some(e), Some(t)) => format!(" ({}), {it} iterations, E = {e:.8}, {t:.2} s", s.stop_reason),
+            _ => format!(": {}", s.error),
+        }
+    )
 }
 
 fn write_run(out_dir: &Path, r: &RunResult, best: f64) -> Result<()> {
@@ -198,6 +316,7 @@ fn run_one(
     mesh: Result<&Mesh, &anyhow::Error>,
     energy: &str,
     solver: &str,
+    ctx: &RunContext,
 ) -> RunResult {
     let mut summary = SummaryRow {
         dataset: ds.name.clone(),
@@ -210,7 +329,7 @@ fn run_one(
         summary.status = "failed".into();
         summary.stop_reason = "error".into();
         summary.error = error;
-        RunResult { summary, rows: Vec::new(), map_obj: None }
+        RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false }
     };
     let mesh = match mesh {
         Ok(m) => m,
@@ -219,8 +338,14 @@ fn run_one(
     summary.vertices = Some(mesh.n_vertices());
     summary.faces = Some(mesh.n_faces());
     let timeout = cfg.config.timeout_secs().ok().flatten();
-    let mut rows =
-        Rows { deadline: timeout.map(|t| Instant::now() + Duration::from_secs_f64(t)), ..Default::default() };
+    let mut rows = Rows {
+        rows: Vec::new(),
+        deadline: timeout.map(|t| Instant::now() + Duration::from_secs_f64(t)),
+        timed_out: false,
+        interrupt: ctx.interrupt,
+        progress: ctx.progress,
+        worker: ctx.worker,
+    };
     let t0 = Instant::now();
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(cfg, ds, mesh, energy, solver, &mut rows)));
     let elapsed = t0.elapsed().as_secs_f64();
@@ -274,7 +399,15 @@ fn run_one(
         _ => String::new(),
     };
     let map_obj = Some(crate::mapfile::to_obj(mesh, &outcome.x));
-    RunResult { summary, rows, map_obj }
+    let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted) && !timed_out;
+    RunResult { summary, rows, map_obj, interrupted }
+}
+
+/// What a run needs from the batch around it.
+struct RunContext<'a> {
+    interrupt: &'a AtomicBool,
+    progress: &'a dyn Progress,
+    worker: usize,
 }
 
 /// One solve of the config's task; `authalic` runs also return their area metrics.
@@ -284,7 +417,7 @@ fn solve(
     mesh: &Mesh,
     energy: &str,
     solver: &str,
-    rows: &mut Rows,
+    rows: &mut Rows<'_>,
 ) -> Result<(Outcome, Option<AreaMetrics>)> {
     match cfg.config.task {
         Task::Authalic => {
@@ -331,49 +464,62 @@ pub fn glob_match(pattern: &str, text: &str) -> bool {
     p[i..].iter().all(|&c| c == '*')
 }
 
-/// `meta.json`: the resolved config and provenance (code version, git revision, machine).
-fn write_meta(
-    cfg: &LoadedConfig,
-    out_dir: &Path,
-    opts: &RunOptions,
+/// `meta.json`: the resolved config and provenance (code version, git revision, machine,
+/// toolchain), the batch's plan and how it ran.
+struct Meta<'a> {
+    cfg: &'a LoadedConfig,
+    opts: &'a RunOptions,
+    planned: &'a [Planned],
+    jobs: usize,
+    threads: usize,
     started: SystemTime,
-    ended: Option<SystemTime>,
-) -> Result<()> {
-    let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-    let (rev, dirty) = git_revision(&cfg.dir);
-    let mut stop = BTreeMap::new();
-    if cfg.config.task == Task::Authalic {
-        let s = cfg.config.authalic_settings();
-        stop.insert(AUTHALIC_ENERGY.to_string(), (s.stop.grad_tol, s.stop.energy_decrease_tol, s.stop.max_iters));
-    }
-    for e in &cfg.config.energies {
-        if let Ok(k) = cfg.config.energy_kind(e) {
-            let s = match cfg.config.task {
-                Task::Deform => cfg.config.deform_settings().solver.stop,
-                _ => cfg.config.param_settings(&k).solver.stop,
-            };
-            stop.insert(e.clone(), (s.grad_tol, s.energy_decrease_tol, s.max_iters));
+}
+
+impl Meta<'_> {
+    fn write(&self, out_dir: &Path, ended: Option<SystemTime>, interrupted: bool) -> Result<()> {
+        let cfg = self.cfg;
+        let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+        let (rev, dirty) = git_revision(&cfg.dir);
+        let mut stop = BTreeMap::new();
+        if cfg.config.task == Task::Authalic {
+            let s = cfg.config.authalic_settings();
+            stop.insert(AUTHALIC_ENERGY.to_string(), (s.stop.grad_tol, s.stop.energy_decrease_tol, s.stop.max_iters));
         }
+        for e in &cfg.config.energies {
+            if let Ok(k) = cfg.config.energy_kind(e) {
+                let s = match cfg.config.task {
+                    Task::Deform => cfg.config.deform_settings().solver.stop,
+                    _ => cfg.config.param_settings(&k).solver.stop,
+                };
+                stop.insert(e.clone(), (s.grad_tol, s.energy_decrease_tol, s.max_iters));
+            }
+        }
+        let meta = serde_json::json!({
+            "config_path": cfg.path.display().to_string(),
+            "config": cfg.config,
+            "only": self.opts.only,
+            "resume": self.opts.resume,
+            "shard": self.opts.shard.map(|s| s.to_string()),
+            "plan": self.planned.iter().map(|p| p.stem.as_str()).collect::<Vec<_>>(),
+            "jobs": self.jobs,
+            "threads_per_run": self.threads,
+            "stop_per_energy": stop.iter().map(|(e, (g, d, m))| (e.clone(), serde_json::json!({
+                "grad_tol": g, "energy_decrease_tol": d, "max_iters": m
+            }))).collect::<serde_json::Map<_, _>>(),
+            "meshes_dir": std::env::var(crate::registry::MESHES_ENV).ok(),
+            "mapbench_version": env!("CARGO_PKG_VERSION"),
+            "rustc": env!("MAPBENCH_RUSTC"),
+            "crates": env!("MAPBENCH_CRATES"),
+            "git_revision": rev,
+            "git_dirty": dirty,
+            "host": std::env::var("HOSTNAME").ok().or_else(|| std::fs::read_to_string("/etc/hostname").ok().map(|s| s.trim().to_string())),
+            "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+            "started_unix": secs(self.started),
+            "ended_unix": ended.map(secs),
+            "interrupted": interrupted,
+        });
+        write_atomic(&out_dir.join("meta.json"), serde_json::to_string_pretty(&meta)?.as_bytes())
     }
-    let meta = serde_json::json!({
-        "config_path": cfg.path.display().to_string(),
-        "config": cfg.config,
-        "only": opts.only,
-        "resume": opts.resume,
-        "stop_per_energy": stop.iter().map(|(e, (g, d, m))| (e.clone(), serde_json::json!({
-            "grad_tol": g, "energy_decrease_tol": d, "max_iters": m
-        }))).collect::<serde_json::Map<_, _>>(),
-        "meshes_dir": std::env::var(crate::registry::MESHES_ENV).ok(),
-        "mapbench_version": env!("CARGO_PKG_VERSION"),
-        "git_revision": rev,
-        "git_dirty": dirty,
-        "host": std::env::var("HOSTNAME").ok().or_else(|| std::fs::read_to_string("/etc/hostname").ok().map(|s| s.trim().to_string())),
-        "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
-        "rayon_threads": rayon::current_num_threads(),
-        "started_unix": secs(started),
-        "ended_unix": ended.map(secs),
-    });
-    write_atomic(&out_dir.join("meta.json"), serde_json::to_string_pretty(&meta)?.as_bytes())
 }
 
 /// The git revision of the folder holding the config, and whether the tree is dirty.

@@ -349,26 +349,95 @@ fn a_smoothness_batch_writes_the_table_7_shape() {
     assert!(table.contains("| planar_bar_2k | sd |") && table.contains("numeric_project_ms"), "{table}");
 }
 
+/// The columns of a run folder that do not depend on timing: summary.csv's results and every
+/// per-iteration CSV without its time columns, by file name.
+type Table = Vec<Vec<String>>;
+
+fn results(out: &Path) -> (Table, Vec<(String, Table)>) {
+    let (h, rows) = read_csv(&out.join("summary.csv"));
+    let keep = ["dataset", "energy", "solver", "iterations", "init_energy", "final_energy", "grad_norm", "status"];
+    let summary =
+        rows.iter().map(|r| keep.iter().map(|k| r[h.iter().position(|x| x == k).unwrap()].clone()).collect()).collect();
+    let mut runs: Vec<(String, Table)> = std::fs::read_dir(out.join("runs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+        .map(|p| {
+            let (h, rows) = read_csv(&p);
+            let cols: Vec<usize> = (0..h.len()).filter(|&i| !h[i].starts_with("t_")).collect();
+            let rows = rows.iter().map(|r| cols.iter().map(|&i| r[i].clone()).collect()).collect();
+            (p.file_name().unwrap().to_string_lossy().into_owned(), rows)
+        })
+        .collect();
+    runs.sort();
+    (summary, runs)
+}
+
 #[test]
-fn two_runs_of_the_same_config_are_identical() {
+fn jobs_shards_merge_and_report_do_not_change_results() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(
         tmp.path(),
-        "name = \"d\"\ndatasets = [\"cap_2k\"]\nenergies = [\"sd\", \"bconf\"]\nsolvers = [\"kp-newton\"]\n",
+        "name = \"d\"\ndatasets = [\"cap_2k\", \"bumpy_1k\"]\nenergies = [\"sd\", \"bconf\"]\n\
+         solvers = [\"kp-newton\", \"cm\"]\n",
     );
-    let run = |sub: &str| {
+    let run = |sub: &str, extra: &[&str]| {
         let out = tmp.path().join(sub);
-        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+        let mut args = vec!["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend(extra);
+        let o = mapbench(&args, tmp.path());
         assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-        let (h, rows) = read_csv(&out.join("summary.csv"));
-        let keep = ["dataset", "energy", "solver", "iterations", "init_energy", "final_energy", "grad_norm", "status"];
-        rows.iter()
-            .map(|r| keep.iter().map(|k| r[h.iter().position(|x| x == k).unwrap()].clone()).collect::<Vec<_>>())
-            .collect::<Vec<_>>()
+        out
     };
-    let (a, b) = (run("a"), run("b"));
-    assert_eq!(a.len(), 2);
-    assert_eq!(a, b);
+    let one = results(&run("one", &["--jobs", "1"]));
+    assert_eq!((one.0.len(), one.1.len()), (8, 8));
+    // summary.csv is in the config's order whatever order the runs finished in
+    let order: Vec<String> = one.0.iter().map(|r| format!("{} {} {}", r[0], r[1], r[2])).collect();
+    assert_eq!(order[..3], ["cap_2k sd kp-newton", "cap_2k sd cm", "cap_2k bconf kp-newton"]);
+    // energy_minus_best is 0 at the group's best final energy
+    for (_, rows) in &one.1 {
+        assert!(rows.iter().all(|r| r[2].parse::<f64>().unwrap() >= 0.0));
+    }
+    assert_eq!(results(&run("two", &["--jobs", "2"])), one);
+    // two rayon threads inside each run: the same numbers (reductions have a fixed order)
+    let body = std::fs::read_to_string(&cfg).unwrap();
+    std::fs::write(&cfg, format!("threads_per_run = 2\n{body}")).unwrap();
+    assert_eq!(results(&run("threads", &["--jobs", "1"])), one);
+    std::fs::write(&cfg, body).unwrap();
+    let shards: Vec<PathBuf> = (1..=3).map(|i| run(&format!("s{i}"), &["--shard", &format!("{i}/3")])).collect();
+    let (_, part) = read_csv(&shards[0].join("summary.csv"));
+    assert_eq!(part.len(), 3, "shard 1/3 of 8 runs");
+    let merged = tmp.path().join("merged");
+    let mut args = vec!["merge".to_string()];
+    args.extend(shards.iter().map(|s| s.display().to_string()));
+    args.extend(["--out".into(), merged.display().to_string()]);
+    let o = mapbench(&args.iter().map(String::as_str).collect::<Vec<_>>(), tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert_eq!(results(&merged), one);
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(merged.join("meta.json")).unwrap()).unwrap();
+    assert_eq!(meta["merged_from"].as_array().unwrap().len(), 3);
+    // a missing shard is reported and fails the merge with exit 2
+    let o = mapbench(&["merge", shards[0].to_str().unwrap(), "--out", "partial"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("5 planned runs are in no shard"), "{}", text(&o));
+    // `report` rebuilds the same tables from the CSVs alone
+    let tables = |dir: &Path| {
+        let mut v: Vec<(PathBuf, Vec<u8>)> = std::fs::read_dir(dir.join("tables"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .map(|p| (p.clone(), std::fs::read(&p).unwrap()))
+            .collect();
+        v.sort();
+        v
+    };
+    let before = tables(&merged);
+    assert!(!before.is_empty());
+    std::fs::remove_dir_all(merged.join("tables")).unwrap();
+    let o = mapbench(&["report", merged.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert_eq!(tables(&merged), before);
+    assert_eq!(results(&merged), one);
 }
 
 #[test]
@@ -498,4 +567,62 @@ fn the_gate_passes_on_its_own_baseline_and_catches_regressions() {
     let o = mapbench(&["check", "run", "--baseline", "missing.json"], tmp.path());
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("MISSING") && text(&o).contains("cap_2k"));
+}
+
+#[test]
+fn ctrl_c_keeps_finished_runs_and_resume_completes_the_batch() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"i\"\ndatasets = [\"bumpy_1k\", \"cap_2k\"]\nenergies = [\"sd\", \"bconf\"]\n\
+         solvers = [\"kp-newton\", \"cm\", \"slim\"]\n",
+    );
+    let out = tmp.path().join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mapbench"))
+        .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1"])
+        .current_dir(tmp.path())
+        .env_remove("MAPBENCH_MESHES")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Interrupt once two runs are on disk.
+    let t0 = std::time::Instant::now();
+    let lines = || std::fs::read_to_string(out.join("summary.csv")).map(|s| s.lines().count()).unwrap_or(0);
+    while lines() < 3 {
+        assert!(child.try_wait().unwrap().is_none(), "the batch ended early");
+        assert!(t0.elapsed().as_secs() < 120, "no run finished");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(130), "{log}");
+    assert!(log.contains("interrupted:") && log.contains("not run (`--resume` runs them)"), "{log}");
+    let (_, rows) = read_csv(&out.join("summary.csv"));
+    let done = rows.len();
+    assert!((2..12).contains(&done), "{done} runs done: {log}");
+    // every finished run is complete on disk; no temporary file is left
+    for r in &rows {
+        let stem = format!("{}__{}__{}", r[0], r[2], r[3]);
+        let (_, it) = read_csv(&out.join(format!("runs/{stem}.csv")));
+        assert_eq!(it.len() - 1, r[6].parse::<usize>().unwrap(), "{stem}");
+        assert!(out.join(format!("uv/{stem}.obj")).is_file());
+    }
+    let leftovers = |d: &str| {
+        std::fs::read_dir(out.join(d))
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(".tmp"))
+            .count()
+    };
+    assert_eq!((leftovers("runs"), leftovers("uv"), leftovers(".")), (0, 0, 0));
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+    assert_eq!(meta["interrupted"], true);
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resume"], tmp.path());
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{log}");
+    assert_eq!(log.matches("resumed, ").count(), done, "{log}");
+    let (_, rows) = read_csv(&out.join("summary.csv"));
+    assert_eq!(rows.len(), 12);
 }

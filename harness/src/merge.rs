@@ -1,0 +1,112 @@
+//! `merge SHARD_DIR...`: combine the folders of `run --shard I/N` batches of one config into
+//! one run folder, as if the batch had run unsharded, and render its report.
+
+use crate::output::{read_summary, run_stem, write_atomic, write_summary, SummaryRow};
+use anyhow::{bail, Context, Result};
+use serde_json::Value;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// What a merge did.
+#[derive(Debug)]
+pub struct Merged {
+    pub out_dir: PathBuf,
+    pub runs: usize,
+    /// Planned runs no shard has (a shard missing or interrupted).
+    pub missing: Vec<String>,
+}
+
+fn read_meta(dir: &Path) -> Result<Value> {
+    let path = dir.join("meta.json");
+    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))
+}
+
+/// Merge `shards` into `out` (default: `reports/<config name>`).
+pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
+    let Some(first) = shards.first() else { bail!("merge needs at least one shard folder") };
+    let metas: Vec<Value> = shards.iter().map(|d| read_meta(d)).collect::<Result<_>>()?;
+    let (config, plan) = (&metas[0]["config"], &metas[0]["plan"]);
+    for (dir, m) in shards.iter().zip(&metas).skip(1) {
+        if &m["config"] != config || &m["plan"] != plan {
+            bail!(
+                "{}: was run from a different config or --only than {} (merge shards of one batch)",
+                dir.display(),
+                first.display()
+            );
+        }
+    }
+    let order: HashMap<String, usize> = plan
+        .as_array()
+        .with_context(|| format!("{}: meta.json has no plan (written before shards existed)", first.display()))?
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| s.as_str().map(|s| (s.to_string(), i)))
+        .collect();
+    let out_dir = match out {
+        Some(o) => o.to_path_buf(),
+        None => PathBuf::from("reports").join(config["name"].as_str().unwrap_or("merged")),
+    };
+    if shards.iter().any(|s| same_dir(s, &out_dir)) {
+        bail!("{}: the merged folder must not be one of the shards", out_dir.display());
+    }
+    let mut rows: Vec<(usize, SummaryRow)> = Vec::new();
+    let mut from: HashMap<String, &Path> = HashMap::new();
+    for dir in shards {
+        for row in read_summary(dir)? {
+            let stem = run_stem(&row.dataset, &row.energy, &row.solver);
+            let Some(&i) = order.get(&stem) else {
+                bail!("{}: run {stem} is not in the batch's plan", dir.display());
+            };
+            if let Some(other) = from.insert(stem.clone(), dir) {
+                bail!("run {stem} is in both {} and {}", other.display(), dir.display());
+            }
+            for (sub, ext) in [("runs", "csv"), ("runs", "json"), ("uv", "obj")] {
+                let src = dir.join(sub).join(format!("{stem}.{ext}"));
+                if src.is_file() {
+                    let bytes = std::fs::read(&src).with_context(|| format!("{}: cannot read", src.display()))?;
+                    write_atomic(&out_dir.join(sub).join(format!("{stem}.{ext}")), &bytes)?;
+                }
+            }
+            rows.push((i, row));
+        }
+    }
+    rows.sort_by_key(|(i, _)| *i);
+    let rows: Vec<SummaryRow> = rows.into_iter().map(|(_, r)| r).collect();
+    let mut missing: Vec<(usize, String)> =
+        order.iter().filter(|(s, _)| !from.contains_key(*s)).map(|(s, &i)| (i, s.clone())).collect();
+    missing.sort();
+    write_summary(&out_dir.join("summary.csv"), &rows)?;
+    let mut meta = metas[0].clone();
+    meta["shard"] = Value::Null;
+    meta["merged_from"] = Value::Array(
+        shards
+            .iter()
+            .zip(&metas)
+            .map(|(d, m)| {
+                serde_json::json!({
+                    "dir": d.display().to_string(), "shard": m["shard"], "host": m["host"],
+                    "git_revision": m["git_revision"], "git_dirty": m["git_dirty"],
+                    "started_unix": m["started_unix"], "ended_unix": m["ended_unix"],
+                    "interrupted": m["interrupted"],
+                })
+            })
+            .collect(),
+    );
+    let starts = metas.iter().filter_map(|m| m["started_unix"].as_u64());
+    let ends: Vec<Option<u64>> = metas.iter().map(|m| m["ended_unix"].as_u64()).collect();
+    meta["started_unix"] = starts.min().into();
+    meta["ended_unix"] =
+        if ends.iter().all(Option::is_some) { ends.iter().flatten().max().copied().into() } else { Value::Null };
+    meta["interrupted"] = metas.iter().any(|m| m["interrupted"] == Value::Bool(true)).into();
+    write_atomic(&out_dir.join("meta.json"), serde_json::to_string_pretty(&meta)?.as_bytes())?;
+    crate::report::refresh(&out_dir, &rows)?;
+    Ok(Merged { out_dir, runs: rows.len(), missing: missing.into_iter().map(|(_, s)| s).collect() })
+}
+
+fn same_dir(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}

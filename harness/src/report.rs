@@ -1,0 +1,67 @@
+//! Everything of a run folder that is derived from its CSVs: each run's `energy_minus_best`
+//! against its (dataset, energy) group, the paper-style tables, the plots and `index.html`.
+//! `run` and `merge` end here, and `report RUN_DIR` re-renders from the CSVs alone.
+
+use crate::output::{iteration_csv, run_stem, write_atomic, SummaryRow};
+use crate::resume::read_rows;
+use crate::tables::Table;
+use anyhow::Result;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Re-derive everything from `summary` rows and the per-iteration CSVs in `run_dir`.
+pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
+    fill_best(run_dir, summary)?;
+    for (stem, table) in tables(summary) {
+        table.write(&run_dir.join("tables"), &stem)?;
+    }
+    Ok(())
+}
+
+/// Builds one table from the summary, `None` when it does not apply.
+type TableFn = fn(&[SummaryRow]) -> Option<Table>;
+
+/// The per-iteration rows of each run of a (dataset, energy) group, by run stem.
+type Group = Vec<(String, Vec<solvers::solver::IterationRecord>)>;
+
+/// Every table that applies to these runs, with its file stem.
+pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
+    let builders: [(&str, TableFn); 4] = [
+        ("projection", crate::tables::projection_table),
+        ("smoothness", crate::tables::smoothness_table),
+        ("deform", crate::tables::deform_table),
+        ("authalic", crate::tables::authalic_table),
+    ];
+    builders.iter().filter_map(|(stem, f)| f(summary).map(|t| (stem.to_string(), t))).collect()
+}
+
+/// Rewrite `energy_minus_best` of every run with the best energy any finished run of its
+/// (dataset, energy) group reached (design.md: "energy minus the best energy over all
+/// solvers"). Runs finish in any order, in shards or resumed, so this is done once they are
+/// all on disk. Files whose content would not change are left alone.
+pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
+    let mut groups: BTreeMap<(&str, &str), Group> = BTreeMap::new();
+    for s in summary.iter().filter(|s| s.status != "failed") {
+        let stem = run_stem(&s.dataset, &s.energy, &s.solver);
+        let rows = read_rows(&run_dir.join("runs").join(format!("{stem}.csv")))?;
+        groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows));
+    }
+    for runs in groups.values() {
+        let best = runs
+            .iter()
+            .flat_map(|(_, r)| r.iter().map(|x| x.energy))
+            .filter(|e| e.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        if !best.is_finite() {
+            continue;
+        }
+        for (stem, rows) in runs {
+            let path = run_dir.join("runs").join(format!("{stem}.csv"));
+            let bytes = iteration_csv(rows, best)?;
+            if std::fs::read(&path).ok().as_deref() != Some(&bytes[..]) {
+                write_atomic(&path, &bytes)?;
+            }
+        }
+    }
+    Ok(())
+}
