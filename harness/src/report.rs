@@ -26,7 +26,9 @@ type Group = Vec<(String, Vec<solvers::solver::IterationRecord>)>;
 
 /// Every table that applies to these runs, with its file stem.
 pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
-    let builders: [(&str, TableFn); 4] = [
+    let builders: [(&str, TableFn); 6] = [
+        ("param", crate::tables::param_table),
+        ("per_mesh", crate::tables::per_mesh_table),
         ("projection", crate::tables::projection_table),
         ("smoothness", crate::tables::smoothness_table),
         ("deform", crate::tables::deform_table),

@@ -12,6 +12,8 @@ pub struct Table {
     pub rows: Vec<Vec<String>>,
     /// A sentence under the table saying what the numbers are.
     pub caption: String,
+    /// Cells `(row, column)` shown in bold: the best value among the solvers compared.
+    pub bold: Vec<(usize, usize)>,
 }
 
 impl Table {
@@ -27,8 +29,13 @@ impl Table {
     pub fn to_markdown(&self) -> String {
         let mut s =
             format!("### {}\n\n| {} |\n|{}\n", self.title, self.columns.join(" | "), "---|".repeat(self.columns.len()));
-        for r in &self.rows {
-            s += &format!("| {} |\n", r.join(" | "));
+        for (i, r) in self.rows.iter().enumerate() {
+            let cells: Vec<String> = r
+                .iter()
+                .enumerate()
+                .map(|(j, c)| if self.bold.contains(&(i, j)) && !c.is_empty() { format!("**{c}**") } else { c.clone() })
+                .collect();
+            s += &format!("| {} |\n", cells.join(" | "));
         }
         s += &format!("\n{}\n", self.caption);
         s
@@ -47,10 +54,14 @@ impl Table {
             s += &format!("<th>{}</th>", esc(c));
         }
         s += "</tr>\n";
-        for r in &self.rows {
+        for (i, r) in self.rows.iter().enumerate() {
             s += "<tr>";
-            for c in r {
-                s += &format!("<td>{}</td>", esc(c));
+            for (j, c) in r.iter().enumerate() {
+                if self.bold.contains(&(i, j)) {
+                    s += &format!("<td><b>{}</b></td>", esc(c));
+                } else {
+                    s += &format!("<td>{}</td>", esc(c));
+                }
             }
             s += "</tr>\n";
         }
@@ -125,6 +136,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
                   including M^T K M; solve = numeric Cholesky factorization plus triangular solves; \
                   project/solve uses the same run's solve time."
             .into(),
+        bold: Vec::new(),
     })
 }
 
@@ -187,21 +199,35 @@ pub fn smoothness_table(rows: &[SummaryRow]) -> Option<Table> {
                   projections of an iteration; analytic = kp-newton (Section 4.3 / Appendix B), numeric = \
                   kp-newton-eig8 (eigen-decomposition of every 8x8 edge block)."
             .into(),
+        bold: Vec::new(),
     })
 }
 
-/// The complex-view paper's Table 6 shape: per solver (rows) and energy (columns), the mean
-/// number of iterations and the mean run time in seconds over the deformation shapes,
-/// `it/t`. Cells with a run that did not converge are marked `*`; failed runs are left out
-/// and counted in the caption. `None` when no deform run finished.
-pub fn deform_table(rows: &[SummaryRow]) -> Option<Table> {
-    let done: Vec<&SummaryRow> = rows.iter().filter(|r| r.task == "deform" && r.status != "failed").collect();
+/// How a solver x energy table averages its runs.
+struct MeanSpec {
+    task: &'static str,
+    title: &'static str,
+    /// The time of one run in the table's unit.
+    time: fn(&SummaryRow) -> Option<f64>,
+    time_label: &'static str,
+    time_digits: usize,
+}
+
+/// The complex-view paper's Table 4 (`param`: iterations / ms per vertex) and Table 6
+/// (`deform`: iterations / seconds) shape: per solver (rows) and energy (columns), the mean
+/// number of iterations and the mean time over the datasets, `it/t`, including runs that did
+/// not converge (marked `*`, their iterations count as run); failed runs are left out and
+/// counted in the caption. The lowest mean time of each energy is bold. `None` when no run of
+/// the task finished.
+fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
+    let all: Vec<&SummaryRow> = rows.iter().filter(|r| r.task == spec.task).collect();
+    let done: Vec<&SummaryRow> = all.iter().copied().filter(|r| r.status != "failed").collect();
     if done.is_empty() {
         return None;
     }
     let mut energies: Vec<&str> = Vec::new();
     let mut solvers: Vec<&str> = Vec::new();
-    for r in rows.iter().filter(|r| r.task == "deform") {
+    for r in &all {
         if !energies.contains(&r.energy.as_str()) {
             energies.push(&r.energy);
         }
@@ -212,34 +238,158 @@ pub fn deform_table(rows: &[SummaryRow]) -> Option<Table> {
     let mut columns = vec!["it/t".to_string()];
     columns.extend(energies.iter().map(|e| e.to_string()));
     let mut out = Vec::new();
+    let mut times: Vec<Vec<Option<f64>>> = Vec::new();
     for s in &solvers {
         let mut row = vec![s.to_string()];
+        let mut trow = Vec::new();
         for e in &energies {
             let cell: Vec<&&SummaryRow> = done.iter().filter(|r| r.solver == *s && r.energy == *e).collect();
             if cell.is_empty() {
                 row.push(String::new());
+                trow.push(None);
                 continue;
             }
             let n = cell.len() as f64;
             let it = cell.iter().filter_map(|r| r.iterations).sum::<usize>() as f64 / n;
-            let t = cell.iter().filter_map(|r| r.time_s).sum::<f64>() / n;
+            let t = cell.iter().filter_map(|r| (spec.time)(r)).sum::<f64>() / n;
             let mark = if cell.iter().any(|r| r.status != "ok") { "*" } else { "" };
-            row.push(format!("{it:.1}/{t:.3}{mark}"));
+            row.push(format!("{it:.1}/{t:.prec$}{mark}", prec = spec.time_digits));
+            trow.push(Some(t));
         }
         out.push(row);
+        times.push(trow);
     }
-    let shapes: std::collections::BTreeSet<&str> = done.iter().map(|r| r.dataset.as_str()).collect();
-    let failed = rows.iter().filter(|r| r.task == "deform" && r.status == "failed").count();
+    let bold = (0..energies.len())
+        .filter_map(|j| {
+            let best =
+                (0..solvers.len()).filter_map(|i| times[i][j].map(|t| (i, t))).min_by(|a, b| a.1.total_cmp(&b.1));
+            best.map(|(i, _)| (i, j + 1))
+        })
+        .collect();
+    let sets: std::collections::BTreeSet<&str> = done.iter().map(|r| r.dataset.as_str()).collect();
+    let failed = all.len() - done.len();
     Some(Table {
-        title: "Shape deformation (complex-view paper, Table 6)".into(),
+        title: spec.title.into(),
         columns,
         rows: out,
         caption: format!(
-            "Mean iterations / mean run time in seconds over {} shapes ({}); * = at least one run did not \
-             converge (its iterations count as run); {failed} failed runs left out.",
-            shapes.len(),
-            shapes.into_iter().collect::<Vec<_>>().join(", ")
+            "Mean iterations / mean {} over {} datasets ({}), including runs that did not converge (* = at \
+             least one, its iterations count as run); {failed} failed runs left out. Bold: the fastest solver \
+             per energy.",
+            spec.time_label,
+            sets.len(),
+            sets.into_iter().collect::<Vec<_>>().join(", ")
         ),
+        bold,
+    })
+}
+
+/// The complex-view paper's Table 4 shape for `param` runs: iterations / ms per vertex.
+pub fn param_table(rows: &[SummaryRow]) -> Option<Table> {
+    mean_table(
+        rows,
+        &MeanSpec {
+            task: "param",
+            title: "Parameterization (complex-view paper, Table 4)",
+            time: |r| r.ms_per_vertex,
+            time_label: "run time in ms per vertex",
+            time_digits: 3,
+        },
+    )
+}
+
+/// The complex-view paper's Table 6 shape for `deform` runs: iterations / seconds.
+pub fn deform_table(rows: &[SummaryRow]) -> Option<Table> {
+    mean_table(
+        rows,
+        &MeanSpec {
+            task: "deform",
+            title: "Shape deformation (complex-view paper, Table 6)",
+            time: |r| r.time_s,
+            time_label: "run time in seconds",
+            time_digits: 3,
+        },
+    )
+}
+
+/// The composite-majorization paper's Table 1 shape: one row per mesh and energy, for each
+/// solver its iterations, run time and final energy. Runs that hit `max_iters` (or stopped
+/// without converging) are marked `*`, failed runs say `failed`. Bold: per row, the fewest
+/// iterations, the shortest time and the lowest energy. `None` without `param` or `deform`
+/// runs.
+pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
+    let runs: Vec<&SummaryRow> = rows.iter().filter(|r| r.task == "param" || r.task == "deform").collect();
+    if runs.is_empty() {
+        return None;
+    }
+    let mut solvers: Vec<&str> = Vec::new();
+    let mut groups: Vec<(&str, &str)> = Vec::new();
+    for r in &runs {
+        if !solvers.contains(&r.solver.as_str()) {
+            solvers.push(&r.solver);
+        }
+        if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
+            groups.push((&r.dataset, &r.energy));
+        }
+    }
+    let mut columns = ["dataset", "energy", "# vert", "# elem"].map(String::from).to_vec();
+    for s in &solvers {
+        columns.extend([format!("{s} iter"), format!("{s} time [s]"), format!("{s} energy")]);
+    }
+    let (mut out, mut bold) = (Vec::new(), Vec::new());
+    for (i, (d, e)) in groups.iter().enumerate() {
+        let of = |s: &str| runs.iter().find(|r| r.dataset == *d && r.energy == *e && r.solver == s);
+        let first = runs.iter().find(|r| r.dataset == *d && r.vertices.is_some());
+        let count = |f: fn(&SummaryRow) -> Option<usize>| first.and_then(|r| f(r)).map(|v| v.to_string());
+        let mut row = vec![
+            d.to_string(),
+            e.to_string(),
+            count(|r| r.vertices).unwrap_or_default(),
+            count(|r| r.faces).unwrap_or_default(),
+        ];
+        // (iterations, time, energy) of each finished solver, for the bold marks
+        let mut values: Vec<Option<(f64, f64, f64)>> = Vec::new();
+        for s in &solvers {
+            match of(s) {
+                Some(r) if r.status == "failed" => {
+                    row.extend(["failed".to_string(), String::new(), String::new()]);
+                    values.push(None);
+                }
+                Some(r) => {
+                    let mark = if r.status == "ok" { "" } else { "*" };
+                    row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
+                    row.push(r.time_s.map(|t| format!("{t:.2}")).unwrap_or_default());
+                    row.push(r.final_energy.map(|x| format!("{x:.5}")).unwrap_or_default());
+                    values.push(r.iterations.zip(r.time_s).zip(r.final_energy).map(|((i, t), x)| (i as f64, t, x)));
+                }
+                None => {
+                    row.extend(std::iter::repeat_n(String::new(), 3));
+                    values.push(None);
+                }
+            }
+        }
+        for k in 0..3 {
+            let pick = |v: &(f64, f64, f64)| [v.0, v.1, v.2][k];
+            let best = values.iter().flatten().map(pick).fold(f64::INFINITY, f64::min);
+            // Energies tie at the printed precision: bold every solver that reaches the best.
+            let ties = |x: f64| if k == 2 { format!("{x:.5}") == format!("{best:.5}") } else { x == best };
+            for (j, v) in values.iter().enumerate() {
+                if v.as_ref().is_some_and(|v| ties(pick(v))) {
+                    bold.push((i, 4 + 3 * j + k));
+                }
+            }
+        }
+        out.push(row);
+    }
+    Some(Table {
+        title: "Per mesh: iterations, time and final energy per solver (composite-majorization paper, Table 1)".into(),
+        columns,
+        rows: out,
+        caption: "time = whole run including the initial map; energy = final energy (normalized by area); \
+                  * = did not converge (hit max_iters or another stop rule); bold = best of the row (fewest \
+                  iterations, shortest time, lowest energy to 5 decimals)."
+            .into(),
+        bold,
     })
 }
 
@@ -268,9 +418,16 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
         }
     }
     let sci = |v: Option<f64>| v.map(|x| format!("{x:.2e}")).unwrap_or_default();
-    let mut out = Vec::new();
-    for d in datasets {
+    let (mut out, mut bold) = (Vec::new(), Vec::new());
+    for (i, d) in datasets.into_iter().enumerate() {
         let runs: Vec<&&SummaryRow> = done.iter().filter(|r| r.dataset == d).collect();
+        // Bold the lowest area ratio SD and E_A of the row.
+        for (k, f) in [|r: &SummaryRow| r.area_ratio_sd, |r: &SummaryRow| r.authalic_energy].iter().enumerate() {
+            let vals: Vec<Option<f64>> =
+                present.iter().map(|(s, _)| runs.iter().find(|r| r.solver == *s).and_then(|r| f(r))).collect();
+            let best = vals.iter().flatten().copied().fold(f64::INFINITY, f64::min);
+            bold.extend((0..vals.len()).filter(|&j| vals[j] == Some(best)).map(|j| (i, 3 + 4 * j + k)));
+        }
         let count = |f: fn(&SummaryRow) -> Option<usize>| runs.first().and_then(|r| f(r)).map(|v| v.to_string());
         let mut row =
             vec![d.to_string(), count(|r| r.vertices).unwrap_or_default(), count(|r| r.faces).unwrap_or_default()];
@@ -298,8 +455,9 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
         caption: format!(
             "Iterations: {iters}. Area ratio SD = population standard deviation of r = (|f(t)|/A(f)) / (|t|/|S|) \
              over faces; E_A = normalized authalic energy (Eq. 4); time = whole run including the initial map; \
-             folds = faces with non-positive image area."
+             folds = faces with non-positive image area; bold = lowest of the row."
         ),
+        bold,
     })
 }
 
@@ -344,8 +502,75 @@ mod tests {
         assert_eq!(t.columns, ["it/t", "sd", "bconf"]);
         assert_eq!(t.rows[0], ["kp-newton", "25.0/0.600", "10.0/0.100"]);
         assert_eq!(t.rows[1], ["akvf", "100.0/2.000*", ""]);
-        assert!(t.caption.contains("2 shapes (a, b)") && t.caption.contains("1 failed"));
+        assert!(t.caption.contains("2 datasets (a, b)") && t.caption.contains("1 failed"), "{}", t.caption);
+        // the fastest solver of each energy is bold
+        assert_eq!(t.bold, [(0, 1), (0, 2)]);
+        assert!(t.to_markdown().contains("| kp-newton | **25.0/0.600** | **10.0/0.100** |"));
+        assert!(t.to_html().contains("<td><b>25.0/0.600</b></td>"));
         assert!(deform_table(&[row("a", "kp-newton", 1.0, 1.0)]).is_none());
+        assert!(param_table(&rows).is_none());
+    }
+
+    #[test]
+    fn param_table_is_table_4_in_ms_per_vertex() {
+        let p = |d: &str, s: &str, it: usize, ms: f64, status: &str| SummaryRow {
+            dataset: d.into(),
+            task: "param".into(),
+            energy: "sd".into(),
+            solver: s.into(),
+            iterations: Some(it),
+            ms_per_vertex: Some(ms),
+            time_s: Some(100.0),
+            status: status.into(),
+            ..Default::default()
+        };
+        let rows = vec![
+            p("a", "kp-newton", 10, 0.2, "ok"),
+            p("b", "kp-newton", 20, 0.4, "ok"),
+            p("a", "slim", 300, 0.1, "not_converged"),
+        ];
+        let t = param_table(&rows).unwrap();
+        assert_eq!(t.rows, [["kp-newton", "15.0/0.300"], ["slim", "300.0/0.100*"]]);
+        assert_eq!(t.bold, [(1, 1)]);
+        assert!(t.title.contains("Table 4"));
+    }
+
+    #[test]
+    fn per_mesh_table_marks_unconverged_failed_and_best() {
+        let p = |s: &str, it: usize, t: f64, e: f64, status: &str| SummaryRow {
+            dataset: "cow".into(),
+            task: "param".into(),
+            energy: "sd".into(),
+            solver: s.into(),
+            vertices: Some(4540),
+            faces: Some(8626),
+            iterations: Some(it),
+            time_s: Some(t),
+            final_energy: Some(e),
+            status: status.into(),
+            ..Default::default()
+        };
+        let mut failed = p("akvf", 0, 0.0, 0.0, "failed");
+        (failed.iterations, failed.time_s, failed.final_energy) = (None, None, None);
+        let rows = vec![
+            p("cm", 33, 0.60, 2.084131, "ok"),
+            p("kp-newton", 41, 0.98, 2.084129, "ok"),
+            p("slim", 394, 0.5, 2.08417, "not_converged"),
+            failed,
+        ];
+        let t = per_mesh_table(&rows).unwrap();
+        assert_eq!(t.columns[..7], ["dataset", "energy", "# vert", "# elem", "cm iter", "cm time [s]", "cm energy"]);
+        assert_eq!(
+            t.rows[0],
+            [
+                "cow", "sd", "4540", "8626", "33", "0.60", "2.08413", "41", "0.98", "2.08413", "394*", "0.50",
+                "2.08417", "failed", "", ""
+            ]
+        );
+        // fewest iterations (cm), shortest time (slim), lowest energy at 5 decimals (cm and kp tie)
+        let mut b = t.bold.clone();
+        b.sort();
+        assert_eq!(b, [(0, 4), (0, 6), (0, 9), (0, 11)]);
     }
 
     #[test]
@@ -378,6 +603,7 @@ mod tests {
             ["face", "10", "12", "1.11e-3", "3.66e-6", "1.23", "0", "2.10e-4", "1.28e-7", "1.23", "0"]
         );
         assert_eq!(t.rows[1][3..7], ["", "", "", ""]);
+        assert_eq!(t.bold, [(0, 7), (0, 8), (1, 7), (1, 8)], "AEM-CG has the lower SD and E_A");
         assert!(t.caption.starts_with("Iterations: 100."));
         assert!(authalic_table(&[row("a", "kp-newton", 1.0, 1.0)]).is_none());
     }
