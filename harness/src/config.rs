@@ -78,6 +78,9 @@ pub struct LinearConfig {
     pub tikhonov: Option<f64>,
     /// Symmetric Jacobi scaling, default true.
     pub jacobi: Option<bool>,
+    /// Fill-reducing ordering of the Newton system: `metis` (default: nested dissection of the
+    /// vertex graph, postordered) or `amd`.
+    pub ordering: Option<solvers::ordering::Ordering>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -497,6 +500,7 @@ impl Config {
         let linear = LinearSettings {
             tikhonov: self.linear.tikhonov.unwrap_or(lin.tikhonov),
             jacobi: self.linear.jacobi.unwrap_or(lin.jacobi),
+            ordering: self.linear.ordering.unwrap_or(lin.ordering),
         };
         ParamSettings {
             solver: Settings { stop, line_search, linear },
@@ -583,7 +587,10 @@ mod tests {
         assert_eq!(s.solver.stop.energy_decrease_tol, 0.0);
         assert_eq!(c.param_settings(&EnergyKind::Sarap).solver.stop.energy_decrease_tol, 1e-8);
         assert_eq!(s.solver.line_search, LineSearchSettings::default());
-        assert_eq!(s.solver.linear, LinearSettings { tikhonov: 1e-10, jacobi: true });
+        assert_eq!(
+            s.solver.linear,
+            LinearSettings { tikhonov: 1e-10, jacobi: true, ordering: solvers::ordering::Ordering::Metis }
+        );
         assert_eq!(s.tutte_boundary, TutteBoundary::Uniform);
         assert_eq!(s.scaling_jump, 0.1);
     }

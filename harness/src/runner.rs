@@ -503,6 +503,8 @@ impl Meta<'_> {
             "plan": self.planned.iter().map(|p| p.stem.as_str()).collect::<Vec<_>>(),
             "jobs": self.jobs,
             "threads_per_run": self.threads,
+            // Newton systems of fewer than METIS_MIN_NODES vertices use AMD whatever this says.
+            "linear_ordering": cfg.config.linear.ordering.unwrap_or_default().as_str(),
             "stop_per_energy": stop.iter().map(|(e, (g, d, m))| (e.clone(), serde_json::json!({
                 "grad_tol": g, "energy_decrease_tol": d, "max_iters": m
             }))).collect::<serde_json::Map<_, _>>(),

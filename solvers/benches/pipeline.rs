@@ -16,6 +16,7 @@ use solvers::hessian::{kp::Kp, SystemBlock};
 use solvers::init::{tutte, TutteBoundary};
 use solvers::line_search::max_injective_step;
 use solvers::linear::{LinearSettings, SpdSolver};
+use solvers::ordering::Ordering;
 use solvers::problem::{Evaluation, MapProblem};
 use std::hint::black_box;
 
@@ -36,7 +37,7 @@ fn bench(c: &mut Criterion) {
         let pattern = Pattern::new(&problem.faces, problem.n_vertices);
         let mut values = Vec::new();
         pattern.assemble(&blocks, &mut values);
-        let mut solver = SpdSolver::new(&pattern).expect("symbolic analysis");
+        let mut solver = SpdSolver::new(&pattern, Ordering::Metis).expect("symbolic analysis");
         let rhs: Vec<f64> = ev.grad.iter().map(|g| -g).collect();
         let settings = LinearSettings::default();
         let d = solver.solve(&values, &rhs, &settings).expect("KP system is SPD");
@@ -64,6 +65,17 @@ fn bench(c: &mut Criterion) {
         group.bench_function("factorize_solve", |b| {
             b.iter(|| solver.solve(black_box(&values), black_box(&rhs), &settings).map(|x| x[0]))
         });
+        // The same matrix with faer's AMD ordering, and the one-off analyses (ordering +
+        // symbolic factorization) of both, so `[linear] ordering`'s default stays justified.
+        let mut amd = SpdSolver::new(&pattern, Ordering::Amd).expect("symbolic analysis");
+        group.bench_function("factorize_solve_amd", |b| {
+            b.iter(|| amd.solve(black_box(&values), black_box(&rhs), &settings).map(|x| x[0]))
+        });
+        for ordering in [Ordering::Metis, Ordering::Amd] {
+            group.bench_function(format!("analyse_{}", ordering.as_str()), |b| {
+                b.iter(|| SpdSolver::new(black_box(&pattern), ordering).map(|s| s.factor_len()))
+            });
+        }
         group.bench_function("max_injective_step", |b| {
             b.iter(|| max_injective_step(&problem, black_box(&x), black_box(&d)))
         });

@@ -116,7 +116,7 @@ pub fn tutte(mesh: &Mesh, boundary: TutteBoundary) -> Result<Vec<f64>, InitError
         col_ptr.push(row_idx.len());
     }
     let mut solver = SpdSolver::from_csc(ni, col_ptr, row_idx, diag)?;
-    let exact = LinearSettings { tikhonov: 0.0, jacobi: false };
+    let exact = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
     let u = solver.solve(&vals, &rhs_u, &exact)?;
     let v = solver.solve(&vals, &rhs_v, &exact)?;
     for (i, &vert) in interior.iter().enumerate() {

@@ -8,8 +8,10 @@
 //! `(S A S + tau I) y = S b`.
 
 use crate::assembly::Pattern;
+use crate::ordering::{metis_order, Ordering};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
 };
@@ -36,11 +38,14 @@ pub struct LinearSettings {
     /// Symmetric Jacobi scaling (complex-view paper Section 6.1: without it Cholesky often
     /// fails on cut meshes).
     pub jacobi: bool,
+    /// Fill-reducing ordering of the Newton system (the Tutte and authalic Laplacians, solved
+    /// a few times per run, always use AMD).
+    pub ordering: Ordering,
 }
 
 impl Default for LinearSettings {
     fn default() -> Self {
-        LinearSettings { tikhonov: 1e-10, jacobi: true }
+        LinearSettings { tikhonov: 1e-10, jacobi: true, ordering: Ordering::default() }
     }
 }
 
@@ -54,30 +59,47 @@ pub struct SpdSolver {
     scale: Vec<f64>,
     mem: MemBuffer,
     factored: bool,
+    ordering: Ordering,
 }
 
 impl SpdSolver {
-    /// Analyse the pattern once (AMD ordering, supernodal when faer deems it worthwhile).
-    pub fn new(pattern: &Pattern) -> Result<SpdSolver, LinearError> {
-        Self::from_csc(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone(), pattern.diag.clone())
+    /// Analyse the Newton pattern once (two interleaved dofs per vertex) with `ordering`
+    /// (supernodal when faer deems it worthwhile).
+    pub fn new(pattern: &Pattern, ordering: Ordering) -> Result<SpdSolver, LinearError> {
+        let perm = match ordering {
+            Ordering::Amd => None,
+            Ordering::Metis => metis_order(pattern.n, &pattern.col_ptr, &pattern.row_idx, 2)?,
+        };
+        Self::analyse(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone(), pattern.diag.clone(), perm)
     }
 
     /// Analyse a lower-triangular CSC pattern (sorted rows, every diagonal present; `diag`
-    /// gives the value slot of each diagonal entry).
+    /// gives the value slot of each diagonal entry) with AMD.
     pub fn from_csc(
         n: usize,
         col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
         diag: Vec<usize>,
     ) -> Result<SpdSolver, LinearError> {
+        Self::analyse(n, col_ptr, row_idx, diag, None)
+    }
+
+    /// `perm = Some((fwd, inv))` orders by `fwd[new] = old`; `None` uses AMD.
+    fn analyse(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        diag: Vec<usize>,
+        perm: Option<(Vec<usize>, Vec<usize>)>,
+    ) -> Result<SpdSolver, LinearError> {
         let symbolic_a = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
-        let symbolic = factorize_symbolic_cholesky(
-            symbolic_a.as_ref(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams::default(),
-        )
-        .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
+        let ordering = match &perm {
+            Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, n)),
+            None => SymmetricOrdering::Amd,
+        };
+        let symbolic =
+            factorize_symbolic_cholesky(symbolic_a.as_ref(), Side::Lower, ordering, CholeskySymbolicParams::default())
+                .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
         let par = Par::Seq;
         let mem = MemBuffer::new(
             symbolic
@@ -95,7 +117,13 @@ impl SpdSolver {
             scale: vec![1.0; n],
             mem,
             factored: false,
+            ordering: if perm.is_some() { Ordering::Metis } else { Ordering::Amd },
         })
+    }
+
+    /// The ordering the analysis used (`metis` falls back to AMD on tiny graphs).
+    pub fn ordering(&self) -> Ordering {
+        self.ordering
     }
 
     /// Number of stored entries of the Cholesky factor (with supernodal padding).
@@ -202,9 +230,9 @@ mod tests {
         pat.assemble(&blocks, &mut vals);
         let x_true: Vec<f64> = (0..10).map(|i| (i as f64).cos()).collect();
         let b = pat.sym_mul(&vals, &x_true);
-        let mut solver = SpdSolver::new(&pat).unwrap();
+        let mut solver = SpdSolver::new(&pat, Ordering::Amd).unwrap();
         for jacobi in [false, true] {
-            let x = solver.solve(&vals, &b, &LinearSettings { tikhonov: 0.0, jacobi }).unwrap();
+            let x = solver.solve(&vals, &b, &LinearSettings { tikhonov: 0.0, jacobi, ..Default::default() }).unwrap();
             for i in 0..10 {
                 assert!((x[i] - x_true[i]).abs() < 1e-10, "{jacobi} {i}");
             }
@@ -216,15 +244,42 @@ mod tests {
     }
 
     #[test]
+    fn metis_and_amd_orderings_solve_the_same_system_and_metis_fills_less() {
+        let mesh = crate::generate::generate("bumpy_10k").unwrap();
+        let pat = Pattern::new(&mesh.faces, mesh.n_vertices());
+        let blocks: Vec<Matrix6<f64>> = (0..mesh.n_faces())
+            .map(|t| {
+                let b = Matrix6::from_fn(|i, j| ((i * 7 + j * 3 + t) % 11) as f64 * 0.1 - 0.5);
+                b * b.transpose() + Matrix6::identity() * 1e-3
+            })
+            .collect();
+        let mut vals = Vec::new();
+        pat.assemble(&blocks, &mut vals);
+        let x_true: Vec<f64> = (0..pat.n).map(|i| (i as f64 * 0.01).sin()).collect();
+        let b = pat.sym_mul(&vals, &x_true);
+        let settings = LinearSettings { tikhonov: 0.0, jacobi: true, ..Default::default() };
+        let mut metis = SpdSolver::new(&pat, Ordering::Metis).unwrap();
+        let mut amd = SpdSolver::new(&pat, Ordering::Amd).unwrap();
+        assert_eq!((metis.ordering(), amd.ordering()), (Ordering::Metis, Ordering::Amd));
+        let (xm, xa) = (metis.solve(&vals, &b, &settings).unwrap(), amd.solve(&vals, &b, &settings).unwrap());
+        let err = |x: &[f64]| x.iter().zip(&x_true).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(err(&xm) < 1e-8 && err(&xa) < 1e-8, "{} {}", err(&xm), err(&xa));
+        // nested dissection: less fill than AMD on a 10k-vertex mesh (rust-stack.md: ~20% at 71k)
+        assert!(metis.factor_len() < amd.factor_len(), "{} vs {}", metis.factor_len(), amd.factor_len());
+    }
+
+    #[test]
     fn indefinite_matrix_is_a_typed_error() {
         let faces = vec![[0, 1, 2]];
         let pat = Pattern::new(&faces, 3);
         let blocks = vec![-Matrix6::<f64>::identity()];
         let mut vals = Vec::new();
         pat.assemble(&blocks, &mut vals);
-        let mut solver = SpdSolver::new(&pat).unwrap();
+        let mut solver = SpdSolver::new(&pat, Ordering::Amd).unwrap();
         let b = vec![1.0; 6];
-        let err = solver.solve(&vals, &b, &LinearSettings { tikhonov: 0.0, jacobi: false }).unwrap_err();
+        let err = solver
+            .solve(&vals, &b, &LinearSettings { tikhonov: 0.0, jacobi: false, ..Default::default() })
+            .unwrap_err();
         assert!(matches!(err, LinearError::NotPositiveDefinite { .. }));
         let err = solver.solve(&vals, &b, &LinearSettings::default()).unwrap_err();
         assert!(matches!(err, LinearError::BadDiagonal { .. }));

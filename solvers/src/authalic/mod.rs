@@ -451,7 +451,7 @@ impl AuthalicProblem {
 
 /// Solves of `L_II` and `L_BB` are plain (no Jacobi scaling, no shift): `L_S` at a valid map
 /// is a Laplacian with a Dirichlet boundary.
-const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false };
+const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
 
 /// What the step rule of one iteration did (the extra columns, [`EXTRA_COLUMNS`]).
 #[derive(Clone, Copy, Debug, Default)]

@@ -30,6 +30,62 @@ pub type NewtonSettings = Settings;
 /// How many times the Tikhonov shift is increased (x1000 each) after a failed factorization.
 const MAX_REGULARIZATION_RETRIES: usize = 3;
 
+/// The Newton system's pattern for `problem`: faces, plus edge pairs with a smoothness term.
+pub fn system_pattern(problem: &MapProblem) -> Pattern {
+    match &problem.smoothness {
+        Some(sm) => Pattern::with_edges(&problem.faces, &sm.edge_vertices(), problem.n_vertices),
+        None => Pattern::new(&problem.faces, problem.n_vertices),
+    }
+}
+
+/// Per-element system blocks of `strategy` at the evaluated iterate (parallel; each block
+/// depends only on its element), and the smoothness term's edge blocks projected as
+/// configured (Section 4.3).
+pub fn project_blocks(
+    problem: &MapProblem,
+    ev: &Evaluation,
+    strategy: &dyn SystemBlock,
+    blocks: &mut Vec<Matrix6<f64>>,
+    edge_blocks: &mut Vec<Matrix8>,
+) {
+    let weight = problem.weight();
+    blocks.resize(problem.n_faces(), Matrix6::zeros());
+    blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).for_each(|((b, s), op)| {
+        *b = strategy.block(op, s) * weight;
+    });
+    if let Some(sm) = &problem.smoothness {
+        edge_blocks.resize(sm.pairs.len(), Matrix8::zeros());
+        edge_blocks.par_iter_mut().enumerate().for_each(|(k, b)| {
+            let [i, j] = sm.pairs[k].faces;
+            *b = smoothness::block(sm.coefficient(k), &ev.states[i], &ev.states[j], &sm.ops[k], sm.projection);
+        });
+    }
+}
+
+/// The lower-triangle values of the system matrix on `pattern`: the blocks, the strategy's
+/// diagonal shift (SLIM's proximal term) and the handle penalty's diagonal.
+pub fn scatter(
+    problem: &MapProblem,
+    pattern: &Pattern,
+    strategy: &dyn SystemBlock,
+    blocks: &[Matrix6<f64>],
+    edge_blocks: &[Matrix8],
+    values: &mut Vec<f64>,
+) {
+    pattern.assemble_with_edges(blocks, edge_blocks, values);
+    let shift = strategy.diagonal_shift();
+    if shift != 0.0 {
+        for &p in &pattern.diag {
+            values[p] += shift;
+        }
+    }
+    if let Some(pen) = &problem.penalty {
+        for (dof, h) in pen.diagonal() {
+            values[pattern.diag[dof]] += h;
+        }
+    }
+}
+
 pub fn newton(
     problem: &MapProblem,
     x0: Vec<f64>,
@@ -37,12 +93,9 @@ pub fn newton(
     settings: &Settings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, SolveError> {
-    let pattern = match &problem.smoothness {
-        Some(sm) => Pattern::with_edges(&problem.faces, &sm.edge_vertices(), problem.n_vertices),
-        None => Pattern::new(&problem.faces, problem.n_vertices),
-    };
+    let pattern = system_pattern(problem);
     let mut edge_blocks: Vec<Matrix8> = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
-    let mut linear = SpdSolver::new(&pattern)?;
+    let mut linear = SpdSolver::new(&pattern, settings.linear.ordering)?;
     let mut x = x0;
     let mut ev = Evaluation::default();
     problem.evaluate(&x, &mut ev)?;
@@ -58,7 +111,6 @@ pub fn newton(
     };
     let mut interrupted = observer.observe(&record) == Flow::Stop;
 
-    let weight = problem.weight();
     let mut blocks = vec![Matrix6::<f64>::zeros(); problem.n_faces()];
     let mut values = Vec::new();
     let mut x_new = Vec::with_capacity(x.len());
@@ -80,32 +132,11 @@ pub fn newton(
         }
         let t_start = Instant::now();
 
-        // Per-element system blocks (parallel; each block depends only on its element).
-        blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).for_each(|((b, s), op)| {
-            *b = strategy.block(op, s) * weight;
-        });
-        // Edge blocks of the smoothness term, projected as configured (Section 4.3).
-        if let Some(sm) = &problem.smoothness {
-            edge_blocks.par_iter_mut().enumerate().for_each(|(k, b)| {
-                let [i, j] = sm.pairs[k].faces;
-                *b = smoothness::block(sm.coefficient(k), &ev.states[i], &ev.states[j], &sm.ops[k], sm.projection);
-            });
-        }
+        project_blocks(problem, &ev, strategy, &mut blocks, &mut edge_blocks);
         let t_project = t_start.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
-        pattern.assemble_with_edges(&blocks, &edge_blocks, &mut values);
-        let shift = strategy.diagonal_shift();
-        if shift != 0.0 {
-            for &p in &pattern.diag {
-                values[p] += shift;
-            }
-        }
-        if let Some(pen) = &problem.penalty {
-            for (dof, h) in pen.diagonal() {
-                values[pattern.diag[dof]] += h;
-            }
-        }
+        scatter(problem, &pattern, strategy, &blocks, &edge_blocks, &mut values);
         let t_scatter = t0.elapsed().as_secs_f64();
 
         let t0 = Instant::now();

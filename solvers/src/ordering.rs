@@ -1,0 +1,293 @@
+//! Fill-reducing orderings for the sparse Cholesky factorization.
+//!
+//! faer ships AMD only. Nested dissection (METIS `NodeND`) of the vertex graph cuts the fill
+//! and the flops at mesh sizes of 50k+ vertices (`../shared/notes/rust-stack.md` sections 2
+//! and 3: faer with AMD is 1.3-2.1x MKL Pardiso, with METIS + postorder 1.0-1.2x). Two
+//! details matter:
+//! - The graph is the *vertex* graph (the two dofs of a vertex share one node), expanded to
+//!   the dofs afterwards: the same fill as ordering the dof graph, in less time.
+//! - The order is postordered along the elimination tree before faer sees it: faer merges
+//!   only contiguous columns into supernodes, and raw METIS output gave 2.6x more
+//!   supernodes and a slower factorization than AMD.
+
+use crate::linear::LinearError;
+use std::sync::Mutex;
+
+/// The fill-reducing ordering of the Cholesky factorization (`[linear] ordering`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Ordering {
+    /// faer's approximate minimum degree.
+    Amd,
+    /// METIS nested dissection of the vertex graph, postordered (the default: faster to
+    /// factorize from about 5k vertices up, measured in `benches/pipeline.rs`).
+    #[default]
+    Metis,
+}
+
+impl Ordering {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Ordering::Amd => "amd",
+            Ordering::Metis => "metis",
+        }
+    }
+}
+
+/// Graphs with fewer nodes than this use AMD whatever the setting: nested dissection has
+/// nothing to gain there, and METIS rejects some degenerate tiny graphs.
+pub const METIS_MIN_NODES: usize = 64;
+
+/// METIS keeps some state in globals of GKlib (error trapping); one call at a time.
+static METIS_LOCK: Mutex<()> = Mutex::new(());
+
+/// A permutation as `(fwd, inv)`: `fwd[new] = old`, `inv[old] = new`.
+pub type Permutation = (Vec<usize>, Vec<usize>);
+
+/// A METIS nested-dissection order of the symmetric matrix whose lower triangle is the CSC
+/// pattern (`col_ptr`, `row_idx`), on the graph whose nodes are groups of `block`
+/// consecutive dofs, then postordered. Returns `(fwd, inv)` with `fwd[new] = old`.
+/// `None` when the graph is too small for nested dissection to pay.
+pub fn metis_order(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    block: usize,
+) -> Result<Option<Permutation>, LinearError> {
+    let block = block.max(1);
+    if !n.is_multiple_of(block) {
+        return Err(LinearError::Symbolic(format!("{n} dofs are not a multiple of the block size {block}")));
+    }
+    let nodes = n / block;
+    if nodes < METIS_MIN_NODES {
+        return Ok(None);
+    }
+    let (xadj, adjncy) = node_graph(nodes, col_ptr, row_idx, block);
+    let node_fwd = node_nd(nodes, xadj, adjncy)?;
+    let mut fwd = Vec::with_capacity(n);
+    for &v in &node_fwd {
+        fwd.extend((0..block).map(|j| block * v + j));
+    }
+    let fwd = postorder(n, col_ptr, row_idx, &fwd);
+    let mut inv = vec![0; n];
+    for (new, &old) in fwd.iter().enumerate() {
+        inv[old] = new;
+    }
+    Ok(Some((fwd, inv)))
+}
+
+/// The adjacency (METIS CSR: `xadj`, `adjncy`, no self loops, both directions) of the node
+/// graph: node `c / block` is adjacent to `r / block` for every stored entry `(r, c)`.
+fn node_graph(nodes: usize, col_ptr: &[usize], row_idx: &[usize], block: usize) -> (Vec<i32>, Vec<i32>) {
+    let mut adj: Vec<Vec<i32>> = vec![Vec::new(); nodes];
+    for c in 0..col_ptr.len() - 1 {
+        for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
+            let (a, b) = (c / block, r / block);
+            if a != b {
+                adj[a].push(b as i32);
+                adj[b].push(a as i32);
+            }
+        }
+    }
+    let mut xadj = Vec::with_capacity(nodes + 1);
+    let mut adjncy = Vec::new();
+    xadj.push(0);
+    for list in &mut adj {
+        list.sort_unstable();
+        list.dedup();
+        adjncy.extend_from_slice(list);
+        xadj.push(adjncy.len() as i32);
+    }
+    (xadj, adjncy)
+}
+
+/// `METIS_NodeND` with default options (deterministic: METIS seeds its generator with a
+/// fixed value). Returns `fwd[new] = old`.
+fn node_nd(nodes: usize, mut xadj: Vec<i32>, mut adjncy: Vec<i32>) -> Result<Vec<usize>, LinearError> {
+    let too_big = |_| LinearError::Symbolic(format!("{nodes} nodes exceed METIS's 32-bit indices"));
+    let mut nvtxs: i32 = nodes.try_into().map_err(too_big)?;
+    i32::try_from(adjncy.len()).map_err(too_big)?;
+    let mut perm = vec![0i32; nodes];
+    let mut iperm = vec![0i32; nodes];
+    let status = {
+        let _guard = METIS_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+        // SAFETY: `xadj` has `nvtxs + 1` entries and `adjncy` `xadj[nvtxs]` entries, all in
+        // `0..nvtxs` (built by `node_graph`); `perm` and `iperm` have `nvtxs` entries; null
+        // `vwgt` and `options` ask for unit weights and METIS's defaults. METIS only reads
+        // the graph and writes the two permutations.
+        unsafe {
+            metis_sys::METIS_NodeND(
+                &mut nvtxs,
+                xadj.as_mut_ptr(),
+                adjncy.as_mut_ptr(),
+                std::ptr::null_mut(),
+                std::ptr::null_mut(),
+                perm.as_mut_ptr(),
+                iperm.as_mut_ptr(),
+            )
+        }
+    };
+    if status != metis_sys::rstatus_et_METIS_OK {
+        return Err(LinearError::Symbolic(format!("METIS_NodeND failed with status {status}")));
+    }
+    // METIS: row i of the permuted matrix is row perm[i] of the original.
+    let fwd: Vec<usize> = perm.iter().map(|&p| p as usize).collect();
+    let mut seen = vec![false; nodes];
+    for &p in &fwd {
+        if p >= nodes || std::mem::replace(&mut seen[p], true) {
+            return Err(LinearError::Symbolic("METIS_NodeND returned an invalid permutation".into()));
+        }
+    }
+    Ok(fwd)
+}
+
+/// Compose `fwd` with a postorder of the elimination tree of the permuted matrix, so that
+/// every subtree is numbered contiguously (Liu's etree algorithm with path compression, then
+/// an iterative depth-first search visiting children in increasing order).
+fn postorder(n: usize, col_ptr: &[usize], row_idx: &[usize], fwd: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0; n];
+    for (new, &old) in fwd.iter().enumerate() {
+        inv[old] = new;
+    }
+    // Neighbours of each new index with a smaller new index (row k of the permuted lower triangle).
+    let mut below: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for c in 0..n {
+        for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
+            let (a, b) = (inv[r], inv[c]);
+            if a != b {
+                below[a.max(b)].push(a.min(b));
+            }
+        }
+    }
+    const NONE: usize = usize::MAX;
+    let mut parent = vec![NONE; n];
+    let mut ancestor = vec![NONE; n];
+    for (k, row) in below.iter().enumerate() {
+        for &j0 in row {
+            let mut j = j0;
+            while ancestor[j] != NONE && ancestor[j] != k {
+                let next = ancestor[j];
+                ancestor[j] = k;
+                j = next;
+            }
+            if ancestor[j] == NONE {
+                ancestor[j] = k;
+                parent[j] = k;
+            }
+        }
+    }
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (j, &p) in parent.iter().enumerate() {
+        if p != NONE {
+            children[p].push(j);
+        }
+    }
+    let mut out = Vec::with_capacity(n);
+    let mut stack: Vec<(usize, usize)> = Vec::new();
+    for root in (0..n).filter(|&j| parent[j] == NONE) {
+        stack.push((root, 0));
+        while let Some((node, next)) = stack.pop() {
+            if let Some(&child) = children[node].get(next) {
+                stack.push((node, next + 1));
+                stack.push((child, 0));
+            } else {
+                out.push(fwd[node]);
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::assembly::Pattern;
+
+    fn is_permutation(p: &[usize]) -> bool {
+        let mut seen = vec![false; p.len()];
+        p.iter().all(|&i| i < p.len() && !std::mem::replace(&mut seen[i], true))
+    }
+
+    #[test]
+    fn metis_order_is_a_deterministic_blockwise_permutation() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let pat = Pattern::new(&mesh.faces, mesh.n_vertices());
+        let (fwd, inv) = metis_order(pat.n, &pat.col_ptr, &pat.row_idx, 2).unwrap().unwrap();
+        assert!(is_permutation(&fwd));
+        assert!(fwd.iter().enumerate().all(|(new, &old)| inv[old] == new));
+        // the two dofs of a vertex stay together, u before v
+        for pair in fwd.chunks_exact(2) {
+            assert_eq!((pair[0] % 2, pair[1]), (0, pair[0] + 1));
+        }
+        assert_eq!(metis_order(pat.n, &pat.col_ptr, &pat.row_idx, 2).unwrap().unwrap().0, fwd);
+        assert!(metis_order(pat.n, &pat.col_ptr, &pat.row_idx, 3).is_err());
+    }
+
+    /// Parent of each column in the elimination tree of the pattern permuted by `fwd`.
+    fn etree_parents(pat: &Pattern, fwd: &[usize]) -> Vec<Option<usize>> {
+        // The same tree from a dense symbolic elimination: parent(j) = min { i > j : L(i, j) != 0 }.
+        let n = pat.n;
+        let mut inv = vec![0; n];
+        for (new, &old) in fwd.iter().enumerate() {
+            inv[old] = new;
+        }
+        let mut rows: Vec<std::collections::BTreeSet<usize>> = vec![Default::default(); n];
+        for c in 0..n {
+            for &r in &pat.row_idx[pat.col_ptr[c]..pat.col_ptr[c + 1]] {
+                let (a, b) = (inv[r].max(inv[c]), inv[r].min(inv[c]));
+                if a != b {
+                    rows[b].insert(a);
+                }
+            }
+        }
+        let mut parent = vec![None; n];
+        for j in 0..n {
+            let first = rows[j].iter().next().copied();
+            parent[j] = first;
+            if let Some(p) = first {
+                let rest: Vec<usize> = rows[j].iter().copied().filter(|&i| i != p).collect();
+                rows[p].extend(rest);
+            }
+        }
+        parent
+    }
+
+    #[test]
+    fn the_order_is_postordered_along_the_elimination_tree() {
+        // Small enough for the dense symbolic elimination oracle.
+        let mesh = crate::generate::generate("flat_disk_1k").unwrap();
+        let pat = Pattern::new(&mesh.faces, mesh.n_vertices());
+        let (fwd, _) = metis_order(pat.n, &pat.col_ptr, &pat.row_idx, 2).unwrap().unwrap();
+        let parent = etree_parents(&pat, &fwd);
+        // In a postorder the subtree of j is exactly the range [j - size(j) + 1, j].
+        let n = pat.n;
+        let mut size = vec![1usize; n];
+        for (j, p) in parent.iter().enumerate() {
+            if let Some(p) = *p {
+                assert!(p > j);
+                size[p] += size[j];
+            }
+        }
+        let is_ancestor = |a: usize, mut i: usize| loop {
+            if i == a {
+                return true;
+            }
+            match parent[i] {
+                Some(q) if q <= a => i = q,
+                _ => return false,
+            }
+        };
+        for (j, &sz) in size.iter().enumerate() {
+            assert!((j + 1 - sz..=j).all(|i| is_ancestor(j, i)), "subtree of {j} is not contiguous");
+        }
+        // and not every tree is trivially a path: the order has real branching
+        assert!(parent.iter().flatten().collect::<std::collections::HashSet<_>>().len() < n - 1);
+    }
+
+    #[test]
+    fn tiny_graphs_fall_back_to_amd() {
+        let faces = vec![[0, 1, 2], [0, 2, 3]];
+        let pat = Pattern::new(&faces, 4);
+        assert_eq!(metis_order(pat.n, &pat.col_ptr, &pat.row_idx, 2).unwrap(), None);
+    }
+}

@@ -1,0 +1,135 @@
+//! The Newton system of a parameterization at an iterate, as the solvers build it, for
+//! exporting (`mapbench export-system`) and timing other sparse solvers on the same matrix
+//! (`scripts/bench_linear_solvers.py`).
+
+use crate::energy::EnergyKind;
+use crate::mesh::Mesh;
+use crate::param::{solve_param, ParamError, ParamSettings};
+use crate::problem::{Evaluation, MapProblem};
+use crate::solver::newton::{project_blocks, scatter, system_pattern};
+use crate::solver::{Flow, IterationRecord, Observer, SolverSpec};
+use std::fmt::Write as _;
+
+/// A symmetric system `A d = b` with `A` as its lower triangle in CSC form.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NewtonSystem {
+    pub n: usize,
+    pub col_ptr: Vec<usize>,
+    pub row_idx: Vec<usize>,
+    pub values: Vec<f64>,
+    pub rhs: Vec<f64>,
+    /// The iteration the system belongs to (0 = the initial map).
+    pub iteration: usize,
+}
+
+/// Stops the solver at a given iteration.
+struct StopAt(usize);
+
+impl Observer for StopAt {
+    fn observe(&mut self, r: &IterationRecord) -> Flow {
+        if r.iter >= self.0 {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    }
+}
+
+/// Run `solver` on the `param` task until `iteration` and return the system it would solve
+/// next: the projected matrix (before regularization and Jacobi scaling) and `-grad`.
+pub fn param_system(
+    mesh: &Mesh,
+    energy: EnergyKind,
+    solver: &str,
+    settings: &ParamSettings,
+    iteration: usize,
+) -> Result<NewtonSystem, ParamError> {
+    let out = solve_param(mesh, energy, solver, settings, &mut StopAt(iteration))?;
+    let spec = SolverSpec::build(solver, &energy)?;
+    let mesh = mesh.normalized();
+    let problem = MapProblem::new(&mesh, energy)?;
+    let mut ev = Evaluation::default();
+    problem
+        .evaluate(&out.x, &mut ev)
+        .map_err(|e| ParamError::Energy(format!("{}: iterate {}: {e}", mesh.source, out.iterations)))?;
+    let pattern = system_pattern(&problem);
+    let (mut blocks, mut edge_blocks, mut values) = (Vec::new(), Vec::new(), Vec::new());
+    project_blocks(&problem, &ev, spec.block.as_ref(), &mut blocks, &mut edge_blocks);
+    scatter(&problem, &pattern, spec.block.as_ref(), &blocks, &edge_blocks, &mut values);
+    Ok(NewtonSystem {
+        n: pattern.n,
+        col_ptr: pattern.col_ptr.clone(),
+        row_idx: pattern.row_idx.clone(),
+        values,
+        rhs: ev.grad.iter().map(|g| -g).collect(),
+        iteration: out.iterations,
+    })
+}
+
+impl NewtonSystem {
+    /// The matrix as Matrix Market (`coordinate real symmetric`, lower triangle, 1-based).
+    pub fn matrix_market(&self) -> String {
+        let mut s = format!(
+            "%%MatrixMarket matrix coordinate real symmetric\n% mapbench Newton system, iteration {}\n{} {} {}\n",
+            self.iteration,
+            self.n,
+            self.n,
+            self.values.len()
+        );
+        for c in 0..self.n {
+            for p in self.col_ptr[c]..self.col_ptr[c + 1] {
+                let _ = writeln!(s, "{} {} {:?}", self.row_idx[p] + 1, c + 1, self.values[p]);
+            }
+        }
+        s
+    }
+
+    /// The right-hand side as a Matrix Market dense column.
+    pub fn rhs_matrix_market(&self) -> String {
+        let mut s = format!("%%MatrixMarket matrix array real general\n{} 1\n", self.n);
+        for v in &self.rhs {
+            let _ = writeln!(s, "{v:?}");
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linear::{LinearSettings, SpdSolver};
+    use crate::ordering::Ordering;
+
+    #[test]
+    fn the_exported_system_is_the_one_newton_solves() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let e = EnergyKind::Sd;
+        let settings = ParamSettings {
+            solver: crate::solver::Settings {
+                stop: crate::param::default_stop(&e),
+                line_search: Default::default(),
+                linear: Default::default(),
+            },
+            tutte_boundary: Default::default(),
+            scaling_jump: 0.1,
+            smoothness: None,
+        };
+        let sys = param_system(&mesh, e, "kp-newton", &settings, 2).unwrap();
+        assert_eq!(sys.iteration, 2);
+        assert_eq!(sys.n, 2 * mesh.n_vertices());
+        // the Newton direction from this system decreases the energy (descent), and the
+        // Matrix Market text has one line per stored entry after the 3 header lines
+        let pattern_diag: Vec<usize> =
+            (0..sys.n).map(|c| (sys.col_ptr[c]..sys.col_ptr[c + 1]).find(|&p| sys.row_idx[p] == c).unwrap()).collect();
+        let mut lin = SpdSolver::from_csc(sys.n, sys.col_ptr.clone(), sys.row_idx.clone(), pattern_diag).unwrap();
+        let d = lin
+            .solve(&sys.values, &sys.rhs, &LinearSettings { ordering: Ordering::Amd, ..Default::default() })
+            .unwrap();
+        let g_dot_d: f64 = sys.rhs.iter().zip(&d).map(|(b, d)| -b * d).sum();
+        assert!(g_dot_d < 0.0);
+        let mm = sys.matrix_market();
+        assert_eq!(mm.lines().count(), 3 + sys.values.len());
+        assert!(mm.starts_with("%%MatrixMarket matrix coordinate real symmetric"));
+        assert_eq!(sys.rhs_matrix_market().lines().count(), 2 + sys.n);
+    }
+}
