@@ -4,9 +4,12 @@
 mod check;
 mod config;
 mod handles;
+mod html;
 mod mapfile;
 mod output;
+mod plots;
 mod registry;
+mod report;
 mod resume;
 mod runner;
 mod tables;
