@@ -16,7 +16,7 @@ body{font-family:system-ui,sans-serif;margin:0 auto;padding:0 12px 40px;max-widt
 h1{font-size:1.5em;margin:.6em 0 .2em}h2{border-bottom:1px solid #ccc;margin-top:1.6em}h3{margin:1.2em 0 .4em}\
 nav a{margin-right:1em}\
 .scroll{overflow-x:auto;-webkit-overflow-scrolling:touch;margin:.4em 0}\
-table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #bbb;padding:3px 7px;text-align:right;vertical-align:top}\
+table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #bbb;padding:3px 7px;text-align:right;vertical-align:top}td{white-space:nowrap}\
 th{background:#eee}td.k,th.k{text-align:left;white-space:nowrap}\
 table.status td,table.status th{text-align:center;white-space:nowrap}table.status td.k{text-align:left;background:#fff}\
 .ds{position:sticky;left:0;z-index:1}table.status th.ds{background:#eee}\
