@@ -4,9 +4,11 @@
 mod check;
 mod config;
 mod handles;
+mod html;
 mod mapfile;
 mod merge;
 mod output;
+mod plots;
 mod progress;
 mod registry;
 mod report;

@@ -3,9 +3,6 @@
 //! colors each triangle by its distortion from this file alone. Map coordinates are those the
 //! solver works in: the area-1 frame for `param` and `deform`, the unit disk for `authalic`.
 
-// The reader is for the report (plots), which is being written next.
-#![allow(dead_code)]
-
 use anyhow::{bail, Context, Result};
 use solvers::mesh::Mesh;
 use std::fmt::Write as _;

@@ -1,6 +1,7 @@
 //! Everything of a run folder that is derived from its CSVs: each run's `energy_minus_best`
-//! against its (dataset, energy) group, the paper-style tables, the plots and `index.html`.
-//! `run` and `merge` end here, and `report RUN_DIR` re-renders from the CSVs alone.
+//! against its (dataset, energy) group, the paper-style tables, the plots and `index.html`
+//! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
+//! CSVs alone.
 
 use crate::output::{iteration_csv, run_stem, write_atomic, SummaryRow};
 use crate::resume::read_rows;
@@ -12,10 +13,12 @@ use std::path::Path;
 /// Re-derive everything from `summary` rows and the per-iteration CSVs in `run_dir`.
 pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     fill_best(run_dir, summary)?;
-    for (stem, table) in tables(summary) {
-        table.write(&run_dir.join("tables"), &stem)?;
+    let tables = tables(summary);
+    for (stem, table) in &tables {
+        table.write(&run_dir.join("tables"), stem)?;
     }
-    Ok(())
+    let plots = crate::plots::render_all(run_dir, summary)?;
+    crate::html::write_index(run_dir, summary, &tables, &plots)
 }
 
 /// Builds one table from the summary, `None` when it does not apply.

@@ -41,15 +41,23 @@ impl Table {
         s
     }
 
+    /// A standalone page: the title and [`Table::to_html_fragment`].
     pub fn to_html(&self) -> String {
         let esc = |t: &str| t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
-        let mut s = format!(
+        format!(
             "<!doctype html>\n<meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\">\n\
              <title>{t}</title>\n<style>body{{font-family:sans-serif}}table{{border-collapse:collapse}}\
              td,th{{border:1px solid #bbb;padding:2px 6px;text-align:right}}th{{background:#eee}}</style>\n\
-             <h3>{t}</h3>\n<table>\n<tr>",
-            t = esc(&self.title)
-        );
+             <h3>{t}</h3>\n{body}",
+            t = esc(&self.title),
+            body = self.to_html_fragment()
+        )
+    }
+
+    /// Just the `<table>` and the caption paragraph, for embedding in a larger page.
+    pub fn to_html_fragment(&self) -> String {
+        let esc = |t: &str| t.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+        let mut s = "<table>\n<tr>".to_string();
         for c in &self.columns {
             s += &format!("<th>{}</th>", esc(c));
         }

@@ -438,6 +438,13 @@ fn jobs_shards_merge_and_report_do_not_change_results() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert_eq!(tables(&merged), before);
     assert_eq!(results(&merged), one);
+    // the report page links every run's CSV and shows its plots
+    let html = std::fs::read_to_string(merged.join("index.html")).unwrap();
+    for (name, _) in &one.1 {
+        assert!(html.contains(&format!("runs/{name}")), "{name}");
+    }
+    assert!(html.contains("plots/cap_2k__sd__energy_iter.png"));
+    assert!(merged.join("plots/cap_2k__sd__energy_iter.png").is_file());
 }
 
 #[test]

@@ -1,0 +1,478 @@
+//! `index.html` of a run folder: one self-contained page (inline CSS, no script, no network,
+//! relative links only) with the run status matrix, the tables, the plots, links to every
+//! file and the provenance from `meta.json`. Readable on a phone: images scale down and
+//! wide tables scroll sideways in their own box.
+
+use crate::output::{run_stem, write_atomic, SummaryRow};
+use crate::plots::{Plot, PlotKind};
+use crate::tables::Table;
+use anyhow::{Context, Result};
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::Path;
+
+const STYLE: &str = "\
+body{font-family:system-ui,sans-serif;margin:0 auto;padding:0 12px 40px;max-width:1200px;line-height:1.4;color:#222}\
+h1{font-size:1.5em;margin:.6em 0 .2em}h2{border-bottom:1px solid #ccc;margin-top:1.6em}h3{margin:1.2em 0 .4em}\
+nav a{margin-right:1em}\
+.scroll{overflow-x:auto;-webkit-overflow-scrolling:touch;margin:.4em 0}\
+table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #bbb;padding:3px 7px;text-align:right;vertical-align:top}td{white-space:nowrap}\
+th{background:#eee}td.k,th.k{text-align:left;white-space:nowrap}\
+table.status td,table.status th{text-align:center;white-space:nowrap}table.status td.k{text-align:left;background:#fff}\
+.ds{position:sticky;left:0;z-index:1}table.status th.ds{background:#eee}\
+.ok{background:#d8f0d8}.nc{background:#fff0c2}.failed{background:#f6d0d3}\
+table.status td.failed{text-align:left;white-space:normal;min-width:12em;max-width:22em;word-break:break-word}\
+td.none{background:#f4f4f4;color:#999}td a{color:inherit;text-decoration:none}td small{color:#555}\
+img{max-width:100%;height:auto}\
+.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(min(100%,400px),1fr));gap:14px}\
+.maps{display:grid;grid-template-columns:repeat(auto-fill,minmax(min(45%,200px),1fr));gap:10px}\
+figure{margin:0}figcaption{font-size:.85em;color:#444}\
+dl{display:grid;grid-template-columns:max-content 1fr;gap:2px 14px}dt{font-weight:600}dd{margin:0;word-break:break-all}\
+ul.files{columns:2 22em;font-size:.9em}code,pre{font-size:.85em}pre{overflow-x:auto;background:#f6f6f6;padding:6px}\
+.caption{color:#444;font-size:.9em}";
+
+/// Write `run_dir/index.html` from the summary rows, the tables (file stem, table) and the
+/// plots `render_all` wrote; the rest (meta.json, file lists) is read from `run_dir`.
+pub fn write_index(run_dir: &Path, summaries: &[SummaryRow], tables: &[(String, Table)], plots: &[Plot]) -> Result<()> {
+    let meta = read_meta(run_dir)?;
+    let cfg = meta.as_ref().and_then(|m| m.get("config"));
+    let name = cfg.and_then(|c| c.get("name")).and_then(Value::as_str).unwrap_or("run");
+    let task = cfg
+        .and_then(|c| c.get("task"))
+        .and_then(Value::as_str)
+        .map(str::to_string)
+        .or_else(|| summaries.first().map(|s| s.task.clone()))
+        .unwrap_or_default();
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!doctype html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <title>mapbench: {n}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n\
+         <h1>mapbench report: {n}</h1>\n<p>task <b>{t}</b>; {c}</p>\n\
+         <nav><a href=\"#status\">status</a><a href=\"#tables\">tables</a><a href=\"#plots\">plots</a>\
+         <a href=\"#files\">files</a><a href=\"#provenance\">provenance</a></nav>\n",
+        n = esc(name),
+        t = esc(&task),
+        c = esc(&counts(summaries)),
+    );
+    status_matrix(&mut h, run_dir, summaries);
+    tables_section(&mut h, tables);
+    plots_section(&mut h, run_dir, plots);
+    files_section(&mut h, run_dir, tables)?;
+    provenance_section(&mut h, meta.as_ref());
+    h += "</body>\n</html>\n";
+    write_atomic(&run_dir.join("index.html"), h.as_bytes())
+}
+
+/// `meta.json`, or `None` when the folder has none (e.g. written by an older version).
+fn read_meta(run_dir: &Path) -> Result<Option<Value>> {
+    let path = run_dir.join("meta.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let v = serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))?;
+    Ok(Some(v))
+}
+
+/// HTML-escape text for element content and quoted attribute values.
+pub fn esc(t: &str) -> String {
+    let mut s = String::with_capacity(t.len());
+    for c in t.chars() {
+        match c {
+            '&' => s += "&amp;",
+            '<' => s += "&lt;",
+            '>' => s += "&gt;",
+            '"' => s += "&quot;",
+            '\'' => s += "&#39;",
+            _ => s.push(c),
+        }
+    }
+    s
+}
+
+/// A relative link target: percent-encode all but unreserved characters and `/`, then escape.
+fn href(path: &str) -> String {
+    let mut s = String::new();
+    for b in path.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~/".contains(&b) {
+            s.push(b as char);
+        } else {
+            let _ = write!(s, "%{b:02X}");
+        }
+    }
+    esc(&s)
+}
+
+fn counts(summaries: &[SummaryRow]) -> String {
+    let n = |st: &str| summaries.iter().filter(|s| s.status == st).count();
+    format!(
+        "{} runs: {} ok, {} not converged, {} failed",
+        summaries.len(),
+        n("ok"),
+        n("not_converged"),
+        summaries.len() - n("ok") - n("not_converged")
+    )
+}
+
+/// First-appearance order, so rows and columns follow summary.csv.
+fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
+    let mut out: Vec<&str> = Vec::new();
+    for i in items {
+        if !out.contains(&i) {
+            out.push(i);
+        }
+    }
+    out
+}
+
+/// Seconds with 3 significant digits (0.0431 s, 6.59 s, 123 s).
+fn seconds(t: f64) -> String {
+    let digits = if t <= 0.0 { 3 } else { (2 - t.abs().log10().floor() as i64).clamp(0, 6) as usize };
+    format!("{t:.digits$} s")
+}
+
+/// Rows: dataset (and energy, when the run has several), columns: solver. Each cell links to
+/// the run's per-iteration CSV when it exists.
+fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
+    let solvers = unique(summaries.iter().map(|s| s.solver.as_str()));
+    let datasets = unique(summaries.iter().map(|s| s.dataset.as_str()));
+    let several_energies = unique(summaries.iter().map(|s| s.energy.as_str())).len() > 1;
+    *h += "<h2 id=\"status\">Run status</h2>\n<p class=\"caption\">Each cell: status, iterations and \
+           time; click it for the run's per-iteration CSV. <span class=\"ok\">ok</span> converged; \
+           <span class=\"nc\">yellow</span> stopped by another rule (shown); \
+           <span class=\"failed\">failed</span> with its error.</p>\n\
+           <div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
+    if several_energies {
+        *h += "<th class=\"k\">energy</th>";
+    }
+    for s in &solvers {
+        let _ = write!(h, "<th>{}</th>", esc(s));
+    }
+    *h += "</tr>\n";
+    for d in datasets {
+        let energies = unique(summaries.iter().filter(|s| s.dataset == d).map(|s| s.energy.as_str()));
+        for (i, e) in energies.iter().enumerate() {
+            *h += "<tr>";
+            if i == 0 {
+                let span = if several_energies { energies.len() } else { 1 };
+                let _ = write!(h, "<td class=\"k ds\" rowspan=\"{span}\">{}</td>", esc(d));
+            }
+            if several_energies {
+                let _ = write!(h, "<td class=\"k\">{}</td>", esc(e));
+            }
+            for solver in &solvers {
+                let run = summaries.iter().find(|s| s.dataset == d && s.energy == *e && s.solver == *solver);
+                status_cell(h, run_dir, run);
+            }
+            *h += "</tr>\n";
+        }
+    }
+    *h += "</table></div>\n";
+}
+
+fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
+    let Some(s) = run else {
+        *h += "<td class=\"none\">–</td>";
+        return;
+    };
+    let detail = match (s.iterations, s.time_s) {
+        (Some(i), Some(t)) => format!("{i} it, {}", seconds(t)),
+        (Some(i), None) => format!("{i} it"),
+        _ => String::new(),
+    };
+    let (class, head, tip, small) = match s.status.as_str() {
+        "ok" => ("ok", "ok".to_string(), format!("converged ({})", s.stop_reason), detail),
+        "not_converged" => ("nc", s.stop_reason.clone(), format!("not converged: {}", s.stop_reason), detail),
+        other => ("failed", other.replace('_', " "), other.replace('_', " "), s.error.clone()),
+    };
+    let body = format!("<b>{}</b><br><small>{}</small>", esc(&head), esc(&small));
+    let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));
+    if run_dir.join(&csv).exists() {
+        let _ = write!(h, "<td class=\"{class}\" title=\"{}\"><a href=\"{}\">{body}</a></td>", esc(&tip), href(&csv));
+    } else {
+        let _ = write!(h, "<td class=\"{class}\" title=\"{}\">{body}</td>", esc(&tip));
+    }
+}
+
+fn tables_section(h: &mut String, tables: &[(String, Table)]) {
+    *h += "<h2 id=\"tables\">Tables</h2>\n";
+    if tables.is_empty() {
+        *h += "<p>No paper-style table applies to this run.</p>\n";
+    }
+    for (stem, t) in tables {
+        let _ = write!(
+            h,
+            "<h3 id=\"table-{}\">{}</h3>\n<div class=\"scroll\">\n{}</div>\n<p class=\"caption\">also as \
+             <a href=\"{}\">CSV</a>, <a href=\"{}\">Markdown</a></p>\n",
+            esc(stem),
+            esc(&t.title),
+            t.to_html_fragment(),
+            href(&format!("tables/{stem}.csv")),
+            href(&format!("tables/{stem}.md")),
+        );
+    }
+}
+
+/// Curves in a responsive grid per (dataset, energy), then the map thumbnails linking to the
+/// full image. Plots whose file is missing are left out.
+fn plots_section(h: &mut String, run_dir: &Path, plots: &[Plot]) {
+    *h += "<h2 id=\"plots\">Plots</h2>\n";
+    let present: Vec<&Plot> = plots.iter().filter(|p| run_dir.join(&p.file).exists()).collect();
+    if present.is_empty() {
+        *h += "<p>No plots (no run finished).</p>\n";
+        return;
+    }
+    *h += "<p class=\"caption\">Energy gap: E − E*, E* the lowest energy any solver reached on the \
+           same dataset and energy; values ≤ 0 (the best run's last point) are drawn at the bottom \
+           of the log axis; dashed lines did not converge. Maps (click for the full image): each \
+           triangle colored by its distortion max(σ₁, 1/σ₂) with the global scale removed (param, \
+           deform; 1 = similarity, flipped triangles blue) or by its area ratio (authalic; folded \
+           triangles black); the maps of one dataset and energy share a log color scale covering \
+           99% of their triangles.</p>\n";
+    let groups = unique(present.iter().map(|p| p.dataset.as_str()))
+        .into_iter()
+        .flat_map(|d| {
+            unique(present.iter().filter(|p| p.dataset == d).map(|p| p.energy.as_str()))
+                .into_iter()
+                .map(move |e| (d, e))
+        })
+        .collect::<Vec<_>>();
+    for (d, e) in groups {
+        let _ = writeln!(h, "<h3>{} / {}</h3>", esc(d), esc(e));
+        let of_group = || present.iter().filter(|p| p.dataset == d && p.energy == e);
+        *h += "<div class=\"grid\">\n";
+        for p in of_group().filter(|p| !matches!(p.kind, PlotKind::Map { .. })) {
+            let _ = writeln!(
+                h,
+                "<figure><img src=\"{f}\" alt=\"{t}\" width=\"800\" height=\"500\" loading=\"lazy\">\
+                 <figcaption>{t}</figcaption></figure>",
+                f = href(&p.file),
+                t = esc(&p.title)
+            );
+        }
+        *h += "</div>\n";
+        let maps: Vec<&&Plot> = of_group().filter(|p| matches!(p.kind, PlotKind::Map { .. })).collect();
+        if !maps.is_empty() {
+            *h += "<div class=\"maps\">\n";
+            for p in maps {
+                let PlotKind::Map { solver } = &p.kind else { continue };
+                let _ = writeln!(
+                    h,
+                    "<figure><a href=\"{f}\"><img src=\"{f}\" alt=\"{t}\" width=\"250\" height=\"270\" \
+                     loading=\"lazy\"></a><figcaption>{s}</figcaption></figure>",
+                    f = href(&p.file),
+                    t = esc(&p.title),
+                    s = esc(solver)
+                );
+            }
+            *h += "</div>\n";
+        }
+    }
+}
+
+/// Sorted file names (relative to `run_dir`) in `sub` with extension `ext`; empty when absent.
+fn list_files(run_dir: &Path, sub: &str, ext: &str) -> Result<Vec<String>> {
+    let dir = run_dir.join(sub);
+    if !dir.is_dir() {
+        return Ok(Vec::new());
+    }
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(&dir).with_context(|| format!("{}: cannot list", dir.display()))? {
+        let entry = entry.with_context(|| format!("{}: cannot list", dir.display()))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        // Skip write_atomic's temporaries (`.name.tmpPID`).
+        if name.ends_with(&format!(".{ext}")) && !name.starts_with('.') {
+            out.push(format!("{sub}/{name}"));
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+fn files_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)]) -> Result<()> {
+    *h += "<h2 id=\"files\">Files</h2>\n";
+    let link = |f: &str| format!("<li><a href=\"{}\">{}</a></li>\n", href(f), esc(f));
+    *h += "<ul class=\"files\">\n";
+    for f in ["summary.csv", "meta.json"] {
+        if run_dir.join(f).exists() {
+            *h += &link(f);
+        }
+    }
+    for (stem, _) in tables {
+        for ext in ["csv", "md", "html"] {
+            *h += &link(&format!("tables/{stem}.{ext}"));
+        }
+    }
+    *h += "</ul>\n";
+    for (title, sub, ext) in
+        [("Per-iteration CSVs", "runs", "csv"), ("Final maps (OBJ: source mesh as v, map as vt)", "uv", "obj")]
+    {
+        let files = list_files(run_dir, sub, ext)?;
+        // Collapsed: hundreds of links; the status matrix already links each run's CSV.
+        let _ = writeln!(h, "<details><summary>{} ({})</summary>", esc(title), files.len());
+        *h += "<ul class=\"files\">\n";
+        for f in &files {
+            *h += &link(f);
+        }
+        *h += "</ul></details>\n";
+    }
+    Ok(())
+}
+
+/// Unix seconds as `YYYY-MM-DD hh:mm:ss UTC` (civil-from-days, no date crate needed).
+fn utc(secs: u64) -> String {
+    let days = (secs / 86_400) as i64;
+    let rem = secs % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!("{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC", rem / 3600, rem % 3600 / 60, rem % 60)
+}
+
+fn provenance_section(h: &mut String, meta: Option<&Value>) {
+    *h += "<h2 id=\"provenance\">Provenance</h2>\n";
+    let Some(m) = meta else {
+        *h += "<p>No meta.json in this folder.</p>\n";
+        return;
+    };
+    let text = |k: &str| match m.get(k) {
+        None | Some(Value::Null) => None,
+        Some(Value::String(s)) => Some(s.clone()),
+        Some(v) => Some(v.to_string()),
+    };
+    let mut rows: Vec<(&str, String)> = Vec::new();
+    if let Some(rev) = text("git_revision") {
+        let dirty = match m.get("git_dirty").and_then(Value::as_bool) {
+            Some(true) => " (dirty: uncommitted changes)",
+            Some(false) => " (clean)",
+            None => "",
+        };
+        rows.push(("git revision", format!("{rev}{dirty}")));
+    } else {
+        rows.push(("git revision", "unknown (not a git checkout)".into()));
+    }
+    for (label, key) in [
+        ("mapbench version", "mapbench_version"),
+        ("rustc", "rustc_version"),
+        ("config file", "config_path"),
+        ("host", "host"),
+        ("cores", "cores"),
+        ("rayon threads", "rayon_threads"),
+        ("meshes folder", "meshes_dir"),
+        ("--only", "only"),
+        ("--resume", "resume"),
+    ] {
+        if let Some(v) = text(key) {
+            rows.push((label, v));
+        }
+    }
+    let secs = |k: &str| m.get(k).and_then(Value::as_u64);
+    if let Some(s) = secs("started_unix") {
+        rows.push(("started", utc(s)));
+    }
+    match (secs("started_unix"), secs("ended_unix")) {
+        (Some(s), Some(e)) => rows.push(("ended", format!("{} ({} s)", utc(e), e.saturating_sub(s)))),
+        (_, None) => rows.push(("ended", "not recorded (interrupted or still running)".into())),
+        _ => {}
+    }
+    *h += "<dl>\n";
+    for (k, v) in rows {
+        let _ = writeln!(h, "<dt>{}</dt><dd>{}</dd>", esc(k), esc(&v));
+    }
+    *h += "</dl>\n";
+    if let Ok(pretty) = serde_json::to_string_pretty(m) {
+        let _ = writeln!(h, "<details><summary>meta.json</summary><pre>{}</pre></details>", esc(&pretty));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plots::tests::{png_size, tiny_run};
+
+    fn table(title: &str) -> Table {
+        Table {
+            title: title.into(),
+            columns: vec!["a".into(), "b".into()],
+            rows: vec![vec!["1".into(), "x<y".into()]],
+            caption: "what the numbers are".into(),
+            bold: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn index_links_every_run_plot_and_table_and_escapes_errors() {
+        let (dir, rows) = tiny_run();
+        let p = dir.path();
+        let tables = vec![("deform".to_string(), table("Deform & friends")), ("authalic".to_string(), table("AEM"))];
+        let plots = crate::plots::render_all(p, &rows).unwrap();
+        write_index(p, &rows, &tables, &plots).unwrap();
+        let html = std::fs::read_to_string(p.join("index.html")).unwrap();
+        assert!(html.contains("<title>mapbench: tiny-config</title>"));
+        for t in ["Deform &amp; friends", "AEM"] {
+            assert!(html.contains(&format!(">{t}</h3>")), "table title {t}");
+        }
+        assert!(html.contains("<td>x&lt;y</td>"));
+        // Every PNG written is shown, and is a PNG.
+        let mut shown = 0;
+        for entry in std::fs::read_dir(p.join("plots")).unwrap() {
+            let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+            assert!(html.contains(&format!("<img src=\"plots/{name}\"")), "{name} not shown");
+            assert!(png_size(&p.join("plots").join(&name)).0 > 0);
+            shown += 1;
+        }
+        assert_eq!(shown, 9);
+        // Every run CSV is linked (the failed run's too), and every map OBJ.
+        for stem in ["tiny__sd__kp-newton", "tiny__sd__slim", "tiny__sd__cm", "disk__authalic__aem-cg"] {
+            assert!(html.contains(&format!("href=\"runs/{stem}.csv\"")), "{stem}");
+        }
+        for stem in ["tiny__sd__kp-newton", "tiny__sd__slim", "disk__authalic__aem-cg"] {
+            assert!(html.contains(&format!("href=\"uv/{stem}.obj\"")), "{stem}");
+        }
+        assert!(html.contains("factorization failed: pivot &lt; 0 &amp; NaN in &lt;K&gt;"));
+        assert!(!html.contains("<K>"));
+        assert!(html.contains("0123456789abcdef0123456789abcdef01234567 (dirty"));
+        assert!(html.contains("2023-11-14 22:13:20 UTC"));
+        assert!(html.contains("not converged: max_iters"));
+        // Self-contained: no script, no absolute or network links.
+        assert!(!html.contains("<script") && !html.contains("http://") && !html.contains("https://"));
+        assert!(!html.contains("href=\"/") && !html.contains("src=\"/"));
+    }
+
+    #[test]
+    fn a_plot_without_its_file_is_left_out() {
+        let (dir, rows) = tiny_run();
+        let mut plots = crate::plots::render_all(dir.path(), &rows).unwrap();
+        std::fs::remove_file(dir.path().join(&plots[0].file)).unwrap();
+        plots.push(Plot {
+            file: "plots/never_written.png".into(),
+            title: "x".into(),
+            dataset: "tiny".into(),
+            energy: "sd".into(),
+            kind: PlotKind::EnergyIter,
+        });
+        write_index(dir.path(), &rows, &[], &plots).unwrap();
+        let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
+        assert!(!html.contains(&plots[0].file) && !html.contains("never_written"));
+        assert!(html.contains(&format!("<img src=\"{}\"", plots[1].file)));
+    }
+
+    #[test]
+    fn escapes_and_formats() {
+        assert_eq!(esc("a<b & \"c\" 'd'>"), "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;");
+        assert_eq!(href("runs/a b#c.csv"), "runs/a%20b%23c.csv");
+        assert_eq!(utc(0), "1970-01-01 00:00:00 UTC");
+        assert_eq!(utc(951_782_400), "2000-02-29 00:00:00 UTC");
+        assert_eq!(seconds(0.04312), "0.0431 s");
+        assert_eq!(seconds(6.594), "6.59 s");
+        assert_eq!(seconds(123.4), "123 s");
+    }
+}
