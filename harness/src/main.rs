@@ -3,6 +3,7 @@
 
 mod check;
 mod config;
+mod export;
 mod handles;
 mod html;
 mod mapfile;
@@ -66,6 +67,28 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Write the Newton system (Matrix Market) of each selected `param` run of a config at an
+    /// iteration, for timing other sparse solvers on it (scripts/bench_linear_solvers.py).
+    ExportSystem {
+        config: PathBuf,
+        /// Output folder for `<run>__it<K>.mtx` and `.rhs.mtx`.
+        #[arg(long)]
+        out: PathBuf,
+        #[arg(long)]
+        only: Vec<String>,
+        /// The iterate whose system is written (0 = the initial map).
+        #[arg(long, default_value_t = 0)]
+        iteration: usize,
+    },
+    /// Time mapbench's sparse Cholesky (analyse once; factorize + solve, median of --repeat)
+    /// on a Matrix Market file written by export-system; prints one JSON line.
+    TimeSystem {
+        matrix: PathBuf,
+        #[arg(long, value_enum, default_value = "metis")]
+        ordering: OrderingArg,
+        #[arg(long, default_value_t = 5)]
+        repeat: usize,
+    },
     /// Compare a run folder with a baseline: exit 1 on a regression (more iterations, higher
     /// final energy, worse status, new flips), 2 when a baseline run is missing.
     Check {
@@ -102,6 +125,12 @@ enum ValidateTask {
     Param,
     Deform,
     Authalic,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum OrderingArg {
+    Metis,
+    Amd,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -162,6 +191,22 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             } else {
                 ExitCode::SUCCESS
             })
+        }
+        Command::ExportSystem { config, out, only, iteration } => {
+            let cfg = LoadedConfig::load(&config)?;
+            let files = export::export_systems(&cfg, &only, iteration, &out)?;
+            eprintln!("wrote {} systems to {}", files.len(), out.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::TimeSystem { matrix, ordering, repeat } => {
+            let ordering = match ordering {
+                OrderingArg::Metis => solvers::ordering::Ordering::Metis,
+                OrderingArg::Amd => solvers::ordering::Ordering::Amd,
+            };
+            let sys = export::read_matrix_market(&matrix)?;
+            let t = export::time_system(&sys, ordering, repeat).with_context(|| matrix.display().to_string())?;
+            println!("{}", serde_json::to_string(&t)?);
+            Ok(ExitCode::SUCCESS)
         }
         Command::Report { run_dir } => {
             let rows = output::read_summary(&run_dir)?;

@@ -108,16 +108,17 @@ pub struct RunOptions {
 }
 
 /// One planned run.
-struct Planned {
-    dataset: usize,
-    energy: String,
-    solver: String,
-    stem: String,
+pub struct Planned {
+    /// Index into the resolved datasets.
+    pub dataset: usize,
+    pub energy: String,
+    pub solver: String,
+    pub stem: String,
 }
 
 /// The runs of a config in canonical order (datasets, then energies, then solvers, as the
 /// config lists them), filtered by `--only`.
-fn plan(datasets: &[Dataset], energies: &[String], solvers: &[String], only: &[String]) -> Vec<Planned> {
+pub fn plan(datasets: &[Dataset], energies: &[String], solvers: &[String], only: &[String]) -> Vec<Planned> {
     let mut out = Vec::new();
     for (d, ds) in datasets.iter().enumerate() {
         for e in energies {

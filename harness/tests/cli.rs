@@ -633,3 +633,37 @@ fn ctrl_c_keeps_finished_runs_and_resume_completes_the_batch() {
     let (_, rows) = read_csv(&out.join("summary.csv"));
     assert_eq!(rows.len(), 12);
 }
+
+#[test]
+fn export_system_writes_matrix_market_that_time_system_factorizes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"x\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n",
+    );
+    let o = mapbench(
+        &["export-system", cfg.to_str().unwrap(), "--out", "sys", "--iteration", "2", "--only", "*kp-newton"],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let mtx = tmp.path().join("sys/bumpy_1k__sd__kp-newton__it2.mtx");
+    let body = std::fs::read_to_string(&mtx).unwrap();
+    assert!(body.starts_with("%%MatrixMarket matrix coordinate real symmetric"));
+    let size: Vec<usize> = body.lines().nth(2).unwrap().split_whitespace().map(|t| t.parse().unwrap()).collect();
+    assert_eq!(size[..2], [2 * 1076, 2 * 1076]);
+    assert_eq!(body.lines().count(), 3 + size[2]);
+    assert!(tmp.path().join("sys/bumpy_1k__sd__kp-newton__it2.rhs.mtx").is_file());
+    assert!(!tmp.path().join("sys/bumpy_1k__sd__cm__it2.mtx").exists(), "--only applies");
+    for ordering in ["metis", "amd"] {
+        let o = mapbench(&["time-system", mtx.to_str().unwrap(), "--ordering", ordering, "--repeat", "2"], tmp.path());
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        let t: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!((t["n"].as_u64(), t["ordering"].as_str()), (Some(2152), Some(ordering)));
+        assert!(t["factorize_ms"].as_f64().unwrap() > 0.0);
+    }
+    // a file that is not a lower-triangle Matrix Market is refused by name
+    std::fs::write(tmp.path().join("bad.mtx"), "%%MatrixMarket\n2 2 1\n1 2 1.0\n").unwrap();
+    let o = mapbench(&["time-system", "bad.mtx"], tmp.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("bad.mtx") && text(&o).contains("lower triangle"), "{}", text(&o));
+}

@@ -49,6 +49,49 @@ impl Default for LinearSettings {
     }
 }
 
+/// The matrix the factorization sees (module doc): `scaled = S (A + tau I) S + tau I` with
+/// `S = diag(1/sqrt(a_ii + tau))` when `settings.jacobi`, else `A + tau I` and `S = I`.
+/// `A` is a lower-triangle CSC with diagonal slots `diag`.
+pub fn regularize(
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    diag: &[usize],
+    values: &[f64],
+    settings: &LinearSettings,
+    scaled: &mut Vec<f64>,
+    scale: &mut Vec<f64>,
+) -> Result<(), LinearError> {
+    let tau = settings.tikhonov;
+    let n = diag.len();
+    scaled.clear();
+    scaled.extend_from_slice(values);
+    scale.clear();
+    scale.resize(n, 1.0);
+    for &p in diag {
+        scaled[p] += tau;
+    }
+    if settings.jacobi {
+        for (i, &p) in diag.iter().enumerate() {
+            let d = scaled[p];
+            if !(d > 0.0 && d.is_finite()) {
+                return Err(LinearError::BadDiagonal { index: i, value: d });
+            }
+            scale[i] = 1.0 / d.sqrt();
+        }
+        for c in 0..n {
+            let sc = scale[c];
+            let range = col_ptr[c]..col_ptr[c + 1];
+            for (v, &r) in scaled[range.clone()].iter_mut().zip(&row_idx[range]) {
+                *v *= sc * scale[r];
+            }
+        }
+        for &p in diag {
+            scaled[p] += tau;
+        }
+    }
+    Ok(())
+}
+
 pub struct SpdSolver {
     n: usize,
     symbolic_a: SymbolicSparseColMat<usize>,
@@ -66,11 +109,25 @@ impl SpdSolver {
     /// Analyse the Newton pattern once (two interleaved dofs per vertex) with `ordering`
     /// (supernodal when faer deems it worthwhile).
     pub fn new(pattern: &Pattern, ordering: Ordering) -> Result<SpdSolver, LinearError> {
+        let (c, r, d) = (pattern.col_ptr.clone(), pattern.row_idx.clone(), pattern.diag.clone());
+        Self::from_csc_ordered(pattern.n, c, r, d, ordering, 2)
+    }
+
+    /// [`SpdSolver::from_csc`] with a choice of ordering; METIS orders the graph whose nodes
+    /// are groups of `block` consecutive dofs.
+    pub fn from_csc_ordered(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        diag: Vec<usize>,
+        ordering: Ordering,
+        block: usize,
+    ) -> Result<SpdSolver, LinearError> {
         let perm = match ordering {
             Ordering::Amd => None,
-            Ordering::Metis => metis_order(pattern.n, &pattern.col_ptr, &pattern.row_idx, 2)?,
+            Ordering::Metis => metis_order(n, &col_ptr, &row_idx, block)?,
         };
-        Self::analyse(pattern.n, pattern.col_ptr.clone(), pattern.row_idx.clone(), pattern.diag.clone(), perm)
+        Self::analyse(n, col_ptr, row_idx, diag, perm)
     }
 
     /// Analyse a lower-triangular CSC pattern (sorted rows, every diagonal present; `diag`
@@ -142,35 +199,8 @@ impl SpdSolver {
     /// number of [`SpdSolver::solve_factored`] calls until the next factorization.
     pub fn factorize(&mut self, values: &[f64], settings: &LinearSettings) -> Result<(), LinearError> {
         self.factored = false;
-        let tau = settings.tikhonov;
-        self.scaled.clear();
-        self.scaled.extend_from_slice(values);
-        for &p in &self.diag {
-            self.scaled[p] += tau;
-        }
-        if settings.jacobi {
-            for (i, &p) in self.diag.iter().enumerate() {
-                let d = self.scaled[p];
-                if !(d > 0.0 && d.is_finite()) {
-                    return Err(LinearError::BadDiagonal { index: i, value: d });
-                }
-                self.scale[i] = 1.0 / d.sqrt();
-            }
-            let col_ptr = self.symbolic_a.col_ptr();
-            let row_idx = self.symbolic_a.row_idx();
-            for c in 0..self.n {
-                let sc = self.scale[c];
-                let range = col_ptr[c]..col_ptr[c + 1];
-                for (v, &r) in self.scaled[range.clone()].iter_mut().zip(&row_idx[range]) {
-                    *v *= sc * self.scale[r];
-                }
-            }
-            for &p in &self.diag {
-                self.scaled[p] += tau;
-            }
-        } else {
-            self.scale.iter_mut().for_each(|s| *s = 1.0);
-        }
+        let (col_ptr, row_idx) = (self.symbolic_a.col_ptr(), self.symbolic_a.row_idx());
+        regularize(col_ptr, row_idx, &self.diag, values, settings, &mut self.scaled, &mut self.scale)?;
         let a = SparseColMatRef::new(self.symbolic_a.as_ref(), &self.scaled);
         self.symbolic
             .factorize_numeric_llt::<f64>(

@@ -3,6 +3,7 @@
 //! (`scripts/bench_linear_solvers.py`).
 
 use crate::energy::EnergyKind;
+use crate::linear::regularize;
 use crate::mesh::Mesh;
 use crate::param::{solve_param, ParamError, ParamSettings};
 use crate::problem::{Evaluation, MapProblem};
@@ -35,8 +36,10 @@ impl Observer for StopAt {
     }
 }
 
-/// Run `solver` on the `param` task until `iteration` and return the system it would solve
-/// next: the projected matrix (before regularization and Jacobi scaling) and `-grad`.
+/// Run `solver` on the `param` task until `iteration` and return the system it factorizes
+/// next: the projected matrix after the Tikhonov shift and Jacobi scaling of
+/// `settings.solver.linear` ([`crate::linear::regularize`]; SPD, unlike the raw matrix, whose
+/// kernel holds the translations), and the right-hand side scaled to match, `-S grad`.
 pub fn param_system(
     mesh: &Mesh,
     energy: EnergyKind,
@@ -56,12 +59,23 @@ pub fn param_system(
     let (mut blocks, mut edge_blocks, mut values) = (Vec::new(), Vec::new(), Vec::new());
     project_blocks(&problem, &ev, spec.block.as_ref(), &mut blocks, &mut edge_blocks);
     scatter(&problem, &pattern, spec.block.as_ref(), &blocks, &edge_blocks, &mut values);
+    let (mut scaled, mut scale) = (Vec::new(), Vec::new());
+    regularize(
+        &pattern.col_ptr,
+        &pattern.row_idx,
+        &pattern.diag,
+        &values,
+        &settings.solver.linear,
+        &mut scaled,
+        &mut scale,
+    )
+    .map_err(|e| ParamError::Energy(format!("{}: iterate {}: {e}", mesh.source, out.iterations)))?;
     Ok(NewtonSystem {
         n: pattern.n,
         col_ptr: pattern.col_ptr.clone(),
         row_idx: pattern.row_idx.clone(),
-        values,
-        rhs: ev.grad.iter().map(|g| -g).collect(),
+        values: scaled,
+        rhs: ev.grad.iter().zip(&scale).map(|(g, s)| -g * s).collect(),
         iteration: out.iterations,
     })
 }
