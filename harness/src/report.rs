@@ -29,13 +29,14 @@ type Group = Vec<(String, Vec<solvers::solver::IterationRecord>)>;
 
 /// Every table that applies to these runs, with its file stem.
 pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
-    let builders: [(&str, TableFn); 6] = [
+    let builders: [(&str, TableFn); 7] = [
         ("param", crate::tables::param_table),
         ("per_mesh", crate::tables::per_mesh_table),
         ("projection", crate::tables::projection_table),
         ("smoothness", crate::tables::smoothness_table),
         ("deform", crate::tables::deform_table),
         ("authalic", crate::tables::authalic_table),
+        ("scaling", crate::tables::scaling_table),
     ];
     builders.iter().filter_map(|(stem, f)| f(summary).map(|t| (stem.to_string(), t))).collect()
 }
