@@ -361,14 +361,19 @@ fn provenance_section(h: &mut String, meta: Option<&Value>) {
     }
     for (label, key) in [
         ("mapbench version", "mapbench_version"),
-        ("rustc", "rustc_version"),
+        ("rustc", "rustc"),
+        ("crates", "crates"),
         ("config file", "config_path"),
         ("host", "host"),
         ("cores", "cores"),
-        ("rayon threads", "rayon_threads"),
+        ("--jobs", "jobs"),
+        ("threads per run", "threads_per_run"),
+        ("linear ordering", "linear_ordering"),
+        ("shard", "shard"),
         ("meshes folder", "meshes_dir"),
         ("--only", "only"),
         ("--resume", "resume"),
+        ("interrupted", "interrupted"),
     ] {
         if let Some(v) = text(key) {
             rows.push((label, v));
