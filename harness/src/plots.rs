@@ -10,6 +10,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontStyle;
+use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Once;
 
@@ -96,12 +97,13 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
         }
     }
     let style = |solver: &str| solvers.iter().position(|s| *s == solver).unwrap_or(0);
-    let mut plots = Vec::new();
-    for (dataset, energy) in groups {
+    // Groups render in parallel (rayon's global pool); the plots keep the groups' order.
+    let per_group = |&(dataset, energy): &(&str, &str)| -> Result<Vec<Plot>> {
+        let mut plots = Vec::new();
         let runs: Vec<&SummaryRow> =
             summaries.iter().filter(|s| s.dataset == dataset && s.energy == energy && s.status != "failed").collect();
         if runs.is_empty() {
-            continue;
+            return Ok(plots);
         }
         let mut curves = Vec::new();
         for r in &runs {
@@ -134,7 +136,7 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
             let values = measure.values(&map);
             maps.push((r.solver.as_str(), obj, map, values, measure));
         }
-        let Some(measure) = maps.first().map(|m| m.4) else { continue };
+        let Some(measure) = maps.first().map(|m| m.4) else { return Ok(plots) };
         let scale = ColorScale::fit(measure, &maps.iter().map(|m| m.3.as_slice()).collect::<Vec<_>>());
         for (solver, obj, map, values, _) in &maps {
             let stem = run_stem(dataset, energy, solver);
@@ -151,7 +153,10 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
                 kind: PlotKind::Map { solver: solver.to_string() },
             });
         }
-    }
+        Ok(plots)
+    };
+    let mut plots: Vec<Plot> =
+        groups.par_iter().map(per_group).collect::<Result<Vec<_>>>()?.into_iter().flatten().collect();
     plots.extend(render_scaling(run_dir, summaries, &solvers)?);
     Ok(plots)
 }
