@@ -30,6 +30,12 @@ pub enum Projection {
     Analytic,
     /// Eigen-decomposition of every 8x8 block, negative eigenvalues clamped to 0.
     Numeric,
+    /// Not in the paper: the whole energy is a convex quadratic `h` of the face densities,
+    /// so only the faces' own Hessians need projecting (see [`face_factors`]); the edge block
+    /// is the PSD `2 c grad(psi_i - psi_j) grad(psi_i - psi_j)^T`.
+    Composite,
+    /// The unmodified 8x8 Hessian (plain Newton on the smoothness term; may be indefinite).
+    Exact,
 }
 
 /// Two faces sharing an interior edge.
@@ -262,10 +268,46 @@ pub fn k8_analytic(c: f64, si: &ElementState, sj: &ElementState) -> Matrix8 {
     k
 }
 
+/// `grad(psi_i - psi_j)` in the 8 edge dofs: `M^T (2 g_k v_k)_k` (Appendix A per face).
+pub fn difference_gradient(si: &ElementState, sj: &ElementState, m: &Matrix8) -> Vector8 {
+    let d = derivs(1.0, si, sj);
+    let mut w = Vector8::zeros();
+    for k in 0..4 {
+        w[2 * k] = 2.0 * d.g[k] * d.v[k][0];
+        w[2 * k + 1] = 2.0 * d.g[k] * d.v[k][1];
+    }
+    m.transpose() * w
+}
+
+impl Smoothness {
+    /// The composite view of the whole energy `E = h(psi_1, ..., psi_F)` with
+    /// `h(psi) = sum_t a_t psi_t + sum_e c_e (psi_i - psi_j)^2`, `a_t` the face weights: `h` is
+    /// a convex quadratic, so `hess E = J^T (hess h) J + sum_t (dh/dpsi_t) hess psi_t` where the
+    /// first part is the sum of the PSD edge blocks `2 c_e u_e u_e^T`
+    /// (`u_e = grad(psi_i - psi_j)`) and only `hess psi_t` can be indefinite. Returns per face
+    /// `r_t = (dh/dpsi_t) / a_t = 1 + sum_e 2 c_e (psi_t - psi_other) / a_t`: the factor that
+    /// turns the face's own (projected) block into its block of the composite Hessian.
+    pub fn face_factors(&self, states: &[ElementState], face_weight: impl Fn(usize) -> f64) -> Vec<f64> {
+        let mut dh = vec![0.0; states.len()];
+        for (k, p) in self.pairs.iter().enumerate() {
+            let [i, j] = p.faces;
+            let t = 2.0 * self.coefficient(k) * (states[i].m.psi - states[j].m.psi);
+            dh[i] += t;
+            dh[j] -= t;
+        }
+        dh.iter().enumerate().map(|(t, d)| 1.0 + d / face_weight(t)).collect()
+    }
+}
+
 /// The edge's block of the Newton system in its 8 dofs.
 pub fn block(c: f64, si: &ElementState, sj: &ElementState, m: &Matrix8, projection: Projection) -> Matrix8 {
     match projection {
         Projection::Analytic => m.transpose() * k8_analytic(c, si, sj) * m,
+        Projection::Exact => m.transpose() * k8(c, si, sj) * m,
+        Projection::Composite => {
+            let u = difference_gradient(si, sj, m);
+            u * u.transpose() * (2.0 * c)
+        }
         Projection::Numeric => {
             let h = m.transpose() * k8(c, si, sj) * m;
             let e = SymmetricEigen::new(h);
@@ -425,6 +467,38 @@ mod tests {
                 let numeric = block(c, &si, &sj, &m, Projection::Numeric);
                 assert!((analytic - exact).amax() <= 1e-8 * scale.max(1e-12), "{e:?}");
                 assert!((numeric - exact).amax() <= 1e-8 * scale.max(1e-12), "{e:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_edge_hessian_splits_into_the_composite_parts() {
+        // hess c (psi_i - psi_j)^2 = 2c u u^T + 2c (psi_i - psi_j) (hess psi_i - hess psi_j),
+        // u = grad(psi_i - psi_j): the identity behind Projection::Composite.
+        let mut r = lcg(5);
+        for e in ENERGIES {
+            for _ in 0..5 {
+                let (pair, ops, x) = setup(&mut r);
+                let [si, sj] = states(&e, &pair, &ops, &x).unwrap();
+                let (c, m) = (0.7, edge_operator([&ops[0], &ops[1]], &pair));
+                let exact = block(c, &si, &sj, &m, Projection::Exact);
+                let mut split = block(c, &si, &sj, &m, Projection::Composite);
+                let delta = si.m.psi - sj.m.psi;
+                for (f, (s, sign)) in [(&si, 1.0), (&sj, -1.0)].into_iter().enumerate() {
+                    let h = crate::hessian::element_hessian(&ops[f], s) * (2.0 * c * delta * sign / ops[f].area);
+                    for (a, &sa) in pair.local[f].iter().enumerate() {
+                        for (b, &sb) in pair.local[f].iter().enumerate() {
+                            for (p, q) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                                split[(2 * sa + p, 2 * sb + q)] += h[(2 * a + p, 2 * b + q)];
+                            }
+                        }
+                    }
+                }
+                let scale = exact.amax();
+                assert!((exact - split).amax() <= 1e-10 * scale, "{e:?}: {}", (exact - split).amax());
+                // and the composite edge block is PSD (rank one)
+                let (lo, hi) = min_eig(&block(c, &si, &sj, &m, Projection::Composite));
+                assert!(lo >= -1e-12 * hi, "{e:?}");
             }
         }
     }

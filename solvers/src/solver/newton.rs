@@ -5,12 +5,14 @@
 
 use super::{Flow, IterationRecord, Observer, Outcome, Settings, StopReason};
 use crate::assembly::Pattern;
+use crate::hessian::element_hessian;
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
+use crate::local::LocalOp;
 use crate::problem::{norm, EvalError, Evaluation, MapProblem};
-use crate::smoothness::{self, Matrix8};
-use nalgebra::Matrix6;
+use crate::smoothness::{self, Matrix8, Projection};
+use nalgebra::{Matrix6, SymmetricEigen};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -80,10 +82,21 @@ pub fn newton(
         }
         let t_start = Instant::now();
 
-        // Per-element system blocks (parallel; each block depends only on its element).
-        blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).for_each(|((b, s), op)| {
-            *b = strategy.block(op, s) * weight;
-        });
+        // Per-element system blocks (parallel; each block depends only on its element). With
+        // the composite smoothness projection each face's block is scaled by its factor r_t.
+        let factors = problem
+            .smoothness
+            .as_ref()
+            .filter(|sm| sm.projection == Projection::Composite)
+            .map(|sm| sm.face_factors(&ev.states, |t| problem.ops[t].area * weight));
+        blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).enumerate().for_each(
+            |(t, ((b, s), op))| {
+                *b = match &factors {
+                    Some(r) => composite_face_block(strategy, op, s, r[t]) * weight,
+                    None => strategy.block(op, s) * weight,
+                };
+            },
+        );
         // Edge blocks of the smoothness term, projected as configured (Section 4.3).
         if let Some(sm) = &problem.smoothness {
             edge_blocks.par_iter_mut().enumerate().for_each(|(k, b)| {
@@ -179,6 +192,23 @@ pub fn newton(
         flips: record.flips,
         x,
     })
+}
+
+/// A face's block of the composite Hessian, `r hess(A psi)` made PSD: the strategy's own
+/// block scaled by `r` when `r >= 0`; when the smoothness term outweighs the face's own weight
+/// (`r < 0`) the block is `r hess(A psi)` with its negative eigenvalues clamped to 0.
+fn composite_face_block(
+    strategy: &dyn SystemBlock,
+    op: &LocalOp,
+    s: &crate::hessian::ElementState,
+    r: f64,
+) -> Matrix6<f64> {
+    if r >= 0.0 {
+        return strategy.block(op, s) * r;
+    }
+    let e = SymmetricEigen::new(element_hessian(op, s) * r);
+    let lam = e.eigenvalues.map(|l| l.max(0.0));
+    e.eigenvectors * Matrix6::from_diagonal(&lam) * e.eigenvectors.transpose()
 }
 
 #[cfg(test)]
