@@ -257,8 +257,8 @@ fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
     }
 }
 
-/// The same with the smoothness term (w = 0.25, Figure 6). About five minutes in release (raptor
-/// with SD alone needs 1009 iterations), so it is ignored by default; CI runs it with
+/// The same with the smoothness term (w = 0.25, Figure 6). About 85 s in release (raptor with SD
+/// alone needs 1009 iterations, 40 s), so it is ignored by default; CI runs it with
 /// `MAPBENCH_MESHES=... cargo test --release -p mapbench --test cli -- --ignored smoothness`.
 #[test]
 #[ignore = "minutes: run with --ignored and MAPBENCH_MESHES"]
