@@ -135,7 +135,8 @@ pub struct EnergyParams {
     /// Weight `w` of the smoothness term `w sum_e l_e (psi_i - psi_j)^2` (Section 4.3), any
     /// energy; default 0 (off).
     pub smoothness: Option<f64>,
-    /// `analytic` (default, Appendix B) or `numeric` (8x8 eigen-decomposition).
+    /// `analytic` (default, Appendix B), `numeric` (8x8 eigen-decomposition), or `exact`
+    /// (no projection, a diagnostic: the system may be indefinite).
     pub smoothness_projection: Option<Projection>,
 }
 

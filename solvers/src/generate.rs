@@ -26,6 +26,10 @@ pub const GENERATED: &[(&str, &str)] = &[
     ("strip_thin", "long thin gently bent strip, 50:1 aspect ratio, ~1.3k vertices"),
     ("short_boundary_3k", "unit sphere minus a small polar cap (very short boundary), ~3k vertices"),
     ("planar_bar_2k", "deform: 10 x 1 bar, ~2k vertices; left end held, right end bent a quarter turn"),
+    (
+        "planar_bar_release_2k",
+        "deform: the 10 x 1 bar released from the quarter-turn bend, left end held (CM paper, Figure 1)",
+    ),
     ("planar_limbs_2k", "deform: plus-shaped figure with four limbs, ~2k vertices; three limb tips moved"),
     ("planar_limbs_8k", "deform: the four-limbed figure at twice the resolution, ~8k vertices (Table 7 scaling)"),
 ];
@@ -53,7 +57,7 @@ pub fn generate(name: &str) -> Result<Mesh, UnknownGenerated> {
         "cap_2k" => ring_disk(26, &sphere(0.45 * PI)),
         "short_boundary_3k" => ring_disk(42, &sphere(PI - 0.55)),
         "strip_thin" => strip(250, 5, 10.0, 0.2),
-        "planar_bar_2k" => cells_2d(BAR.0, BAR.1, BAR.2, |_, _| true),
+        "planar_bar_2k" | "planar_bar_release_2k" => cells_2d(BAR.0, BAR.1, BAR.2, |_, _| true),
         "planar_limbs_2k" => cells_2d(LIMBS.0, LIMBS.0, LIMBS.2, limbs_mask),
         "planar_limbs_8k" => cells_2d(2 * LIMBS.0, 2 * LIMBS.0, 0.5 * LIMBS.2, |i, j| limbs_mask(i / 2, j / 2)),
         _ => return Err(UnknownGenerated(name.to_string())),
@@ -180,6 +184,10 @@ pub fn generated_handles(name: &str) -> Option<Vec<Handle>> {
             }));
             Some(h)
         }
+        "planar_bar_release_2k" => {
+            // Released: only the left end is held where it is; the bend is the initial map.
+            Some(at(&|x, _| x < eps).into_iter().map(|v| Handle { vertex: v, target: xy(&mesh, v) }).collect())
+        }
         "planar_limbs_2k" | "planar_limbs_8k" => {
             // Hold the bottom limb's tip; swing the right tip up, the left tip down and pull the
             // top tip sideways.
@@ -200,6 +208,30 @@ pub fn generated_handles(name: &str) -> Option<Vec<Handle>> {
         }
         _ => None,
     }
+}
+
+/// The initial map of a generated `deform` shape that does not start from its rest pose, in
+/// the mesh's own frame (one point per vertex); `None` for the others.
+pub fn generated_init(name: &str) -> Option<Vec<[f64; 2]>> {
+    match name {
+        "planar_bar_release_2k" => {
+            Some(generate(name).ok()?.positions.iter().map(|p| bent_bar([p[0], p[1]])).collect())
+        }
+        _ => None,
+    }
+}
+
+/// The bar bent a quarter turn (CM paper, Figure 1, "we first deform the bar into a bent
+/// position"): the midline `y = w/2` goes onto the quarter circle of the same length about
+/// `(0, w/2 + r)`, `r = len / (pi/2)`, and a point at offset `o` from the midline keeps its
+/// offset along the radius (distance `r - o` from the centre). The left end does not move;
+/// the right end lands where `planar_bar_2k`'s handles put it. Orientation preserving since
+/// `r > w/2`.
+fn bent_bar(p: [f64; 2]) -> [f64; 2] {
+    let (len, w) = (BAR.0 as f64 * BAR.2, BAR.1 as f64 * BAR.2);
+    let r = len / FRAC_PI_2;
+    let (o, (sn, cs)) = (p[1] - 0.5 * w, (p[0] / r).sin_cos());
+    [(r - o) * sn, 0.5 * w + r - (r - o) * cs]
 }
 
 fn xy(mesh: &Mesh, v: usize) -> [f64; 2] {
@@ -314,6 +346,26 @@ mod tests {
         let top = h.iter().map(|h| h.target[1]).fold(0.0, f64::max);
         assert!((top - (0.375 + 10.0 / FRAC_PI_2)).abs() < 1e-12);
         assert!(generated_handles("bumpy_1k").is_none());
+    }
+
+    #[test]
+    fn the_released_bar_starts_bent_with_only_its_left_end_held() {
+        let name = "planar_bar_release_2k";
+        let mesh = generate(name).unwrap();
+        let init = generated_init(name).unwrap();
+        assert_eq!(init.len(), mesh.n_vertices());
+        // the init is planar_bar_2k's bend: every handle of the bent bar sits on its target
+        for h in generated_handles("planar_bar_2k").unwrap() {
+            let p = init[h.vertex];
+            assert!((p[0] - h.target[0]).abs() < 1e-12 && (p[1] - h.target[1]).abs() < 1e-12, "{h:?} {p:?}");
+        }
+        // orientation preserving, and a bend: the midline keeps its length (up to the chords)
+        assert!(mesh.faces.iter().all(|f| crate::local::signed_area(f.map(|v| init[v])) > 0.0));
+        // the held vertices are the left end at their rest positions, where the init agrees
+        let h = generated_handles(name).unwrap();
+        assert_eq!(h.len(), BAR.1 + 1);
+        assert!(h.iter().all(|h| h.target == xy(&mesh, h.vertex) && h.target[0] == 0.0 && init[h.vertex] == h.target));
+        assert!(generated_init("planar_bar_2k").is_none());
     }
 
     #[test]

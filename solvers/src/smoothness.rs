@@ -30,6 +30,8 @@ pub enum Projection {
     Analytic,
     /// Eigen-decomposition of every 8x8 block, negative eigenvalues clamped to 0.
     Numeric,
+    /// The unmodified 8x8 Hessian (plain Newton on the smoothness term; may be indefinite).
+    Exact,
 }
 
 /// Two faces sharing an interior edge.
@@ -266,6 +268,7 @@ pub fn k8_analytic(c: f64, si: &ElementState, sj: &ElementState) -> Matrix8 {
 pub fn block(c: f64, si: &ElementState, sj: &ElementState, m: &Matrix8, projection: Projection) -> Matrix8 {
     match projection {
         Projection::Analytic => m.transpose() * k8_analytic(c, si, sj) * m,
+        Projection::Exact => m.transpose() * k8(c, si, sj) * m,
         Projection::Numeric => {
             let h = m.transpose() * k8(c, si, sj) * m;
             let e = SymmetricEigen::new(h);
