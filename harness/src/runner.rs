@@ -283,6 +283,7 @@ pub fn run_batch(
     finished.sort_by_key(|(i, _)| *i);
     let rows: Vec<SummaryRow> = finished.into_iter().map(|(_, s)| s).collect();
     crate::output::write_summary(&out_dir.join("summary.csv"), &rows)?;
+    progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
     crate::report::refresh(out_dir, &rows)?;
     meta.write(out_dir, Some(SystemTime::now()), interrupted)?;
     Ok(report)

@@ -223,11 +223,19 @@ impl SpdSolver {
 
     /// Solve with the factor of the last successful [`SpdSolver::factorize`].
     pub fn solve_factored(&mut self, b: &[f64]) -> Result<Vec<f64>, LinearError> {
+        let mut x = Vec::with_capacity(self.n);
+        self.solve_factored_into(b, &mut x)?;
+        Ok(x)
+    }
+
+    /// [`SpdSolver::solve_factored`] into `x`, reusing its allocation (the Newton loop's).
+    pub fn solve_factored_into(&mut self, b: &[f64], x: &mut Vec<f64>) -> Result<(), LinearError> {
         if !self.factored {
             return Err(LinearError::NotFactored);
         }
-        let mut x: Vec<f64> = b.iter().zip(&self.scale).map(|(bi, si)| bi * si).collect();
-        let rhs = MatMut::from_column_major_slice_mut(&mut x, self.n, 1);
+        x.clear();
+        x.extend(b.iter().zip(&self.scale).map(|(bi, si)| bi * si));
+        let rhs = MatMut::from_column_major_slice_mut(x, self.n, 1);
         let llt = LltRef::new(&self.symbolic, &self.l_values);
         llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.mem));
         for (xi, si) in x.iter_mut().zip(&self.scale) {
@@ -236,7 +244,7 @@ impl SpdSolver {
         if let Some(i) = x.iter().position(|v| !v.is_finite()) {
             return Err(LinearError::BadDiagonal { index: i, value: x[i] });
         }
-        Ok(x)
+        Ok(())
     }
 }
 

@@ -114,6 +114,8 @@ pub fn newton(
     let mut blocks = vec![Matrix6::<f64>::zeros(); problem.n_faces()];
     let mut values = Vec::new();
     let mut x_new = Vec::with_capacity(x.len());
+    // Per-iteration buffers, allocated once: the right-hand side and the Newton direction.
+    let (mut rhs, mut d) = (Vec::with_capacity(x.len()), Vec::with_capacity(x.len()));
     let mut last_decrease = f64::INFINITY;
     let mut t_cum = 0.0;
     let mut iter = 0usize;
@@ -140,21 +142,21 @@ pub fn newton(
         let t_scatter = t0.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
-        let rhs: Vec<f64> = ev.grad.iter().map(|g| -g).collect();
+        rhs.clear();
+        rhs.extend(ev.grad.iter().map(|g| -g));
         let mut lin = LinearSettings { ..settings.linear };
-        let mut solved = linear.solve(&values, &rhs, &lin);
+        let mut solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
         for _ in 0..MAX_REGULARIZATION_RETRIES {
             if solved.is_ok() {
                 break;
             }
             lin.tikhonov = (lin.tikhonov * 1e3).max(1e-8);
-            solved = linear.solve(&values, &rhs, &lin);
+            solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
         }
         let t_solve = t0.elapsed().as_secs_f64();
-        let d = match solved {
-            Ok(d) => d,
-            Err(e) => break StopReason::LinearSolveFailed(e.to_string()),
-        };
+        if let Err(e) = solved {
+            break StopReason::LinearSolveFailed(e.to_string());
+        }
 
         let t0 = Instant::now();
         let g_dot_d: f64 = ev.grad.iter().zip(&d).map(|(g, d)| g * d).sum();
