@@ -6,6 +6,7 @@
 use crate::mapfile::{self, MapFile};
 use crate::output::{run_stem, write_atomic, SummaryRow};
 use anyhow::{bail, Context, Result};
+use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -245,31 +246,21 @@ fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> R
         let every_point = x_min * 1e-9;
         if log_y {
             let mut chart = builder.build_cartesian_2d(xr.log_scale(), ((y_min / 1.5)..(y_max * 1.5)).log_scale())?;
-            chart
-                .configure_mesh()
-                .x_desc("vertices (log)")
+            let mut mesh = chart.configure_mesh();
+            mesh.x_desc("vertices (log)")
                 .y_desc(format!("{y_desc} (log)"))
                 .x_label_formatter(&|v| format_linear(*v))
-                .y_label_formatter(&|v| format_linear(*v))
-                .label_style(("sans-serif", 14))
-                .light_line_style(BLACK.mix(0.04))
-                .bold_line_style(BLACK.mix(0.15))
-                .axis_desc_style(("sans-serif", 15))
-                .draw()?;
+                .y_label_formatter(&|v| format_linear(*v));
+            house_style(&mut mesh).draw()?;
             draw_series(&mut chart, curves, &points, every_point)?;
         } else {
             let mut chart = builder.build_cartesian_2d(xr.log_scale(), 0.0..(y_max * 1.1))?;
-            chart
-                .configure_mesh()
-                .x_desc("vertices (log)")
+            let mut mesh = chart.configure_mesh();
+            mesh.x_desc("vertices (log)")
                 .y_desc(y_desc)
                 .x_label_formatter(&|v| format_linear(*v))
-                .y_label_formatter(&|v| format_count(*v))
-                .label_style(("sans-serif", 14))
-                .light_line_style(BLACK.mix(0.04))
-                .bold_line_style(BLACK.mix(0.15))
-                .axis_desc_style(("sans-serif", 15))
-                .draw()?;
+                .y_label_formatter(&|v| format_count(*v));
+            house_style(&mut mesh).draw()?;
             draw_series(&mut chart, curves, &points, every_point)?;
         }
         draw_legend(&legend_area, curves)?;
@@ -394,34 +385,24 @@ fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<
             PlotKind::NegEigIter => {
                 let y_max = if y_max > 0.0 { y_max * 1.05 } else { 1.0 };
                 let mut chart = builder.build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
-                chart
-                    .configure_mesh()
-                    .x_desc(x_desc)
+                let mut mesh = chart.configure_mesh();
+                mesh.x_desc(x_desc)
                     .y_desc("#negative eigenvalues")
                     .y_label_formatter(&|v| format_count(*v))
-                    .x_label_formatter(&|v| format_linear(*v))
-                    .label_style(("sans-serif", 14))
-                    .light_line_style(BLACK.mix(0.04))
-                    .bold_line_style(BLACK.mix(0.15))
-                    .axis_desc_style(("sans-serif", 15))
-                    .draw()?;
+                    .x_label_formatter(&|v| format_linear(*v));
+                house_style(&mut mesh).draw()?;
                 draw_series(&mut chart, curves, &points, x_max)?;
             }
             _ => {
                 let y_max = if y_max > floor { y_max * 2.0 } else { floor * 10.0 };
                 // A little room below the floor so the markers drawn there are not clipped.
                 let mut chart = builder.build_cartesian_2d(0.0..x_max, (floor / 2.0..y_max).log_scale())?;
-                chart
-                    .configure_mesh()
-                    .x_desc(x_desc)
+                let mut mesh = chart.configure_mesh();
+                mesh.x_desc(x_desc)
                     .y_desc("E − E*  (≤ 0 drawn at the bottom)")
                     .y_label_formatter(&|v| format!("{v:.0e}"))
-                    .x_label_formatter(&|v| format_linear(*v))
-                    .label_style(("sans-serif", 14))
-                    .light_line_style(BLACK.mix(0.04))
-                    .bold_line_style(BLACK.mix(0.15))
-                    .axis_desc_style(("sans-serif", 15))
-                    .draw()?;
+                    .x_label_formatter(&|v| format_linear(*v));
+                house_style(&mut mesh).draw()?;
                 draw_series(&mut chart, curves, &points, x_max)?;
             }
         }
@@ -429,6 +410,19 @@ fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<
         root.present()?;
     }
     encode_png(&buf, CURVE_SIZE)
+}
+
+/// The look every curve plot's axes share: label sizes and light grid lines.
+fn house_style<'m, 'a, 'b, X, Y, DB>(mesh: &'m mut MeshStyle<'a, 'b, X, Y, DB>) -> &'m mut MeshStyle<'a, 'b, X, Y, DB>
+where
+    X: Ranged,
+    Y: Ranged,
+    DB: DrawingBackend,
+{
+    mesh.label_style(("sans-serif", 14))
+        .light_line_style(BLACK.mix(0.04))
+        .bold_line_style(BLACK.mix(0.15))
+        .axis_desc_style(("sans-serif", 15))
 }
 
 /// Markers along the x axis: at most this many per curve, evenly spaced in x.

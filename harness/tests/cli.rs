@@ -217,19 +217,24 @@ path = "grid.obj"
     assert!(table.contains("| it/t | sd | nh |") && table.contains("| kp-newton |"), "{table}");
 }
 
-#[test]
-fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
-    // Issue "Deformation task": SD and NH (mu/kappa = 0.25, Figure 4) converge on every
-    // shape of the shared corpus with its handles, without flips.
+/// The deform shapes of the shared corpus (`tag:deform` also holds the generated ones).
+const SHARED_DEFORM: [&str; 7] = ["archer", "rex", "raptor", "alligator", "octopus_2d", "robot_2d", "worm_2d"];
+
+/// Run a `deform` config over `tag:deform` with SD and NH (mu/kappa = 0.25, Figure 4) plus
+/// `extra` TOML, and check that every run, shared shapes included, is ok without flips.
+/// Returns the summary, or `None` (skipped) without `MAPBENCH_MESHES`.
+fn shared_deform_batch(extra: &str) -> Option<(Vec<String>, Vec<Vec<String>>)> {
     let Ok(meshes) = std::env::var("MAPBENCH_MESHES") else {
         eprintln!("MAPBENCH_MESHES not set: shared deform shapes skipped");
-        return;
+        return None;
     };
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(
         tmp.path(),
-        "name = \"defs\"\ntask = \"deform\"\ndatasets = [\"tag:deform\"]\nenergies = [\"sd\", \"nh\"]\n\
-         solvers = [\"kp-newton\"]\n[energy.nh]\nmu = 0.2\nkappa = 0.8\n",
+        &format!(
+            "name = \"defs\"\ntask = \"deform\"\ndatasets = [\"tag:deform\"]\nenergies = [\"sd\", \"nh\"]\n\
+             solvers = [\"kp-newton\"]\n{extra}"
+        ),
     );
     let out = tmp.path().join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
@@ -240,8 +245,7 @@ fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
-    let shared = ["archer", "rex", "raptor", "alligator", "octopus_2d", "robot_2d", "worm_2d"];
-    for name in shared {
+    for name in SHARED_DEFORM {
         assert_eq!(rows.iter().filter(|r| r[col("dataset")] == name).count(), 2, "{name}");
     }
     for r in &rows {
@@ -255,6 +259,14 @@ fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
             r[col("time_s")]
         );
     }
+    Some((header, rows))
+}
+
+#[test]
+fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
+    // Issue "Deformation task": SD and NH converge on every shape of the shared corpus with
+    // its handles, without flips.
+    shared_deform_batch("[energy.nh]\nmu = 0.2\nkappa = 0.8\n");
 }
 
 /// The same with the smoothness term (w = 0.25, Figure 6). About 85 s in release (raptor with SD
@@ -263,33 +275,12 @@ fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
 #[test]
 #[ignore = "minutes: run with --ignored and MAPBENCH_MESHES"]
 fn deform_with_smoothness_converges_on_every_shared_shape_with_sd_and_nh() {
-    let Ok(meshes) = std::env::var("MAPBENCH_MESHES") else {
-        eprintln!("MAPBENCH_MESHES not set: shared deform shapes skipped");
-        return;
-    };
-    let tmp = tempfile::tempdir().unwrap();
-    let cfg = write_config(
-        tmp.path(),
-        "name = \"defsm\"\ntask = \"deform\"\ndatasets = [\"tag:deform\"]\nenergies = [\"sd\", \"nh\"]\n\
-         solvers = [\"kp-newton\"]\n[stop]\nmax_iters = 1500\n[energy.sd]\nsmoothness = 0.25\n\
-         [energy.nh]\nmu = 0.2\nkappa = 0.8\nsmoothness = 0.25\n",
-    );
-    let out = tmp.path().join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
-        .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()])
-        .env("MAPBENCH_MESHES", meshes)
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let (header, rows) = read_csv(&out.join("summary.csv"));
-    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
-    for name in ["archer", "rex", "raptor", "alligator", "octopus_2d", "robot_2d", "worm_2d"] {
-        assert_eq!(rows.iter().filter(|r| r[col("dataset")] == name).count(), 2, "{name}");
-    }
+    let extra = "[stop]\nmax_iters = 1500\n[energy.sd]\nsmoothness = 0.25\n\
+                 [energy.nh]\nmu = 0.2\nkappa = 0.8\nsmoothness = 0.25\n";
+    let Some((header, rows)) = shared_deform_batch(extra) else { return };
+    let stop = header.iter().position(|h| h == "stop_reason").unwrap();
     for r in &rows {
-        assert_eq!(r[col("status")], "ok", "{r:?}");
-        assert_eq!(r[col("stop_reason")], "energy_decrease", "{r:?}");
-        assert_eq!(r[col("flips")], "0", "{r:?}");
+        assert_eq!(r[stop], "energy_decrease", "{r:?}");
     }
 }
 
