@@ -504,7 +504,7 @@ impl Config {
             ordering: self.linear.ordering.unwrap_or(lin.ordering),
         };
         ParamSettings {
-            solver: Settings { stop, line_search, linear },
+            solver: Settings { stop, line_search, linear, analyses: None },
             tutte_boundary: self.init.tutte_boundary.unwrap_or_default(),
             scaling_jump: self.init.scaling_jump.unwrap_or(0.1),
             smoothness: None,

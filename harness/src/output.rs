@@ -28,8 +28,9 @@ pub const ITERATION_COLUMNS: [&str; 15] = [
     "ls_evals",
 ];
 
-/// `summary.csv` columns, in design.md order; the last four are filled by `authalic` runs.
-pub const SUMMARY_COLUMNS: [&str; 24] = [
+/// `summary.csv` columns, in design.md order; `area_ratio_sd` .. `folded` are filled by
+/// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers.
+pub const SUMMARY_COLUMNS: [&str; 26] = [
     "dataset",
     "task",
     "energy",
@@ -54,6 +55,8 @@ pub const SUMMARY_COLUMNS: [&str; 24] = [
     "area_ratio_mad",
     "authalic_energy",
     "folded",
+    "analysis_s",
+    "analysis_shared",
 ];
 
 #[derive(Clone, Debug, Serialize)]
@@ -106,6 +109,13 @@ pub struct SummaryRow {
     pub authalic_energy: Option<f64>,
     #[serde(default)]
     pub folded: Option<usize>,
+    /// Wall time of the system's symbolic analysis (ordering + symbolic Cholesky), which
+    /// `time_s` leaves out: the runs on a mesh share it.
+    #[serde(default)]
+    pub analysis_s: Option<f64>,
+    /// The run took the analysis computed by another run on the same mesh.
+    #[serde(default)]
+    pub analysis_shared: Option<bool>,
 }
 
 /// The file stem of a run: `<dataset>__<energy>__<solver>`.

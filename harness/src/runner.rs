@@ -9,6 +9,7 @@ use crate::registry::{resolve, Dataset};
 use anyhow::{bail, Context, Result};
 use solvers::authalic::{solve_authalic, AreaMetrics, AUTHALIC_ENERGY};
 use solvers::deform::solve_deform;
+use solvers::linear::AnalysisCache;
 use solvers::mesh::Mesh;
 use solvers::param::solve_param;
 use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
@@ -133,10 +134,16 @@ pub fn plan(datasets: &[Dataset], energies: &[String], solvers: &[String], only:
     out
 }
 
-/// Meshes shared by the workers: loaded by the first run that needs one, dropped after the
-/// dataset's last run.
+/// A dataset's mesh and what its runs share: the symbolic analyses of their systems.
+struct Loaded {
+    mesh: Result<Mesh>,
+    analyses: Arc<AnalysisCache>,
+}
+
+/// Meshes shared by the workers: loaded by the first run that needs one, dropped (with their
+/// analyses) after the dataset's last run.
 struct MeshCache {
-    slots: Vec<Mutex<Option<Arc<Result<Mesh>>>>>,
+    slots: Vec<Mutex<Option<Arc<Loaded>>>>,
     remaining: Vec<AtomicUsize>,
 }
 
@@ -149,9 +156,9 @@ impl MeshCache {
         MeshCache { slots: (0..n_datasets).map(|_| Mutex::new(None)).collect(), remaining }
     }
 
-    fn get(&self, d: usize, ds: &Dataset) -> Arc<Result<Mesh>> {
+    fn get(&self, d: usize, ds: &Dataset) -> Arc<Loaded> {
         let mut slot = self.slots[d].lock().unwrap_or_else(|e| e.into_inner());
-        slot.get_or_insert_with(|| Arc::new(ds.load())).clone()
+        slot.get_or_insert_with(|| Arc::new(Loaded { mesh: ds.load(), analyses: Default::default() })).clone()
     }
 
     fn done(&self, d: usize) {
@@ -224,9 +231,14 @@ pub fn run_batch(
                     let result = match previous {
                         Some((summary, rows)) => RunResult { summary, rows, map_obj: None, interrupted: false },
                         None => {
-                            let mesh = meshes.get(p.dataset, ds);
-                            let ctx = RunContext { interrupt: &opts.interrupt, progress, worker };
-                            run_one(cfg, ds, mesh.as_ref().as_ref(), &p.energy, &p.solver, &ctx)
+                            let loaded = meshes.get(p.dataset, ds);
+                            let ctx = RunContext {
+                                interrupt: &opts.interrupt,
+                                progress,
+                                worker,
+                                analyses: loaded.analyses.clone(),
+                            };
+                            run_one(cfg, ds, loaded.mesh.as_ref(), &p.energy, &p.solver, &ctx)
                         }
                     };
                     meshes.done(p.dataset);
@@ -349,7 +361,8 @@ fn run_one(
         worker: ctx.worker,
     };
     let t0 = Instant::now();
-    let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(cfg, ds, mesh, energy, solver, &mut rows)));
+    let result =
+        std::panic::catch_unwind(AssertUnwindSafe(|| solve(cfg, ds, mesh, energy, solver, &ctx.analyses, &mut rows)));
     let elapsed = t0.elapsed().as_secs_f64();
     let (outcome, metrics) = match result {
         Ok(Ok(o)) => o,
@@ -389,6 +402,13 @@ fn run_one(
     summary.init_energy = Some(outcome.init_energy);
     summary.final_energy = Some(outcome.final_energy);
     summary.grad_norm = Some(outcome.grad_norm);
+    // The symbolic analysis is shared by the runs on a mesh, so which run computes it depends
+    // on scheduling: time_s leaves it out for every run (including any wait for another run
+    // computing it) and analysis_s reports its cost.
+    let setup = outcome.analysis.map_or(0.0, |a| a.setup_seconds);
+    let elapsed = (elapsed - setup).max(0.0);
+    summary.analysis_s = outcome.analysis.map(|a| a.seconds);
+    summary.analysis_shared = outcome.analysis.map(|a| a.reused);
     summary.time_s = Some(elapsed);
     summary.ms_per_vertex = Some(1e3 * elapsed / mesh.n_vertices().max(1) as f64);
     summary.iter_ms_median = per_iter(|r| r.t_iter_s);
@@ -410,6 +430,8 @@ struct RunContext<'a> {
     interrupt: &'a AtomicBool,
     progress: &'a dyn Progress,
     worker: usize,
+    /// Symbolic analyses shared by the runs on this mesh.
+    analyses: Arc<AnalysisCache>,
 }
 
 /// One solve of the config's task; `authalic` runs also return their area metrics.
@@ -419,6 +441,7 @@ fn solve(
     mesh: &Mesh,
     energy: &str,
     solver: &str,
+    analyses: &Arc<AnalysisCache>,
     rows: &mut Rows<'_>,
 ) -> Result<(Outcome, Option<AreaMetrics>)> {
     match cfg.config.task {
@@ -430,6 +453,7 @@ fn solve(
             let kind = cfg.config.energy_kind(energy)?;
             let mut settings = cfg.config.param_settings(&kind);
             settings.smoothness = cfg.config.smoothness_for(energy);
+            settings.solver.analyses = Some(analyses.clone());
             Ok((solve_param(mesh, kind, solver, &settings, rows)?, None))
         }
         Task::Deform => {
@@ -437,6 +461,7 @@ fn solve(
             let handles = ds.handles.load(mesh)?;
             let mut settings = cfg.config.deform_settings();
             settings.smoothness = cfg.config.smoothness_for(energy);
+            settings.solver.analyses = Some(analyses.clone());
             Ok((solve_deform(mesh, &handles, kind, solver, &settings, rows)?, None))
         }
     }

@@ -57,7 +57,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];
@@ -416,8 +416,20 @@ fn jobs_shards_merge_and_report_do_not_change_results() {
         assert_eq!(o.status.code(), Some(0), "{}", text(&o));
         out
     };
-    let one = results(&run("one", &["--jobs", "1"]));
+    let one_dir = run("one", &["--jobs", "1"]);
+    let one = results(&one_dir);
     assert_eq!((one.0.len(), one.1.len()), (8, 8));
+    // the four runs on a mesh share one symbolic analysis: the first computes it, the others
+    // reuse it, and all report the same analysis_s (left out of time_s)
+    let (h, rows) = read_csv(&one_dir.join("summary.csv"));
+    let col = |name: &str| h.iter().position(|x| x == name).unwrap();
+    for ds in ["cap_2k", "bumpy_1k"] {
+        let mine: Vec<&Vec<String>> = rows.iter().filter(|r| r[col("dataset")] == ds).collect();
+        let shared: Vec<&str> = mine.iter().map(|r| r[col("analysis_shared")].as_str()).collect();
+        assert_eq!(shared, ["false", "true", "true", "true"], "{ds}");
+        let secs: Vec<&str> = mine.iter().map(|r| r[col("analysis_s")].as_str()).collect();
+        assert!(secs.iter().all(|s| *s == secs[0] && s.parse::<f64>().unwrap() > 0.0), "{ds}: {secs:?}");
+    }
     // summary.csv is in the config's order whatever order the runs finished in
     let order: Vec<String> = one.0.iter().map(|r| format!("{} {} {}", r[0], r[1], r[2])).collect();
     assert_eq!(order[..3], ["cap_2k sd kp-newton", "cap_2k sd cm", "cap_2k bconf kp-newton"]);

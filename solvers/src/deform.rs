@@ -22,7 +22,7 @@ pub struct Handle {
 }
 
 /// Settings of a `deform` run.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct DeformSettings {
     pub solver: Settings,
     /// Penalty weight `lambda` (on the area-1 mesh).
@@ -197,7 +197,12 @@ mod tests {
 
     fn settings() -> DeformSettings {
         DeformSettings {
-            solver: Settings { stop: default_stop(), line_search: Default::default(), linear: Default::default() },
+            solver: Settings {
+                stop: default_stop(),
+                line_search: Default::default(),
+                linear: Default::default(),
+                analyses: None,
+            },
             lambda: DEFAULT_LAMBDA,
             smoothness: None,
         }

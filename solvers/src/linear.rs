@@ -17,6 +17,9 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Instant;
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum LinearError {
@@ -92,25 +95,178 @@ pub fn regularize(
     Ok(())
 }
 
+/// One symbolic analysis: the pattern, its fill-reducing ordering and the symbolic Cholesky
+/// factor. It depends on the pattern only, so every solver that factorizes matrices on the
+/// same pattern (all Newton-type strategies on one mesh) can share it.
+pub struct Analysis {
+    symbolic_a: SymbolicSparseColMat<usize>,
+    symbolic: SymbolicCholesky<usize>,
+    ordering: Ordering,
+    /// Wall time of the ordering plus the symbolic factorization.
+    seconds: f64,
+}
+
+impl Analysis {
+    /// `perm = Some((fwd, inv))` orders by `fwd[new] = old`; `None` uses AMD.
+    fn new(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        ordering: Ordering,
+        block: usize,
+    ) -> Result<Analysis, LinearError> {
+        let t0 = Instant::now();
+        let perm = match ordering {
+            Ordering::Amd => None,
+            Ordering::Metis => metis_order(n, &col_ptr, &row_idx, block)?,
+        };
+        let symbolic_a = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
+        let faer_ordering = match &perm {
+            Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, n)),
+            None => SymmetricOrdering::Amd,
+        };
+        let symbolic = factorize_symbolic_cholesky(
+            symbolic_a.as_ref(),
+            Side::Lower,
+            faer_ordering,
+            CholeskySymbolicParams::default(),
+        )
+        .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
+        let ordering = if perm.is_some() { Ordering::Metis } else { Ordering::Amd };
+        Ok(Analysis { symbolic_a, symbolic, ordering, seconds: t0.elapsed().as_secs_f64() })
+    }
+
+    /// Wall time the analysis took when it was computed.
+    pub fn seconds(&self) -> f64 {
+        self.seconds
+    }
+
+    fn matches(&self, n: usize, col_ptr: &[usize], row_idx: &[usize]) -> bool {
+        self.symbolic_a.nrows() == n && self.symbolic_a.col_ptr() == col_ptr && self.symbolic_a.row_idx() == row_idx
+    }
+}
+
+type Slot = Arc<OnceLock<Result<Arc<Analysis>, LinearError>>>;
+
+/// Analyses shared by the runs on one mesh (issue "Performance": the symbolic factorization
+/// and ordering are reused across solvers on the same pattern). The caller owns it (the
+/// harness keeps one per loaded mesh and drops it with the mesh); a solver only looks up
+/// or fills an entry, so results never depend on whether an entry was there. Entries are
+/// keyed by a hash of the pattern and the ordering, and checked against the full pattern
+/// on use. Two runs asking for the same pattern at once compute it once: the second waits.
+#[derive(Default)]
+pub struct AnalysisCache {
+    slots: Mutex<Vec<(u64, Slot)>>,
+}
+
+impl std::fmt::Debug for AnalysisCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.slots.lock().map(|s| s.len()).unwrap_or(0);
+        write!(f, "AnalysisCache({n} patterns)")
+    }
+}
+
+/// Two caches are equal only when they are the same cache (settings compare by identity).
+impl PartialEq for AnalysisCache {
+    fn eq(&self, other: &Self) -> bool {
+        std::ptr::eq(self, other)
+    }
+}
+
+impl AnalysisCache {
+    pub fn new() -> AnalysisCache {
+        AnalysisCache::default()
+    }
+
+    /// Number of distinct patterns analysed so far.
+    pub fn len(&self) -> usize {
+        self.slots.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The analysis of the pattern, computed by the first caller; `true` when it was
+    /// reused (computed by another caller, possibly while this one waited).
+    fn get(
+        &self,
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        ordering: Ordering,
+        block: usize,
+    ) -> Result<(Arc<Analysis>, bool), LinearError> {
+        let key = {
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            (n, col_ptr, row_idx, ordering, block).hash(&mut h);
+            h.finish()
+        };
+        let slot = {
+            let mut slots = self.slots.lock().unwrap_or_else(|e| e.into_inner());
+            match slots.iter().find(|(k, _)| *k == key) {
+                Some((_, s)) => s.clone(),
+                None => {
+                    let s = Slot::default();
+                    slots.push((key, s.clone()));
+                    s
+                }
+            }
+        };
+        let mut computed = false;
+        let entry = slot.get_or_init(|| {
+            computed = true;
+            Analysis::new(n, col_ptr.to_vec(), row_idx.to_vec(), ordering, block).map(Arc::new)
+        });
+        match entry {
+            // A hash collision (another pattern under the same key) gets its own analysis.
+            Ok(a) if !a.matches(n, col_ptr, row_idx) => {
+                Ok((Arc::new(Analysis::new(n, col_ptr.to_vec(), row_idx.to_vec(), ordering, block)?), false))
+            }
+            Ok(a) => Ok((a.clone(), !computed)),
+            Err(e) => Err(e.clone()),
+        }
+    }
+}
+
 pub struct SpdSolver {
     n: usize,
-    symbolic_a: SymbolicSparseColMat<usize>,
+    analysis: Arc<Analysis>,
+    /// The analysis came from an [`AnalysisCache`] entry computed by another solver.
+    reused: bool,
+    /// Time spent obtaining the analysis: computing it, or waiting for another solver that was.
+    setup_seconds: f64,
     diag: Vec<usize>,
-    symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
     scaled: Vec<f64>,
     scale: Vec<f64>,
     mem: MemBuffer,
     factored: bool,
-    ordering: Ordering,
 }
 
 impl SpdSolver {
     /// Analyse the Newton pattern once (two interleaved dofs per vertex) with `ordering`
     /// (supernodal when faer deems it worthwhile).
     pub fn new(pattern: &Pattern, ordering: Ordering) -> Result<SpdSolver, LinearError> {
-        let (c, r, d) = (pattern.col_ptr.clone(), pattern.row_idx.clone(), pattern.diag.clone());
-        Self::from_csc_ordered(pattern.n, c, r, d, ordering, 2)
+        Self::shared(pattern, ordering, None)
+    }
+
+    /// [`SpdSolver::new`], taking the analysis from `cache` when another solver on the same
+    /// pattern already computed it (and leaving it there for the next one).
+    pub fn shared(
+        pattern: &Pattern,
+        ordering: Ordering,
+        cache: Option<&AnalysisCache>,
+    ) -> Result<SpdSolver, LinearError> {
+        let t0 = Instant::now();
+        let (analysis, reused) = match cache {
+            Some(c) => c.get(pattern.n, &pattern.col_ptr, &pattern.row_idx, ordering, 2)?,
+            None => {
+                let (c, r) = (pattern.col_ptr.clone(), pattern.row_idx.clone());
+                (Arc::new(Analysis::new(pattern.n, c, r, ordering, 2)?), false)
+            }
+        };
+        Ok(Self::with_analysis(analysis, pattern.diag.clone(), reused, t0.elapsed().as_secs_f64()))
     }
 
     /// [`SpdSolver::from_csc`] with a choice of ordering; METIS orders the graph whose nodes
@@ -123,11 +279,9 @@ impl SpdSolver {
         ordering: Ordering,
         block: usize,
     ) -> Result<SpdSolver, LinearError> {
-        let perm = match ordering {
-            Ordering::Amd => None,
-            Ordering::Metis => metis_order(n, &col_ptr, &row_idx, block)?,
-        };
-        Self::analyse(n, col_ptr, row_idx, diag, perm)
+        let t0 = Instant::now();
+        let analysis = Arc::new(Analysis::new(n, col_ptr, row_idx, ordering, block)?);
+        Ok(Self::with_analysis(analysis, diag, false, t0.elapsed().as_secs_f64()))
     }
 
     /// Analyse a lower-triangular CSC pattern (sorted rows, every diagonal present; `diag`
@@ -138,49 +292,51 @@ impl SpdSolver {
         row_idx: Vec<usize>,
         diag: Vec<usize>,
     ) -> Result<SpdSolver, LinearError> {
-        Self::analyse(n, col_ptr, row_idx, diag, None)
+        Self::from_csc_ordered(n, col_ptr, row_idx, diag, Ordering::Amd, 1)
     }
 
-    /// `perm = Some((fwd, inv))` orders by `fwd[new] = old`; `None` uses AMD.
-    fn analyse(
-        n: usize,
-        col_ptr: Vec<usize>,
-        row_idx: Vec<usize>,
-        diag: Vec<usize>,
-        perm: Option<(Vec<usize>, Vec<usize>)>,
-    ) -> Result<SpdSolver, LinearError> {
-        let symbolic_a = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
-        let ordering = match &perm {
-            Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, n)),
-            None => SymmetricOrdering::Amd,
-        };
-        let symbolic =
-            factorize_symbolic_cholesky(symbolic_a.as_ref(), Side::Lower, ordering, CholeskySymbolicParams::default())
-                .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
+    fn with_analysis(analysis: Arc<Analysis>, diag: Vec<usize>, reused: bool, setup_seconds: f64) -> SpdSolver {
         let par = Par::Seq;
+        let symbolic = &analysis.symbolic;
         let mem = MemBuffer::new(
             symbolic
                 .factorize_numeric_llt_scratch::<f64>(par, Default::default())
                 .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
         );
         let l_values = vec![0.0; symbolic.len_val()];
-        Ok(SpdSolver {
+        let n = analysis.symbolic_a.nrows();
+        SpdSolver {
             n,
-            symbolic_a,
+            analysis,
+            reused,
+            setup_seconds,
             diag,
-            symbolic,
             l_values,
             scaled: Vec::new(),
             scale: vec![1.0; n],
             mem,
             factored: false,
-            ordering: if perm.is_some() { Ordering::Metis } else { Ordering::Amd },
-        })
+        }
+    }
+
+    /// The shared analysis (ordering, symbolic factor) this solver factorizes with.
+    pub fn analysis(&self) -> &Arc<Analysis> {
+        &self.analysis
+    }
+
+    /// Whether the analysis was reused from a cache entry another solver computed.
+    pub fn analysis_reused(&self) -> bool {
+        self.reused
+    }
+
+    /// Wall time this solver spent obtaining its analysis (computing it, or waiting for it).
+    pub fn setup_seconds(&self) -> f64 {
+        self.setup_seconds
     }
 
     /// The ordering the analysis used (`metis` falls back to AMD on tiny graphs).
     pub fn ordering(&self) -> Ordering {
-        self.ordering
+        self.analysis.ordering
     }
 
     /// Number of stored entries of the Cholesky factor (with supernodal padding).
@@ -199,10 +355,12 @@ impl SpdSolver {
     /// number of [`SpdSolver::solve_factored`] calls until the next factorization.
     pub fn factorize(&mut self, values: &[f64], settings: &LinearSettings) -> Result<(), LinearError> {
         self.factored = false;
-        let (col_ptr, row_idx) = (self.symbolic_a.col_ptr(), self.symbolic_a.row_idx());
+        let symbolic_a = &self.analysis.symbolic_a;
+        let (col_ptr, row_idx) = (symbolic_a.col_ptr(), symbolic_a.row_idx());
         regularize(col_ptr, row_idx, &self.diag, values, settings, &mut self.scaled, &mut self.scale)?;
-        let a = SparseColMatRef::new(self.symbolic_a.as_ref(), &self.scaled);
-        self.symbolic
+        let a = SparseColMatRef::new(symbolic_a.as_ref(), &self.scaled);
+        self.analysis
+            .symbolic
             .factorize_numeric_llt::<f64>(
                 &mut self.l_values,
                 a,
@@ -236,7 +394,7 @@ impl SpdSolver {
         x.clear();
         x.extend(b.iter().zip(&self.scale).map(|(bi, si)| bi * si));
         let rhs = MatMut::from_column_major_slice_mut(x, self.n, 1);
-        let llt = LltRef::new(&self.symbolic, &self.l_values);
+        let llt = LltRef::new(&self.analysis.symbolic, &self.l_values);
         llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.mem));
         for (xi, si) in x.iter_mut().zip(&self.scale) {
             *xi *= si;
@@ -321,5 +479,55 @@ mod tests {
         assert!(matches!(err, LinearError::NotPositiveDefinite { .. }));
         let err = solver.solve(&vals, &b, &LinearSettings::default()).unwrap_err();
         assert!(matches!(err, LinearError::BadDiagonal { .. }));
+    }
+
+    #[test]
+    fn a_cache_shares_one_analysis_per_pattern_and_ordering_and_solves_the_same() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let pat = Pattern::new(&mesh.faces, mesh.n_vertices());
+        let blocks: Vec<Matrix6<f64>> = (0..mesh.n_faces())
+            .map(|t| {
+                let b = Matrix6::from_fn(|i, j| ((i * 5 + j * 3 + t) % 7) as f64 * 0.1 - 0.3);
+                b * b.transpose() + Matrix6::identity() * 1e-2
+            })
+            .collect();
+        let mut vals = Vec::new();
+        pat.assemble(&blocks, &mut vals);
+        let b: Vec<f64> = (0..pat.n).map(|i| (i as f64 * 0.3).cos()).collect();
+        let settings = LinearSettings::default();
+
+        let cache = AnalysisCache::new();
+        let mut first = SpdSolver::shared(&pat, Ordering::Metis, Some(&cache)).unwrap();
+        let mut second = SpdSolver::shared(&pat, Ordering::Metis, Some(&cache)).unwrap();
+        assert!(!first.analysis_reused() && second.analysis_reused());
+        assert!(Arc::ptr_eq(first.analysis(), second.analysis()));
+        assert!(first.analysis().seconds() > 0.0);
+        assert_eq!(cache.len(), 1);
+        // another ordering or another pattern is another entry
+        let amd = SpdSolver::shared(&pat, Ordering::Amd, Some(&cache)).unwrap();
+        assert!(!amd.analysis_reused() && amd.ordering() == Ordering::Amd);
+        let half = Pattern::new(&mesh.faces[..mesh.n_faces() / 2], mesh.n_vertices());
+        assert!(!SpdSolver::shared(&half, Ordering::Metis, Some(&cache)).unwrap().analysis_reused());
+        assert_eq!(cache.len(), 3);
+        // bit-identical solutions from the shared and a private analysis
+        let mut private = SpdSolver::new(&pat, Ordering::Metis).unwrap();
+        let x = private.solve(&vals, &b, &settings).unwrap();
+        assert_eq!(first.solve(&vals, &b, &settings).unwrap(), x);
+        assert_eq!(second.solve(&vals, &b, &settings).unwrap(), x);
+    }
+
+    #[test]
+    fn concurrent_requests_for_one_pattern_analyse_it_once() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let pat = Pattern::new(&mesh.faces, mesh.n_vertices());
+        let cache = AnalysisCache::new();
+        let reused: Vec<bool> = std::thread::scope(|s| {
+            let handles: Vec<_> = (0..4)
+                .map(|_| s.spawn(|| SpdSolver::shared(&pat, Ordering::Metis, Some(&cache)).unwrap().analysis_reused()))
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        assert_eq!(reused.iter().filter(|r| !**r).count(), 1, "{reused:?}");
+        assert_eq!(cache.len(), 1);
     }
 }

@@ -14,7 +14,7 @@ use crate::linear::LinearError;
 use std::sync::Mutex;
 
 /// The fill-reducing ordering of the Cholesky factorization (`[linear] ordering`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Ordering {
     /// faer's approximate minimum degree.

@@ -11,7 +11,7 @@ use crate::solver::registry::SpecError;
 use crate::solver::{newton, Observer, Outcome, Settings, SolverSpec, StopSettings};
 
 /// Settings of a `param` run.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ParamSettings {
     pub solver: Settings,
     pub tutte_boundary: TutteBoundary,

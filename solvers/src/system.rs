@@ -123,6 +123,7 @@ mod tests {
                 stop: crate::param::default_stop(&e),
                 line_search: Default::default(),
                 linear: Default::default(),
+                analyses: None,
             },
             tutte_boundary: Default::default(),
             scaling_jump: 0.1,

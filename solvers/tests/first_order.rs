@@ -11,7 +11,12 @@ use solvers::solver::{Outcome, Recorder, Settings};
 fn run(mesh: &Mesh, solver: &str) -> (Outcome, Recorder) {
     let e = EnergyKind::Sd;
     let settings = ParamSettings {
-        solver: Settings { stop: default_stop(&e), line_search: Default::default(), linear: Default::default() },
+        solver: Settings {
+            stop: default_stop(&e),
+            line_search: Default::default(),
+            linear: Default::default(),
+            analyses: None,
+        },
         tutte_boundary: TutteBoundary::Uniform,
         scaling_jump: 0.1,
         smoothness: None,

@@ -10,7 +10,12 @@ use solvers::solver::{Recorder, Settings, StopReason};
 
 fn settings(energy: &EnergyKind) -> ParamSettings {
     ParamSettings {
-        solver: Settings { stop: default_stop(energy), line_search: Default::default(), linear: Default::default() },
+        solver: Settings {
+            stop: default_stop(energy),
+            line_search: Default::default(),
+            linear: Default::default(),
+            analyses: None,
+        },
         tutte_boundary: TutteBoundary::Uniform,
         scaling_jump: 0.1,
         smoothness: None,

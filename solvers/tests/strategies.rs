@@ -10,7 +10,12 @@ use solvers::solver::{Outcome, Recorder, Settings};
 
 fn settings(energy: &EnergyKind) -> ParamSettings {
     ParamSettings {
-        solver: Settings { stop: default_stop(energy), line_search: Default::default(), linear: Default::default() },
+        solver: Settings {
+            stop: default_stop(energy),
+            line_search: Default::default(),
+            linear: Default::default(),
+            analyses: None,
+        },
         tutte_boundary: TutteBoundary::Uniform,
         scaling_jump: 0.1,
         smoothness: None,
@@ -118,4 +123,38 @@ fn undefined_majorizer_is_an_error_not_a_fallback() {
     let e = EnergyKind::Bconf { k: 1.5 };
     let err = solve_param(&mesh, e, "cm", &settings(&e), &mut Recorder::default()).unwrap_err();
     assert!(err.to_string().contains("k <= 1"), "{err}");
+}
+
+/// Every Newton-type strategy on one mesh shares one symbolic analysis through a cache
+/// (issue "Performance": reused across solvers on the same pattern), with the same iterates
+/// as private analyses; a smoothness term changes the pattern and gets its own entry.
+#[test]
+fn solvers_on_one_mesh_share_the_analysis_and_take_the_same_steps() {
+    let mesh = generate("bumpy_1k").unwrap();
+    let cache = std::sync::Arc::new(solvers::linear::AnalysisCache::new());
+    let strip = |rec: &Recorder| -> Vec<(usize, f64, f64, usize)> {
+        rec.rows.iter().map(|r| (r.iter, r.energy, r.grad_norm, r.neg_eig)).collect()
+    };
+    let mut computed = 0;
+    let bconf = EnergyKind::default_for("bconf").unwrap();
+    let sd = EnergyKind::Sd;
+    let runs = [(sd, "kp-newton"), (sd, "fp-newton-4x4"), (sd, "cm"), (sd, "slim"), (sd, "akvf"), (bconf, "kp-newton")];
+    for (energy, solver) in runs {
+        let (private, private_rec) = run(&mesh, energy, solver);
+        let mut s = settings(&energy);
+        s.solver.analyses = Some(cache.clone());
+        let mut rec = Recorder::default();
+        let shared = solve_param(&mesh, energy, solver, &s, &mut rec).unwrap();
+        assert_eq!(strip(&rec), strip(&private_rec), "{solver} {energy:?}");
+        assert_eq!(shared.x, private.x, "{solver} {energy:?}");
+        assert!(!private.analysis.unwrap().reused);
+        computed += usize::from(!shared.analysis.unwrap().reused);
+    }
+    assert_eq!((computed, cache.len()), (1, 1));
+    let mut s = settings(&EnergyKind::Sd);
+    s.solver.analyses = Some(cache.clone());
+    s.smoothness = Some((1e-3, solvers::smoothness::Projection::Analytic));
+    let out = solve_param(&mesh, EnergyKind::Sd, "kp-newton", &s, &mut Recorder::default()).unwrap();
+    assert!(!out.analysis.unwrap().reused);
+    assert_eq!(cache.len(), 2);
 }

@@ -545,6 +545,7 @@ impl Reporter<'_> {
                 final_energy: t.energy,
                 grad_norm,
                 flips: t.folded,
+                analysis: None,
             },
             metrics,
         }

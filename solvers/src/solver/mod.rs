@@ -9,7 +9,8 @@ pub mod registry;
 pub use newton::{newton, NewtonSettings};
 pub use registry::{solver_names, SolverSpec};
 
-use crate::linear::LinearSettings;
+use crate::linear::{AnalysisCache, LinearSettings};
+use std::sync::Arc;
 
 /// One row of the per-iteration CSV (design.md column order). Row `iter` describes the
 /// iterate after `iter` accepted steps; `neg_eig`/`indefinite_elems` come from the
@@ -147,11 +148,26 @@ impl Default for LineSearchSettings {
 }
 
 /// Everything a solver run needs besides the problem.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
     pub stop: StopSettings,
     pub line_search: LineSearchSettings,
     pub linear: LinearSettings,
+    /// Symbolic analyses shared with the other runs on the same mesh (`None`: analyse
+    /// privately). Sharing never changes results, only the setup time.
+    pub analyses: Option<Arc<AnalysisCache>>,
+}
+
+/// How a run obtained the symbolic analysis (ordering + symbolic Cholesky) of its system.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AnalysisReport {
+    /// Wall time of the analysis, measured by the run that computed it.
+    pub seconds: f64,
+    /// This run's wall time spent obtaining it: computing it, or waiting while another run
+    /// on the same mesh computed it (about 0 when it was ready).
+    pub setup_seconds: f64,
+    /// Taken from an [`AnalysisCache`] entry another run computed.
+    pub reused: bool,
 }
 
 /// Result of a solver run.
@@ -165,4 +181,6 @@ pub struct Outcome {
     pub final_energy: f64,
     pub grad_norm: f64,
     pub flips: usize,
+    /// The system's symbolic analysis (`None` for solvers without a shared system).
+    pub analysis: Option<AnalysisReport>,
 }

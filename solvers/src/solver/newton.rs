@@ -3,7 +3,7 @@
 //! injective step plus Armijo line search, repeat. "All methods share the same pipeline and
 //! we only replace the system matrix" (Section 6).
 
-use super::{Flow, IterationRecord, Observer, Outcome, Settings, StopReason};
+use super::{AnalysisReport, Flow, IterationRecord, Observer, Outcome, Settings, StopReason};
 use crate::assembly::Pattern;
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
@@ -95,7 +95,12 @@ pub fn newton(
 ) -> Result<Outcome, SolveError> {
     let pattern = system_pattern(problem);
     let mut edge_blocks: Vec<Matrix8> = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
-    let mut linear = SpdSolver::new(&pattern, settings.linear.ordering)?;
+    let mut linear = SpdSolver::shared(&pattern, settings.linear.ordering, settings.analyses.as_deref())?;
+    let analysis = AnalysisReport {
+        seconds: linear.analysis().seconds(),
+        setup_seconds: linear.setup_seconds(),
+        reused: linear.analysis_reused(),
+    };
     let mut x = x0;
     let mut ev = Evaluation::default();
     problem.evaluate(&x, &mut ev)?;
@@ -211,6 +216,7 @@ pub fn newton(
         grad_norm: record.grad_norm,
         flips: record.flips,
         x,
+        analysis: Some(analysis),
     })
 }
 
@@ -237,6 +243,7 @@ mod tests {
             stop: StopSettings { grad_tol: 1e-9, energy_decrease_tol: 0.0, max_iters: 100 },
             line_search: LineSearchSettings::default(),
             linear: LinearSettings::default(),
+            analyses: None,
         }
     }
 
