@@ -2,7 +2,7 @@
 //! orientation-preserving step (Smith and Schaefer 2015; complex-view paper Algorithm 1,
 //! line 7), `t0 = min(1, 0.9 t_max)`, then Armijo backtracking (Eq. 1).
 
-use crate::problem::MapProblem;
+use crate::problem::{EnergyScratch, MapProblem};
 use crate::solver::LineSearchSettings;
 use rayon::prelude::*;
 
@@ -60,7 +60,8 @@ pub struct Accepted {
 
 /// Armijo backtracking from `t0`: accept the first `t` with
 /// `E(x + t d) <= E(x) + c t <g, d>`, shrinking `t` until `t |d| <= min_step`.
-/// Writes the accepted point into `x_new`; `None` when no step is accepted.
+/// Writes the accepted point into `x_new`; `None` when no step is accepted. `scratch` holds
+/// the energy evaluation's buffers across trials and calls.
 #[allow(clippy::too_many_arguments)]
 pub fn armijo(
     problem: &MapProblem,
@@ -71,6 +72,7 @@ pub fn armijo(
     t0: f64,
     settings: &LineSearchSettings,
     x_new: &mut Vec<f64>,
+    scratch: &mut EnergyScratch,
 ) -> (Option<Accepted>, usize) {
     let d_norm = crate::problem::norm(d);
     let mut t = t0;
@@ -80,7 +82,7 @@ pub fn armijo(
         for ((xn, xi), di) in x_new.iter_mut().zip(x).zip(d) {
             *xn = xi + t * di;
         }
-        let e = problem.energy(x_new);
+        let e = problem.energy_with(x_new, scratch);
         evals += 1;
         if e <= e0 + settings.armijo_c * t * g_dot_d {
             return (Some(Accepted { t, energy: e, evals }), evals);
@@ -162,13 +164,15 @@ mod tests {
         let gd: f64 = ev.grad.iter().zip(&d).map(|(a, b)| a * b).sum();
         assert!(gd < 0.0);
         let mut xn = Vec::new();
-        let (acc, _) = armijo(&pb, &x, &d, e0, gd, 1.0, &LineSearchSettings::default(), &mut xn);
+        let (acc, _) =
+            armijo(&pb, &x, &d, e0, gd, 1.0, &LineSearchSettings::default(), &mut xn, &mut Default::default());
         let acc = acc.unwrap();
         assert!(acc.energy <= e0 + 0.2 * acc.t * gd);
         assert!(acc.energy < e0);
         // ascent direction: nothing is accepted
         let up: Vec<f64> = d.iter().map(|v| -v).collect();
-        let (acc, evals) = armijo(&pb, &x, &up, e0, -gd, 1.0, &LineSearchSettings::default(), &mut xn);
+        let (acc, evals) =
+            armijo(&pb, &x, &up, e0, -gd, 1.0, &LineSearchSettings::default(), &mut xn, &mut Default::default());
         assert!(acc.is_none() && evals > 10);
     }
 }

@@ -80,6 +80,19 @@ pub struct Evaluation {
     pub neg_eig: usize,
     /// Elements with at least one negative eigenvalue.
     pub indefinite_elems: usize,
+    /// Per-element weighted energy and local gradient (reused across evaluations).
+    locals: Vec<[f64; 7]>,
+    /// Per-edge smoothness value and gradient (reused across evaluations).
+    edge_terms: Vec<(f64, Vector8)>,
+}
+
+/// Buffers of the energy-only evaluation, reused across the line search's trials (the
+/// partial sums keep the summation order fixed, hence the same bits for any thread count).
+#[derive(Clone, Debug, Default)]
+pub struct EnergyScratch {
+    partial: Vec<f64>,
+    densities: Vec<f64>,
+    edge_partial: Vec<f64>,
 }
 
 impl MapProblem {
@@ -120,26 +133,34 @@ impl MapProblem {
 
     /// Energy only (for line searches): `+inf` if any element is inverted or degenerate.
     pub fn energy(&self, x: &[f64]) -> f64 {
+        self.energy_with(x, &mut EnergyScratch::default())
+    }
+
+    /// [`MapProblem::energy`] with the buffers of `scratch` (no allocation once they have grown).
+    pub fn energy_with(&self, x: &[f64], scratch: &mut EnergyScratch) -> f64 {
         let psi = |t: usize| {
             let w = self.ops[t].wirtinger(self.target(x, t));
             self.energy.value(w.x(), w.y())
         };
         // With a smoothness term each density is needed by up to four sums: compute it once.
-        let densities: Option<Vec<f64>> = self
-            .smoothness
-            .as_ref()
-            .map(|_| (0..self.n_faces()).into_par_iter().with_min_len(CHUNK).map(psi).collect());
-        let density = |t: usize| densities.as_ref().map_or_else(|| psi(t), |d| d[t]);
-        let partial: Vec<f64> = (0..self.n_faces())
+        let with_densities = self.smoothness.is_some();
+        if with_densities {
+            (0..self.n_faces()).into_par_iter().with_min_len(CHUNK).map(psi).collect_into_vec(&mut scratch.densities);
+        }
+        let densities = &scratch.densities;
+        let density = |t: usize| if with_densities { densities[t] } else { psi(t) };
+        (0..self.n_faces())
             .into_par_iter()
             .with_min_len(CHUNK)
             .chunks(CHUNK)
             .map(|chunk| chunk.into_iter().map(|t| self.ops[t].area * density(t)).sum::<f64>())
-            .collect();
-        let mut e = partial.iter().sum::<f64>() / self.total_area + self.penalty.as_ref().map_or(0.0, |p| p.value(x));
-        if let (Some(sm), Some(d)) = (&self.smoothness, &densities) {
+            .collect_into_vec(&mut scratch.partial);
+        let mut e =
+            scratch.partial.iter().sum::<f64>() / self.total_area + self.penalty.as_ref().map_or(0.0, |p| p.value(x));
+        if let (Some(sm), true) = (&self.smoothness, with_densities) {
             if e.is_finite() {
-                let parts: Vec<f64> = (0..sm.pairs.len())
+                let d = &scratch.densities;
+                (0..sm.pairs.len())
                     .into_par_iter()
                     .with_min_len(CHUNK)
                     .chunks(CHUNK)
@@ -152,8 +173,8 @@ impl MapProblem {
                             })
                             .sum::<f64>()
                     })
-                    .collect();
-                e += parts.iter().sum::<f64>();
+                    .collect_into_vec(&mut scratch.edge_partial);
+                e += scratch.edge_partial.iter().sum::<f64>();
             }
         }
         e
@@ -169,11 +190,11 @@ impl MapProblem {
         let nf = self.n_faces();
         out.states.resize(nf, ElementState::default());
         // Per-element: state, weighted energy and local gradient, in fixed chunks.
-        let mut locals = vec![[0.0f64; 7]; nf];
-        let results: Vec<Result<(), EvalError>> = out
+        out.locals.resize(nf, [0.0; 7]);
+        let failure = out
             .states
             .par_chunks_mut(CHUNK)
-            .zip(locals.par_chunks_mut(CHUNK))
+            .zip(out.locals.par_chunks_mut(CHUNK))
             .enumerate()
             .map(|(c, (states, locals))| {
                 for (i, (st, loc)) in states.iter_mut().zip(locals.iter_mut()).enumerate() {
@@ -192,16 +213,16 @@ impl MapProblem {
                 }
                 Ok(())
             })
-            .collect();
-        // Report the lowest failing element for a stable message.
-        if let Some(e) = results.into_iter().find_map(|r| r.err()) {
+            // The first failing chunk in order: the lowest failing element, a stable message.
+            .find_map_first(|r: Result<(), EvalError>| r.err());
+        if let Some(e) = failure {
             return Err(e);
         }
         let inv = 1.0 / self.total_area;
         out.grad.clear();
         out.grad.resize(self.n_dofs(), 0.0);
         let mut energy = 0.0;
-        for (t, loc) in locals.iter().enumerate() {
+        for (t, loc) in out.locals.iter().enumerate() {
             energy += loc[0];
             let f = self.faces[t];
             for k in 0..3 {
@@ -216,7 +237,7 @@ impl MapProblem {
         }
         if let Some(sm) = &self.smoothness {
             let st = &out.states;
-            let per_edge: Vec<(f64, Vector8)> = (0..sm.pairs.len())
+            (0..sm.pairs.len())
                 .into_par_iter()
                 .with_min_len(CHUNK)
                 .map(|k| {
@@ -224,9 +245,9 @@ impl MapProblem {
                     let c = sm.coefficient(k);
                     (smoothness::value(c, &st[i], &st[j]), smoothness::gradient(c, &st[i], &st[j], &sm.ops[k]))
                 })
-                .collect();
+                .collect_into_vec(&mut out.edge_terms);
             // Sequential sums and scatter: the same bits for any thread count.
-            for ((v, g), pair) in per_edge.iter().zip(&sm.pairs) {
+            for ((v, g), pair) in out.edge_terms.iter().zip(&sm.pairs) {
                 out.energy += v;
                 for (slot, &vert) in pair.verts.iter().enumerate() {
                     out.grad[2 * vert] += g[2 * slot];

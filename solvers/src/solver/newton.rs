@@ -8,7 +8,7 @@ use crate::assembly::Pattern;
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
-use crate::problem::{norm, EvalError, Evaluation, MapProblem};
+use crate::problem::{norm, EnergyScratch, EvalError, Evaluation, MapProblem};
 use crate::smoothness::{self, Matrix8};
 use nalgebra::Matrix6;
 use rayon::prelude::*;
@@ -119,8 +119,10 @@ pub fn newton(
     let mut blocks = vec![Matrix6::<f64>::zeros(); problem.n_faces()];
     let mut values = Vec::new();
     let mut x_new = Vec::with_capacity(x.len());
-    // Per-iteration buffers, allocated once: the right-hand side and the Newton direction.
+    // Per-iteration buffers, allocated once: the right-hand side, the Newton direction and
+    // the line search's energy sums.
     let (mut rhs, mut d) = (Vec::with_capacity(x.len()), Vec::with_capacity(x.len()));
+    let mut scratch = EnergyScratch::default();
     let mut last_decrease = f64::INFINITY;
     let mut t_cum = 0.0;
     let mut iter = 0usize;
@@ -171,7 +173,7 @@ pub fn newton(
         let t_max = max_injective_step(problem, &x, &d);
         let t_init = (settings.line_search.max_step_fraction * t_max).min(1.0);
         let (accepted, ls_evals) =
-            armijo(problem, &x, &d, ev.energy, g_dot_d, t_init, &settings.line_search, &mut x_new);
+            armijo(problem, &x, &d, ev.energy, g_dot_d, t_init, &settings.line_search, &mut x_new, &mut scratch);
         let t_ls = t0.elapsed().as_secs_f64();
         let Some(acc) = accepted else {
             break StopReason::LineSearchFailed;
