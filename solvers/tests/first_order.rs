@@ -69,15 +69,22 @@ fn slim_and_akvf_on_shared_corpus() {
         eprintln!("MAPBENCH_MESHES not set: shared-corpus test skipped");
         return;
     };
+    let mut total = [0; 3];
     for name in ["bunnyhead", "camelhead", "horse"] {
         let mesh = load_obj(&std::path::Path::new(&dir).join(format!("{name}.obj"))).unwrap();
         let [kp, slim, akvf] = compare(&mesh);
-        // KP is far ahead of SLIM everywhere; AKVF is competitive on horse (29 vs 30 measured,
-        // the complex-view paper notes AKVF is competitive on some inputs), so it is only
-        // required to be ahead of AKVF on the other two.
+        // KP is far ahead of SLIM everywhere. AKVF is competitive on horse (29 iterations vs
+        // KP's 30, to a lower energy): every projected Newton variant has a linear tail there
+        // (FP4 38, CM 44), and the complex-view paper says AKVF is competitive on some inputs
+        // (Section 6.1; its Table 4 compares averages). So per mesh KP is required to be
+        // ahead of AKVF on the other two, and ahead in total.
         assert!(kp < slim, "{name}: kp {kp} slim {slim}");
         if name != "horse" {
             assert!(kp < akvf, "{name}: kp {kp} akvf {akvf}");
         }
+        for (t, n) in total.iter_mut().zip([kp, slim, akvf]) {
+            *t += n;
+        }
     }
+    assert!(2 * total[0] < total[2], "KP {} vs AKVF {} iterations in total", total[0], total[2]);
 }
