@@ -296,7 +296,13 @@ pub fn run_batch(
     let rows: Vec<SummaryRow> = finished.into_iter().map(|(_, s)| s).collect();
     crate::output::write_summary(&out_dir.join("summary.csv"), &rows)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
-    crate::report::refresh(out_dir, &rows)?;
+    // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
+    // CPU) must not fan the plots out to every core of the node.
+    let report_threads = opts.jobs.unwrap_or(cores).max(1);
+    match rayon::ThreadPoolBuilder::new().num_threads(report_threads).build() {
+        Ok(pool) => pool.install(|| crate::report::refresh(out_dir, &rows))?,
+        Err(_) => crate::report::refresh(out_dir, &rows)?,
+    }
     meta.write(out_dir, Some(SystemTime::now()), interrupted)?;
     Ok(report)
 }
