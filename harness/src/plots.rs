@@ -98,67 +98,85 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
         }
     }
     let style = |solver: &str| solvers.iter().position(|s| *s == solver).unwrap_or(0);
-    // Groups render in parallel (rayon's global pool); the plots keep the groups' order.
+    // Groups, and the plots inside a group, render in parallel (the caller's rayon pool);
+    // indexed collects keep the plots in the groups' order.
     let per_group = |&(dataset, energy): &(&str, &str)| -> Result<Vec<Plot>> {
-        let mut plots = Vec::new();
         let runs: Vec<&SummaryRow> =
             summaries.iter().filter(|s| s.dataset == dataset && s.energy == energy && s.status != "failed").collect();
         if runs.is_empty() {
-            return Ok(plots);
+            return Ok(Vec::new());
         }
-        let mut curves = Vec::new();
-        for r in &runs {
-            let path = run_dir.join("runs").join(format!("{}.csv", run_stem(dataset, energy, &r.solver)));
-            let curve = read_curve(&path)?;
-            curves.push(Series { solver: &r.solver, style: style(&r.solver), converged: r.status == "ok", curve });
-        }
-        for kind in [PlotKind::EnergyIter, PlotKind::EnergyTime, PlotKind::NegEigIter] {
-            let (suffix, what) = match kind {
-                PlotKind::EnergyIter => ("energy_iter", "energy gap vs iteration"),
-                PlotKind::EnergyTime => ("energy_time", "energy gap vs time"),
-                _ => ("neg_eig_iter", "#negative eigenvalues vs iteration"),
-            };
-            let file = format!("plots/{dataset}__{energy}__{suffix}.png");
-            let title = format!("{dataset}, {energy}: {what}");
-            let png = render_curves(&title, &kind, &curves)?;
-            write_atomic(&run_dir.join(&file), &png)?;
-            plots.push(Plot { file, title, dataset: dataset.into(), energy: energy.into(), kind });
-        }
+        let curves = runs
+            .par_iter()
+            .map(|r| {
+                let path = run_dir.join("runs").join(format!("{}.csv", run_stem(dataset, energy, &r.solver)));
+                let curve = read_curve(&path)?;
+                Ok(Series { solver: &r.solver, style: style(&r.solver), converged: r.status == "ok", curve })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let kinds = [PlotKind::EnergyIter, PlotKind::EnergyTime, PlotKind::NegEigIter];
+        let mut plots = kinds
+            .into_par_iter()
+            .map(|kind| {
+                let (suffix, what) = match kind {
+                    PlotKind::EnergyIter => ("energy_iter", "energy gap vs iteration"),
+                    PlotKind::EnergyTime => ("energy_time", "energy gap vs time"),
+                    _ => ("neg_eig_iter", "#negative eigenvalues vs iteration"),
+                };
+                let file = format!("plots/{dataset}__{energy}__{suffix}.png");
+                let title = format!("{dataset}, {energy}: {what}");
+                let png = render_curves(&title, &kind, &curves)?;
+                write_atomic(&run_dir.join(&file), &png)?;
+                Ok(Plot { file, title, dataset: dataset.into(), energy: energy.into(), kind })
+            })
+            .collect::<Result<Vec<_>>>()?;
         // Read every map of the group first: they share one color scale.
-        let mut maps = Vec::new();
-        for r in &runs {
-            let stem = run_stem(dataset, energy, &r.solver);
-            let obj = run_dir.join("uv").join(format!("{stem}.obj"));
-            if !obj.exists() {
-                continue;
-            }
-            let map = mapfile::read(&obj)?;
-            let measure = if r.task == "authalic" { Measure::AreaRatio } else { Measure::Distortion };
-            let values = measure.values(&map);
-            maps.push((r.solver.as_str(), obj, map, values, measure));
-        }
+        let maps = runs
+            .par_iter()
+            .map(|r| {
+                let stem = run_stem(dataset, energy, &r.solver);
+                let obj = run_dir.join("uv").join(format!("{stem}.obj"));
+                if !obj.exists() {
+                    return Ok(None);
+                }
+                let map = mapfile::read(&obj)?;
+                let measure = if r.task == "authalic" { Measure::AreaRatio } else { Measure::Distortion };
+                let values = measure.values(&map);
+                Ok(Some((r.solver.as_str(), obj, map, values, measure)))
+            })
+            .collect::<Result<Vec<_>>>()?
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>();
         let Some(measure) = maps.first().map(|m| m.4) else { return Ok(plots) };
         let scale = ColorScale::fit(measure, &maps.iter().map(|m| m.3.as_slice()).collect::<Vec<_>>());
-        for (solver, obj, map, values, _) in &maps {
-            let stem = run_stem(dataset, energy, solver);
-            let title = format!("{dataset}, {energy}, {solver}: final map");
-            let png =
-                render_map(&title, map, values, &scale).with_context(|| format!("{}: cannot render", obj.display()))?;
-            let file = format!("plots/{stem}__map.png");
-            write_atomic(&run_dir.join(&file), &png)?;
-            plots.push(Plot {
-                file,
-                title,
-                dataset: dataset.into(),
-                energy: energy.into(),
-                kind: PlotKind::Map { solver: solver.to_string() },
-            });
-        }
+        let map_plots = maps
+            .par_iter()
+            .map(|(solver, obj, map, values, _)| {
+                let stem = run_stem(dataset, energy, solver);
+                let title = format!("{dataset}, {energy}, {solver}: final map");
+                let png = render_map(&title, map, values, &scale)
+                    .with_context(|| format!("{}: cannot render", obj.display()))?;
+                let file = format!("plots/{stem}__map.png");
+                write_atomic(&run_dir.join(&file), &png)?;
+                Ok(Plot {
+                    file,
+                    title,
+                    dataset: dataset.into(),
+                    energy: energy.into(),
+                    kind: PlotKind::Map { solver: solver.to_string() },
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        plots.extend(map_plots);
         Ok(plots)
     };
-    let mut plots: Vec<Plot> =
-        groups.par_iter().map(per_group).collect::<Result<Vec<_>>>()?.into_iter().flatten().collect();
-    plots.extend(render_scaling(run_dir, summaries, &solvers)?);
+    let (groups, scaling) = rayon::join(
+        || groups.par_iter().map(per_group).collect::<Result<Vec<_>>>(),
+        || render_scaling(run_dir, summaries, &solvers),
+    );
+    let mut plots: Vec<Plot> = groups?.into_iter().flatten().collect();
+    plots.extend(scaling?);
     Ok(plots)
 }
 
