@@ -252,6 +252,22 @@ mod tests {
         .unwrap()
     }
 
+    /// The configs we ship parse, pass the config checks and name only known datasets.
+    #[test]
+    fn every_shipped_config_loads_and_resolves() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let p = entry.unwrap().path();
+            if p.extension().is_some_and(|x| x == "toml") {
+                let cfg = crate::config::LoadedConfig::load(&p).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
+                resolve(&cfg).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
+                n += 1;
+            }
+        }
+        assert!(n >= 9, "{n} configs in {}", dir.display());
+    }
+
     #[test]
     fn selection_by_name_and_tag_without_repeats() {
         let r = reg();
