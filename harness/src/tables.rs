@@ -357,7 +357,7 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
             // One symbolic analysis per mesh and pattern, shared by the group's runs.
             runs.iter()
                 .find_map(|r| (r.dataset == *d && r.energy == *e).then_some(r.analysis_s).flatten())
-                .map(|t| format!("{t:.2}"))
+                .map(|t| format!("{t:.3}"))
                 .unwrap_or_default(),
         ];
         // (iterations, time, energy) of each finished solver, for the bold marks
@@ -674,7 +674,7 @@ mod tests {
         assert_eq!(
             t.rows[0],
             [
-                "cow", "sd", "4540", "8626", "0.03", "33", "0.60", "2.08413", "41", "0.98", "2.08413", "394*", "0.50",
+                "cow", "sd", "4540", "8626", "0.031", "33", "0.60", "2.08413", "41", "0.98", "2.08413", "394*", "0.50",
                 "2.08417", "failed", "", ""
             ]
         );

@@ -8,7 +8,7 @@
 //! `(S A S + tau I) y = S b`.
 
 use crate::assembly::Pattern;
-use crate::ordering::{metis_order, Ordering};
+use crate::ordering::{metis_order_timed, Ordering};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::PermRef;
@@ -18,8 +18,8 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
 use std::hash::{Hash, Hasher};
-use std::sync::{Arc, Mutex, OnceLock};
-use std::time::Instant;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum LinearError {
@@ -101,13 +101,16 @@ pub fn regularize(
 pub struct Analysis {
     symbolic_a: SymbolicSparseColMat<usize>,
     symbolic: SymbolicCholesky<usize>,
+    /// The ordering asked for and the dof block it ordered by (the cache key's parts).
+    requested: (Ordering, usize),
+    /// The ordering used (`metis` falls back to AMD on tiny graphs).
     ordering: Ordering,
-    /// Wall time of the ordering plus the symbolic factorization.
+    /// Wall time of the ordering plus the symbolic factorization, without any wait for
+    /// another thread's METIS call.
     seconds: f64,
 }
 
 impl Analysis {
-    /// `perm = Some((fwd, inv))` orders by `fwd[new] = old`; `None` uses AMD.
     fn new(
         n: usize,
         col_ptr: Vec<usize>,
@@ -116,9 +119,9 @@ impl Analysis {
         block: usize,
     ) -> Result<Analysis, LinearError> {
         let t0 = Instant::now();
-        let perm = match ordering {
-            Ordering::Amd => None,
-            Ordering::Metis => metis_order(n, &col_ptr, &row_idx, block)?,
+        let (perm, waited) = match ordering {
+            Ordering::Amd => (None, Duration::ZERO),
+            Ordering::Metis => metis_order_timed(n, &col_ptr, &row_idx, block)?,
         };
         let symbolic_a = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
         let faer_ordering = match &perm {
@@ -132,8 +135,9 @@ impl Analysis {
             CholeskySymbolicParams::default(),
         )
         .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
-        let ordering = if perm.is_some() { Ordering::Metis } else { Ordering::Amd };
-        Ok(Analysis { symbolic_a, symbolic, ordering, seconds: t0.elapsed().as_secs_f64() })
+        let used = if perm.is_some() { Ordering::Metis } else { Ordering::Amd };
+        let seconds = t0.elapsed().saturating_sub(waited).as_secs_f64();
+        Ok(Analysis { symbolic_a, symbolic, requested: (ordering, block), ordering: used, seconds })
     }
 
     /// Wall time the analysis took when it was computed.
@@ -141,19 +145,24 @@ impl Analysis {
         self.seconds
     }
 
-    fn matches(&self, n: usize, col_ptr: &[usize], row_idx: &[usize]) -> bool {
-        self.symbolic_a.nrows() == n && self.symbolic_a.col_ptr() == col_ptr && self.symbolic_a.row_idx() == row_idx
+    fn is_for(&self, n: usize, col_ptr: &[usize], row_idx: &[usize], ordering: Ordering, block: usize) -> bool {
+        self.requested == (ordering, block)
+            && self.symbolic_a.nrows() == n
+            && self.symbolic_a.col_ptr() == col_ptr
+            && self.symbolic_a.row_idx() == row_idx
     }
 }
 
-type Slot = Arc<OnceLock<Result<Arc<Analysis>, LinearError>>>;
+/// One cache entry: empty until an analysis succeeded. Its lock is held while the analysis
+/// is computed, so a second request for the same pattern waits instead of repeating it.
+type Slot = Arc<Mutex<Option<Arc<Analysis>>>>;
 
 /// Analyses shared by the runs on one mesh (issue "Performance": the symbolic factorization
 /// and ordering are reused across solvers on the same pattern). The caller owns it (the
 /// harness keeps one per loaded mesh and drops it with the mesh); a solver only looks up
 /// or fills an entry, so results never depend on whether an entry was there. Entries are
-/// keyed by a hash of the pattern and the ordering, and checked against the full pattern
-/// on use. Two runs asking for the same pattern at once compute it once: the second waits.
+/// keyed by a hash of the pattern, the ordering and the block size, and checked against all
+/// of them on use. Only successful analyses are kept: after a failure the next run tries again.
 #[derive(Default)]
 pub struct AnalysisCache {
     slots: Mutex<Vec<(u64, Slot)>>,
@@ -161,8 +170,7 @@ pub struct AnalysisCache {
 
 impl std::fmt::Debug for AnalysisCache {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let n = self.slots.lock().map(|s| s.len()).unwrap_or(0);
-        write!(f, "AnalysisCache({n} patterns)")
+        write!(f, "AnalysisCache({} patterns)", self.len())
     }
 }
 
@@ -178,9 +186,10 @@ impl AnalysisCache {
         AnalysisCache::default()
     }
 
-    /// Number of distinct patterns analysed so far.
+    /// Number of patterns with a stored analysis.
     pub fn len(&self) -> usize {
-        self.slots.lock().unwrap_or_else(|e| e.into_inner()).len()
+        let slots = self.slots.lock().unwrap_or_else(|e| e.into_inner());
+        slots.iter().filter(|(_, s)| s.lock().unwrap_or_else(|e| e.into_inner()).is_some()).count()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -213,18 +222,17 @@ impl AnalysisCache {
                 }
             }
         };
-        let mut computed = false;
-        let entry = slot.get_or_init(|| {
-            computed = true;
-            Analysis::new(n, col_ptr.to_vec(), row_idx.to_vec(), ordering, block).map(Arc::new)
-        });
-        match entry {
-            // A hash collision (another pattern under the same key) gets its own analysis.
-            Ok(a) if !a.matches(n, col_ptr, row_idx) => {
-                Ok((Arc::new(Analysis::new(n, col_ptr.to_vec(), row_idx.to_vec(), ordering, block)?), false))
+        let fresh = || Analysis::new(n, col_ptr.to_vec(), row_idx.to_vec(), ordering, block).map(Arc::new);
+        let mut entry = slot.lock().unwrap_or_else(|e| e.into_inner());
+        match entry.as_ref() {
+            Some(a) if a.is_for(n, col_ptr, row_idx, ordering, block) => Ok((a.clone(), true)),
+            // A hash collision (another pattern under the same key) gets a private analysis.
+            Some(_) => Ok((fresh()?, false)),
+            None => {
+                let a = fresh()?;
+                *entry = Some(a.clone());
+                Ok((a, false))
             }
-            Ok(a) => Ok((a.clone(), !computed)),
-            Err(e) => Err(e.clone()),
         }
     }
 }
@@ -508,6 +516,13 @@ mod tests {
         assert!(!amd.analysis_reused() && amd.ordering() == Ordering::Amd);
         let half = Pattern::new(&mesh.faces[..mesh.n_faces() / 2], mesh.n_vertices());
         assert!(!SpdSolver::shared(&half, Ordering::Metis, Some(&cache)).unwrap().analysis_reused());
+        assert_eq!(cache.len(), 3);
+        // a failed analysis (a block size that does not divide the dofs) is reported to each
+        // caller and never stored
+        for _ in 0..2 {
+            let err = cache.get(pat.n, &pat.col_ptr, &pat.row_idx, Ordering::Metis, pat.n + 1).err();
+            assert!(matches!(err, Some(LinearError::Symbolic(_))), "{err:?}");
+        }
         assert_eq!(cache.len(), 3);
         // bit-identical solutions from the shared and a private analysis
         let mut private = SpdSolver::new(&pat, Ordering::Metis).unwrap();

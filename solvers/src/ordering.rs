@@ -12,6 +12,7 @@
 
 use crate::linear::LinearError;
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 /// The fill-reducing ordering of the Cholesky factorization (`[linear] ordering`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -54,16 +55,27 @@ pub fn metis_order(
     row_idx: &[usize],
     block: usize,
 ) -> Result<Option<Permutation>, LinearError> {
+    metis_order_timed(n, col_ptr, row_idx, block).map(|(perm, _)| perm)
+}
+
+/// [`metis_order`], also returning how long the call waited for another thread's METIS
+/// call ([`METIS_LOCK`]), so the analysis time can leave the wait out.
+pub fn metis_order_timed(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    block: usize,
+) -> Result<(Option<Permutation>, Duration), LinearError> {
     let block = block.max(1);
     if !n.is_multiple_of(block) {
         return Err(LinearError::Symbolic(format!("{n} dofs are not a multiple of the block size {block}")));
     }
     let nodes = n / block;
     if nodes < METIS_MIN_NODES {
-        return Ok(None);
+        return Ok((None, Duration::ZERO));
     }
     let (xadj, adjncy) = node_graph(nodes, col_ptr, row_idx, block);
-    let node_fwd = node_nd(nodes, xadj, adjncy)?;
+    let (node_fwd, waited) = node_nd(nodes, xadj, adjncy)?;
     let mut fwd = Vec::with_capacity(n);
     for &v in &node_fwd {
         fwd.extend((0..block).map(|j| block * v + j));
@@ -73,7 +85,7 @@ pub fn metis_order(
     for (new, &old) in fwd.iter().enumerate() {
         inv[old] = new;
     }
-    Ok(Some((fwd, inv)))
+    Ok((Some((fwd, inv)), waited))
 }
 
 /// The adjacency (METIS CSR: `xadj`, `adjncy`, no self loops, both directions) of the node
@@ -102,15 +114,18 @@ fn node_graph(nodes: usize, col_ptr: &[usize], row_idx: &[usize], block: usize) 
 }
 
 /// `METIS_NodeND` with default options (deterministic: METIS seeds its generator with a
-/// fixed value). Returns `fwd[new] = old`.
-fn node_nd(nodes: usize, mut xadj: Vec<i32>, mut adjncy: Vec<i32>) -> Result<Vec<usize>, LinearError> {
+/// fixed value). Returns `fwd[new] = old` and the time spent waiting for [`METIS_LOCK`].
+fn node_nd(nodes: usize, mut xadj: Vec<i32>, mut adjncy: Vec<i32>) -> Result<(Vec<usize>, Duration), LinearError> {
     let too_big = |_| LinearError::Symbolic(format!("{nodes} nodes exceed METIS's 32-bit indices"));
     let mut nvtxs: i32 = nodes.try_into().map_err(too_big)?;
     i32::try_from(adjncy.len()).map_err(too_big)?;
     let mut perm = vec![0i32; nodes];
     let mut iperm = vec![0i32; nodes];
+    let t_lock = Instant::now();
+    let waited;
     let status = {
         let _guard = METIS_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+        waited = t_lock.elapsed();
         // SAFETY: `xadj` has `nvtxs + 1` entries and `adjncy` `xadj[nvtxs]` entries, all in
         // `0..nvtxs` (built by `node_graph`); `perm` and `iperm` have `nvtxs` entries; null
         // `vwgt` and `options` ask for unit weights and METIS's defaults. METIS only reads
@@ -138,7 +153,7 @@ fn node_nd(nodes: usize, mut xadj: Vec<i32>, mut adjncy: Vec<i32>) -> Result<Vec
             return Err(LinearError::Symbolic("METIS_NodeND returned an invalid permutation".into()));
         }
     }
-    Ok(fwd)
+    Ok((fwd, waited))
 }
 
 /// Compose `fwd` with a postorder of the elimination tree of the permuted matrix, so that
