@@ -1,7 +1,8 @@
 //! One Newton iteration's stages on generated meshes of 5k and 50k vertices (SD at the
-//! Tutte map): evaluation (energy, gradient, element states), KP projection of every
-//! element, sparse assembly, numeric factorization + solve, and the maximal injective step;
-//! plus the authalic energy gradient and one AEM preconditioner application.
+//! Tutte map): evaluation (energy, gradient, element states), the line search's energy-only
+//! evaluation, KP projection of every element, sparse assembly, numeric factorization +
+//! solve, and the maximal injective step; plus the authalic energy gradient and one AEM
+//! preconditioner application.
 //! Run with `cargo bench -p mapbench-solvers --bench pipeline`; `cargo test --benches`
 //! runs each benchmark once as a smoke test.
 
@@ -17,7 +18,7 @@ use solvers::init::{tutte, TutteBoundary};
 use solvers::line_search::max_injective_step;
 use solvers::linear::{LinearSettings, SpdSolver};
 use solvers::ordering::Ordering;
-use solvers::problem::{Evaluation, MapProblem};
+use solvers::problem::{EnergyScratch, Evaluation, MapProblem};
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
@@ -47,6 +48,11 @@ fn bench(c: &mut Criterion) {
         group.bench_function("evaluate", |b| {
             let mut out = Evaluation::default();
             b.iter(|| problem.evaluate(black_box(&x), &mut out).map(|_| out.energy))
+        });
+        // The line search's energy-only evaluation (no derivatives, reused buffers).
+        group.bench_function("energy_only", |b| {
+            let mut scratch = EnergyScratch::default();
+            b.iter(|| problem.energy_with(black_box(&x), &mut scratch))
         });
         group.bench_function("project_kp", |b| {
             let mut bl = blocks.clone();
