@@ -447,18 +447,25 @@ mod tests {
         assert!((x[3] - 0.5 * x_true[3]).abs() < 1e-8);
     }
 
-    #[test]
-    fn metis_and_amd_orderings_solve_the_same_system_and_metis_fills_less() {
-        let mesh = crate::generate::generate("bumpy_10k").unwrap();
+    /// A generated mesh, its Newton pattern and SPD values on it (PSD element blocks plus
+    /// `shift` times the identity).
+    fn spd_system(name: &str, shift: f64) -> (crate::mesh::Mesh, Pattern, Vec<f64>) {
+        let mesh = crate::generate::generate(name).unwrap();
         let pat = Pattern::new(&mesh.faces, mesh.n_vertices());
         let blocks: Vec<Matrix6<f64>> = (0..mesh.n_faces())
             .map(|t| {
                 let b = Matrix6::from_fn(|i, j| ((i * 7 + j * 3 + t) % 11) as f64 * 0.1 - 0.5);
-                b * b.transpose() + Matrix6::identity() * 1e-3
+                b * b.transpose() + Matrix6::identity() * shift
             })
             .collect();
         let mut vals = Vec::new();
         pat.assemble(&blocks, &mut vals);
+        (mesh, pat, vals)
+    }
+
+    #[test]
+    fn metis_and_amd_orderings_solve_the_same_system_and_metis_fills_less() {
+        let (_, pat, vals) = spd_system("bumpy_10k", 1e-3);
         let x_true: Vec<f64> = (0..pat.n).map(|i| (i as f64 * 0.01).sin()).collect();
         let b = pat.sym_mul(&vals, &x_true);
         let settings = LinearSettings { tikhonov: 0.0, jacobi: true, ..Default::default() };
@@ -491,16 +498,7 @@ mod tests {
 
     #[test]
     fn a_cache_shares_one_analysis_per_pattern_and_ordering_and_solves_the_same() {
-        let mesh = crate::generate::generate("bumpy_1k").unwrap();
-        let pat = Pattern::new(&mesh.faces, mesh.n_vertices());
-        let blocks: Vec<Matrix6<f64>> = (0..mesh.n_faces())
-            .map(|t| {
-                let b = Matrix6::from_fn(|i, j| ((i * 5 + j * 3 + t) % 7) as f64 * 0.1 - 0.3);
-                b * b.transpose() + Matrix6::identity() * 1e-2
-            })
-            .collect();
-        let mut vals = Vec::new();
-        pat.assemble(&blocks, &mut vals);
+        let (mesh, pat, vals) = spd_system("bumpy_1k", 1e-2);
         let b: Vec<f64> = (0..pat.n).map(|i| (i as f64 * 0.3).cos()).collect();
         let settings = LinearSettings::default();
 
