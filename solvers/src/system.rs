@@ -8,7 +8,7 @@ use crate::mesh::Mesh;
 use crate::param::{solve_param, ParamError, ParamSettings};
 use crate::problem::{Evaluation, MapProblem};
 use crate::solver::newton::{project_blocks, scatter, system_pattern};
-use crate::solver::{Flow, IterationRecord, Observer, SolverSpec};
+use crate::solver::{SolverSpec, StopAt};
 use std::fmt::Write as _;
 
 /// A symmetric system `A d = b` with `A` as its lower triangle in CSC form.
@@ -21,19 +21,6 @@ pub struct NewtonSystem {
     pub rhs: Vec<f64>,
     /// The iteration the system belongs to (0 = the initial map).
     pub iteration: usize,
-}
-
-/// Stops the solver at a given iteration.
-struct StopAt(usize);
-
-impl Observer for StopAt {
-    fn observe(&mut self, r: &IterationRecord) -> Flow {
-        if r.iter >= self.0 {
-            Flow::Stop
-        } else {
-            Flow::Continue
-        }
-    }
 }
 
 /// Run `solver` on the `param` task until `iteration` and return the system it factorizes

@@ -55,6 +55,21 @@ pub trait Observer {
     fn observe(&mut self, record: &IterationRecord) -> Flow;
 }
 
+/// An observer that stops the solver once it reports iteration `k` (exporting the system
+/// of an iterate, tests).
+#[derive(Clone, Copy, Debug)]
+pub struct StopAt(pub usize);
+
+impl Observer for StopAt {
+    fn observe(&mut self, r: &IterationRecord) -> Flow {
+        if r.iter >= self.0 {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    }
+}
+
 /// An observer that keeps every row (tests, small runs).
 #[derive(Default, Debug)]
 pub struct Recorder {

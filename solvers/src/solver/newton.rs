@@ -284,18 +284,8 @@ mod tests {
 
     #[test]
     fn observer_can_interrupt() {
-        struct StopAfter(usize);
-        impl Observer for StopAfter {
-            fn observe(&mut self, r: &IterationRecord) -> Flow {
-                if r.iter >= self.0 {
-                    Flow::Stop
-                } else {
-                    Flow::Continue
-                }
-            }
-        }
         let (pb, x) = problem();
-        let out = newton(&pb, x, &Kp, &settings(), &mut StopAfter(1)).unwrap();
+        let out = newton(&pb, x, &Kp, &settings(), &mut crate::solver::StopAt(1)).unwrap();
         assert_eq!(out.stop_reason, StopReason::Interrupted);
         assert_eq!(out.iterations, 1);
     }
