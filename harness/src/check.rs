@@ -1,7 +1,7 @@
 //! The regression gate: a JSON baseline of iteration counts and final energies per run, and
 //! the comparison of a run folder against it (`baseline`, `check`).
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -43,6 +43,22 @@ pub struct Baseline {
     #[serde(default = "default_rtol")]
     pub energy_rtol: f64,
     pub runs: Vec<Record>,
+}
+
+impl Baseline {
+    /// Read and check a baseline file.
+    pub fn load(path: &Path) -> Result<Baseline> {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("{}: cannot read baseline", path.display()))?;
+        Self::parse(&text, path)
+    }
+
+    /// A baseline from its JSON text; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Baseline> {
+        let base: Baseline =
+            serde_json::from_str(text).with_context(|| format!("{}: invalid baseline", path.display()))?;
+        Ok(base)
+    }
 }
 
 fn default_rtol() -> f64 {

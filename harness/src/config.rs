@@ -198,7 +198,13 @@ pub struct LoadedConfig {
 impl LoadedConfig {
     pub fn load(path: &Path) -> Result<LoadedConfig> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read config", path.display()))?;
-        let config: Config = toml::from_str(&text).with_context(|| format!("{}: invalid config", path.display()))?;
+        Self::parse(&text, path)
+    }
+
+    /// A config from its text; `path` is the file it came from (errors name it, relative paths
+    /// resolve against its folder). Nothing is read from disk.
+    pub fn parse(text: &str, path: &Path) -> Result<LoadedConfig> {
+        let config: Config = toml::from_str(text).with_context(|| format!("{}: invalid config", path.display()))?;
         config.check().with_context(|| format!("{}: invalid config", path.display()))?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };

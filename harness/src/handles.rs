@@ -42,8 +42,13 @@ impl HandleSource {
 /// indices, base `vertex_index_base`, default 0) and `dst` (targets in the mesh's frame).
 pub fn read_p2p(path: &Path, set: usize) -> Result<Vec<Handle>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read handles", path.display()))?;
+    parse_p2p(&text, path, set)
+}
+
+/// The handles of constraint set `set` of a `*.p2p.json` text; `path` names it in errors.
+pub fn parse_p2p(text: &str, path: &Path, set: usize) -> Result<Vec<Handle>> {
     let json: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))?;
+        serde_json::from_str(text).with_context(|| format!("{}: invalid JSON", path.display()))?;
     let base = json.get("vertex_index_base").and_then(|b| b.as_u64()).unwrap_or(0) as usize;
     let sets = json
         .get("p2p_sets")

@@ -1,23 +1,8 @@
 //! mapbench: run every solver variant over a mesh corpus from one TOML config, record
 //! per-iteration CSVs and a summary (design.md "CLI").
 
-mod check;
-mod config;
-mod export;
-mod handles;
-mod html;
-mod mapfile;
-mod merge;
-mod output;
-mod plots;
-mod progress;
-mod registry;
-mod report;
-mod resume;
-mod runner;
-mod tables;
-
 use anyhow::{Context, Result};
+use mapbench::{check, config, export, merge, output, progress, registry, report, runner};
 use clap::{Parser, Subcommand, ValueEnum};
 use config::LoadedConfig;
 use std::path::PathBuf;
@@ -227,10 +212,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(if m.missing.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(2) })
         }
         Command::Check { run_dir, baseline } => {
-            let text = std::fs::read_to_string(&baseline)
-                .with_context(|| format!("{}: cannot read baseline", baseline.display()))?;
-            let base: check::Baseline =
-                serde_json::from_str(&text).with_context(|| format!("{}: invalid baseline", baseline.display()))?;
+            let base = check::Baseline::load(&baseline)?;
             let cmp = check::compare(&base, &check::read_summary(&run_dir)?);
             print!("{}", check::render(&cmp));
             Ok(ExitCode::from(cmp.exit_code()))

@@ -1,0 +1,18 @@
+//! mapbench's harness as a library: the binary (`main.rs`) is its CLI edge, and the fuzz
+//! targets (`fuzz/`) drive the same readers the CLI uses.
+
+pub mod check;
+pub mod config;
+pub mod export;
+pub mod handles;
+pub mod html;
+pub mod mapfile;
+pub mod merge;
+pub mod output;
+pub mod plots;
+pub mod progress;
+pub mod registry;
+pub mod report;
+pub mod resume;
+pub mod runner;
+pub mod tables;
