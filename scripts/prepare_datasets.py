@@ -284,9 +284,17 @@ def write_obj(path: Path, v: np.ndarray, f: np.ndarray) -> bytes:
     return data
 
 
+# Longest dataset name written; mapbench refuses run names <dataset>__<energy>__<solver> over
+# 200 bytes (harness/src/names.rs), and 64 leaves room for every energy and solver name.
+MAX_NAME = 64
+
+
 def dataset_name(path: Path) -> str:
-    name = re.sub(r"[^a-z0-9_]+", "_", path.stem.lower()).strip("_")
-    return name or "mesh"
+    """A file-name safe registry name: lower-case ASCII letters and digits joined by single
+    underscores (mapbench refuses separators, '..', control characters and '__', which
+    separates dataset, energy and solver in run names)."""
+    name = re.sub(r"[^a-z0-9]+", "_", path.stem.lower()).strip("_")
+    return name[:MAX_NAME].rstrip("_") or "mesh"
 
 
 def registered_names(datasets: Path) -> set[str]:

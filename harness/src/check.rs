@@ -1,7 +1,7 @@
 //! The regression gate: a JSON baseline of iteration counts and final energies per run, and
 //! the comparison of a run folder against it (`baseline`, `check`).
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -57,7 +57,27 @@ impl Baseline {
     pub fn parse(text: &str, path: &Path) -> Result<Baseline> {
         let base: Baseline =
             serde_json::from_str(text).with_context(|| format!("{}: invalid baseline", path.display()))?;
+        base.check().with_context(|| format!("{}: invalid baseline", path.display()))?;
         Ok(base)
+    }
+
+    /// What serde cannot check: a tolerance that makes sense, at least one run (an empty
+    /// baseline would pass every batch), and each run once (two records of one run could
+    /// disagree, and the gate would pick one silently).
+    pub fn check(&self) -> Result<()> {
+        if !(self.energy_rtol >= 0.0 && self.energy_rtol.is_finite()) {
+            bail!("energy_rtol = {} must be non-negative and finite", self.energy_rtol);
+        }
+        if self.runs.is_empty() {
+            bail!("'runs' is empty: a baseline with no run would pass every batch");
+        }
+        let mut seen = std::collections::HashSet::new();
+        for (i, r) in self.runs.iter().enumerate() {
+            if !seen.insert(r.key()) {
+                bail!("run {i} ({}) appears twice", r.label());
+            }
+        }
+        Ok(())
     }
 }
 
@@ -86,7 +106,9 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<Record>> {
 
 /// A baseline from a run folder.
 pub fn make_baseline(run_dir: &Path) -> Result<Baseline> {
-    Ok(Baseline { energy_rtol: DEFAULT_ENERGY_RTOL, runs: read_summary(run_dir)? })
+    let base = Baseline { energy_rtol: DEFAULT_ENERGY_RTOL, runs: read_summary(run_dir)? };
+    base.check().with_context(|| format!("{}: no baseline can be made", run_dir.display()))?;
+    Ok(base)
 }
 
 /// One metric that moved.
@@ -301,5 +323,25 @@ mod tests {
         let c = compare(&b, &[rec("a", 10, 2.0)]);
         assert_eq!(c.exit_code(), 2);
         assert!(render(&c).contains("MISSING") && render(&c).contains("d param sd b"));
+    }
+
+    #[test]
+    fn baselines_that_cannot_gate_are_refused_naming_the_file() {
+        let p = Path::new("base.json");
+        let err = |text: &str| format!("{:#}", Baseline::parse(text, p).unwrap_err());
+        let one = serde_json::to_string(&rec("a", 10, 2.0)).unwrap();
+        assert!(Baseline::parse(&format!(r#"{{"runs": [{one}]}}"#), p).is_ok());
+        for (text, why) in [
+            (format!(r#"{{"energy_rtol": -1, "runs": [{one}]}}"#), "energy_rtol = -1 must be non-negative"),
+            (r#"{"runs": []}"#.to_string(), "'runs' is empty"),
+            (format!(r#"{{"runs": [{one}, {one}]}}"#), "run 1 (d param sd a) appears twice"),
+            ("{".to_string(), "invalid baseline"),
+        ] {
+            let e = err(&text);
+            assert!(e.starts_with("base.json: invalid baseline") && e.contains(why), "{text}: {e}");
+        }
+        // A different record of the same run is a duplicate too.
+        let other = serde_json::to_string(&rec("a", 11, 2.0)).unwrap();
+        assert!(err(&format!(r#"{{"runs": [{one}, {other}]}}"#)).contains("appears twice"));
     }
 }

@@ -183,6 +183,25 @@ pub struct Config {
     pub threads_per_run: Option<usize>,
 }
 
+/// The cores this process may use.
+pub fn available_cores() -> usize {
+    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+}
+
+/// `threads_per_run` is at least 1 and at most 4 x the cores: more threads than that only
+/// slow a run down (they share the cores), and a typo like 100000 would spawn that many.
+pub fn check_threads_per_run(threads: Option<usize>, cores: usize) -> Result<()> {
+    match threads {
+        Some(0) => bail!("threads_per_run must be at least 1"),
+        Some(t) if t > 4 * cores => bail!(
+            "threads_per_run = {t} is more than 4 x the {cores} cores of this machine ({}): threads beyond the \
+             cores share them and only slow each run down",
+            4 * cores
+        ),
+        _ => Ok(()),
+    }
+}
+
 fn default_task() -> Task {
     Task::Param
 }
@@ -226,9 +245,8 @@ impl Config {
     /// that do not belong to an energy, out-of-range values).
     pub fn check(&self) -> Result<()> {
         self.timeout_secs()?;
-        if self.threads_per_run == Some(0) {
-            bail!("threads_per_run must be at least 1");
-        }
+        check_threads_per_run(self.threads_per_run, available_cores())?;
+        self.check_names()?;
         if self.task != Task::Deform && self.deform.is_some() {
             bail!("[deform] applies only to task = \"deform\"");
         }
@@ -245,6 +263,16 @@ impl Config {
         for d in &self.dataset {
             crate::registry::check_handles(d.handles.is_some(), d.handles_set, d.handles_rule.as_deref())
                 .with_context(|| format!("[[dataset]] '{}'", d.name))?;
+            // Handles only mean something to `deform`: silently ignoring them would hide a
+            // config that was meant to be a deform batch.
+            if self.task != Task::Deform && (d.handles.is_some() || d.handles_rule.is_some()) {
+                bail!(
+                    "[[dataset]] '{}': handles apply only to task = \"deform\" (this config's task is {}); \
+                     remove them or set the task",
+                    d.name,
+                    self.task.as_str()
+                );
+            }
         }
         if self.task == Task::Authalic {
             return self.check_authalic();
@@ -262,6 +290,14 @@ impl Config {
             bail!("no datasets: give 'datasets = [...]' (names or tag:<tag>) or [[dataset]] entries");
         }
         for s in &self.solvers {
+            if AUTHALIC_SOLVERS.contains(&s.as_str()) {
+                bail!(
+                    "'{s}' is an authalic solver: it runs in a config with task = \"authalic\" (this config's \
+                     task is {}; its solvers: {})",
+                    self.task.as_str(),
+                    solver_names().join(", ")
+                );
+            }
             if !solver_names().contains(&s.as_str()) {
                 bail!("unknown solver '{s}' (known: {})", solver_names().join(", "));
             }
@@ -274,12 +310,6 @@ impl Config {
                 bail!("[energy.{name}]: unknown energy (known: {})", ENERGY_NAMES.join(", "));
             }
             self.energy_kind(name)?;
-        }
-        let mut seen = std::collections::HashSet::new();
-        for d in &self.dataset {
-            if !seen.insert(d.name.as_str()) {
-                bail!("[[dataset]] name '{}' appears twice", d.name);
-            }
         }
         let positive = |key: &str, v: Option<f64>| match v {
             Some(x) if !(x > 0.0 && x.is_finite()) => bail!("{key} = {x} must be positive and finite"),
@@ -313,6 +343,33 @@ impl Config {
         Ok(())
     }
 
+    /// Names that become file names are file-name safe (`crate::names`), and no list repeats
+    /// an entry (a repeated energy or solver would run the same run twice into one file).
+    fn check_names(&self) -> Result<()> {
+        for d in &self.dataset {
+            crate::names::check_name("dataset", &d.name).context("[[dataset]]")?;
+        }
+        for e in &self.energies {
+            crate::names::check_name("energy", e).context("'energies'")?;
+        }
+        for s in &self.solvers {
+            crate::names::check_name("solver", s).context("'solvers'")?;
+        }
+        let inline: Vec<String> = self.dataset.iter().map(|d| d.name.clone()).collect();
+        for (key, list) in [
+            ("datasets", &self.datasets),
+            ("energies", &self.energies),
+            ("solvers", &self.solvers),
+            ("[[dataset]] name", &inline),
+        ] {
+            let mut seen = std::collections::HashSet::new();
+            if let Some(dup) = list.iter().find(|x| !seen.insert(x.as_str())) {
+                bail!("{key}: '{dup}' appears twice");
+            }
+        }
+        Ok(())
+    }
+
     /// `timeout` in seconds (`None` when not set).
     pub fn timeout_secs(&self) -> Result<Option<f64>> {
         let Some(t) = &self.timeout else { return Ok(None) };
@@ -339,6 +396,9 @@ impl Config {
             bail!("'solvers' is empty: name at least one of {}", AUTHALIC_SOLVERS.join(", "));
         }
         for s in &self.solvers {
+            if solver_names().contains(&s.as_str()) {
+                bail!("'{s}' is a param/deform solver: task authalic runs {} only", AUTHALIC_SOLVERS.join(", "));
+            }
             if !AUTHALIC_SOLVERS.contains(&s.as_str()) {
                 bail!("unknown solver '{s}' for task authalic (known: {})", AUTHALIC_SOLVERS.join(", "));
             }
@@ -565,15 +625,74 @@ mod tests {
         let s = c.authalic_settings();
         assert_eq!((s.stop.max_iters, s.alpha0, s.fold_guard, s.sem_stop_on_increase), (7, 0.5, FoldGuard::All, true));
         let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
-        assert!(
-            err(&AUTH.replace("\"aem-cg\"", "\"kp-newton\"")).contains("unknown solver 'kp-newton' for task authalic")
-        );
+        assert!(err(&AUTH.replace("\"aem-cg\"", "\"kp-newton\"")).contains("'kp-newton' is a param/deform solver"));
         assert!(err(&format!("{AUTH}energies = [\"sd\"]\n")).contains("one energy 'authalic'"));
         assert!(err(&format!("{AUTH}[line_search]\narmijo_c = 0.1\n")).contains("[line_search] does not apply"));
         assert!(err(&format!("{AUTH}[authalic]\nalpha0 = -1.0\n")).contains("alpha0 = -1"));
         assert!(err(&format!("{AUTH}[authalic]\nfold_guard = \"some\"\n")).contains("unknown variant"));
         assert!(err(&format!("{AUTH}[authalic]\nalpha = 1.0\n")).contains("unknown field `alpha`"));
         assert!(parse(&format!("{AUTH}energies = [\"authalic\"]\n")).is_ok());
+    }
+
+    #[test]
+    fn a_solver_of_another_task_is_named_as_such() {
+        let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+        let e = err(&MIN.replace("\"kp-newton\"", "\"sem\""));
+        assert!(e.contains("'sem' is an authalic solver") && e.contains("task = \"authalic\""), "{e}");
+        assert!(err(&MIN.replace("\"kp-newton\"", "\"sem2\"")).contains("unknown solver 'sem2'"));
+        let e = err(&AUTH.replace("\"sem\"", "\"cm\""));
+        assert!(e.contains("'cm' is a param/deform solver"), "{e}");
+    }
+
+    #[test]
+    fn threads_per_run_is_bounded_by_the_cores() {
+        assert!(check_threads_per_run(None, 2).is_ok());
+        assert!(check_threads_per_run(Some(8), 2).is_ok());
+        let e = format!("{:#}", check_threads_per_run(Some(9), 2).unwrap_err());
+        assert!(e.contains("threads_per_run = 9 is more than 4 x the 2 cores") && e.contains("(8)"), "{e}");
+        assert!(format!("{:#}", check_threads_per_run(Some(0), 2).unwrap_err()).contains("at least 1"));
+        let e = format!("{:#}", parse(&format!("threads_per_run = 100000\n{MIN}")).unwrap_err());
+        assert!(e.contains("threads_per_run = 100000 is more than"), "{e}");
+    }
+
+    #[test]
+    fn repeated_energies_solvers_and_datasets_are_refused() {
+        let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+        assert!(err(&MIN.replace("[\"sd\"]", "[\"sd\", \"nh\", \"sd\"]")).contains("energies: 'sd' appears twice"));
+        assert!(err(&MIN.replace("[\"kp-newton\"]", "[\"kp-newton\", \"kp-newton\"]"))
+            .contains("solvers: 'kp-newton' appears twice"));
+        assert!(err(&MIN.replace("[\"bumpy_1k\"]", "[\"bumpy_1k\", \"bumpy_1k\"]"))
+            .contains("datasets: 'bumpy_1k' appears twice"));
+        let two = "[[dataset]]\nname = \"m\"\npath = \"m.obj\"\n";
+        assert!(err(&format!("{MIN}{two}{two}")).contains("[[dataset]] name: 'm' appears twice"));
+    }
+
+    #[test]
+    fn inline_dataset_names_must_be_file_name_safe() {
+        let err = |name: &str| {
+            let t = format!("{MIN}[[dataset]]\nname = {name:?}\npath = \"m.obj\"\n");
+            format!("{:#}", parse(&t).unwrap_err())
+        };
+        for (name, why) in [
+            ("../../ESCAPED", "path separator"),
+            ("/abs/x", "path separator"),
+            ("a/b", "path separator"),
+            ("a\nb", "U+000A"),
+            ("", "is empty"),
+            ("..", "'..'"),
+        ] {
+            let e = err(name);
+            assert!(e.contains("[[dataset]]") && e.contains("dataset name") && e.contains(why), "{name:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn handles_on_a_param_dataset_are_refused_not_ignored() {
+        let t = format!("{MIN}[[dataset]]\nname = \"m\"\npath = \"m.obj\"\nhandles_rule = \"stretch\"\n");
+        let e = format!("{:#}", parse(&t).unwrap_err());
+        assert!(e.contains("'m': handles apply only to task = \"deform\"") && e.contains("task is param"), "{e}");
+        let deform = t.replace("name = \"t\"", "name = \"t\"\ntask = \"deform\"");
+        assert!(parse(&deform).is_ok());
     }
 
     fn parse(text: &str) -> Result<Config> {

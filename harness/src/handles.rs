@@ -25,7 +25,7 @@ pub enum HandleSource {
 impl HandleSource {
     /// The handles for `mesh`; errors name the file.
     pub fn load(&self, mesh: &Mesh) -> Result<Vec<Handle>> {
-        match self {
+        let handles = match self {
             HandleSource::None => {
                 bail!("{}: no handles (give `handles = \"FILE\"` or `handles_rule` in the dataset entry)", mesh.source)
             }
@@ -34,8 +34,41 @@ impl HandleSource {
             }
             HandleSource::File { path, set } => read_p2p(path, *set),
             HandleSource::Rule(r) => rule_handles(mesh, r).map_err(anyhow::Error::msg),
+        }?;
+        check_conflicts(&handles).with_context(|| format!("{}: handles of {}", self.origin(), mesh.source))?;
+        Ok(handles)
+    }
+
+    /// Where the handles come from, for messages.
+    fn origin(&self) -> String {
+        match self {
+            HandleSource::None => "no handles".into(),
+            HandleSource::Generated(g) => format!("generated:{g}"),
+            HandleSource::File { path, set } => format!("{} (set {set})", path.display()),
+            HandleSource::Rule(r) => format!("handles_rule '{r}'"),
         }
     }
+}
+
+/// One vertex pulled to two different targets has no meaning as a constraint (the penalty
+/// would settle between them): refuse it. A repeated identical handle is harmless.
+pub fn check_conflicts(handles: &[Handle]) -> Result<()> {
+    let mut first: std::collections::HashMap<usize, (usize, [f64; 2])> = Default::default();
+    for (i, h) in handles.iter().enumerate() {
+        match first.get(&h.vertex) {
+            Some(&(j, t)) if t != h.target => bail!(
+                "handle {i} pulls vertex {} to {:?}, but handle {j} pulls it to {:?}: conflicting handles",
+                h.vertex,
+                h.target,
+                t
+            ),
+            Some(_) => {}
+            None => {
+                first.insert(h.vertex, (i, h.target));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A `*.p2p.json` file of the shared corpus: `p2p_sets[set]` with `src_vertex` (vertex

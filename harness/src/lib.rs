@@ -8,6 +8,7 @@ pub mod handles;
 pub mod html;
 pub mod mapfile;
 pub mod merge;
+pub mod names;
 pub mod output;
 pub mod plots;
 pub mod progress;

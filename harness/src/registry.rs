@@ -50,6 +50,7 @@ impl Registry {
         let reg: Registry = toml::from_str(&text).with_context(|| format!("{}: invalid registry", path.display()))?;
         let mut seen = std::collections::HashSet::new();
         for e in &reg.dataset {
+            check_entry(e).with_context(|| format!("{}: invalid registry", path.display()))?;
             if !seen.insert(e.name.as_str()) {
                 bail!("{}: dataset '{}' appears twice", path.display(), e.name);
             }
@@ -98,6 +99,27 @@ impl Registry {
         }
         Ok(out)
     }
+}
+
+/// A registry entry's name is file-name safe and its files stay inside `MAPBENCH_MESHES`
+/// (relative, no `..`): the registry may come from `scripts/prepare_datasets.py` or a user.
+fn check_entry(e: &Entry) -> Result<()> {
+    crate::names::check_name("dataset", &e.name)?;
+    for (key, file) in [("file", &e.file), ("handles", &e.handles)] {
+        if let Some(f) = file {
+            let p = Path::new(f);
+            use std::path::Component::{CurDir, Normal};
+            let escapes = p.components().any(|c| !matches!(c, Normal(_) | CurDir));
+            if f.is_empty() || escapes || f.chars().any(char::is_control) {
+                bail!(
+                    "dataset '{}': {key} = {f:?} must be a relative path inside {MESHES_ENV} (no '..', no root, \
+                     no control characters)",
+                    e.name
+                );
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `handles` and `handles_rule` exclude each other; `handles_set` needs `handles`.
@@ -210,6 +232,13 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
             out.push(Dataset { name: e.name.clone(), source, expected: (e.vertices, e.faces), handles });
         }
     }
+    let c = &cfg.config;
+    crate::names::check_run_names(
+        out.iter().map(|d: &Dataset| d.name.as_str()).chain(c.dataset.iter().map(|d| d.name.as_str())),
+        &c.energy_names(),
+        &c.solvers,
+    )
+    .with_context(|| format!("{}: invalid config", cfg.path.display()))?;
     for d in &cfg.config.dataset {
         if out.iter().any(|o: &Dataset| o.name == d.name) {
             bail!("dataset '{}' is both selected from the registry and given inline", d.name);
@@ -225,6 +254,14 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
             expected: (None, None),
             handles,
         });
+    }
+    if out.is_empty() {
+        // Say why, instead of the runner's "--only selects no run" when no --only was given.
+        bail!(
+            "{}: no dataset to run: every selected dataset was skipped ({})",
+            cfg.path.display(),
+            notices.iter().map(|n| n.trim_start_matches("skipping ")).collect::<Vec<_>>().join("; ")
+        );
     }
     Ok((out, notices))
 }
@@ -261,11 +298,38 @@ mod tests {
             let p = entry.unwrap().path();
             if p.extension().is_some_and(|x| x == "toml") {
                 let cfg = crate::config::LoadedConfig::load(&p).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
-                resolve(&cfg).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
+                match resolve(&cfg) {
+                    Ok(_) => {}
+                    // A config of shared meshes only has nothing to run without the corpus.
+                    Err(e) if std::env::var_os(MESHES_ENV).is_none() && format!("{e:#}").contains("was skipped") => {}
+                    Err(e) => panic!("{}: {e:#}", p.display()),
+                }
                 n += 1;
             }
         }
         assert!(n >= 9, "{n} configs in {}", dir.display());
+    }
+
+    #[test]
+    fn unsafe_entry_names_and_escaping_files_are_refused_naming_the_registry() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("datasets.toml");
+        let load = |body: &str| {
+            std::fs::write(&path, body).unwrap();
+            Registry::load(&path).map(|_| ()).map_err(|e| format!("{e:#}"))
+        };
+        assert_eq!(load("[[dataset]]\nname = \"ok\"\nfile = \"sub/ok.obj\"\nhandles = \"./ok.p2p.json\"\n"), Ok(()));
+        for (body, why) in [
+            ("name = \"../x\"\ngenerator = \"bumpy_1k\"", "dataset name \"../x\" contains a path separator"),
+            ("name = \"a\\nb\"\ngenerator = \"bumpy_1k\"", "U+000A"),
+            ("name = \"\"\ngenerator = \"bumpy_1k\"", "is empty"),
+            ("name = \"f\"\nfile = \"../../etc/x.obj\"", "file = \"../../etc/x.obj\" must be a relative path"),
+            ("name = \"f\"\nfile = \"/etc/x.obj\"", "must be a relative path"),
+            ("name = \"f\"\nfile = \"f.obj\"\nhandles = \"../h.json\"", "handles = \"../h.json\""),
+        ] {
+            let e = load(&format!("[[dataset]]\n{body}\n")).unwrap_err();
+            assert!(e.contains("datasets.toml: invalid registry") && e.contains(why), "{body}: {e}");
+        }
     }
 
     #[test]

@@ -4,6 +4,7 @@
 """
 
 import hashlib
+import re
 import sys
 import tomllib
 from pathlib import Path
@@ -142,3 +143,13 @@ def test_obj_polygons_are_fan_triangulated_and_bad_indices_refused(tmp_path, cap
     (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
     code, _, _ = run(tmp_path, tmp_path / "bad.obj")
     assert code == 1 and "cannot read the mesh: a face index is out of range" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "stem",
+    ["../../ESCAPED", "a__b", "tab\there", "new\nline", ".hidden", "Ünïcödé mesh", "x" * 300, "__", "C:x*?|"],
+)
+def test_registry_names_are_file_name_safe(stem):
+    name = pd.dataset_name(Path(stem + ".obj"))
+    assert re.fullmatch(r"[a-z0-9]+(_[a-z0-9]+)*", name), name
+    assert len(name) <= pd.MAX_NAME
