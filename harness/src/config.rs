@@ -346,6 +346,8 @@ impl Config {
     /// Names that become file names are file-name safe (`crate::names`), and no list repeats
     /// an entry (a repeated energy or solver would run the same run twice into one file).
     fn check_names(&self) -> Result<()> {
+        // `name` is the default run folder, reports/<name>.
+        crate::names::check_name("config", &self.name).context("'name'")?;
         for d in &self.dataset {
             crate::names::check_name("dataset", &d.name).context("[[dataset]]")?;
         }

@@ -45,7 +45,11 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
         .collect();
     let out_dir = match out {
         Some(o) => o.to_path_buf(),
-        None => PathBuf::from("reports").join(config["name"].as_str().unwrap_or("merged")),
+        None => {
+            let name = config["name"].as_str().unwrap_or("merged");
+            crate::names::check_name("config", name).with_context(|| format!("{}: meta.json", first.display()))?;
+            PathBuf::from("reports").join(name)
+        }
     };
     if shards.iter().any(|s| same_dir(s, &out_dir)) {
         bail!("{}: the merged folder must not be one of the shards", out_dir.display());

@@ -18,7 +18,7 @@ const RESERVED: &[char] = &[':', '*', '?', '"', '<', '>', '|'];
 
 /// A name that cannot be part of a file name.
 #[derive(Clone, Debug, PartialEq, Eq, Error)]
-#[error("{kind} name {name:?} {reason}: names become file names in the run folder (<dataset>__<energy>__<solver>.csv)")]
+#[error("{kind} name {name:?} {reason} (names become file and folder names: reports/<name>/, <dataset>__<energy>__<solver>.csv)")]
 pub struct NameError {
     pub kind: &'static str,
     pub name: String,

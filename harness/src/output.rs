@@ -237,10 +237,19 @@ pub fn write_summary(path: &Path, rows: &[SummaryRow]) -> Result<()> {
 pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
     let path = run_dir.join("summary.csv");
     let mut r = csv::Reader::from_path(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-    r.deserialize::<SummaryRow>()
+    let rows: Vec<SummaryRow> = r
+        .deserialize::<SummaryRow>()
         .enumerate()
         .map(|(i, row)| row.with_context(|| format!("{}: row {}", path.display(), i + 2)))
-        .collect()
+        .collect::<Result<_>>()?;
+    // `report` and `merge` derive file names from these fields: a folder written by another
+    // tool or edited by hand must not make them write outside the run folder.
+    for (i, row) in rows.iter().enumerate() {
+        for (kind, name) in [("dataset", &row.dataset), ("energy", &row.energy), ("solver", &row.solver)] {
+            crate::names::check_name(kind, name).with_context(|| format!("{}: row {}", path.display(), i + 2))?;
+        }
+    }
+    Ok(rows)
 }
 
 /// Median of a non-empty slice (`None` when empty).

@@ -154,3 +154,31 @@ fn conflicting_handles_fail_the_run_naming_the_file_and_vertex() {
     let o = mapbench(&["run", "c.toml", "--out", "out1", "--jobs", "1"], tmp.path());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
 }
+
+#[test]
+fn a_config_name_or_summary_row_cannot_point_outside_the_run_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let work = tmp.path().join("w");
+    std::fs::create_dir_all(&work).unwrap();
+    std::fs::write(work.join("m.obj"), TRIANGLES).unwrap();
+    let body = "name = \"t\"\nenergies = [\"sd\"]\nsolvers = [\"cm\"]\n[[dataset]]\nname = \"m\"\npath = \"m.obj\"\n";
+    // The config name is the default run folder, reports/<name>.
+    std::fs::write(work.join("c.toml"), body.replace("name = \"t\"", "name = \"../../up\"")).unwrap();
+    let o = mapbench(&["run", "c.toml"], &work);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("config name \"../../up\" contains a path separator"), "{}", text(&o));
+    assert!(!work.join("reports").exists() && !tmp.path().join("up").exists());
+
+    std::fs::write(work.join("c.toml"), body).unwrap();
+    let o = mapbench(&["run", "c.toml", "--out", "out", "--jobs", "1"], &work);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // A hand-edited summary row: `report` would write plots named after it.
+    let summary = work.join("out/summary.csv");
+    let edited = std::fs::read_to_string(&summary).unwrap().replace("\nm,param", "\n../../m,param");
+    std::fs::write(&summary, edited).unwrap();
+    let before = walk(tmp.path());
+    let o = mapbench(&["report", "out"], &work);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("summary.csv: row 2") && text(&o).contains("dataset name \"../../m\""), "{}", text(&o));
+    assert_eq!(walk(tmp.path()), before);
+}
