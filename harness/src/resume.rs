@@ -1,7 +1,7 @@
 //! `run --resume`: every finished run leaves `runs/<run>.json` with a key of everything that
 //! determines its result (code version, task, the config sections that apply, the energy,
 //! the solver, and the mesh and handle files' contents). A resumed batch reuses a run whose
-//! key matches and whose per-iteration CSV is intact, and runs the others.
+//! key matches and whose files (per-iteration CSV, map) are intact, and runs the others.
 
 use crate::config::LoadedConfig;
 use crate::handles::HandleSource;
@@ -86,7 +86,9 @@ pub fn write_sidecar(out_dir: &Path, stem: &str, key: &str, summary: &SummaryRow
     crate::output::write_atomic(&sidecar_path(out_dir, stem), json.as_bytes())
 }
 
-/// The finished run `stem` if its sidecar has `key` and its CSV reads back completely.
+/// The finished run `stem` if its sidecar has `key` and all its files are intact: the CSV
+/// reads back completely and, for a run that produced a map (every run with iterations,
+/// see `runner::run_one`), `uv/<stem>.obj` reads back too. Otherwise the run runs again.
 pub fn previous(out_dir: &Path, stem: &str, key: &str) -> Option<(SummaryRow, Vec<IterationRecord>)> {
     let text = std::fs::read_to_string(sidecar_path(out_dir, stem)).ok()?;
     let side: Sidecar = serde_json::from_str(&text).ok()?;
@@ -96,7 +98,13 @@ pub fn previous(out_dir: &Path, stem: &str, key: &str) -> Option<(SummaryRow, Ve
     let rows = read_rows(&out_dir.join("runs").join(format!("{stem}.csv"))).ok()?;
     // A run that finished has its final row; a failed run has none.
     let expected = side.summary.iterations.map_or(0, |i| i + 1);
-    (rows.len() == expected).then_some((side.summary, rows))
+    if rows.len() != expected {
+        return None;
+    }
+    if side.summary.iterations.is_some() {
+        crate::mapfile::read(&out_dir.join("uv").join(format!("{stem}.obj"))).ok()?;
+    }
+    Some((side.summary, rows))
 }
 
 /// A per-iteration CSV read back: its rows and, per row, its `energy_minus_best` as written

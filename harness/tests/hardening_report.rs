@@ -109,3 +109,21 @@ fn report_names_the_file_and_line_of_a_corrupt_iteration_csv_or_summary() {
     std::fs::write(&summary, "").unwrap();
     report_refuses(&out, &["summary.csv", "line 1", "no column `dataset`"]);
 }
+
+#[test]
+fn resume_reruns_a_finished_run_whose_map_was_deleted() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (cfg, out) = two_runs(tmp.path());
+    let map = out.join("uv/bumpy_1k__sd__cm.obj");
+    let obj = std::fs::read_to_string(&map).unwrap();
+    std::fs::remove_file(&map).unwrap();
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resume"], tmp.path());
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{log}");
+    assert_eq!(log.matches("resumed, ").count(), 1, "{log}");
+    assert!(log.contains("bumpy_1k sd kp-newton: resumed, ok"), "{log}");
+    assert!(log.contains("bumpy_1k sd cm: ok"), "{log}");
+    // the map is back, and the same (the solvers are deterministic)
+    assert_eq!(std::fs::read_to_string(&map).unwrap(), obj);
+    assert!(out.join("plots/bumpy_1k__sd__cm__map.png").is_file());
+}
