@@ -77,7 +77,7 @@ pub fn run_key(cfg: &LoadedConfig, ds: &Dataset, energy: &str, solver: &str, cod
     Ok(format!("{:016x}", h.0))
 }
 
-fn sidecar_path(out_dir: &Path, stem: &str) -> PathBuf {
+pub(crate) fn sidecar_path(out_dir: &Path, stem: &str) -> PathBuf {
     out_dir.join("runs").join(format!("{stem}.json"))
 }
 

@@ -177,3 +177,41 @@ fn sigterm_keeps_finished_runs_writes_the_report_and_exits_143() {
     assert!(out.join("index.html").is_file());
     assert!(out.join("tables/param.md").is_file());
 }
+
+#[test]
+fn a_run_whose_files_cannot_be_written_fails_alone() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), TWO_RUNS);
+    let out = tmp.path().join("out");
+    // A folder where the first run's CSV goes.
+    let blocked = out.join("runs/bumpy_1k__sd__kp-newton.csv");
+    std::fs::create_dir_all(&blocked).unwrap();
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{log}");
+    let mut r = csv::Reader::from_path(out.join("summary.csv")).unwrap();
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = r.records().map(Result::unwrap).collect();
+    assert_eq!(rows.len(), 2, "{log}");
+    assert_eq!(&rows[0][col("solver")], "kp-newton");
+    assert_eq!(&rows[0][col("status")], "failed");
+    assert!(rows[0][col("error")].contains("runs/bumpy_1k__sd__kp-newton.csv"), "{:?}", rows[0]);
+    assert_eq!(&rows[1][col("status")], "ok", "{log}");
+    assert!(out.join("runs/bumpy_1k__sd__cm.csv").is_file());
+    assert!(out.join("index.html").is_file());
+    // nothing half-written is left behind, and no map of the failed run
+    let tmp_files = std::fs::read_dir(out.join("runs"))
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(".tmp"))
+        .count();
+    assert_eq!(tmp_files, 0);
+    assert!(!out.join("uv/bumpy_1k__sd__kp-newton.obj").exists());
+    // once the folder is gone, --resume runs the failed run again and reuses the other
+    std::fs::remove_dir(&blocked).unwrap();
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resume"], tmp.path());
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{log}");
+    assert_eq!(log.matches("resumed, ").count(), 1, "{log}");
+    assert!(log.contains("bumpy_1k sd kp-newton: ok"), "{log}");
+}
