@@ -7,7 +7,7 @@ use config::LoadedConfig;
 use mapbench::{check, config, export, merge, output, progress, registry, report, runner};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::Arc;
 
 #[derive(Parser)]
@@ -136,6 +136,52 @@ fn main() -> ExitCode {
     }
 }
 
+/// Stop a batch cleanly on the first SIGINT (Ctrl-C), SIGTERM (what Slurm sends at the time
+/// limit) or SIGHUP: `interrupt` stops the running runs, the finished ones stay on disk and
+/// the report is written. A second signal exits at once. Returns the first signal's number
+/// once one arrived (0 before).
+#[cfg(unix)]
+fn on_interrupt(interrupt: Arc<AtomicBool>) -> Arc<AtomicI32> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let first = Arc::new(AtomicI32::new(0));
+    let seen = first.clone();
+    match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
+        Ok(mut signals) => {
+            std::thread::spawn(move || {
+                for sig in signals.forever() {
+                    if seen.compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst).is_err() {
+                        std::process::exit(128 + sig);
+                    }
+                    interrupt.store(true, Ordering::SeqCst);
+                    let name = match sig {
+                        SIGINT => "Ctrl-C",
+                        SIGTERM => "SIGTERM",
+                        _ => "SIGHUP",
+                    };
+                    eprintln!("\ninterrupt ({name}): stopping the running runs (a second signal exits at once)");
+                }
+            });
+        }
+        Err(e) => eprintln!("warning: cannot catch Ctrl-C or SIGTERM ({e}): an interrupt loses the report"),
+    }
+    first
+}
+
+/// Ctrl-C only (no signal iterator here): the same clean stop, exit code 130.
+#[cfg(not(unix))]
+fn on_interrupt(interrupt: Arc<AtomicBool>) -> Arc<AtomicI32> {
+    let first = Arc::new(AtomicI32::new(0));
+    let seen = first.clone();
+    let _ = ctrlc::set_handler(move || {
+        if interrupt.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        seen.store(2, Ordering::SeqCst);
+        eprintln!("\ninterrupt: stopping the running runs (Ctrl-C again to exit at once)");
+    });
+    first
+}
+
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Run { config, out, only, resume, jobs, shard } => {
@@ -145,14 +191,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let cfg = LoadedConfig::load(&config)?;
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&cfg.config.name));
             let interrupt = Arc::new(AtomicBool::new(false));
-            let flag = interrupt.clone();
-            // First Ctrl-C: finish cleanly (finished runs stay on disk); second: exit now.
-            let _ = ctrlc::set_handler(move || {
-                if flag.swap(true, Ordering::SeqCst) {
-                    std::process::exit(130);
-                }
-                eprintln!("\ninterrupt: stopping the running runs (Ctrl-C again to exit at once)");
-            });
+            let signal = on_interrupt(interrupt.clone());
             let opts = runner::RunOptions { only, resume, jobs, shard, interrupt };
             let progress = progress::for_stderr();
             let report = runner::run_batch(&cfg, &out, &opts, progress.as_ref())?;
@@ -170,7 +209,8 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 report.out_dir.display()
             );
             Ok(if opts.interrupt.load(Ordering::SeqCst) {
-                ExitCode::from(130)
+                // The shell's convention: 128 + the signal (130 Ctrl-C, 143 SIGTERM).
+                ExitCode::from(128 + signal.load(Ordering::SeqCst).clamp(1, 127) as u8)
             } else if report.failed > 0 {
                 ExitCode::from(1)
             } else {

@@ -129,9 +129,28 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create folder", dir.display()))?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp: PathBuf = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot rename into place", path.display()))?;
-    Ok(())
+    // Errors name `path`, the file the caller asked for; a failed write leaves no temporary.
+    let written = std::fs::write(&tmp, bytes)
+        .with_context(|| format!("{}: cannot write (temporary file {})", path.display(), tmp.display()))
+        .and_then(|()| {
+            std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot rename into place", path.display()))
+        });
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
+}
+
+/// The bytes of a CSV file mapbench wrote, refused when its last row has no line end: every
+/// row is written with one, so the file was cut mid-row (and its last cell may still parse,
+/// as a shorter number).
+pub fn read_csv_bytes(path: &Path) -> Result<Vec<u8>> {
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    if bytes.last().is_some_and(|&b| b != b'\n') {
+        let line = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
+        anyhow::bail!("{}: line {line}: the row has no line end: the file was cut", path.display());
+    }
+    Ok(bytes)
 }
 
 /// The per-iteration CSV of one run; `best` is the best final energy of the run's
@@ -233,21 +252,66 @@ pub fn write_summary(path: &Path, rows: &[SummaryRow]) -> Result<()> {
     write_atomic(path, &w.into_inner().context("flushing CSV")?)
 }
 
-/// Read a run folder's `summary.csv`.
+/// A CSV reader error as `FILE: line N: what`; `header` names the column of a bad cell and
+/// `record` (the row being deserialized) quotes it.
+pub fn csv_error(
+    path: &Path,
+    header: Option<&csv::StringRecord>,
+    record: Option<&csv::StringRecord>,
+    e: &csv::Error,
+) -> anyhow::Error {
+    use csv::ErrorKind;
+    let column = |i: usize| match header.and_then(|h| h.get(i)) {
+        Some(name) => format!("column {} `{name}`", i + 1),
+        None => format!("column {}", i + 1),
+    };
+    let (pos, what) = match e.kind() {
+        ErrorKind::Utf8 { pos, err } => (pos, format!("{}: not UTF-8 text", column(err.field()))),
+        ErrorKind::UnequalLengths { pos, expected_len, len } => {
+            (pos, format!("{len} cells where the header has {expected_len}: the row is cut or corrupt"))
+        }
+        ErrorKind::Deserialize { pos, err } => (
+            pos,
+            match err.field().map(|i| i as usize) {
+                Some(i) => match record.and_then(|r| r.get(i)) {
+                    Some(cell) => format!("{}: `{cell}`: {}", column(i), err.kind()),
+                    None => format!("{}: {}", column(i), err.kind()),
+                },
+                None => err.kind().to_string(),
+            },
+        ),
+        _ => (&None, e.to_string()),
+    };
+    match pos {
+        Some(p) => anyhow::anyhow!("{}: line {}: {what}", path.display(), p.line()),
+        None => anyhow::anyhow!("{}: {what}", path.display()),
+    }
+}
+
+/// Read a run folder's `summary.csv`; errors name the file, the line and the column.
 pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
     let path = run_dir.join("summary.csv");
-    let mut r = csv::Reader::from_path(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let rows: Vec<SummaryRow> = r
-        .deserialize::<SummaryRow>()
-        .enumerate()
-        .map(|(i, row)| row.with_context(|| format!("{}: row {}", path.display(), i + 2)))
-        .collect::<Result<_>>()?;
-    // `report` and `merge` derive file names from these fields: a folder written by another
-    // tool or edited by hand must not make them write outside the run folder.
-    for (i, row) in rows.iter().enumerate() {
+    let bytes = read_csv_bytes(&path)?;
+    let mut r = csv::Reader::from_reader(bytes.as_slice());
+    let header = r.headers().map_err(|e| csv_error(&path, None, None, &e))?.clone();
+    // The design columns up to `error` are in every summary mapbench wrote (an empty or
+    // foreign file would otherwise read as a batch of no runs).
+    let required = &SUMMARY_COLUMNS[..=SUMMARY_COLUMNS.iter().position(|c| *c == "error").unwrap_or(0)];
+    if let Some(missing) = required.iter().find(|c| !header.iter().any(|h| h == **c)) {
+        anyhow::bail!("{}: line 1: no column `{missing}`: not a mapbench summary", path.display());
+    }
+    let mut rows = Vec::new();
+    for rec in r.records() {
+        let rec = rec.map_err(|e| csv_error(&path, Some(&header), None, &e))?;
+        let row: SummaryRow =
+            rec.deserialize(Some(&header)).map_err(|e| csv_error(&path, Some(&header), Some(&rec), &e))?;
+        // `report` and `merge` derive file names from these fields: a folder written by
+        // another tool or edited by hand must not make them write outside the run folder.
         for (kind, name) in [("dataset", &row.dataset), ("energy", &row.energy), ("solver", &row.solver)] {
-            crate::names::check_name(kind, name).with_context(|| format!("{}: row {}", path.display(), i + 2))?;
+            crate::names::check_name(kind, name)
+                .with_context(|| format!("{}: line {}", path.display(), rec.position().map_or(0, |p| p.line())))?;
         }
+        rows.push(row);
     }
     Ok(rows)
 }

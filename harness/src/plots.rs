@@ -109,8 +109,7 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
         let curves = runs
             .par_iter()
             .map(|r| {
-                let path = run_dir.join("runs").join(format!("{}.csv", run_stem(dataset, energy, &r.solver)));
-                let curve = read_curve(&path)?;
+                let curve = Curve::new(crate::resume::read_run(run_dir, r)?);
                 Ok(Series { solver: &r.solver, style: style(&r.solver), converged: r.status == "ok", curve })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -315,31 +314,17 @@ struct Curve {
     best: f64,
 }
 
-fn read_curve(path: &Path) -> Result<Curve> {
-    let mut rd = csv::Reader::from_path(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let headers = rd.headers().with_context(|| format!("{}: no header", path.display()))?.clone();
-    let col = |name: &str| {
-        headers.iter().position(|h| h == name).with_context(|| format!("{}: no column `{name}`", path.display()))
-    };
-    let cols = [col("iter")?, col("energy_minus_best")?, col("t_cum_s")?, col("neg_eig")?, col("energy")?];
-    let mut c = Curve { best: f64::NAN, ..Default::default() };
-    for (i, rec) in rd.records().enumerate() {
-        let rec = rec.with_context(|| format!("{}: row {}", path.display(), i + 1))?;
-        let mut v = [0.0; 5];
-        for (k, &j) in cols.iter().enumerate() {
-            let text = rec.get(j).unwrap_or("");
-            v[k] =
-                text.parse().with_context(|| format!("{}: row {}: `{text}` is not a number", path.display(), i + 1))?;
+impl Curve {
+    fn new(file: crate::resume::IterationFile) -> Curve {
+        let rows = &file.rows;
+        Curve {
+            iter: rows.iter().map(|r| r.iter as f64).collect(),
+            time: rows.iter().map(|r| r.t_cum_s).collect(),
+            neg_eig: rows.iter().map(|r| r.neg_eig as f64).collect(),
+            best: rows.first().zip(file.energy_minus_best.first()).map_or(f64::NAN, |(r, g)| r.energy - g),
+            gap: file.energy_minus_best,
         }
-        if i == 0 {
-            c.best = v[4] - v[1];
-        }
-        c.iter.push(v[0]);
-        c.gap.push(v[1]);
-        c.time.push(v[2]);
-        c.neg_eig.push(v[3]);
     }
-    Ok(c)
 }
 
 /// Encode an RGB buffer as PNG.
@@ -1003,7 +988,8 @@ pub(crate) mod tests {
             summary("tiny", "param", "kp-newton", "ok", ""),
             summary("tiny", "param", "slim", "not_converged", ""),
             summary("tiny", "param", "cm", "failed", "factorization failed: pivot < 0 & NaN in <K>"),
-            summary("disk", "authalic", "aem-cg", "ok", ""),
+            // Two iterations: the three rows written below.
+            SummaryRow { iterations: Some(2), ..summary("disk", "authalic", "aem-cg", "ok", "") },
         ];
         let write = |stem: &str, bytes: Vec<u8>| write_atomic(&p.join("runs").join(format!("{stem}.csv")), &bytes);
         write("tiny__sd__kp-newton", iteration_csv(&records(&[10.0, 5.0, 4.5, 4.0], 40), 4.0).unwrap()).unwrap();

@@ -4,7 +4,7 @@
 //! CSVs alone.
 
 use crate::output::{iteration_csv, run_stem, write_atomic, SummaryRow};
-use crate::resume::read_rows;
+use crate::resume::read_run;
 use crate::tables::Table;
 use anyhow::Result;
 use std::collections::BTreeMap;
@@ -49,7 +49,7 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     let mut groups: BTreeMap<(&str, &str), Group> = BTreeMap::new();
     for s in summary.iter().filter(|s| s.status != "failed") {
         let stem = run_stem(&s.dataset, &s.energy, &s.solver);
-        let rows = read_rows(&run_dir.join("runs").join(format!("{stem}.csv")))?;
+        let rows = read_run(run_dir, s)?.rows;
         groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows));
     }
     for runs in groups.values() {

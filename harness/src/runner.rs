@@ -259,8 +259,24 @@ pub fn run_batch(
                 continue;
             }
             let p = mine[i];
-            if let Some(obj) = result.map_obj.take() {
-                write_atomic(&out_dir.join("uv").join(format!("{}.obj", p.stem)), &obj)?;
+            // A run whose files cannot be written (a folder in the way, a name the OS refuses)
+            // fails alone, like any other failed run; without a sidecar `--resume` retries it.
+            let sidecar_key = key.as_deref().filter(|_| !resumed);
+            if let Err(e) = write_run_files(out_dir, &p.stem, &mut result, sidecar_key) {
+                let s = &result.summary;
+                result.summary = SummaryRow {
+                    dataset: s.dataset.clone(),
+                    task: s.task.clone(),
+                    energy: s.energy.clone(),
+                    solver: s.solver.clone(),
+                    vertices: s.vertices,
+                    faces: s.faces,
+                    stop_reason: "error".into(),
+                    status: "failed".into(),
+                    error: format!("{e:#}"),
+                    ..Default::default()
+                };
+                result.rows.clear();
             }
             let s = &result.summary;
             progress.run_finished(worker, &run_line(finished.len() + 1, total, s, resumed));
@@ -270,12 +286,6 @@ pub fn run_batch(
                 _ => report.failed += 1,
             }
             report.runs += 1;
-            // With this run's own best; `report::refresh` fills in the group's best at the end.
-            let own_best = result.rows.iter().map(|r| r.energy).fold(f64::INFINITY, f64::min);
-            write_run(out_dir, &result, own_best)?;
-            if let (Some(k), false) = (&key, resumed) {
-                crate::resume::write_sidecar(out_dir, &p.stem, k, s)?;
-            }
             summary.append(s)?;
             finished.push((i, result.summary));
         }
@@ -323,10 +333,34 @@ fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String 
     )
 }
 
-fn write_run(out_dir: &Path, r: &RunResult, best: f64) -> Result<()> {
-    let s = &r.summary;
-    let path = out_dir.join("runs").join(format!("{}.csv", run_stem(&s.dataset, &s.energy, &s.solver)));
-    write_atomic(&path, &iteration_csv(&r.rows, best)?)
+/// Write a run's files: its map (when it has one), its per-iteration CSV and, given the run's
+/// key, the sidecar that marks it finished, written last. On an error nothing of this run
+/// is left that `--resume` or the report would take for a result.
+fn write_run_files(out_dir: &Path, stem: &str, r: &mut RunResult, key: Option<&str>) -> Result<()> {
+    let map = out_dir.join("uv").join(format!("{stem}.obj"));
+    let wrote_map = r.map_obj.is_some();
+    let written = (|| {
+        if let Some(obj) = r.map_obj.take() {
+            write_atomic(&map, &obj)?;
+        }
+        // With this run's own best; `report::refresh` fills in the group's best at the end.
+        let own_best = r.rows.iter().map(|x| x.energy).fold(f64::INFINITY, f64::min);
+        write_atomic(&out_dir.join("runs").join(format!("{stem}.csv")), &iteration_csv(&r.rows, own_best)?)?;
+        if let Some(k) = key {
+            crate::resume::write_sidecar(out_dir, stem, k, &r.summary)?;
+        }
+        Ok(())
+    })();
+    if written.is_err() {
+        if wrote_map {
+            let _ = std::fs::remove_file(&map);
+        }
+        // A previous batch's sidecar would vouch for files that are now a mix.
+        if key.is_some() {
+            let _ = std::fs::remove_file(crate::resume::sidecar_path(out_dir, stem));
+        }
+    }
+    written
 }
 
 /// One run; never returns an error or panics: failures become a `failed` summary row.

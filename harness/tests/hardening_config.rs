@@ -179,6 +179,6 @@ fn a_config_name_or_summary_row_cannot_point_outside_the_run_folder() {
     let before = walk(tmp.path());
     let o = mapbench(&["report", "out"], &work);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("summary.csv: row 2") && text(&o).contains("dataset name \"../../m\""), "{}", text(&o));
+    assert!(text(&o).contains("summary.csv: line 2") && text(&o).contains("dataset name \"../../m\""), "{}", text(&o));
     assert_eq!(walk(tmp.path()), before);
 }
