@@ -91,7 +91,8 @@ enum Command {
     /// exit 1 when it is not usable for the task.
     Validate {
         mesh: String,
-        /// `param` and `authalic` need a topological disk; `deform` allows holes.
+        /// `param` and `authalic` need a topological disk (`authalic` an interior vertex);
+        /// `deform` allows holes but needs a planar, counter-clockwise shape.
         #[arg(long, value_enum, default_value = "param")]
         task: ValidateTask,
     },
@@ -269,8 +270,13 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 Some(g) => solvers::generate::generate(g)?,
                 None => solvers::mesh::load_obj(std::path::Path::new(&mesh))?,
             };
-            let require_disk = matches!(task, ValidateTask::Param | ValidateTask::Authalic);
-            let report = solvers::mesh::validate(&mesh, require_disk);
+            let task = match task {
+                ValidateTask::Param => solvers::mesh::Task::Param,
+                ValidateTask::Deform => solvers::mesh::Task::Deform,
+                ValidateTask::Authalic => solvers::mesh::Task::Authalic,
+            };
+            // The check the run of that task makes, so the two cannot disagree.
+            let report = solvers::mesh::validate_for(&mesh, task);
             println!("{report}");
             Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
         }

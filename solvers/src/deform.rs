@@ -8,7 +8,7 @@
 
 use crate::energy::EnergyKind;
 use crate::error::MeshError;
-use crate::mesh::{validate, Mesh};
+use crate::mesh::{validate_for, Mesh, Task};
 use crate::problem::{DegenerateFace, MapProblem, Penalty};
 use crate::smoothness::Projection;
 use crate::solver::registry::SpecError;
@@ -54,16 +54,12 @@ pub enum DeformError {
     Mesh(#[from] MeshError),
     #[error(transparent)]
     Degenerate(#[from] DegenerateFace),
-    #[error("{source_name}: not a planar mesh (vertex {vertex} has z = {z}); the deform task needs z = 0")]
-    NotPlanar { source_name: String, vertex: usize, z: f64 },
     #[error("{source_name}: no handles; the deform task needs positional constraints")]
     NoHandles { source_name: String },
     #[error("{source_name}: handle {index} names vertex {vertex}, but the mesh has {n} vertices")]
     HandleOutOfRange { source_name: String, index: usize, vertex: usize, n: usize },
     #[error("{source_name}: handle {index} has a non-finite target {target:?}")]
     BadTarget { source_name: String, index: usize, target: [f64; 2] },
-    #[error("{source_name}: {count} faces are clockwise or degenerate in the rest pose (first: face {first}); deform needs counter-clockwise faces")]
-    Clockwise { source_name: String, count: usize, first: usize },
     #[error("{source_name}: initial map: {detail}")]
     BadInit { source_name: String, detail: String },
     #[error("{source_name}: {err}")]
@@ -139,12 +135,9 @@ pub fn solve_deform_from(
 ) -> Result<Outcome, DeformError> {
     let spec = SolverSpec::build(solver, &energy)?;
     energy.check().map_err(DeformError::Energy)?;
-    validate(mesh, false).into_result()?;
+    // Planarity and the rest pose's orientation included.
+    validate_for(mesh, Task::Deform).into_result()?;
     let source_name = mesh.source.clone();
-    let scale = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
-    if let Some((vertex, p)) = mesh.positions.iter().enumerate().find(|(_, p)| !(p[2].abs() <= 1e-12 * scale)) {
-        return Err(DeformError::NotPlanar { source_name, vertex, z: p[2] });
-    }
     if handles.is_empty() {
         return Err(DeformError::NoHandles { source_name });
     }
@@ -160,13 +153,6 @@ pub fn solve_deform_from(
     let (mid, s) = mesh.normalization();
     let rest = mesh.normalized();
     let x: Vec<f64> = rest.positions.iter().flat_map(|p| [p[0], p[1]]).collect();
-    // Checked before the local frames, which would call a clockwise face degenerate.
-    let cw: Vec<usize> = (0..rest.n_faces())
-        .filter(|&t| crate::local::signed_area(rest.faces[t].map(|v| [x[2 * v], x[2 * v + 1]])) <= 0.0)
-        .collect();
-    if let Some(&first) = cw.first() {
-        return Err(DeformError::Clockwise { source_name, count: cw.len(), first });
-    }
     let x = match init {
         None => x,
         Some(p) if p.len() != n => {
@@ -386,7 +372,9 @@ mod tests {
         let far = [Handle { vertex: 1_000_000, target: [0.0, 0.0] }];
         assert!(run(&mesh, &far).contains("handle 0 names vertex 1000000"));
         let bumpy = generate("bumpy_1k").unwrap();
-        assert!(run(&bumpy, &[Handle { vertex: 0, target: [0.0, 0.0] }]).contains("not a planar mesh"));
+        assert!(
+            run(&bumpy, &[Handle { vertex: 0, target: [0.0, 0.0] }]).contains("the deform task needs a planar mesh")
+        );
         let mut flipped = mesh.clone();
         flipped.faces.iter_mut().for_each(|f| f.swap(1, 2));
         let err = run(&flipped, &generated_handles("planar_bar_2k").unwrap());

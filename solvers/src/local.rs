@@ -131,6 +131,9 @@ impl LocalOp {
 
 /// Local operators of every face of a mesh: planar meshes use their own coordinates (so
 /// the identity is the rest pose of a deformation), 3D meshes are flattened per triangle.
+/// A planar face that is clockwise in the xy-plane is the surface seen from below: it uses
+/// the plane reflected (`y -> -y`), which is just as isometric, so a `param` input does not
+/// fail for the side it was drawn from (`deform` refuses clockwise rest poses before this).
 /// Returns the index of the first degenerate face on failure.
 pub fn local_ops(mesh: &Mesh) -> Result<Vec<LocalOp>, usize> {
     let planar = mesh.is_planar();
@@ -140,7 +143,8 @@ pub fn local_ops(mesh: &Mesh) -> Result<Vec<LocalOp>, usize> {
         .map(|(t, f)| {
             let p = [mesh.positions[f[0]], mesh.positions[f[1]], mesh.positions[f[2]]];
             let op = if planar {
-                LocalOp::from_planar([[p[0][0], p[0][1]], [p[1][0], p[1][1]], [p[2][0], p[2][1]]])
+                let z = [[p[0][0], p[0][1]], [p[1][0], p[1][1]], [p[2][0], p[2][1]]];
+                LocalOp::from_planar(z).or_else(|| LocalOp::from_planar(z.map(|[x, y]| [x, -y])))
             } else {
                 LocalOp::from_3d(p)
             };
@@ -211,6 +215,31 @@ mod tests {
         let yv = Vector6::new(y[0][0], y[0][1], y[1][0], y[1][1], y[2][0], y[2][1]);
         let s = op.m() * yv;
         assert!((s - w.stacked()).norm() < 1e-14);
+    }
+
+    #[test]
+    fn clockwise_planar_faces_get_the_reflected_frame() {
+        // a planar square drawn clockwise (seen from below), at z = 5 like a lifted 2D shape
+        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 2.0, 0.0], [0.0, 2.0, 0.0]];
+        let ccw = Mesh::new("t", positions, vec![[0, 1, 2], [0, 2, 3]]);
+        let mut cw = ccw.clone();
+        cw.faces.iter_mut().for_each(|f| f.swap(1, 2));
+        let (a, b) = (local_ops(&ccw).unwrap(), local_ops(&cw.normalized()).unwrap());
+        assert!(b.iter().all(|o| o.area > 0.0));
+        // same metric: the identity of the counter-clockwise copy and the reflection y -> -y of
+        // the clockwise one both have f_z = 1, f_zbar = 0 (the mirror image as seen from below)
+        let rest = cw.normalized();
+        for (t, op) in b.iter().enumerate() {
+            let y = rest.faces[t].map(|v| [rest.positions[v][0], -rest.positions[v][1]]);
+            let w = op.wirtinger(y);
+            assert!((w.fz[0] - 1.0).abs() < 1e-14 && w.fz[1].abs() < 1e-14 && w.y() < 1e-28, "{w:?}");
+        }
+        // counter-clockwise faces keep the plain xy frame, bit for bit
+        let p = |v: usize| [ccw.positions[v][0], ccw.positions[v][1]];
+        assert_eq!(a[0], LocalOp::from_planar([p(0), p(1), p(2)]).unwrap());
+        // a degenerate face is degenerate in either orientation
+        let flat = Mesh::new("t", vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], vec![[0, 2, 1]]);
+        assert_eq!(local_ops(&flat), Err(0));
     }
 
     #[test]

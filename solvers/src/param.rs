@@ -4,7 +4,7 @@
 use crate::energy::EnergyKind;
 use crate::error::MeshError;
 use crate::init::{global_scale, tutte, InitError, TutteBoundary};
-use crate::mesh::{validate, Mesh};
+use crate::mesh::{validate_for, Mesh, Task};
 use crate::problem::{DegenerateFace, MapProblem};
 use crate::smoothness::Projection;
 use crate::solver::registry::SpecError;
@@ -58,7 +58,7 @@ pub fn solve_param(
 ) -> Result<Outcome, ParamError> {
     let spec = SolverSpec::build(solver, &energy)?;
     energy.check().map_err(ParamError::Energy)?;
-    validate(mesh, true).into_result()?;
+    validate_for(mesh, Task::Param).into_result()?;
     let mesh = mesh.normalized();
     let mut problem = MapProblem::new(&mesh, energy)?;
     if let Some((w, proj)) = settings.smoothness {
@@ -73,4 +73,54 @@ pub fn solve_param(
     }
     newton(&problem, x, spec.block.as_ref(), &settings.solver, observer)
         .map_err(|err| ParamError::Solve { source_name: mesh.source.clone(), err })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate::generate;
+    use crate::solver::Recorder;
+
+    fn run(mesh: &Mesh) -> Result<Outcome, ParamError> {
+        let energy = EnergyKind::Sd;
+        let settings = ParamSettings {
+            solver: Settings {
+                stop: default_stop(&energy),
+                line_search: Default::default(),
+                linear: Default::default(),
+                analyses: None,
+            },
+            tutte_boundary: TutteBoundary::Uniform,
+            scaling_jump: 0.1,
+            smoothness: None,
+        };
+        solve_param(mesh, energy, "kp-newton", &settings, &mut Recorder::default())
+    }
+
+    /// The same surface drawn the other way round, lifted to z = 5, or in units of 1e300 (areas
+    /// overflow) or 1e-300 (they underflow) parameterizes like the original.
+    #[test]
+    fn orientation_and_units_do_not_matter() {
+        let disk = generate("flat_disk_1k").unwrap();
+        let bumpy = generate("bumpy_1k").unwrap();
+        let mut mirrored = disk.clone();
+        mirrored.faces.iter_mut().for_each(|f| f.swap(1, 2));
+        mirrored.positions.iter_mut().for_each(|p| p[2] = 5.0);
+        let scaled = |m: &Mesh, k: f64| {
+            Mesh::new(m.source.clone(), m.positions.iter().map(|p| p.map(|c| c * k)).collect(), m.faces.clone())
+        };
+        let cases = [
+            (&disk, mirrored),
+            (&bumpy, scaled(&bumpy, 1e300)),
+            (&bumpy, scaled(&bumpy, 1e-300)),
+            (&disk, scaled(&disk, 1e200)),
+        ];
+        for (k, (orig, other)) in cases.iter().enumerate() {
+            let a = run(orig).unwrap();
+            let b = run(other).unwrap_or_else(|e| panic!("case {k}: {e}"));
+            assert!(b.stop_reason.is_converged() && b.flips == 0, "case {k}: {:?}", b.stop_reason);
+            let rel = (a.final_energy - b.final_energy).abs() / a.final_energy;
+            assert!(rel < 1e-6, "case {k}: {} vs {}", a.final_energy, b.final_energy);
+        }
+    }
 }

@@ -16,7 +16,7 @@ pub mod sem;
 
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::mesh::topology::boundary_loops;
-use crate::mesh::{validate, Mesh};
+use crate::mesh::{validate_for, Mesh, Task};
 use crate::solver::{IterationRecord, Observer, Outcome, StopReason, StopSettings};
 use laplacian::{stretch_weights, LaplacianPattern, SubBlock};
 use rayon::prelude::*;
@@ -169,11 +169,19 @@ pub struct AuthalicProblem {
 impl AuthalicProblem {
     /// Validate `mesh` (a disk, no degenerate faces) and scale it to area `pi`.
     pub fn new(mesh: &Mesh) -> Result<AuthalicProblem, AuthalicError> {
-        validate(mesh, true).into_result()?;
+        validate_for(mesh, Task::Authalic).into_result()?;
         let n = mesh.n_vertices();
-        let s = (PI / mesh.total_area()).sqrt();
+        let total = mesh.total_area();
+        let (s, area): (f64, Vec<f64>) = if total.is_normal() {
+            let s = (PI / total).sqrt();
+            (s, (0..mesh.n_faces()).map(|t| mesh.face_area(t) * s * s).collect())
+        } else {
+            // Areas over- or underflow in the file's units: the scale of the area-1
+            // normalization (computed at unit extent), areas measured after scaling.
+            let s = PI.sqrt() * mesh.normalization().1;
+            (s, (0..mesh.n_faces()).map(|t| mesh.face_area_scaled(t, s)).collect())
+        };
         let positions: Vec<f64> = mesh.positions.iter().flat_map(|p| p.map(|c| c * s)).collect();
-        let area: Vec<f64> = (0..mesh.n_faces()).map(|t| mesh.face_area(t) * s * s).collect();
         if let Some(face) = area.iter().position(|a| !(*a > 0.0)) {
             return Err(AuthalicError::DegenerateFace { source_name: mesh.source.clone(), face });
         }

@@ -7,7 +7,8 @@
 //! blocks, cutting the surface apart. Here OBJ indices are global over the file, as the format
 //! says, so all objects and groups form one mesh with the file's vertex order.
 //! Everything except `v` and `f` (texture coordinates, normals, groups, materials, lines,
-//! unknown statements, comments) is ignored.
+//! unknown statements, comments) is ignored. A UTF-8 byte-order mark is skipped, and lines may
+//! end in `\n`, `\r\n` or a lone `\r` (classic Mac OS exports).
 
 use super::Mesh;
 use crate::error::MeshError;
@@ -33,7 +34,10 @@ pub fn parse_obj(source: &str, bytes: &[u8]) -> Result<Mesh, MeshError> {
     // 1-based positive indices, resolved once the vertex count is known (forward references
     // are tolerated), with the line of each face for messages.
     let mut raw: Vec<([i64; 3], usize)> = Vec::new();
-    for (l, line) in bytes.split(|&b| b == b'\n').enumerate() {
+    // Windows editors write a BOM; left in, it would glue onto the first keyword ("\u{feff}v")
+    // and that vertex would be ignored, shifting every index after it.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    for (l, line) in lines(bytes).enumerate() {
         let lineno = l + 1;
         let line =
             std::str::from_utf8(line).map_err(|_| bad(format!("line {lineno} is not UTF-8 text (binary file?)")))?;
@@ -111,6 +115,26 @@ pub fn parse_obj(source: &str, bytes: &[u8]) -> Result<Mesh, MeshError> {
     Ok(Mesh::new(source, positions, faces))
 }
 
+/// The lines of `bytes`, ended by `\n`, `\r\n` or a lone `\r`, so that line numbers match
+/// what an editor shows for any of the three conventions.
+fn lines(bytes: &[u8]) -> impl Iterator<Item = &[u8]> {
+    let mut rest = Some(bytes);
+    std::iter::from_fn(move || {
+        let text = rest?;
+        match text.iter().position(|&b| b == b'\n' || b == b'\r') {
+            Some(i) => {
+                let skip = if text[i] == b'\r' && text.get(i + 1) == Some(&b'\n') { 2 } else { 1 };
+                rest = Some(&text[i + skip..]);
+                Some(&text[..i])
+            }
+            None => {
+                rest = None;
+                Some(text)
+            }
+        }
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -176,6 +200,30 @@ mod tests {
         // groups do not split shared vertices: one connected disk
         assert_eq!(m.faces, vec![[0, 1, 2], [0, 2, 3]]);
         assert!(validate(&m, true).is_ok());
+    }
+
+    #[test]
+    fn byte_order_mark_is_skipped() {
+        let text = format!("\u{feff}{SQUARE}");
+        let m = load(&text).0.expect("a BOM before the first line is not part of it");
+        assert_eq!(m.n_vertices(), 4);
+        assert_eq!(m.positions[0], [0.0, 0.0, 0.0]);
+        assert_eq!(m.faces, vec![[0, 1, 2], [0, 2, 3]]);
+        // a BOM before a `v` line: the vertex counts, so later indices stay right
+        let m = load("\u{feff}v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").0.expect("valid OBJ");
+        assert_eq!((m.n_vertices(), m.faces.clone()), (3, vec![[0, 1, 2]]));
+    }
+
+    #[test]
+    fn cr_only_line_endings() {
+        let m = load(&SQUARE.replace('\n', "\r")).0.expect("lone CR ends a line");
+        assert_eq!(m.n_vertices(), 4);
+        assert_eq!(m.faces, vec![[0, 1, 2], [0, 2, 3]]);
+        // line numbers count CR, CRLF and LF line ends alike
+        let msg = malformed("v 0 0 0\rv 1 0 0\r\nv 0 1 0\nf 1 2 x\r");
+        assert!(msg.ends_with("line 4: face 0: cannot read vertex index \"x\""), "{msg}");
+        let msg = malformed("v 0 0 0\r\rv 1 0\r");
+        assert!(msg.ends_with("line 3: vertex 1 has 2 coordinates; 3 are needed"), "{msg}");
     }
 
     #[test]

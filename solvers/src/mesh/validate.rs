@@ -33,8 +33,35 @@ pub enum Problem {
     NotDisk { boundary_loops: usize, euler: i64 },
     #[error("vertex {vertex} has a non-finite coordinate (NaN or infinity)")]
     NonFinitePosition { vertex: usize },
+    #[error(
+        "the {} coordinates run from {lo:e} (vertex {lo_vertex}) to {hi:e} (vertex {hi_vertex}), a span f64 \
+         cannot hold; rescale the mesh",
+        ["x", "y", "z"][*axis]
+    )]
+    CoordinateRange { axis: usize, lo: f64, lo_vertex: usize, hi: f64, hi_vertex: usize },
     #[error("mesh has no faces")]
     Empty,
+    #[error(
+        "{count} {} off the plane z = 0 (first: vertex {first}, z = {z}); the deform task needs a planar mesh",
+        if *count == 1 { "vertex is" } else { "vertices are" }
+    )]
+    NotPlanar { count: usize, first: usize, z: f64 },
+    #[error("face {face} is clockwise in the plane; the deform task needs counter-clockwise faces (the rest pose)")]
+    ClockwiseFace { face: usize },
+    #[error("mesh has no interior vertex; the authalic task moves interior vertices and needs at least one")]
+    NoInterior,
+}
+
+/// The tasks a mesh is validated for: each task's run refuses exactly what
+/// [`validate_for`] reports for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Task {
+    /// A topological disk (3D or planar, either orientation).
+    Param,
+    /// A planar (z = 0), counter-clockwise shape; holes allowed.
+    Deform,
+    /// A topological disk with at least one interior vertex.
+    Authalic,
 }
 
 impl Problem {
@@ -51,7 +78,11 @@ impl Problem {
             Problem::Components { .. } => "component reports",
             Problem::NotDisk { .. } => "topology reports",
             Problem::NonFinitePosition { .. } => "non-finite vertices",
+            Problem::CoordinateRange { .. } => "coordinate-range reports",
             Problem::Empty => "empty-mesh reports",
+            Problem::NotPlanar { .. } => "planarity reports",
+            Problem::ClockwiseFace { .. } => "clockwise faces",
+            Problem::NoInterior => "interior reports",
         }
     }
 }
@@ -155,11 +186,19 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
         }
     }
 
-    // Degenerate: repeated index, or area below the manifest's threshold (1e-14 * diag^2).
-    let diag = mesh.bbox_diagonal();
-    let tiny = 1e-14 * diag * diag;
+    let range = coordinate_range(mesh);
+    let range_ok = range.is_none();
+    problems.extend(range);
+
+    // Degenerate: repeated index, or area below the manifest's threshold (1e-14 * diag^2),
+    // measured at unit extent when the squares of the file's units over- or underflow.
+    let (diag, m) = (mesh.bbox_diagonal(), mesh.extent());
+    let (k, tiny) = match 1e-14 * diag * diag {
+        tiny if tiny.is_normal() || !range_ok || !(m > 0.0) => (1.0, tiny),
+        _ => (1.0 / m, 1e-14 * (diag / m) * (diag / m)),
+    };
     for (face, f) in mesh.faces.iter().enumerate() {
-        if in_range[face] && (!is_proper(f, n) || (tiny.is_finite() && mesh.face_area(face) <= tiny)) {
+        if in_range[face] && (!is_proper(f, n) || (tiny.is_finite() && mesh.face_area_scaled(face, k) <= tiny)) {
             problems.push(Problem::DegenerateFace { face });
         }
     }
@@ -240,6 +279,68 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
         components,
         problems,
     }
+}
+
+/// The first axis whose coordinates span more than an `f64` holds, or so little that areas
+/// cannot be measured even at unit extent (a subnormal span); `None` when all are usable.
+fn coordinate_range(mesh: &Mesh) -> Option<Problem> {
+    let finite = || mesh.positions.iter().enumerate().filter(|(_, p)| p.iter().all(|c| c.is_finite()));
+    (0..3).find_map(|axis| {
+        let (lo_vertex, lo) = finite().map(|(v, p)| (v, p[axis])).min_by(|a, b| a.1.total_cmp(&b.1))?;
+        let (hi_vertex, hi) = finite().map(|(v, p)| (v, p[axis])).max_by(|a, b| a.1.total_cmp(&b.1))?;
+        let span = hi - lo;
+        (!span.is_finite() || (span > 0.0 && !span.is_normal())).then_some(Problem::CoordinateRange {
+            axis,
+            lo,
+            lo_vertex,
+            hi,
+            hi_vertex,
+        })
+    })
+}
+
+/// [`validate`] with everything the run of `task` refuses in a mesh: `param` and `authalic`
+/// need a topological disk, `authalic` an interior vertex, `deform` a planar (z = 0) shape
+/// whose faces are counter-clockwise in its area-1 rest pose. The run preambles call this, so
+/// `mapbench validate --task T` and a run of `T` cannot disagree about a mesh.
+pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
+    let mut report = validate(mesh, task != Task::Deform);
+    let sound = report.is_ok();
+    match task {
+        Task::Param => {}
+        Task::Deform => {
+            // Within 1e-12 of the diagonal counts as z = 0: exporters write -0 and 1e-17.
+            let scale = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
+            let off: Vec<usize> = (0..mesh.n_vertices())
+                .filter(|&v| mesh.positions[v][2].is_finite() && !(mesh.positions[v][2].abs() <= 1e-12 * scale))
+                .collect();
+            if let Some(&first) = off.first() {
+                report.problems.push(Problem::NotPlanar { count: off.len(), first, z: mesh.positions[first][2] });
+            } else if sound {
+                // The orientation the solver sees: that of the normalized rest pose.
+                let rest = mesh.normalized();
+                let xy = |v: usize| [rest.positions[v][0], rest.positions[v][1]];
+                report.problems.extend(
+                    (0..rest.n_faces())
+                        .filter(|&t| crate::local::signed_area(rest.faces[t].map(xy)) <= 0.0)
+                        .map(|face| Problem::ClockwiseFace { face }),
+                );
+            }
+        }
+        Task::Authalic => {
+            if sound && report.boundary_loops == 1 {
+                let mut on_boundary = vec![false; mesh.n_vertices()];
+                topology::boundary_loops(&mesh.faces, mesh.n_vertices())
+                    .iter()
+                    .flatten()
+                    .for_each(|&v| on_boundary[v] = true);
+                if on_boundary.iter().all(|&b| b) {
+                    report.problems.push(Problem::NoInterior);
+                }
+            }
+        }
+    }
+    report
 }
 
 #[cfg(test)]
@@ -462,6 +563,103 @@ mod tests {
         );
     }
 
+    fn scaled(m: &Mesh, k: f64) -> Mesh {
+        Mesh::new(m.source.clone(), m.positions.iter().map(|p| p.map(|c| c * k)).collect(), m.faces.clone())
+    }
+
+    #[test]
+    fn huge_and_tiny_coordinates_are_measured_at_unit_extent() {
+        for k in [1e300, 1e-300, 1e160, 1e-160] {
+            let m = scaled(&grid(), k);
+            let r = validate(&m, true);
+            assert!(r.is_ok(), "{k}: {r}");
+            for task in [Task::Param, Task::Deform, Task::Authalic] {
+                assert!(validate_for(&m, task).is_ok(), "{k} {task:?}: {}", validate_for(&m, task));
+            }
+            // a collinear face is still degenerate at that scale
+            let mut m = m;
+            m.positions.push([0.5 * k, 0.0, 0.0]);
+            m.faces.push([0, 9, 1]);
+            assert_eq!(problems(&m, false), vec![Problem::DegenerateFace { face: 8 }], "{k}");
+        }
+    }
+
+    #[test]
+    fn a_span_beyond_f64_is_a_problem_naming_the_vertices() {
+        let mut m = grid();
+        m.positions[0][0] = -1e308;
+        m.positions[8][0] = 1e308;
+        let p = problems(&m, true);
+        assert_eq!(p, vec![Problem::CoordinateRange { axis: 0, lo: -1e308, lo_vertex: 0, hi: 1e308, hi_vertex: 8 }]);
+        assert_eq!(
+            p[0].to_string(),
+            "the x coordinates run from -1e308 (vertex 0) to 1e308 (vertex 8), a span f64 cannot hold; rescale the mesh"
+        );
+        // a subnormal span cannot be measured either
+        let m = scaled(&grid(), 1e-320);
+        assert!(
+            matches!(problems(&m, true)[..], [Problem::CoordinateRange { axis: 0, .. }, ..]),
+            "{:?}",
+            problems(&m, true)
+        );
+    }
+
+    #[test]
+    fn deform_needs_a_planar_counter_clockwise_shape() {
+        let mut lifted = grid();
+        lifted.positions[4][2] = 0.5;
+        lifted.positions[7][2] = -0.25;
+        assert!(validate(&lifted, false).is_ok());
+        let p = validate_for(&lifted, Task::Deform).problems;
+        assert_eq!(p, vec![Problem::NotPlanar { count: 2, first: 4, z: 0.5 }]);
+        assert_eq!(
+            p[0].to_string(),
+            "2 vertices are off the plane z = 0 (first: vertex 4, z = 0.5); the deform task needs a planar mesh"
+        );
+        // z = const is a plane, but not the one deform works in; param takes either
+        let mut raised = grid();
+        raised.positions.iter_mut().for_each(|p| p[2] = 5.0);
+        assert!(matches!(validate_for(&raised, Task::Deform).problems[..], [Problem::NotPlanar { count: 9, .. }]));
+        assert!(validate_for(&raised, Task::Param).is_ok());
+        // exporters' noise (-0, 1e-17) is z = 0
+        let mut noisy = grid();
+        noisy.positions[1][2] = -0.0;
+        noisy.positions[2][2] = 1e-17;
+        assert!(validate_for(&noisy, Task::Deform).is_ok());
+
+        let mut cw = grid();
+        cw.faces.iter_mut().for_each(|f| f.swap(1, 2));
+        assert!(validate_for(&cw, Task::Param).is_ok() && validate_for(&cw, Task::Authalic).is_ok());
+        let p = validate_for(&cw, Task::Deform).problems;
+        assert_eq!(p, (0..8).map(|face| Problem::ClockwiseFace { face }).collect::<Vec<_>>());
+        assert_eq!(
+            p[0].to_string(),
+            "face 0 is clockwise in the plane; the deform task needs counter-clockwise faces (the rest pose)"
+        );
+        // one face folded over in the plane (consistently oriented, so only deform minds)
+        let mut folded = grid();
+        folded.positions[4] = [2.5, 2.5, 0.0];
+        let p = validate_for(&folded, Task::Deform).problems;
+        assert!(!p.is_empty() && p.iter().all(|p| matches!(p, Problem::ClockwiseFace { .. })), "{p:?}");
+    }
+
+    #[test]
+    fn authalic_needs_an_interior_vertex() {
+        let fan = Mesh::new(
+            "t",
+            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![[0, 1, 2], [0, 2, 3]],
+        );
+        assert!(validate_for(&fan, Task::Param).is_ok());
+        let p = validate_for(&fan, Task::Authalic).problems;
+        assert_eq!(p, vec![Problem::NoInterior]);
+        assert_eq!(
+            p[0].to_string(),
+            "mesh has no interior vertex; the authalic task moves interior vertices and needs at least one"
+        );
+        assert!(validate_for(&grid(), Task::Authalic).is_ok());
+    }
+
     #[test]
     fn random_soups_never_panic() {
         let mut state = 12345u64;
@@ -476,6 +674,9 @@ mod tests {
             let mesh = Mesh::new("fuzz", positions, faces);
             let r = validate(&mesh, true);
             let _ = r.to_string();
+            for task in [Task::Param, Task::Deform, Task::Authalic] {
+                let _ = validate_for(&mesh, task).to_string();
+            }
             let _ = topology::boundary_loops(&mesh.faces, n);
         }
     }
