@@ -2,9 +2,9 @@
 //! per-iteration CSVs and a summary (design.md "CLI").
 
 use anyhow::{Context, Result};
-use mapbench::{check, config, export, merge, output, progress, registry, report, runner};
 use clap::{Parser, Subcommand, ValueEnum};
 use config::LoadedConfig;
+use mapbench::{check, config, export, merge, output, progress, registry, report, runner};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
