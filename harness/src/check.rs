@@ -179,8 +179,9 @@ pub fn compare(baseline: &Baseline, runs: &[Record]) -> Comparison {
         match (b.iterations, a.iterations) {
             (Some(bi), Some(ai)) if ai != bi => {
                 let tol = b.iterations_tolerance.unwrap_or(0);
-                let delta = format!("{:+}", ai as i64 - bi as i64);
-                if ai > bi + tol {
+                // Counts and tolerances come from the files: no overflow on huge ones.
+                let delta = format!("{:+}", ai as i128 - bi as i128);
+                if ai > bi.saturating_add(tol) {
                     push("iterations", bi.to_string(), ai.to_string(), delta, true);
                 } else if ai < bi {
                     push("iterations", bi.to_string(), ai.to_string(), delta, false);
@@ -315,6 +316,19 @@ mod tests {
         let mut nan = rec("a", 10, 2.0);
         nan.final_energy = Some(f64::NAN);
         assert_eq!(compare(&b, &[nan]).exit_code(), 1);
+    }
+
+    /// Found by review of the baseline fuzz target: huge counts or tolerances in a baseline
+    /// overflowed (a panic in debug builds, a wrong verdict in release).
+    #[test]
+    fn huge_iteration_counts_and_tolerances_compare() {
+        let mut b = base(vec![rec("a", 3, 2.0)]);
+        b.runs[0].iterations_tolerance = Some(usize::MAX);
+        assert_eq!(compare(&b, &[rec("a", 5, 2.0)]).exit_code(), 0);
+        let big = 1usize << 63;
+        let c = compare(&base(vec![rec("a", big, 2.0)]), &[rec("a", 1, 2.0)]);
+        assert_eq!((c.exit_code(), c.improvements()), (0, 1));
+        assert_eq!(c.changes[0].delta, format!("-{}", big - 1));
     }
 
     #[test]

@@ -202,6 +202,9 @@ pub fn check_threads_per_run(threads: Option<usize>, cores: usize) -> Result<()>
     }
 }
 
+/// The longest `timeout`: any run deadline `now + timeout` fits an `Instant`.
+pub const MAX_TIMEOUT_SECS: f64 = 1e9;
+
 fn default_task() -> Task {
     Task::Param
 }
@@ -384,6 +387,10 @@ impl Config {
             _ => bail!("timeout = \"{t}\": unknown unit '{unit}' (use s, m or h, e.g. \"10m\")"),
         };
         match num.trim().parse::<f64>() {
+            // The runner adds it to `Instant::now()`, which panics far below f64's range.
+            Ok(v) if v > 0.0 && v * factor > MAX_TIMEOUT_SECS => {
+                bail!("timeout = \"{t}\" is too long (at most {MAX_TIMEOUT_SECS:e} s, about 30 years)")
+            }
             Ok(v) if v > 0.0 && v.is_finite() => Ok(Some(v * factor)),
             _ => bail!("timeout = \"{t}\" is not a positive duration (e.g. \"90s\", \"10m\", \"1h\")"),
         }
@@ -611,6 +618,18 @@ mod tests {
         assert!(format!("{:#}", t("10d").unwrap_err()).contains("unknown unit 'd'"));
         assert!(format!("{:#}", t("-1m").unwrap_err()).contains("not a positive duration"));
         assert_eq!(parse(MIN).unwrap().timeout_secs().unwrap(), None);
+    }
+
+    /// Found by the config fuzz target: a timeout that f64 holds but a run's deadline
+    /// (`Instant::now() + timeout`) does not panicked in the runner.
+    #[test]
+    fn huge_timeouts_are_config_errors() {
+        let t = |v: &str| parse(&format!("timeout = \"{v}\"\n{MIN}")).map(|c| c.timeout_secs().unwrap());
+        let huge = format!("1{}", "0".repeat(300));
+        for v in [format!("{huge}s"), format!("{huge}{}h", "0".repeat(6)), "1000000001".into()] {
+            assert!(format!("{:#}", t(&v).unwrap_err()).contains("is too long"), "{v}");
+        }
+        assert_eq!(t("1000000000").unwrap(), Some(1e9));
     }
 
     #[test]

@@ -4,6 +4,7 @@
 pub mod check;
 pub mod config;
 pub mod export;
+pub mod fuzzing;
 pub mod handles;
 pub mod html;
 pub mod mapfile;

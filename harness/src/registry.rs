@@ -47,7 +47,12 @@ pub struct Registry {
 impl Registry {
     pub fn load(path: &Path) -> Result<Registry> {
         let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
-        let reg: Registry = toml::from_str(&text).with_context(|| format!("{}: invalid registry", path.display()))?;
+        Self::parse(&text, path)
+    }
+
+    /// A registry from its text; `path` names it in errors. Nothing is read from disk.
+    pub fn parse(text: &str, path: &Path) -> Result<Registry> {
+        let reg: Registry = toml::from_str(text).with_context(|| format!("{}: invalid registry", path.display()))?;
         let mut seen = std::collections::HashSet::new();
         for e in &reg.dataset {
             check_entry(e).with_context(|| format!("{}: invalid registry", path.display()))?;
@@ -232,15 +237,29 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
             out.push(Dataset { name: e.name.clone(), source, expected: (e.vertices, e.faces), handles });
         }
     }
+    let inline = resolve_inline(cfg, &out)?;
+    out.extend(inline);
     let c = &cfg.config;
-    crate::names::check_run_names(
-        out.iter().map(|d: &Dataset| d.name.as_str()).chain(c.dataset.iter().map(|d| d.name.as_str())),
-        &c.energy_names(),
-        &c.solvers,
-    )
-    .with_context(|| format!("{}: invalid config", cfg.path.display()))?;
+    crate::names::check_run_names(out.iter().map(|d| d.name.as_str()), &c.energy_names(), &c.solvers)
+        .with_context(|| format!("{}: invalid config", cfg.path.display()))?;
+    if out.is_empty() {
+        // Say why, instead of the runner's "--only selects no run" when no --only was given.
+        bail!(
+            "{}: no dataset to run: every selected dataset was skipped ({})",
+            cfg.path.display(),
+            notices.iter().map(|n| n.trim_start_matches("skipping ")).collect::<Vec<_>>().join("; ")
+        );
+    }
+    Ok((out, notices))
+}
+
+/// The config's inline `[[dataset]]` entries, which follow the registry's `selected` ones (a
+/// name may not be in both). Paths resolve against the config's folder; nothing is read from
+/// disk (the fuzz target of the config reader plans runs with it).
+pub fn resolve_inline(cfg: &LoadedConfig, selected: &[Dataset]) -> Result<Vec<Dataset>> {
+    let mut out = Vec::new();
     for d in &cfg.config.dataset {
-        if out.iter().any(|o: &Dataset| o.name == d.name) {
+        if selected.iter().any(|o: &Dataset| o.name == d.name) {
             bail!("dataset '{}' is both selected from the registry and given inline", d.name);
         }
         let handles = match (&d.handles, &d.handles_rule) {
@@ -255,15 +274,7 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
             handles,
         });
     }
-    if out.is_empty() {
-        // Say why, instead of the runner's "--only selects no run" when no --only was given.
-        bail!(
-            "{}: no dataset to run: every selected dataset was skipped ({})",
-            cfg.path.display(),
-            notices.iter().map(|n| n.trim_start_matches("skipping ")).collect::<Vec<_>>().join("; ")
-        );
-    }
-    Ok((out, notices))
+    Ok(out)
 }
 
 #[cfg(test)]
