@@ -498,6 +498,9 @@ fn solve(
         }
         Task::Deform => {
             let kind = cfg.config.energy_kind(energy)?;
+            // Handle rules pick vertices by position: check the mesh first, so a bad mesh fails
+            // with validate's reason rather than with what the rule made of it.
+            solvers::mesh::validate_for(mesh, solvers::mesh::Task::Deform).into_result()?;
             let handles = ds.handles.load(mesh)?;
             let mut settings = cfg.config.deform_settings();
             settings.smoothness = cfg.config.smoothness_for(energy);
