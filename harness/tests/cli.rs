@@ -1,39 +1,10 @@
 //! The `mapbench` binary end to end, in temporary folders.
 
+mod common;
+
+use common::*;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn mapbench(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapbench"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("MAPBENCH_MESHES")
-        .output()
-        .expect("the binary runs")
-}
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
-
-/// A config in `dir` using the repository's registry.
-fn write_config(dir: &Path, body: &str) -> PathBuf {
-    let reg = repo_root().join("datasets.toml");
-    let path = dir.join("c.toml");
-    std::fs::write(&path, format!("registry = {:?}\n{body}", reg.display().to_string())).unwrap();
-    path
-}
-
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let header = r.headers().unwrap().iter().map(String::from).collect();
-    let rows = r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect();
-    (header, rows)
-}
+use std::process::Command;
 
 const QUAD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
 const TWO_LOOPS_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 0\nv 6 5 0\nv 5 6 0\nf 1 2 3\nf 4 5 6\n";
@@ -617,60 +588,13 @@ fn the_gate_passes_on_its_own_baseline_and_catches_regressions() {
 
 #[test]
 fn ctrl_c_keeps_finished_runs_and_resume_completes_the_batch() {
-    let tmp = tempfile::tempdir().unwrap();
-    let cfg = write_config(
-        tmp.path(),
-        "name = \"i\"\ndatasets = [\"bumpy_1k\", \"cap_2k\"]\nenergies = [\"sd\", \"bconf\"]\n\
-         solvers = [\"kp-newton\", \"cm\", \"slim\"]\n",
-    );
-    let out = tmp.path().join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mapbench"))
-        .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1"])
-        .current_dir(tmp.path())
-        .env_remove("MAPBENCH_MESHES")
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Interrupt once two runs are on disk.
-    let t0 = std::time::Instant::now();
-    let lines = || std::fs::read_to_string(out.join("summary.csv")).map(|s| s.lines().count()).unwrap_or(0);
-    while lines() < 3 {
-        assert!(child.try_wait().unwrap().is_none(), "the batch ended early");
-        assert!(t0.elapsed().as_secs() < 120, "no run finished");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
-    assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
-    let log = text(&o);
-    assert_eq!(o.status.code(), Some(130), "{log}");
-    assert!(log.contains("interrupted:") && log.contains("not run (`--resume` runs them)"), "{log}");
-    let (_, rows) = read_csv(&out.join("summary.csv"));
-    let done = rows.len();
-    assert!((2..12).contains(&done), "{done} runs done: {log}");
-    // every finished run is complete on disk; no temporary file is left
-    for r in &rows {
-        let stem = format!("{}__{}__{}", r[0], r[2], r[3]);
-        let (_, it) = read_csv(&out.join(format!("runs/{stem}.csv")));
-        assert_eq!(it.len() - 1, r[6].parse::<usize>().unwrap(), "{stem}");
-        assert!(out.join(format!("uv/{stem}.obj")).is_file());
-    }
-    let leftovers = |d: &str| {
-        std::fs::read_dir(out.join(d))
-            .unwrap()
-            .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(".tmp"))
-            .count()
-    };
-    assert_eq!((leftovers("runs"), leftovers("uv"), leftovers(".")), (0, 0, 0));
-    let meta: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
-    assert_eq!(meta["interrupted"], true);
-    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resume"], tmp.path());
-    let log = text(&o);
-    assert_eq!(o.status.code(), Some(0), "{log}");
-    assert_eq!(log.matches("resumed, ").count(), done, "{log}");
-    let (_, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(rows.len(), 12);
+    interrupted_batch_is_kept_and_resumed("INT", 130);
+}
+
+/// What Slurm sends at a time limit: the same clean stop, exit 128 + 15.
+#[test]
+fn sigterm_keeps_finished_runs_writes_the_report_and_resume_completes_the_batch() {
+    interrupted_batch_is_kept_and_resumed("TERM", 143);
 }
 
 #[test]

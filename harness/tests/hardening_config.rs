@@ -1,26 +1,11 @@
 //! Bad configs and registries end before any run starts (exit 2, naming the entry), and
 //! nothing is ever written outside the run folder, whatever a name says.
 
+mod common;
+
+use common::*;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn mapbench(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapbench"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("MAPBENCH_MESHES")
-        .output()
-        .expect("the binary runs")
-}
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
 
 /// Every path under `dir`, relative to it.
 fn walk(dir: &Path) -> BTreeSet<PathBuf> {

@@ -2,33 +2,10 @@
 //! run of task `T` refuses, for the same reason, and the probe's bad meshes (clockwise planar,
 //! huge coordinates, BOM, CR line ends) either work or fail with a message naming the mesh.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn mapbench(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapbench"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("MAPBENCH_MESHES")
-        .output()
-        .expect("the binary runs")
-}
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
-
-/// A config in `dir` using the repository's registry.
-fn write_config(dir: &Path, body: &str) -> PathBuf {
-    let reg = repo_root().join("datasets.toml");
-    let path = dir.join("c.toml");
-    std::fs::write(&path, format!("registry = {:?}\n{body}", reg.display().to_string())).unwrap();
-    path
-}
+use common::*;
+use std::path::Path;
 
 /// An `n` x `n` vertex grid over `[0, n-1]^2` times `scale`, with `z(i, j)` and faces
 /// counter-clockwise in the xy-plane unless `clockwise`.

@@ -1,34 +1,11 @@
 //! Run-folder hardening (issue 16, "Report and resume"): corrupt CSVs are refused by file and
-//! line, `--resume` re-runs a run with a missing file, SIGTERM is an interrupt, and a run whose
+//! line, `--resume` re-runs a run with a missing file, and a run whose
 //! files cannot be written fails alone.
 
+mod common;
+
+use common::*;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn mapbench(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mapbench"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("MAPBENCH_MESHES")
-        .output()
-        .expect("the binary runs")
-}
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
-
-/// A config in `dir` using the repository's registry.
-fn write_config(dir: &Path, body: &str) -> PathBuf {
-    let reg = repo_root().join("datasets.toml");
-    let path = dir.join("c.toml");
-    std::fs::write(&path, format!("registry = {:?}\n{body}", reg.display().to_string())).unwrap();
-    path
-}
 
 const TWO_RUNS: &str =
     "name = \"h\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n";
@@ -126,56 +103,6 @@ fn resume_reruns_a_finished_run_whose_map_was_deleted() {
     // the map is back, and the same (the solvers are deterministic)
     assert_eq!(std::fs::read_to_string(&map).unwrap(), obj);
     assert!(out.join("plots/bumpy_1k__sd__cm__map.png").is_file());
-}
-
-#[test]
-fn sigterm_keeps_finished_runs_writes_the_report_and_exits_143() {
-    let tmp = tempfile::tempdir().unwrap();
-    let cfg = write_config(
-        tmp.path(),
-        "name = \"i\"\ndatasets = [\"bumpy_1k\", \"cap_2k\"]\nenergies = [\"sd\", \"bconf\"]\n\
-         solvers = [\"kp-newton\", \"cm\", \"slim\"]\n",
-    );
-    let out = tmp.path().join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mapbench"))
-        .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1"])
-        .current_dir(tmp.path())
-        .env_remove("MAPBENCH_MESHES")
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // What Slurm sends at the time limit, once two runs are on disk.
-    let t0 = std::time::Instant::now();
-    let lines = || std::fs::read_to_string(out.join("summary.csv")).map(|s| s.lines().count()).unwrap_or(0);
-    while lines() < 3 {
-        assert!(child.try_wait().unwrap().is_none(), "the batch ended early");
-        assert!(t0.elapsed().as_secs() < 120, "no run finished");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    let kill = Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
-    assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
-    let log = text(&o);
-    assert_eq!(o.status.code(), Some(143), "{log}");
-    assert!(log.contains("interrupted:") && log.contains("not run (`--resume` runs them)"), "{log}");
-    let meta: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
-    assert_eq!(meta["interrupted"], true);
-    assert!(meta["ended_unix"].is_u64(), "{meta}");
-    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
-    let done = summary.lines().count() - 1;
-    assert!((2..12).contains(&done), "{done} runs done: {log}");
-    // the finished runs are complete and reported
-    let mut r = csv::Reader::from_path(out.join("summary.csv")).unwrap();
-    for rec in r.records() {
-        let rec = rec.unwrap();
-        let stem = format!("{}__{}__{}", &rec[0], &rec[2], &rec[3]);
-        let it = std::fs::read_to_string(out.join(format!("runs/{stem}.csv"))).unwrap();
-        assert_eq!(it.lines().count() - 2, rec[6].parse::<usize>().unwrap(), "{stem}");
-        assert!(out.join(format!("uv/{stem}.obj")).is_file(), "{stem}");
-    }
-    assert!(out.join("index.html").is_file());
-    assert!(out.join("tables/param.md").is_file());
 }
 
 #[test]
