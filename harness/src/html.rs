@@ -3,8 +3,8 @@
 //! file and the provenance from `meta.json`. Readable on a phone: images scale down and
 //! wide tables scroll sideways in their own box.
 
-use crate::output::{run_stem, write_atomic, SummaryRow};
 use crate::plots::{Plot, PlotKind};
+use crate::run_folder::{run_stem, write_atomic, SummaryRow};
 use crate::tables::Table;
 use anyhow::{Context, Result};
 use serde_json::Value;

@@ -3,8 +3,8 @@
 //! vs time, #negative eigenvalues vs iteration, as in the complex-view paper's Figures 2-3),
 //! and per run the final map with each triangle colored by its distortion.
 
-use crate::mapfile::{self, MapFile};
-use crate::output::{run_stem, write_atomic, SummaryRow};
+use crate::run_folder::map::{self as mapfile, MapFile};
+use crate::run_folder::{run_stem, write_atomic, SummaryRow};
 use anyhow::{bail, Context, Result};
 use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
@@ -109,7 +109,7 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
         let curves = runs
             .par_iter()
             .map(|r| {
-                let curve = Curve::new(crate::resume::read_run(run_dir, r)?);
+                let curve = Curve::new(crate::run::resume::read_run(run_dir, r)?);
                 Ok(Series { solver: &r.solver, style: style(&r.solver), converged: r.status == "ok", curve })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -315,7 +315,7 @@ struct Curve {
 }
 
 impl Curve {
-    fn new(file: crate::resume::IterationFile) -> Curve {
+    fn new(file: crate::run::resume::IterationFile) -> Curve {
         let rows = &file.rows;
         Curve {
             iter: rows.iter().map(|r| r.iter as f64).collect(),
@@ -909,7 +909,7 @@ where
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::output::iteration_csv;
+    use crate::run_folder::iteration_csv;
     use solvers::solver::IterationRecord;
 
     #[test]

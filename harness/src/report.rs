@@ -3,8 +3,8 @@
 //! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
 //! CSVs alone.
 
-use crate::output::{iteration_csv, run_stem, write_atomic, SummaryRow};
-use crate::resume::read_run;
+use crate::run::resume::read_run;
+use crate::run_folder::{iteration_csv, run_stem, write_atomic, SummaryRow};
 use crate::tables::Table;
 use anyhow::Result;
 use std::collections::BTreeMap;
