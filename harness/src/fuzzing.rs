@@ -7,11 +7,12 @@
 //! or a huge allocation is. Nothing is read from or written to disk.
 
 use crate::gate::check::{compare, render, Baseline, Record};
-use crate::plan::config::{LoadedConfig, Task};
+use crate::plan::config::LoadedConfig;
 use crate::plan::registry::{resolve_inline, Registry};
+use crate::plan::Plan;
 use anyhow::{Context, Result};
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// The file name every input is reported under (errors must name it).
 pub const SOURCE: &str = "fuzz-input";
@@ -33,30 +34,18 @@ pub fn obj(data: &[u8]) -> Result<()> {
 /// the settings of every energy and the run plan over the inline datasets.
 pub fn config(data: &[u8]) -> Result<()> {
     let cfg = LoadedConfig::parse(text(data)?, Path::new(SOURCE))?;
-    let c = &cfg.config;
-    // As the runner does: the deadline of a run is now + timeout.
-    if let Some(t) = c.timeout_secs()? {
-        let _deadline = Instant::now() + Duration::from_secs_f64(t);
-    }
-    let energies = c.energy_names();
-    for e in &energies {
-        match c.task {
-            Task::Authalic => {
-                c.authalic_settings();
-            }
-            Task::Param => {
-                let kind = c.energy_kind(e)?;
-                c.param_settings(&kind);
-            }
-            Task::Deform => {
-                c.energy_kind(e)?;
-                c.deform_settings();
-            }
-        }
-        c.smoothness_for(e);
-    }
+    crate::plan::energy_settings(&cfg)?;
     let datasets = resolve_inline(&cfg, &[])?;
-    crate::run::plan(&datasets, &energies, &c.solvers, &[]);
+    // A config of registry datasets only has no runs without the registry.
+    if !datasets.is_empty() {
+        let plan = Plan::with_datasets(cfg, datasets, Vec::new(), &[])?;
+        // As the runner does: the deadline of a run is now + timeout.
+        if let Some(t) = plan.timeout {
+            let _deadline = Instant::now() + t;
+        }
+    } else if let Some(t) = cfg.config.timeout_secs()? {
+        let _deadline = Instant::now() + std::time::Duration::from_secs_f64(t);
+    }
     Ok(())
 }
 

@@ -15,4 +15,5 @@ pub mod plots;
 pub mod report;
 pub mod run;
 pub mod run_folder;
+pub mod stats;
 pub mod tables;

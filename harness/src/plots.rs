@@ -109,7 +109,7 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
         let curves = runs
             .par_iter()
             .map(|r| {
-                let curve = Curve::new(crate::run::resume::read_run(run_dir, r)?);
+                let curve = Curve::new(crate::run_folder::read_run(run_dir, r)?);
                 Ok(Series { solver: &r.solver, style: style(&r.solver), converged: r.status == "ok", curve })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -315,7 +315,7 @@ struct Curve {
 }
 
 impl Curve {
-    fn new(file: crate::run::resume::IterationFile) -> Curve {
+    fn new(file: crate::run_folder::IterationFile) -> Curve {
         let rows = &file.rows;
         Curve {
             iter: rows.iter().map(|r| r.iter as f64).collect(),

@@ -3,7 +3,7 @@
 //! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
 //! CSVs alone.
 
-use crate::run::resume::read_run;
+use crate::run_folder::read_run;
 use crate::run_folder::{iteration_csv, run_stem, write_atomic, SummaryRow};
 use crate::tables::Table;
 use anyhow::Result;

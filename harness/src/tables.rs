@@ -122,7 +122,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
         // The solve costs the same for every strategy (same pattern): report the median over them.
         let mut solves: Vec<f64> =
             present.iter().filter_map(|(s, _)| of(s).and_then(|r| r.solve_ms_median)).collect::<Vec<_>>();
-        let Some(solve) = crate::run_folder::median(&mut solves) else { continue };
+        let Some(solve) = crate::stats::median(&mut solves) else { continue };
         let vertices = runs.first().and_then(|r| r.vertices).map(|v| v.to_string()).unwrap_or_default();
         let mut row = vec![d.to_string(), e.to_string(), vertices, ms(solve)];
         for (s, _) in &present {
@@ -170,7 +170,7 @@ pub fn smoothness_table(rows: &[SummaryRow]) -> Option<Table> {
         let of = |s: &str| rows.iter().filter(ok).find(|r| r.dataset == d && r.energy == e && r.solver == s);
         let (an, nu) = (of("kp-newton"), of("kp-newton-eig8"));
         let mut solves: Vec<f64> = [an, nu].iter().flatten().filter_map(|r| r.solve_ms_median).collect();
-        let solve = crate::run_folder::median(&mut solves);
+        let solve = crate::stats::median(&mut solves);
         let (pa, pn) = (an.and_then(|r| r.project_ms_median), nu.and_then(|r| r.project_ms_median));
         let vertices = an.or(nu).and_then(|r| r.vertices).map(|v| v.to_string()).unwrap_or_default();
         out.push(vec![

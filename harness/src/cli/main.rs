@@ -4,13 +4,17 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use config::LoadedConfig;
+mod signals;
+
 use mapbench::gate::check;
+use mapbench::plan::select::Shard;
+use mapbench::plan::Plan;
 use mapbench::plan::{config, registry};
 use mapbench::run::{self as runner, merge, progress};
 use mapbench::{export, report, run_folder as output};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 #[derive(Parser)]
@@ -43,7 +47,7 @@ enum Command {
         /// Run only shard I of N (1-based): every N-th run of the batch's canonical order.
         /// Give each shard its own --out and combine them with `merge`.
         #[arg(long)]
-        shard: Option<runner::Shard>,
+        shard: Option<Shard>,
     },
     /// Re-render the tables, plots and index.html of a run folder from its CSVs alone.
     Report { run_dir: PathBuf },
@@ -140,65 +144,19 @@ fn main() -> ExitCode {
     }
 }
 
-/// Stop a batch cleanly on the first SIGINT (Ctrl-C), SIGTERM (what Slurm sends at the time
-/// limit) or SIGHUP: `interrupt` stops the running runs, the finished ones stay on disk and
-/// the report is written. A second signal exits at once. Returns the first signal's number
-/// once one arrived (0 before).
-#[cfg(unix)]
-fn on_interrupt(interrupt: Arc<AtomicBool>) -> Arc<AtomicI32> {
-    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-    let first = Arc::new(AtomicI32::new(0));
-    let seen = first.clone();
-    match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
-        Ok(mut signals) => {
-            std::thread::spawn(move || {
-                for sig in signals.forever() {
-                    if seen.compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst).is_err() {
-                        std::process::exit(128 + sig);
-                    }
-                    interrupt.store(true, Ordering::SeqCst);
-                    let name = match sig {
-                        SIGINT => "Ctrl-C",
-                        SIGTERM => "SIGTERM",
-                        _ => "SIGHUP",
-                    };
-                    eprintln!("\ninterrupt ({name}): stopping the running runs (a second signal exits at once)");
-                }
-            });
-        }
-        Err(e) => eprintln!("warning: cannot catch Ctrl-C or SIGTERM ({e}): an interrupt loses the report"),
-    }
-    first
-}
-
-/// Ctrl-C only (no signal iterator here): the same clean stop, exit code 130.
-#[cfg(not(unix))]
-fn on_interrupt(interrupt: Arc<AtomicBool>) -> Arc<AtomicI32> {
-    let first = Arc::new(AtomicI32::new(0));
-    let seen = first.clone();
-    let _ = ctrlc::set_handler(move || {
-        if interrupt.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
-        }
-        seen.store(2, Ordering::SeqCst);
-        eprintln!("\ninterrupt: stopping the running runs (Ctrl-C again to exit at once)");
-    });
-    first
-}
-
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Run { config, out, only, resume, jobs, shard } => {
             if jobs == Some(0) {
                 anyhow::bail!("--jobs must be at least 1");
             }
-            let cfg = LoadedConfig::load(&config)?;
-            let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&cfg.config.name));
+            let plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
+            let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
             let interrupt = Arc::new(AtomicBool::new(false));
-            let signal = on_interrupt(interrupt.clone());
-            let opts = runner::RunOptions { only, resume, jobs, shard, interrupt };
+            let signal = signals::on_interrupt(interrupt.clone());
+            let opts = runner::RunOptions { resume, jobs, shard, interrupt };
             let progress = progress::for_stderr();
-            let report = runner::run_batch(&cfg, &out, &opts, progress.as_ref())?;
+            let report = runner::run_batch(&plan, &out, &opts, progress.as_ref())?;
             eprintln!(
                 "{} runs: {} ok, {} not converged, {} failed{}; results in {}",
                 report.runs,
@@ -222,8 +180,11 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             })
         }
         Command::ExportSystem { config, out, only, iteration } => {
-            let cfg = LoadedConfig::load(&config)?;
-            let files = export::export_systems(&cfg, &only, iteration, &out)?;
+            let plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
+            for n in &plan.notices {
+                eprintln!("{n}");
+            }
+            let files = export::export_systems(&plan, iteration, &out)?;
             eprintln!("wrote {} systems to {}", files.len(), out.display());
             Ok(ExitCode::SUCCESS)
         }

@@ -2,35 +2,25 @@
 //! iteration, as Matrix Market files, so other sparse solvers can be timed on exactly the
 //! matrices mapbench factorizes (`scripts/bench_linear_solvers.py`).
 
-use crate::plan::config::{LoadedConfig, Task};
-use crate::plan::registry::resolve;
-use crate::run::plan;
+use crate::plan::{Plan, RunSettings, Task};
 use crate::run_folder::write_atomic;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 
 /// Write `<out>/<run>__it<K>.mtx` (lower triangle, symmetric) and `<run>__it<K>.rhs.mtx` for
-/// every run of `cfg` selected by `only`. Returns the matrix files. A run that stops before
+/// every run of the plan, with the settings `run` solves it with. Returns the matrix files. A run that stops before
 /// iteration `K` exports the system at its last iterate (named by that iteration).
-pub fn export_systems(cfg: &LoadedConfig, only: &[String], iteration: usize, out: &Path) -> Result<Vec<PathBuf>> {
-    if cfg.config.task != Task::Param {
-        bail!("{}: export-system supports task = \"param\"", cfg.path.display());
-    }
-    let (datasets, notices) = resolve(cfg)?;
-    for n in notices {
-        eprintln!("{n}");
-    }
-    let runs = plan(&datasets, &cfg.config.energy_names(), &cfg.config.solvers, only);
-    if runs.is_empty() {
-        bail!("--only {} selects no run of {}", only.join(" "), cfg.path.display());
+pub fn export_systems(plan: &Plan, iteration: usize, out: &Path) -> Result<Vec<PathBuf>> {
+    if plan.task != Task::Param {
+        bail!("{}: export-system supports task = \"param\"", plan.config.path.display());
     }
     let mut written = Vec::new();
-    for r in runs {
-        let ds = &datasets[r.dataset];
-        let mesh = ds.load()?;
-        let kind = cfg.config.energy_kind(&r.energy)?;
-        let settings = cfg.config.param_settings(&kind);
-        let sys = solvers::system::param_system(&mesh, kind, &r.solver, &settings, iteration)
+    for r in &plan.runs {
+        let RunSettings::Param { energy, settings } = &r.settings else {
+            bail!("run {}: not a param run", r.stem);
+        };
+        let mesh = plan.dataset(r).load()?;
+        let sys = solvers::system::param_system(&mesh, *energy, &r.solver, settings, iteration)
             .with_context(|| format!("run {}", r.stem))?;
         let path = out.join(format!("{}__it{}.mtx", r.stem, sys.iteration));
         write_atomic(&path, sys.matrix_market().as_bytes())?;
@@ -137,8 +127,8 @@ pub fn time_system(sys: &SystemFile, ordering: solvers::ordering::Ordering, repe
         n: sys.n,
         ordering: lin.ordering().as_str(),
         analyse_ms,
-        factorize_ms: crate::run_folder::median(&mut fact).unwrap_or(f64::NAN),
-        solve_ms: crate::run_folder::median(&mut solve).unwrap_or(f64::NAN),
+        factorize_ms: crate::stats::median(&mut fact).unwrap_or(f64::NAN),
+        solve_ms: crate::stats::median(&mut solve).unwrap_or(f64::NAN),
         factor_entries: lin.factor_len(),
     })
 }

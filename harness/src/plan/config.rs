@@ -464,7 +464,7 @@ impl Config {
 
     /// The `authalic` settings: `AuthalicSettings` defaults (the paper's Table 1 protocol:
     /// 100 iterations, no tolerance stop) overridden by `[stop]` and `[authalic]`.
-    pub fn authalic_settings(&self) -> AuthalicSettings {
+    fn authalic_settings(&self) -> AuthalicSettings {
         let d = AuthalicSettings::default();
         let a = self.authalic.clone().unwrap_or_default();
         AuthalicSettings {
@@ -537,15 +537,37 @@ impl Config {
         Ok(kind)
     }
 
+    /// The resolved settings of the runs of energy `name` (the one place where config sections
+    /// become solver settings): the task's defaults, the config's overrides, the energy's
+    /// parameters and its smoothness term.
+    pub fn run_settings(&self, name: &str) -> Result<crate::plan::RunSettings> {
+        use crate::plan::RunSettings;
+        Ok(match self.task {
+            Task::Authalic => RunSettings::Authalic(self.authalic_settings()),
+            Task::Param => {
+                let energy = self.energy_kind(name)?;
+                let mut settings = self.param_settings(&energy);
+                settings.smoothness = self.smoothness_for(name);
+                RunSettings::Param { energy, settings }
+            }
+            Task::Deform => {
+                let energy = self.energy_kind(name)?;
+                let mut settings = self.deform_settings();
+                settings.smoothness = self.smoothness_for(name);
+                RunSettings::Deform { energy, settings }
+            }
+        })
+    }
+
     /// The smoothness term of energy `name`: weight and projection, `None` when off.
-    pub fn smoothness_for(&self, name: &str) -> Option<(f64, Projection)> {
+    fn smoothness_for(&self, name: &str) -> Option<(f64, Projection)> {
         let p = self.energy.get(name)?;
         p.smoothness.filter(|w| *w > 0.0).map(|w| (w, p.smoothness_projection.unwrap_or_default()))
     }
 
     /// The `deform` settings (the same for every energy): deform defaults (energy decrease < 1e-6, no
     /// global scaling) overridden by `[stop]`, `[line_search]`, `[linear]`, `[deform]`.
-    pub fn deform_settings(&self) -> DeformSettings {
+    fn deform_settings(&self) -> DeformSettings {
         let p = self.param_settings_with(solvers::deform::default_stop());
         DeformSettings {
             solver: p.solver,
@@ -555,7 +577,7 @@ impl Config {
     }
 
     /// The solver settings for one energy: design.md conventions overridden by the config.
-    pub fn param_settings(&self, energy: &EnergyKind) -> ParamSettings {
+    fn param_settings(&self, energy: &EnergyKind) -> ParamSettings {
         self.param_settings_with(default_stop(energy))
     }
 

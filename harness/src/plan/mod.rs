@@ -1,6 +1,241 @@
-//! From a config and the dataset registry to the runs of a batch.
+//! From a config and the dataset registry to the runs of a batch: the config is resolved once
+//! into a [`Plan`], and every verb (`run`, `export-system`, `meta.json`, `--resume` keys,
+//! `merge`'s checks) consumes the plan instead of reading config sections.
 
 pub mod config;
 pub mod handles;
 pub mod names;
 pub mod registry;
+pub mod select;
+
+use anyhow::{bail, Context, Result};
+use config::LoadedConfig;
+use registry::Dataset;
+use select::glob_match;
+use solvers::authalic::AuthalicSettings;
+use solvers::deform::DeformSettings;
+use solvers::energy::EnergyKind;
+use solvers::param::ParamSettings;
+use solvers::solver::StopSettings;
+use std::time::Duration;
+
+pub use config::Task;
+
+/// The fully resolved settings of one run: what the solver gets, defaults and overrides
+/// applied, smoothness term included.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RunSettings {
+    Param { energy: EnergyKind, settings: ParamSettings },
+    Deform { energy: EnergyKind, settings: DeformSettings },
+    Authalic(AuthalicSettings),
+}
+
+impl RunSettings {
+    pub fn task(&self) -> Task {
+        match self {
+            RunSettings::Param { .. } => Task::Param,
+            RunSettings::Deform { .. } => Task::Deform,
+            RunSettings::Authalic(_) => Task::Authalic,
+        }
+    }
+
+    /// The stop rules the run applies.
+    pub fn stop(&self) -> StopSettings {
+        match self {
+            RunSettings::Param { settings, .. } => settings.solver.stop,
+            RunSettings::Deform { settings, .. } => settings.solver.stop,
+            RunSettings::Authalic(s) => s.stop,
+        }
+    }
+
+    /// Everything that determines the run's result, as text for its `--resume` key. Debug
+    /// prints every field, floats exactly (shortest round-trip form); the key also holds the
+    /// code's revision, so a change of this text's layout comes with a change of the key.
+    pub fn key_text(&self) -> String {
+        format!("{self:?}")
+    }
+}
+
+/// The resolved settings of each energy of a config, in the config's order.
+pub fn energy_settings(cfg: &LoadedConfig) -> Result<Vec<(String, RunSettings)>> {
+    let c = &cfg.config;
+    c.energy_names()
+        .into_iter()
+        .map(|e| c.run_settings(&e).map(|s| (e, s)))
+        .collect::<Result<_>>()
+        .with_context(|| format!("{}: invalid config", cfg.path.display()))
+}
+
+/// One run of the batch.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannedRun {
+    /// Index into [`Plan::datasets`].
+    pub dataset: usize,
+    pub energy: String,
+    pub solver: String,
+    /// `<dataset>__<energy>__<solver>`: the run's file names.
+    pub stem: String,
+    pub settings: RunSettings,
+}
+
+/// A config resolved into the runs of a batch.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// The config as read, for provenance (`meta.json`); nothing else reads its sections.
+    pub config: LoadedConfig,
+    pub task: Task,
+    pub datasets: Vec<Dataset>,
+    /// One line per registry entry that was skipped, and why.
+    pub notices: Vec<String>,
+    /// The runs in canonical order (datasets, then energies, then solvers, as the config
+    /// lists them), after `--only`.
+    pub runs: Vec<PlannedRun>,
+    /// The `--only` globs that selected `runs` (empty: every run).
+    pub only: Vec<String>,
+    /// Wall-clock limit of each run.
+    pub timeout: Option<Duration>,
+    /// rayon threads inside each run, when the config fixes them.
+    pub threads_per_run: Option<usize>,
+}
+
+impl Plan {
+    /// Resolve `cfg` with its registry (read from disk) and keep the runs `only` selects.
+    pub fn resolve(cfg: LoadedConfig, only: &[String]) -> Result<Plan> {
+        let (datasets, notices) =
+            registry::resolve(&cfg).with_context(|| format!("{}: datasets", cfg.path.display()))?;
+        Plan::with_datasets(cfg, datasets, notices, only)
+    }
+
+    /// The plan over datasets already resolved (the fuzz target passes the inline ones, so
+    /// nothing is read from disk). An `only` that selects no run is an error.
+    pub fn with_datasets(
+        cfg: LoadedConfig,
+        datasets: Vec<Dataset>,
+        notices: Vec<String>,
+        only: &[String],
+    ) -> Result<Plan> {
+        let c = &cfg.config;
+        let settings = energy_settings(&cfg)?;
+        let mut runs = Vec::new();
+        for (d, ds) in datasets.iter().enumerate() {
+            for (energy, settings) in &settings {
+                for solver in &c.solvers {
+                    let stem = crate::run_folder::run_stem(&ds.name, energy, solver);
+                    if only.is_empty() || only.iter().any(|g| glob_match(g, &stem)) {
+                        runs.push(PlannedRun {
+                            dataset: d,
+                            energy: energy.clone(),
+                            solver: solver.clone(),
+                            stem,
+                            settings: settings.clone(),
+                        });
+                    }
+                }
+            }
+        }
+        if runs.is_empty() {
+            bail!("--only {} selects no run of {}", only.join(" "), cfg.path.display());
+        }
+        let invalid = || format!("{}: invalid config", cfg.path.display());
+        let timeout = c.timeout_secs().with_context(invalid)?.map(Duration::from_secs_f64);
+        Ok(Plan {
+            task: c.task,
+            threads_per_run: c.threads_per_run,
+            config: cfg,
+            datasets,
+            notices,
+            runs,
+            only: only.to_vec(),
+            timeout,
+        })
+    }
+
+    /// The dataset of a run.
+    pub fn dataset(&self, run: &PlannedRun) -> &Dataset {
+        &self.datasets[run.dataset]
+    }
+
+    /// The resolved settings of each energy, in the config's order (one entry per energy:
+    /// every run of an energy has the same settings).
+    pub fn settings_per_energy(&self) -> Vec<(&str, &RunSettings)> {
+        let mut out: Vec<(&str, &RunSettings)> = Vec::new();
+        for r in &self.runs {
+            if !out.iter().any(|(e, _)| *e == r.energy) {
+                out.push((&r.energy, &r.settings));
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn plan(text: &str, only: &[&str]) -> Result<Plan> {
+        let cfg = LoadedConfig::parse(text, Path::new("t.toml"))?;
+        let datasets = registry::resolve_inline(&cfg, &[])?;
+        let only: Vec<String> = only.iter().map(|s| s.to_string()).collect();
+        Plan::with_datasets(cfg, datasets, Vec::new(), &only)
+    }
+
+    const INLINE: &str = "name = \"t\"\nenergies = [\"sd\", \"sarap\"]\nsolvers = [\"kp-newton\", \"cm\"]\n\
+        [[dataset]]\nname = \"a\"\npath = \"a.obj\"\n[[dataset]]\nname = \"b\"\npath = \"b.obj\"\n";
+
+    #[test]
+    fn runs_come_in_canonical_order_with_their_resolved_settings() {
+        let p = plan(&format!("{INLINE}[energy.sd]\nsmoothness = 0.25\n[stop]\nmax_iters = 7\n"), &[]).unwrap();
+        let stems: Vec<&str> = p.runs.iter().map(|r| r.stem.as_str()).collect();
+        assert_eq!(
+            stems,
+            [
+                "a__sd__kp-newton",
+                "a__sd__cm",
+                "a__sarap__kp-newton",
+                "a__sarap__cm",
+                "b__sd__kp-newton",
+                "b__sd__cm",
+                "b__sarap__kp-newton",
+                "b__sarap__cm"
+            ]
+        );
+        let RunSettings::Param { energy, settings } = &p.runs[0].settings else { panic!("{:?}", p.runs[0]) };
+        assert_eq!(*energy, EnergyKind::Sd);
+        assert_eq!(settings.smoothness, Some((0.25, solvers::smoothness::Projection::Analytic)));
+        assert_eq!(settings.solver.stop.max_iters, 7);
+        let RunSettings::Param { settings, .. } = &p.runs[2].settings else { panic!() };
+        assert_eq!((settings.smoothness, settings.solver.stop.energy_decrease_tol), (None, 1e-8));
+        assert_eq!(p.settings_per_energy().len(), 2);
+    }
+
+    #[test]
+    fn only_filters_and_an_empty_selection_is_an_error() {
+        let p = plan(INLINE, &["b__*__cm"]).unwrap();
+        assert_eq!(p.runs.iter().map(|r| r.stem.as_str()).collect::<Vec<_>>(), ["b__sd__cm", "b__sarap__cm"]);
+        assert_eq!(p.dataset(&p.runs[0]).name, "b");
+        let e = format!("{:#}", plan(INLINE, &["zzz*"]).unwrap_err());
+        assert!(e.contains("--only zzz* selects no run of t.toml"), "{e}");
+    }
+
+    #[test]
+    fn deform_and_authalic_runs_carry_their_task_settings() {
+        let d = plan(
+            &format!("task = \"deform\"\n{}[deform]\nlambda = 50.0\n", INLINE.replace("\"sarap\"", "\"nh\"")),
+            &[],
+        )
+        .unwrap();
+        let RunSettings::Deform { settings, .. } = &d.runs[0].settings else { panic!() };
+        assert_eq!((settings.lambda, settings.solver.stop.energy_decrease_tol), (50.0, 1e-6));
+        let a = plan(
+            "name = \"a\"\ntask = \"authalic\"\nsolvers = [\"sem\"]\n[[dataset]]\nname = \"m\"\npath = \"m.obj\"\n\
+             [stop]\nmax_iters = 9\n",
+            &[],
+        )
+        .unwrap();
+        assert_eq!(a.runs.len(), 1);
+        assert_eq!((a.runs[0].energy.as_str(), a.runs[0].settings.task()), ("authalic", Task::Authalic));
+        assert_eq!(a.runs[0].settings.stop().max_iters, 9);
+        assert!(a.timeout.is_none());
+    }
+}

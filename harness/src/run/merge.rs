@@ -1,7 +1,10 @@
 //! `merge SHARD_DIR...`: combine the folders of `run --shard I/N` batches of one config into
 //! one run folder, as if the batch had run unsharded, and render its report.
 
-use crate::run_folder::{read_summary, run_stem, write_atomic, write_summary, SummaryRow};
+use crate::run_folder::{
+    iterations_csv, map_obj, meta_json, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary,
+    SummaryRow,
+};
 use anyhow::{bail, Context, Result};
 use serde_json::Value;
 use std::collections::HashMap;
@@ -17,7 +20,7 @@ pub struct Merged {
 }
 
 fn read_meta(dir: &Path) -> Result<Value> {
-    let path = dir.join("meta.json");
+    let path = meta_json(dir);
     let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
     serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))
 }
@@ -66,11 +69,11 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
             if let Some(other) = from.insert(stem.clone(), dir) {
                 bail!("run {stem} is in both {} and {}", other.display(), dir.display());
             }
-            for (sub, ext) in [("runs", "csv"), ("runs", "json"), ("uv", "obj")] {
-                let src = dir.join(sub).join(format!("{stem}.{ext}"));
+            for file in [iterations_csv, sidecar::path, map_obj] {
+                let src = file(dir, &stem);
                 if src.is_file() {
                     let bytes = std::fs::read(&src).with_context(|| format!("{}: cannot read", src.display()))?;
-                    write_atomic(&out_dir.join(sub).join(format!("{stem}.{ext}")), &bytes)?;
+                    write_atomic(&file(&out_dir, &stem), &bytes)?;
                 }
             }
             rows.push((i, row));
@@ -81,7 +84,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
     let mut missing: Vec<(usize, String)> =
         order.iter().filter(|(s, _)| !from.contains_key(*s)).map(|(s, &i)| (i, s.clone())).collect();
     missing.sort();
-    write_summary(&out_dir.join("summary.csv"), &rows)?;
+    write_summary(&summary_csv(&out_dir), &rows)?;
     let mut meta = metas[0].clone();
     meta["shard"] = Value::Null;
     meta["merged_from"] = Value::Array(
@@ -104,7 +107,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
     meta["ended_unix"] =
         if ends.iter().all(Option::is_some) { ends.iter().flatten().max().copied().into() } else { Value::Null };
     meta["interrupted"] = metas.iter().any(|m| m["interrupted"] == Value::Bool(true)).into();
-    write_atomic(&out_dir.join("meta.json"), serde_json::to_string_pretty(&meta)?.as_bytes())?;
+    write_atomic(&meta_json(&out_dir), serde_json::to_string_pretty(&meta)?.as_bytes())?;
     crate::report::refresh(&out_dir, &rows)?;
     Ok(Merged { out_dir, runs: rows.len(), missing: missing.into_iter().map(|(_, s)| s).collect() })
 }

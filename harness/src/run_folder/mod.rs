@@ -1,123 +1,85 @@
-//! CSV files of a run (design.md "Output of a run"): one per-iteration file per run and
-//! `summary.csv`, with exactly the documented columns. Files are written atomically
-//! (temporary file + rename) so an interrupted batch never leaves a half-written run.
+//! The run folder and every file in it (design.md "Output of a run"): `summary.csv`,
+//! `meta.json`, `runs/<run>.csv` (per iteration) and `runs/<run>.json` (the resume sidecar),
+//! `uv/<run>.obj` (the final map). This module owns their names and formats; files are
+//! written atomically (temporary file + rename), so an interrupted batch never leaves a
+//! half-written run.
 
+pub mod iterations;
 pub mod map;
+pub mod meta;
+pub mod sidecar;
+pub mod summary;
+
+pub use iterations::{iteration_csv, read_iterations, read_rows, read_run, IterationFile, ITERATION_COLUMNS};
+pub use summary::{read_summary, write_summary, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
 
 use anyhow::{Context, Result};
-use serde::{Deserialize, Serialize};
 use solvers::solver::IterationRecord;
-use std::fs::{File, OpenOptions};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Per-iteration CSV columns, in design.md order; `ls_evals` follows as an extra.
-pub const ITERATION_COLUMNS: [&str; 15] = [
-    "iter",
-    "energy",
-    "energy_minus_best",
-    "grad_norm",
-    "step",
-    "neg_eig",
-    "indefinite_elems",
-    "flips",
-    "t_assemble_s",
-    "t_project_s",
-    "t_solve_s",
-    "t_linesearch_s",
-    "t_iter_s",
-    "t_cum_s",
-    "ls_evals",
-];
-
-/// `summary.csv` columns, in design.md order; `area_ratio_sd` .. `folded` are filled by
-/// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers.
-pub const SUMMARY_COLUMNS: [&str; 26] = [
-    "dataset",
-    "task",
-    "energy",
-    "solver",
-    "vertices",
-    "faces",
-    "iterations",
-    "converged",
-    "stop_reason",
-    "init_energy",
-    "final_energy",
-    "grad_norm",
-    "time_s",
-    "ms_per_vertex",
-    "iter_ms_median",
-    "project_ms_median",
-    "solve_ms_median",
-    "flips",
-    "status",
-    "error",
-    "area_ratio_sd",
-    "area_ratio_mad",
-    "authalic_energy",
-    "folded",
-    "analysis_s",
-    "analysis_shared",
-];
-
-#[derive(Clone, Debug, Serialize)]
-struct IterationRow {
-    iter: usize,
-    energy: f64,
-    energy_minus_best: f64,
-    grad_norm: f64,
-    step: f64,
-    neg_eig: usize,
-    indefinite_elems: usize,
-    flips: usize,
-    t_assemble_s: f64,
-    t_project_s: f64,
-    t_solve_s: f64,
-    t_linesearch_s: f64,
-    t_iter_s: f64,
-    t_cum_s: f64,
-    ls_evals: usize,
+/// `summary.csv` of a run folder.
+pub fn summary_csv(dir: &Path) -> PathBuf {
+    dir.join("summary.csv")
 }
 
-/// One row of `summary.csv`. Fields unknown for a failed run are empty.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct SummaryRow {
-    pub dataset: String,
-    pub task: String,
-    pub energy: String,
-    pub solver: String,
-    pub vertices: Option<usize>,
-    pub faces: Option<usize>,
-    pub iterations: Option<usize>,
-    pub converged: bool,
-    pub stop_reason: String,
-    pub init_energy: Option<f64>,
-    pub final_energy: Option<f64>,
-    pub grad_norm: Option<f64>,
-    pub time_s: Option<f64>,
-    pub ms_per_vertex: Option<f64>,
-    pub iter_ms_median: Option<f64>,
-    pub project_ms_median: Option<f64>,
-    pub solve_ms_median: Option<f64>,
-    pub flips: Option<usize>,
-    pub status: String,
-    pub error: String,
-    #[serde(default)]
-    pub area_ratio_sd: Option<f64>,
-    #[serde(default)]
-    pub area_ratio_mad: Option<f64>,
-    #[serde(default)]
-    pub authalic_energy: Option<f64>,
-    #[serde(default)]
-    pub folded: Option<usize>,
-    /// Wall time of the system's symbolic analysis (ordering + symbolic Cholesky), which
-    /// `time_s` leaves out: the runs on a mesh share it.
-    #[serde(default)]
-    pub analysis_s: Option<f64>,
-    /// The run took the analysis computed by another run on the same mesh.
-    #[serde(default)]
-    pub analysis_shared: Option<bool>,
+/// `meta.json` of a run folder.
+pub fn meta_json(dir: &Path) -> PathBuf {
+    dir.join("meta.json")
+}
+
+/// The folder of the per-iteration CSVs and sidecars.
+pub fn runs_dir(dir: &Path) -> PathBuf {
+    dir.join("runs")
+}
+
+/// `runs/<run>.csv`, the per-iteration rows of a run.
+pub fn iterations_csv(dir: &Path, stem: &str) -> PathBuf {
+    runs_dir(dir).join(format!("{stem}.csv"))
+}
+
+/// `uv/<run>.obj`, the final map of a run.
+pub fn map_obj(dir: &Path, stem: &str) -> PathBuf {
+    dir.join("uv").join(format!("{stem}.obj"))
+}
+
+/// The files of a finished run, as the batch writes them.
+pub struct RunFiles<'a> {
+    pub stem: &'a str,
+    pub summary: &'a SummaryRow,
+    pub rows: &'a [IterationRecord],
+    /// The final map as OBJ text, when the run has one.
+    pub map_obj: Option<&'a [u8]>,
+    /// The run's `--resume` key: given, the sidecar is written last.
+    pub key: Option<&'a str>,
+}
+
+/// Write a run's files: its map (when it has one), its per-iteration CSV and, given the run's
+/// key, the sidecar that marks it finished, written last. On an error nothing of this run is
+/// left that `--resume` or the report would take for a result.
+pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
+    let map = map_obj(dir, run.stem);
+    let written = (|| {
+        if let Some(obj) = run.map_obj {
+            write_atomic(&map, obj)?;
+        }
+        // With this run's own best; `report::refresh` fills in the group's best at the end.
+        let own_best = run.rows.iter().map(|x| x.energy).fold(f64::INFINITY, f64::min);
+        write_atomic(&iterations_csv(dir, run.stem), &iteration_csv(run.rows, own_best)?)?;
+        if let Some(k) = run.key {
+            sidecar::write(dir, run.stem, k, run.summary)?;
+        }
+        Ok(())
+    })();
+    if written.is_err() {
+        if run.map_obj.is_some() {
+            let _ = std::fs::remove_file(&map);
+        }
+        // A previous batch's sidecar would vouch for files that are now a mix.
+        if run.key.is_some() {
+            let _ = std::fs::remove_file(sidecar::path(dir, run.stem));
+        }
+    }
+    written
 }
 
 /// The file stem of a run: `<dataset>__<energy>__<solver>`.
@@ -155,105 +117,6 @@ pub fn read_csv_bytes(path: &Path) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// The per-iteration CSV of one run; `best` is the best final energy of the run's
-/// (dataset, energy) group over all solvers. A solver's extra columns
-/// ([`IterationRecord::extra`], named by the first row) follow the design.md ones.
-pub fn iteration_csv(rows: &[IterationRecord], best: f64) -> Result<Vec<u8>> {
-    let extra_names: Vec<&str> = rows.first().map(|r| r.extra.iter().map(|e| e.0).collect()).unwrap_or_default();
-    let mut header = csv::Writer::from_writer(Vec::new());
-    header.write_record(ITERATION_COLUMNS.iter().copied().chain(extra_names.iter().copied()))?;
-    let mut out = header.into_inner().context("flushing CSV")?;
-    // Each part goes through csv's serializer so numbers are formatted the same way.
-    let record = |value: &dyn erased::Record| -> Result<Vec<u8>> {
-        let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
-        value.write(&mut w)?;
-        let mut bytes = w.into_inner().context("flushing CSV")?;
-        while bytes.last().is_some_and(|b| *b == b'\n' || *b == b'\r') {
-            bytes.pop();
-        }
-        Ok(bytes)
-    };
-    for r in rows {
-        let names: Vec<&str> = r.extra.iter().map(|e| e.0).collect();
-        if names != extra_names {
-            anyhow::bail!("row {} has extra columns {names:?}, the first row {extra_names:?}", r.iter);
-        }
-        out.extend(record(&IterationRow {
-            iter: r.iter,
-            energy: r.energy,
-            energy_minus_best: r.energy - best,
-            grad_norm: r.grad_norm,
-            step: r.step,
-            neg_eig: r.neg_eig,
-            indefinite_elems: r.indefinite_elems,
-            flips: r.flips,
-            t_assemble_s: r.t_assemble_s,
-            t_project_s: r.t_project_s,
-            t_solve_s: r.t_solve_s,
-            t_linesearch_s: r.t_linesearch_s,
-            t_iter_s: r.t_iter_s,
-            t_cum_s: r.t_cum_s,
-            ls_evals: r.ls_evals,
-        })?);
-        if !r.extra.is_empty() {
-            out.push(b',');
-            out.extend(record(&r.extra.iter().map(|e| e.1).collect::<Vec<f64>>())?);
-        }
-        out.push(b'\n');
-    }
-    Ok(out)
-}
-
-/// Serializing either a row struct or a list of numbers through one csv writer.
-mod erased {
-    pub trait Record {
-        fn write(&self, w: &mut csv::Writer<Vec<u8>>) -> csv::Result<()>;
-    }
-    impl<T: serde::Serialize> Record for T {
-        fn write(&self, w: &mut csv::Writer<Vec<u8>>) -> csv::Result<()> {
-            w.serialize(self)
-        }
-    }
-}
-
-/// `summary.csv`, appended a row at a time as runs finish (flushed each time).
-pub struct SummaryWriter {
-    path: PathBuf,
-    file: File,
-}
-
-impl SummaryWriter {
-    /// Start a new summary (header only).
-    pub fn create(path: &Path) -> Result<SummaryWriter> {
-        let mut header = csv::Writer::from_writer(Vec::new());
-        header.write_record(SUMMARY_COLUMNS)?;
-        write_atomic(path, &header.into_inner()?)?;
-        let file =
-            OpenOptions::new().append(true).open(path).with_context(|| format!("{}: cannot open", path.display()))?;
-        Ok(SummaryWriter { path: path.to_path_buf(), file })
-    }
-
-    pub fn append(&mut self, row: &SummaryRow) -> Result<()> {
-        let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
-        w.serialize(row)?;
-        let bytes = w.into_inner()?;
-        self.file.write_all(&bytes).with_context(|| format!("{}: cannot append", self.path.display()))?;
-        self.file.flush()?;
-        Ok(())
-    }
-}
-
-/// Write a whole `summary.csv` atomically (the batch's final, canonically ordered one).
-pub fn write_summary(path: &Path, rows: &[SummaryRow]) -> Result<()> {
-    // The header is written by hand so that an empty summary has one too.
-    let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
-    w.write_record(SUMMARY_COLUMNS)?;
-    for r in rows {
-        w.serialize(r)?;
-    }
-    write_atomic(path, &w.into_inner().context("flushing CSV")?)
-}
-
 /// A CSV reader error as `FILE: line N: what`; `header` names the column of a bad cell and
 /// `record` (the row being deserialized) quotes it.
 pub fn csv_error(
@@ -287,82 +150,5 @@ pub fn csv_error(
     match pos {
         Some(p) => anyhow::anyhow!("{}: line {}: {what}", path.display(), p.line()),
         None => anyhow::anyhow!("{}: {what}", path.display()),
-    }
-}
-
-/// Read a run folder's `summary.csv`; errors name the file, the line and the column.
-pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
-    let path = run_dir.join("summary.csv");
-    let bytes = read_csv_bytes(&path)?;
-    let mut r = csv::Reader::from_reader(bytes.as_slice());
-    let header = r.headers().map_err(|e| csv_error(&path, None, None, &e))?.clone();
-    // The design columns up to `error` are in every summary mapbench wrote (an empty or
-    // foreign file would otherwise read as a batch of no runs).
-    let required = &SUMMARY_COLUMNS[..=SUMMARY_COLUMNS.iter().position(|c| *c == "error").unwrap_or(0)];
-    if let Some(missing) = required.iter().find(|c| !header.iter().any(|h| h == **c)) {
-        anyhow::bail!("{}: line 1: no column `{missing}`: not a mapbench summary", path.display());
-    }
-    let mut rows = Vec::new();
-    for rec in r.records() {
-        let rec = rec.map_err(|e| csv_error(&path, Some(&header), None, &e))?;
-        let row: SummaryRow =
-            rec.deserialize(Some(&header)).map_err(|e| csv_error(&path, Some(&header), Some(&rec), &e))?;
-        // `report` and `merge` derive file names from these fields: a folder written by
-        // another tool or edited by hand must not make them write outside the run folder.
-        for (kind, name) in [("dataset", &row.dataset), ("energy", &row.energy), ("solver", &row.solver)] {
-            crate::plan::names::check_name(kind, name)
-                .with_context(|| format!("{}: line {}", path.display(), rec.position().map_or(0, |p| p.line())))?;
-        }
-        rows.push(row);
-    }
-    Ok(rows)
-}
-
-/// Median of a non-empty slice (`None` when empty).
-pub fn median(values: &mut [f64]) -> Option<f64> {
-    if values.is_empty() {
-        return None;
-    }
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    Some(if n % 2 == 1 { values[n / 2] } else { 0.5 * (values[n / 2 - 1] + values[n / 2]) })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn headers_are_exactly_the_design_columns() {
-        let rows = vec![IterationRecord { iter: 0, energy: 3.0, ..Default::default() }];
-        let text = String::from_utf8(iteration_csv(&rows, 2.5).unwrap()).unwrap();
-        let mut lines = text.lines();
-        assert_eq!(lines.next().unwrap(), ITERATION_COLUMNS.join(","));
-        assert!(lines.next().unwrap().starts_with("0,3.0,0.5,"));
-        let with_extra = vec![
-            IterationRecord { iter: 0, energy: 3.0, extra: vec![("a", 1.5), ("b", f64::NAN)], ..Default::default() },
-            IterationRecord { iter: 1, energy: 2.75, extra: vec![("a", 0.0), ("b", 1e-20)], ..Default::default() },
-        ];
-        let text = String::from_utf8(iteration_csv(&with_extra, 2.5).unwrap()).unwrap();
-        let lines: Vec<&str> = text.lines().collect();
-        assert_eq!(lines[0], format!("{},a,b", ITERATION_COLUMNS.join(",")));
-        assert!(lines[1].starts_with("0,3.0,0.5,") && lines[1].ends_with(",0,1.5,NaN"), "{}", lines[1]);
-        assert!(lines[2].ends_with(",0.0,1e-20"), "{}", lines[2]);
-        let mut bad = with_extra.clone();
-        bad[1].extra.pop();
-        assert!(iteration_csv(&bad, 0.0).is_err());
-        let empty = String::from_utf8(iteration_csv(&[], 0.0).unwrap()).unwrap();
-        assert_eq!(empty.trim(), ITERATION_COLUMNS.join(","));
-        let mut w = csv::Writer::from_writer(Vec::new());
-        w.serialize(SummaryRow::default()).unwrap();
-        let s = String::from_utf8(w.into_inner().unwrap()).unwrap();
-        assert_eq!(s.lines().next().unwrap(), SUMMARY_COLUMNS.join(","));
-    }
-
-    #[test]
-    fn medians() {
-        assert_eq!(median(&mut []), None);
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
-        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), Some(2.5));
     }
 }

@@ -1,0 +1,192 @@
+//! One run: solve with the plan's settings, turn the outcome (or the failure) into the run's
+//! summary row and rows, never stopping the batch.
+
+use super::progress::Progress;
+use crate::plan::{Plan, PlannedRun, RunSettings};
+use crate::run_folder::SummaryRow;
+use crate::stats::median;
+use anyhow::Result;
+use solvers::authalic::{solve_authalic, AreaMetrics};
+use solvers::deform::solve_deform;
+use solvers::linear::AnalysisCache;
+use solvers::mesh::Mesh;
+use solvers::param::solve_param;
+use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Keeps every row of a run (a run has at most `max_iters + 1` rows), shows progress, and
+/// stops the solver after the row that passes the run's deadline (`timeout` in the config)
+/// or when the batch is interrupted.
+struct Rows<'a> {
+    rows: Vec<IterationRecord>,
+    deadline: Option<Instant>,
+    timed_out: bool,
+    interrupt: &'a AtomicBool,
+    progress: &'a dyn Progress,
+    worker: usize,
+}
+
+impl Observer for Rows<'_> {
+    fn observe(&mut self, record: &IterationRecord) -> Flow {
+        self.rows.push(record.clone());
+        self.progress.iteration(self.worker, record.iter, record.energy);
+        if self.interrupt.load(Ordering::Relaxed) {
+            return Flow::Stop;
+        }
+        if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            self.timed_out = true;
+            return Flow::Stop;
+        }
+        Flow::Continue
+    }
+}
+
+/// What one run produced.
+pub(super) struct RunResult {
+    pub summary: SummaryRow,
+    pub rows: Vec<IterationRecord>,
+    /// The final map as OBJ text (`uv/<run>.obj`), taken when written.
+    pub map_obj: Option<Vec<u8>>,
+    /// Stopped by an interrupt of the batch: not a result, nothing is written.
+    pub interrupted: bool,
+}
+
+/// One run; never returns an error or panics: failures become a `failed` summary row.
+pub(super) fn run_one(
+    plan: &Plan,
+    run: &PlannedRun,
+    mesh: Result<&Mesh, &anyhow::Error>,
+    ctx: &RunContext,
+) -> RunResult {
+    let mut summary = SummaryRow {
+        dataset: plan.dataset(run).name.clone(),
+        task: run.settings.task().as_str().to_string(),
+        energy: run.energy.clone(),
+        solver: run.solver.clone(),
+        ..Default::default()
+    };
+    let fail = |mut summary: SummaryRow, error: String| {
+        summary.status = "failed".into();
+        summary.stop_reason = "error".into();
+        summary.error = error;
+        RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false }
+    };
+    let mesh = match mesh {
+        Ok(m) => m,
+        Err(e) => return fail(summary, format!("{e:#}")),
+    };
+    summary.vertices = Some(mesh.n_vertices());
+    summary.faces = Some(mesh.n_faces());
+    let mut rows = Rows {
+        rows: Vec::new(),
+        deadline: plan.timeout.map(|t| Instant::now() + t),
+        timed_out: false,
+        interrupt: ctx.interrupt,
+        progress: ctx.progress,
+        worker: ctx.worker,
+    };
+    let t0 = Instant::now();
+    let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(plan, run, mesh, &ctx.analyses, &mut rows)));
+    let elapsed = t0.elapsed().as_secs_f64();
+    let (outcome, metrics) = match result {
+        Ok(Ok(o)) => o,
+        Ok(Err(e)) => {
+            // Most solver errors already start with the mesh source; name it where they do not.
+            let msg = format!("{e:#}");
+            let msg = if msg.starts_with(&mesh.source) { msg } else { format!("{}: {msg}", mesh.source) };
+            return fail(summary, msg);
+        }
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            return fail(summary, format!("{}: internal error (panic): {msg}", mesh.source));
+        }
+    };
+    if let Some(m) = metrics {
+        summary.area_ratio_sd = Some(m.area_ratio_sd);
+        summary.area_ratio_mad = Some(m.area_ratio_mad);
+        summary.authalic_energy = Some(m.authalic_energy);
+        summary.folded = Some(m.folded);
+    }
+    let timed_out = rows.timed_out;
+    let rows = rows.rows;
+    let per_iter = |f: fn(&IterationRecord) -> f64| {
+        let mut v: Vec<f64> = rows.iter().skip(1).map(|r| 1e3 * f(r)).collect();
+        median(&mut v)
+    };
+    summary.iterations = Some(outcome.iterations);
+    summary.converged = outcome.stop_reason.is_converged();
+    summary.stop_reason = match (&outcome.stop_reason, timed_out) {
+        (StopReason::Interrupted, true) => "timeout".to_string(),
+        (r, _) => r.as_str().to_string(),
+    };
+    summary.init_energy = Some(outcome.init_energy);
+    summary.final_energy = Some(outcome.final_energy);
+    summary.grad_norm = Some(outcome.grad_norm);
+    // The symbolic analysis is shared by the runs on a mesh, so which run computes it depends
+    // on scheduling: time_s leaves it out for every run (including any wait for another run
+    // computing it) and analysis_s reports its cost.
+    let setup = outcome.analysis.map_or(0.0, |a| a.setup_seconds);
+    let elapsed = (elapsed - setup).max(0.0);
+    summary.analysis_s = outcome.analysis.map(|a| a.seconds);
+    summary.analysis_shared = outcome.analysis.map(|a| a.reused);
+    summary.time_s = Some(elapsed);
+    summary.ms_per_vertex = Some(1e3 * elapsed / mesh.n_vertices().max(1) as f64);
+    summary.iter_ms_median = per_iter(|r| r.t_iter_s);
+    summary.project_ms_median = per_iter(|r| r.t_project_s);
+    summary.solve_ms_median = per_iter(|r| r.t_solve_s);
+    summary.flips = Some(outcome.flips);
+    summary.status = if summary.converged { "ok" } else { "not_converged" }.into();
+    summary.error = match &outcome.stop_reason {
+        StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
+        _ => String::new(),
+    };
+    let map_obj = Some(crate::run_folder::map::to_obj(mesh, &outcome.x));
+    let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted) && !timed_out;
+    RunResult { summary, rows, map_obj, interrupted }
+}
+
+/// What a run needs from the batch around it.
+pub(super) struct RunContext<'a> {
+    pub interrupt: &'a AtomicBool,
+    pub progress: &'a dyn Progress,
+    pub worker: usize,
+    /// Symbolic analyses shared by the runs on this mesh.
+    pub analyses: Arc<AnalysisCache>,
+}
+
+/// One solve with the run's settings; `authalic` runs also return their area metrics.
+fn solve(
+    plan: &Plan,
+    run: &PlannedRun,
+    mesh: &Mesh,
+    analyses: &Arc<AnalysisCache>,
+    rows: &mut Rows<'_>,
+) -> Result<(Outcome, Option<AreaMetrics>)> {
+    match &run.settings {
+        RunSettings::Authalic(settings) => {
+            let out = solve_authalic(mesh, &run.solver, settings, rows)?;
+            Ok((out.outcome, Some(out.metrics)))
+        }
+        RunSettings::Param { energy, settings } => {
+            let mut settings = settings.clone();
+            settings.solver.analyses = Some(analyses.clone());
+            Ok((solve_param(mesh, *energy, &run.solver, &settings, rows)?, None))
+        }
+        RunSettings::Deform { energy, settings } => {
+            // Handle rules pick vertices by position: check the mesh first, so a bad mesh fails
+            // with validate's reason rather than with what the rule made of it.
+            solvers::mesh::validate_for(mesh, solvers::mesh::Task::Deform).into_result()?;
+            let handles = plan.dataset(run).handles.load(mesh)?;
+            let mut settings = settings.clone();
+            settings.solver.analyses = Some(analyses.clone());
+            Ok((solve_deform(mesh, &handles, *energy, &run.solver, &settings, rows)?, None))
+        }
+    }
+}

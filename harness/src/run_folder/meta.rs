@@ -1,0 +1,89 @@
+//! `meta.json` of a run folder: the plan and provenance of the batch.
+
+use crate::plan::select::Shard;
+use crate::plan::{Plan, RunSettings};
+use crate::run_folder::write_atomic;
+use anyhow::Result;
+use solvers::solver::StopSettings;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// `meta.json`: the config as read and the resolved settings of each energy, provenance
+/// (code version, git revision, machine, toolchain), the batch's runs and how it ran.
+pub struct Meta<'a> {
+    pub plan: &'a Plan,
+    pub shard: Option<Shard>,
+    pub resume: bool,
+    pub jobs: usize,
+    pub threads: usize,
+    pub started: SystemTime,
+}
+
+impl Meta<'_> {
+    pub fn write(&self, out_dir: &Path, ended: Option<SystemTime>, interrupted: bool) -> Result<()> {
+        let plan = self.plan;
+        let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+        let (rev, dirty) = git_revision(&plan.config.dir);
+        let per_energy = plan.settings_per_energy();
+        let stop: BTreeMap<&str, StopSettings> = per_energy.iter().map(|(e, s)| (*e, s.stop())).collect();
+        let ordering = per_energy
+            .iter()
+            .find_map(|(_, s)| match s {
+                RunSettings::Param { settings, .. } => Some(settings.solver.linear.ordering),
+                RunSettings::Deform { settings, .. } => Some(settings.solver.linear.ordering),
+                RunSettings::Authalic(_) => None,
+            })
+            .unwrap_or_default();
+        let meta = serde_json::json!({
+            "config_path": plan.config.path.display().to_string(),
+            "config": plan.config.config,
+            "only": plan.only,
+            "resume": self.resume,
+            "shard": self.shard.map(|s| s.to_string()),
+            "plan": plan.runs.iter().map(|p| p.stem.as_str()).collect::<Vec<_>>(),
+            "jobs": self.jobs,
+            "threads_per_run": self.threads,
+            // Newton systems of fewer than METIS_MIN_NODES vertices use AMD whatever this says.
+            "linear_ordering": ordering.as_str(),
+            "stop_per_energy": stop.iter().map(|(e, s)| (e.to_string(), serde_json::json!({
+                "grad_tol": s.grad_tol, "energy_decrease_tol": s.energy_decrease_tol, "max_iters": s.max_iters
+            }))).collect::<serde_json::Map<_, _>>(),
+            "meshes_dir": std::env::var(crate::plan::registry::MESHES_ENV).ok(),
+            "mapbench_version": env!("CARGO_PKG_VERSION"),
+            "rustc": env!("MAPBENCH_RUSTC"),
+            "crates": env!("MAPBENCH_CRATES"),
+            "git_revision": rev,
+            "git_dirty": dirty,
+            "host": std::env::var("HOSTNAME").ok().or_else(|| std::fs::read_to_string("/etc/hostname").ok().map(|s| s.trim().to_string())),
+            "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+            "started_unix": secs(self.started),
+            "ended_unix": ended.map(secs),
+            "interrupted": interrupted,
+        });
+        write_atomic(&super::meta_json(out_dir), serde_json::to_string_pretty(&meta)?.as_bytes())
+    }
+}
+
+/// What identifies the code of a batch in its runs' `--resume` keys: version and git revision.
+pub fn code_id(dir: &Path) -> String {
+    let (rev, dirty) = git_revision(dir);
+    format!("mapbench {} {} dirty={dirty:?}", env!("CARGO_PKG_VERSION"), rev.unwrap_or_default())
+}
+
+/// The git revision of the folder holding the config, and whether the tree is dirty.
+fn git_revision(dir: &Path) -> (Option<String>, Option<bool>) {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .current_dir(dir)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    let rev = git(&["rev-parse", "HEAD"]);
+    let dirty =
+        rev.as_ref().and_then(|_| git(&["status", "--porcelain", "--untracked-files=no"])).map(|s| !s.is_empty());
+    (rev, dirty)
+}

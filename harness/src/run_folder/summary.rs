@@ -1,0 +1,159 @@
+//! `summary.csv`: one row per run, in design.md's columns, appended as runs finish and
+//! rewritten in the plan's order at the end.
+
+use super::{csv_error, read_csv_bytes, write_atomic};
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// `summary.csv` columns, in design.md order; `area_ratio_sd` .. `folded` are filled by
+/// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers.
+pub const SUMMARY_COLUMNS: [&str; 26] = [
+    "dataset",
+    "task",
+    "energy",
+    "solver",
+    "vertices",
+    "faces",
+    "iterations",
+    "converged",
+    "stop_reason",
+    "init_energy",
+    "final_energy",
+    "grad_norm",
+    "time_s",
+    "ms_per_vertex",
+    "iter_ms_median",
+    "project_ms_median",
+    "solve_ms_median",
+    "flips",
+    "status",
+    "error",
+    "area_ratio_sd",
+    "area_ratio_mad",
+    "authalic_energy",
+    "folded",
+    "analysis_s",
+    "analysis_shared",
+];
+
+/// One row of `summary.csv`. Fields unknown for a failed run are empty.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SummaryRow {
+    pub dataset: String,
+    pub task: String,
+    pub energy: String,
+    pub solver: String,
+    pub vertices: Option<usize>,
+    pub faces: Option<usize>,
+    pub iterations: Option<usize>,
+    pub converged: bool,
+    pub stop_reason: String,
+    pub init_energy: Option<f64>,
+    pub final_energy: Option<f64>,
+    pub grad_norm: Option<f64>,
+    pub time_s: Option<f64>,
+    pub ms_per_vertex: Option<f64>,
+    pub iter_ms_median: Option<f64>,
+    pub project_ms_median: Option<f64>,
+    pub solve_ms_median: Option<f64>,
+    pub flips: Option<usize>,
+    pub status: String,
+    pub error: String,
+    #[serde(default)]
+    pub area_ratio_sd: Option<f64>,
+    #[serde(default)]
+    pub area_ratio_mad: Option<f64>,
+    #[serde(default)]
+    pub authalic_energy: Option<f64>,
+    #[serde(default)]
+    pub folded: Option<usize>,
+    /// Wall time of the system's symbolic analysis (ordering + symbolic Cholesky), which
+    /// `time_s` leaves out: the runs on a mesh share it.
+    #[serde(default)]
+    pub analysis_s: Option<f64>,
+    /// The run took the analysis computed by another run on the same mesh.
+    #[serde(default)]
+    pub analysis_shared: Option<bool>,
+}
+
+/// `summary.csv`, appended a row at a time as runs finish (flushed each time).
+pub struct SummaryWriter {
+    path: PathBuf,
+    file: File,
+}
+
+impl SummaryWriter {
+    /// Start a new summary (header only).
+    pub fn create(path: &Path) -> Result<SummaryWriter> {
+        let mut header = csv::Writer::from_writer(Vec::new());
+        header.write_record(SUMMARY_COLUMNS)?;
+        write_atomic(path, &header.into_inner()?)?;
+        let file =
+            OpenOptions::new().append(true).open(path).with_context(|| format!("{}: cannot open", path.display()))?;
+        Ok(SummaryWriter { path: path.to_path_buf(), file })
+    }
+
+    pub fn append(&mut self, row: &SummaryRow) -> Result<()> {
+        let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
+        w.serialize(row)?;
+        let bytes = w.into_inner()?;
+        self.file.write_all(&bytes).with_context(|| format!("{}: cannot append", self.path.display()))?;
+        self.file.flush()?;
+        Ok(())
+    }
+}
+
+/// Write a whole `summary.csv` atomically (the batch's final, canonically ordered one).
+pub fn write_summary(path: &Path, rows: &[SummaryRow]) -> Result<()> {
+    // The header is written by hand so that an empty summary has one too.
+    let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
+    w.write_record(SUMMARY_COLUMNS)?;
+    for r in rows {
+        w.serialize(r)?;
+    }
+    write_atomic(path, &w.into_inner().context("flushing CSV")?)
+}
+
+/// Read a run folder's `summary.csv`; errors name the file, the line and the column.
+pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
+    let path = super::summary_csv(run_dir);
+    let bytes = read_csv_bytes(&path)?;
+    let mut r = csv::Reader::from_reader(bytes.as_slice());
+    let header = r.headers().map_err(|e| csv_error(&path, None, None, &e))?.clone();
+    // The design columns up to `error` are in every summary mapbench wrote (an empty or
+    // foreign file would otherwise read as a batch of no runs).
+    let required = &SUMMARY_COLUMNS[..=SUMMARY_COLUMNS.iter().position(|c| *c == "error").unwrap_or(0)];
+    if let Some(missing) = required.iter().find(|c| !header.iter().any(|h| h == **c)) {
+        anyhow::bail!("{}: line 1: no column `{missing}`: not a mapbench summary", path.display());
+    }
+    let mut rows = Vec::new();
+    for rec in r.records() {
+        let rec = rec.map_err(|e| csv_error(&path, Some(&header), None, &e))?;
+        let row: SummaryRow =
+            rec.deserialize(Some(&header)).map_err(|e| csv_error(&path, Some(&header), Some(&rec), &e))?;
+        // `report` and `merge` derive file names from these fields: a folder written by
+        // another tool or edited by hand must not make them write outside the run folder.
+        for (kind, name) in [("dataset", &row.dataset), ("energy", &row.energy), ("solver", &row.solver)] {
+            crate::plan::names::check_name(kind, name)
+                .with_context(|| format!("{}: line {}", path.display(), rec.position().map_or(0, |p| p.line())))?;
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_header_is_exactly_the_design_columns() {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(SummaryRow::default()).unwrap();
+        let s = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        assert_eq!(s.lines().next().unwrap(), SUMMARY_COLUMNS.join(","));
+    }
+}
