@@ -1,8 +1,8 @@
 //! The per-iteration CSV of a run (design.md "Output of a run"): the design columns, then the
 //! extra columns of the solver that wrote it; one writer and one reader, by header name.
 
-use super::{csv_error, read_csv_bytes, run_stem, SummaryRow};
-use anyhow::{anyhow, bail, Context, Result};
+use super::{csv_error, read_csv_bytes, run_stem, FolderError, SummaryRow};
+use anyhow::{Context, Result};
 use serde::Serialize;
 use solvers::authalic::EXTRA_COLUMNS;
 use solvers::solver::IterationRecord;
@@ -122,23 +122,24 @@ pub fn read_rows(path: &Path) -> Result<Vec<IterationRecord>> {
 
 /// The one reader of per-iteration CSVs (resume, report, plots), columns by header name.
 /// Every error names the file and the line, and the column of a bad cell.
-pub fn read_iterations(path: &Path) -> Result<IterationFile> {
+pub fn read_iterations(path: &Path) -> Result<IterationFile, FolderError> {
     let bytes = read_csv_bytes(path)?;
     let mut r = csv::Reader::from_reader(bytes.as_slice());
     let header = r.headers().map_err(|e| csv_error(path, None, None, &e))?.clone();
+    let at_line = |line: u64, what: String| FolderError::Line { path: path.to_path_buf(), line, what };
     let col = |name: &str| {
         header
             .iter()
             .position(|h| h == name)
-            .with_context(|| format!("{}: line 1: no column `{name}`: not a mapbench iteration CSV", path.display()))
+            .ok_or_else(|| at_line(1, format!("no column `{name}`: not a mapbench iteration CSV")))
     };
-    let cols: Vec<usize> = ITERATION_COLUMNS.iter().map(|n| col(n)).collect::<Result<_>>()?;
+    let cols: Vec<usize> = ITERATION_COLUMNS.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
     // The columns after the design ones are a solver's extras; `fill_best` rewrites the file
     // from the records, so a column they cannot hold is refused rather than dropped.
     let mut extra_cols: Vec<(&'static str, usize)> = Vec::new();
     for (j, name) in header.iter().enumerate().filter(|(_, n)| !ITERATION_COLUMNS.contains(n)) {
         let known = EXTRA_COLUMNS.iter().copied().find(|k| *k == name);
-        let known = known.with_context(|| format!("{}: line 1: unknown column `{name}`", path.display()))?;
+        let known = known.ok_or_else(|| at_line(1, format!("unknown column `{name}`")))?;
         extra_cols.push((known, j));
     }
     let mut out = IterationFile { rows: Vec::new(), energy_minus_best: Vec::new() };
@@ -150,13 +151,13 @@ pub fn read_iterations(path: &Path) -> Result<IterationFile> {
             (j, rec.get(j).unwrap_or(""))
         };
         let bad = |j: usize, text: &str, what: &str| {
-            anyhow!("{}: line {line}: column {} `{}`: `{text}` is not {what}", path.display(), j + 1, &header[j])
+            at_line(line, format!("column {} `{}`: `{text}` is not {what}", j + 1, &header[j]))
         };
-        let f = |k: usize| -> Result<f64> {
+        let f = |k: usize| -> Result<f64, FolderError> {
             let (j, text) = cell(k);
             text.parse().map_err(|_| bad(j, text, "a number"))
         };
-        let u = |k: usize| -> Result<usize> {
+        let u = |k: usize| -> Result<usize, FolderError> {
             let (j, text) = cell(k);
             text.parse().map_err(|_| bad(j, text, "a count"))
         };
@@ -189,19 +190,13 @@ pub fn read_iterations(path: &Path) -> Result<IterationFile> {
 
 /// The per-iteration CSV of the run `s` in `run_dir`, refused unless it has the row of every
 /// iteration the summary counts (a file cut at a row boundary still parses).
-pub fn read_run(run_dir: &Path, s: &SummaryRow) -> Result<IterationFile> {
+pub fn read_run(run_dir: &Path, s: &SummaryRow) -> Result<IterationFile, FolderError> {
     let path = super::iterations_csv(run_dir, &run_stem(&s.dataset, &s.energy, &s.solver));
     let file = read_iterations(&path)?;
     if let Some(n) = s.iterations {
         // Iteration 0 (the initial state) has a row too.
         if file.rows.len() != n + 1 {
-            bail!(
-                "{}: {} rows, but summary.csv says {n} iterations, which is {} rows with iteration 0: \
-                 the file is incomplete or not this run's",
-                path.display(),
-                file.rows.len(),
-                n + 1
-            );
+            return Err(FolderError::RowCount { path, rows: file.rows.len(), iterations: n });
         }
     }
     Ok(file)

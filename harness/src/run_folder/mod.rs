@@ -4,12 +4,14 @@
 //! written atomically (temporary file + rename), so an interrupted batch never leaves a
 //! half-written run.
 
+mod error;
 pub mod iterations;
 pub mod map;
 pub mod meta;
 pub mod sidecar;
 pub mod summary;
 
+pub use error::FolderError;
 pub use iterations::{iteration_csv, read_iterations, read_rows, read_run, IterationFile, ITERATION_COLUMNS};
 pub use summary::{read_summary, write_summary, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
 
@@ -108,11 +110,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 /// The bytes of a CSV file mapbench wrote, refused when its last row has no line end: every
 /// row is written with one, so the file was cut mid-row (and its last cell may still parse,
 /// as a shorter number).
-pub fn read_csv_bytes(path: &Path) -> Result<Vec<u8>> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+pub fn read_csv_bytes(path: &Path) -> Result<Vec<u8>, FolderError> {
+    let bytes = std::fs::read(path).map_err(|source| FolderError::Read { path: path.to_path_buf(), source })?;
     if bytes.last().is_some_and(|&b| b != b'\n') {
         let line = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
-        anyhow::bail!("{}: line {line}: the row has no line end: the file was cut", path.display());
+        return Err(FolderError::Cut { path: path.to_path_buf(), line });
     }
     Ok(bytes)
 }
@@ -124,7 +126,7 @@ pub fn csv_error(
     header: Option<&csv::StringRecord>,
     record: Option<&csv::StringRecord>,
     e: &csv::Error,
-) -> anyhow::Error {
+) -> FolderError {
     use csv::ErrorKind;
     let column = |i: usize| match header.and_then(|h| h.get(i)) {
         Some(name) => format!("column {} `{name}`", i + 1),
@@ -147,8 +149,9 @@ pub fn csv_error(
         ),
         _ => (&None, e.to_string()),
     };
+    let path = path.to_path_buf();
     match pos {
-        Some(p) => anyhow::anyhow!("{}: line {}: {what}", path.display(), p.line()),
-        None => anyhow::anyhow!("{}: {what}", path.display()),
+        Some(p) => FolderError::Line { path, line: p.line(), what },
+        None => FolderError::File { path, what },
     }
 }

@@ -1,7 +1,7 @@
 //! `summary.csv`: one row per run, in design.md's columns, appended as runs finish and
 //! rewritten in the plan's order at the end.
 
-use super::{csv_error, read_csv_bytes, write_atomic};
+use super::{csv_error, read_csv_bytes, write_atomic, FolderError};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use std::fs::{File, OpenOptions};
@@ -118,7 +118,7 @@ pub fn write_summary(path: &Path, rows: &[SummaryRow]) -> Result<()> {
 }
 
 /// Read a run folder's `summary.csv`; errors name the file, the line and the column.
-pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
+pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>, FolderError> {
     let path = super::summary_csv(run_dir);
     let bytes = read_csv_bytes(&path)?;
     let mut r = csv::Reader::from_reader(bytes.as_slice());
@@ -127,7 +127,8 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
     // foreign file would otherwise read as a batch of no runs).
     let required = &SUMMARY_COLUMNS[..=SUMMARY_COLUMNS.iter().position(|c| *c == "error").unwrap_or(0)];
     if let Some(missing) = required.iter().find(|c| !header.iter().any(|h| h == **c)) {
-        anyhow::bail!("{}: line 1: no column `{missing}`: not a mapbench summary", path.display());
+        let what = format!("no column `{missing}`: not a mapbench summary");
+        return Err(FolderError::Line { path, line: 1, what });
     }
     let mut rows = Vec::new();
     for rec in r.records() {
@@ -137,8 +138,11 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
         // `report` and `merge` derive file names from these fields: a folder written by
         // another tool or edited by hand must not make them write outside the run folder.
         for (kind, name) in [("dataset", &row.dataset), ("energy", &row.energy), ("solver", &row.solver)] {
-            crate::plan::names::check_name(kind, name)
-                .with_context(|| format!("{}: line {}", path.display(), rec.position().map_or(0, |p| p.line())))?;
+            crate::plan::names::check_name(kind, name).map_err(|source| FolderError::Name {
+                path: path.clone(),
+                line: rec.position().map_or(0, |p| p.line()),
+                source,
+            })?;
         }
         rows.push(row);
     }
