@@ -3,12 +3,16 @@
 //! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
 //! CSVs alone.
 
+pub mod html;
+pub mod plots;
+pub mod tables;
+
 use crate::output::{iteration_csv, run_stem, write_atomic, SummaryRow};
 use crate::resume::read_run;
-use crate::tables::Table;
 use anyhow::Result;
 use std::collections::BTreeMap;
 use std::path::Path;
+use tables::Table;
 
 /// Re-derive everything from `summary` rows and the per-iteration CSVs in `run_dir`.
 pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
@@ -17,8 +21,8 @@ pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     for (stem, table) in &tables {
         table.write(&run_dir.join("tables"), stem)?;
     }
-    let plots = crate::plots::render_all(run_dir, summary)?;
-    crate::html::write_index(run_dir, summary, &tables, &plots)
+    let plots = plots::render_all(run_dir, summary)?;
+    html::write_index(run_dir, summary, &tables, &plots)
 }
 
 /// Builds one table from the summary, `None` when it does not apply.
@@ -30,13 +34,13 @@ type Group = Vec<(String, Vec<solvers::solver::IterationRecord>)>;
 /// Every table that applies to these runs, with its file stem.
 pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
     let builders: [(&str, TableFn); 7] = [
-        ("param", crate::tables::param_table),
-        ("per_mesh", crate::tables::per_mesh_table),
-        ("projection", crate::tables::projection_table),
-        ("smoothness", crate::tables::smoothness_table),
-        ("deform", crate::tables::deform_table),
-        ("authalic", crate::tables::authalic_table),
-        ("scaling", crate::tables::scaling_table),
+        ("param", tables::param_table),
+        ("per_mesh", tables::per_mesh_table),
+        ("projection", tables::projection_table),
+        ("smoothness", tables::smoothness_table),
+        ("deform", tables::deform_table),
+        ("authalic", tables::authalic_table),
+        ("scaling", tables::scaling_table),
     ];
     builders.iter().filter_map(|(stem, f)| f(summary).map(|t| (stem.to_string(), t))).collect()
 }
