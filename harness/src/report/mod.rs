@@ -51,7 +51,7 @@ pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
 /// all on disk. Files whose content would not change are left alone.
 pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     let mut groups: BTreeMap<(&str, &str), Group> = BTreeMap::new();
-    for s in summary.iter().filter(|s| s.status != "failed") {
+    for s in summary.iter().filter(|s| !failed(s)) {
         let stem = run_stem(&s.dataset, &s.energy, &s.solver);
         let rows = read_run(run_dir, s)?.rows;
         groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows));
@@ -74,4 +74,27 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+// The report's reading of the task and status strings, in one place (the tables and plots
+// filter and mark runs through these).
+
+/// The run failed: no iterations to show, left out of means and curves.
+fn failed(r: &SummaryRow) -> bool {
+    r.status == "failed"
+}
+
+/// The run converged (other finished runs are marked `*` or drawn dashed).
+fn converged(r: &SummaryRow) -> bool {
+    r.status == "ok"
+}
+
+/// An authalic run: its maps show area ratios, it has no distortion energy to compare.
+fn is_authalic(r: &SummaryRow) -> bool {
+    r.task == "authalic"
+}
+
+/// A `param` or `deform` run: a distortion energy minimized by the Newton-type solvers.
+fn is_param_or_deform(r: &SummaryRow) -> bool {
+    r.task == "param" || r.task == "deform"
 }

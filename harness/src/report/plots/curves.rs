@@ -7,6 +7,7 @@ use super::chart::{
 };
 use super::{Plot, PlotKind};
 use crate::output::{write_atomic, SummaryRow};
+use crate::report::converged;
 use anyhow::Result;
 use plotters::prelude::*;
 use rayon::prelude::*;
@@ -23,12 +24,7 @@ pub(super) fn render_group(
         .par_iter()
         .map(|r| {
             let curve = Curve::new(crate::resume::read_run(run_dir, r)?);
-            Ok(Series {
-                solver: &r.solver,
-                style: chart::style(solvers, &r.solver),
-                converged: r.status == "ok",
-                curve,
-            })
+            Ok(Series { solver: &r.solver, style: chart::style(solvers, &r.solver), converged: converged(r), curve })
         })
         .collect::<Result<Vec<_>>>()?;
     let kinds = [PlotKind::EnergyIter, PlotKind::EnergyTime, PlotKind::NegEigIter];

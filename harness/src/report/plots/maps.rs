@@ -6,6 +6,7 @@ use super::colors::{ColorScale, Measure, Shade};
 use super::{Plot, PlotKind};
 use crate::mapfile::{self, MapFile};
 use crate::output::{run_stem, write_atomic, SummaryRow};
+use crate::report::is_authalic;
 use anyhow::{bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -32,7 +33,7 @@ pub(super) fn render_group(run_dir: &Path, (dataset, energy): (&str, &str), runs
                 return Ok(None);
             }
             let map = mapfile::read(&obj)?;
-            let measure = if r.task == "authalic" { Measure::AreaRatio } else { Measure::Distortion };
+            let measure = if is_authalic(r) { Measure::AreaRatio } else { Measure::Distortion };
             let values = shades(measure, &map);
             Ok(Some((r.solver.as_str(), obj, map, values, measure)))
         })

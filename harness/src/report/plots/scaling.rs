@@ -8,6 +8,7 @@ use super::chart::{
 use super::curves::Curve;
 use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::output::{write_atomic, SummaryRow};
+use crate::report::{converged, failed, is_authalic};
 use anyhow::Result;
 use plotters::prelude::*;
 use std::path::Path;
@@ -20,7 +21,7 @@ pub const SCALING_MIN_SIZES: usize = 3;
 pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: &[&str]) -> Result<Vec<Plot>> {
     let mut plots = Vec::new();
     let mut energies: Vec<&str> = Vec::new();
-    for s in summaries.iter().filter(|s| s.task != "authalic") {
+    for s in summaries.iter().filter(|s| !is_authalic(s)) {
         if !energies.contains(&s.energy.as_str()) {
             energies.push(&s.energy);
         }
@@ -28,7 +29,7 @@ pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: 
     for energy in energies {
         let runs: Vec<&SummaryRow> = summaries
             .iter()
-            .filter(|s| s.energy == energy && s.status != "failed" && s.task != "authalic" && s.vertices.is_some())
+            .filter(|s| s.energy == energy && !failed(s) && !is_authalic(s) && s.vertices.is_some())
             .collect();
         let mut sizes: Vec<usize> = runs.iter().filter_map(|r| r.vertices).collect();
         sizes.sort_unstable();
@@ -58,7 +59,7 @@ pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: 
                     gap: pts.iter().map(|p| p.1).collect(),
                     ..Default::default()
                 };
-                let converged = runs.iter().filter(|r| r.solver == *solver).all(|r| r.status == "ok");
+                let converged = runs.iter().filter(|r| r.solver == *solver).all(|r| converged(r));
                 curves.push(Series { solver, style, converged, curve });
             }
             if curves.is_empty() {

@@ -2,6 +2,7 @@
 
 use super::Table;
 use crate::output::SummaryRow;
+use crate::report::{failed, is_authalic};
 
 /// Short labels of the authalic solvers, in the column order of the AEM paper's Table 1.
 const AUTHALIC: [(&str, &str); 3] = [("sem", "SEM"), ("aem-cg", "AEM-CG"), ("aem-cg-safe", "AEM-CG-safe")];
@@ -11,7 +12,7 @@ const AUTHALIC: [(&str, &str); 3] = [("sem", "SEM"), ("aem-cg", "AEM-CG"), ("aem
 /// authalic run finished.
 pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
     let done: Vec<&SummaryRow> =
-        rows.iter().filter(|r| r.task == "authalic" && r.status != "failed" && r.authalic_energy.is_some()).collect();
+        rows.iter().filter(|r| is_authalic(r) && !failed(r) && r.authalic_energy.is_some()).collect();
     let present: Vec<(&str, &str)> =
         AUTHALIC.iter().copied().filter(|(s, _)| done.iter().any(|r| r.solver == *s)).collect();
     if present.is_empty() {

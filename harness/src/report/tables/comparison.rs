@@ -3,6 +3,7 @@
 
 use super::Table;
 use crate::output::SummaryRow;
+use crate::report::{converged, failed, is_param_or_deform};
 
 /// How a solver x energy table averages its runs.
 struct MeanSpec {
@@ -22,7 +23,7 @@ struct MeanSpec {
 /// the task finished.
 fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
     let all: Vec<&SummaryRow> = rows.iter().filter(|r| r.task == spec.task).collect();
-    let done: Vec<&SummaryRow> = all.iter().copied().filter(|r| r.status != "failed").collect();
+    let done: Vec<&SummaryRow> = all.iter().copied().filter(|r| !failed(r)).collect();
     if done.is_empty() {
         return None;
     }
@@ -53,7 +54,7 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
             let n = cell.len() as f64;
             let it = cell.iter().filter_map(|r| r.iterations).sum::<usize>() as f64 / n;
             let t = cell.iter().filter_map(|r| (spec.time)(r)).sum::<f64>() / n;
-            let mark = if cell.iter().any(|r| r.status != "ok") { "*" } else { "" };
+            let mark = if cell.iter().any(|r| !converged(r)) { "*" } else { "" };
             row.push(format!("{it:.1}/{t:.prec$}{mark}", prec = spec.time_digits));
             trow.push(Some(t));
         }
@@ -119,7 +120,7 @@ pub fn deform_table(rows: &[SummaryRow]) -> Option<Table> {
 /// iterations, the shortest time and the lowest energy. `None` without `param` or `deform`
 /// runs.
 pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
-    let runs: Vec<&SummaryRow> = rows.iter().filter(|r| r.task == "param" || r.task == "deform").collect();
+    let runs: Vec<&SummaryRow> = rows.iter().filter(|r| is_param_or_deform(r)).collect();
     if runs.is_empty() {
         return None;
     }
@@ -157,12 +158,12 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
         let mut values: Vec<Option<(f64, f64, f64)>> = Vec::new();
         for s in &solvers {
             match of(s) {
-                Some(r) if r.status == "failed" => {
+                Some(r) if failed(r) => {
                     row.extend(["failed".to_string(), String::new(), String::new()]);
                     values.push(None);
                 }
                 Some(r) => {
-                    let mark = if r.status == "ok" { "" } else { "*" };
+                    let mark = if converged(r) { "" } else { "*" };
                     row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
                     row.push(r.time_s.map(|t| format!("{t:.2}")).unwrap_or_default());
                     row.push(r.final_energy.map(|x| format!("{x:.5}")).unwrap_or_default());

@@ -3,6 +3,7 @@
 
 use super::Table;
 use crate::output::SummaryRow;
+use crate::report::failed;
 
 /// The solvers whose per-element projection the projection table compares, with short labels.
 const PROJECTIONS: [(&str, &str); 3] = [("kp-newton", "KP"), ("fp-newton-4x4", "FP4"), ("fp-newton-6x6", "FP6")];
@@ -11,11 +12,8 @@ const PROJECTIONS: [(&str, &str); 3] = [("kp-newton", "KP"), ("fp-newton-4x4", "
 /// of each projection next to the linear solve, and their ratio. `None` when no run of a
 /// projection solver finished.
 pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
-    let present: Vec<(&str, &str)> = PROJECTIONS
-        .iter()
-        .copied()
-        .filter(|(s, _)| rows.iter().any(|r| r.solver == *s && r.status != "failed"))
-        .collect();
+    let present: Vec<(&str, &str)> =
+        PROJECTIONS.iter().copied().filter(|(s, _)| rows.iter().any(|r| r.solver == *s && !failed(r))).collect();
     if present.is_empty() {
         return None;
     }
@@ -35,7 +33,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
     for (d, e) in groups {
         let runs: Vec<&SummaryRow> = rows
             .iter()
-            .filter(|r| r.dataset == d && r.energy == e && r.status != "failed" && r.iterations.unwrap_or(0) > 0)
+            .filter(|r| r.dataset == d && r.energy == e && !failed(r) && r.iterations.unwrap_or(0) > 0)
             .collect();
         let of = |s: &str| runs.iter().find(|r| r.solver == s).copied();
         // The solve costs the same for every strategy (same pattern): report the median over them.
@@ -72,7 +70,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
 /// edge projection (`kp-newton`) and the numeric one (`kp-newton-eig8`). `None` unless a
 /// `kp-newton-eig8` run finished.
 pub fn smoothness_table(rows: &[SummaryRow]) -> Option<Table> {
-    let ok = |r: &&SummaryRow| r.status != "failed" && r.iterations.unwrap_or(0) > 0;
+    let ok = |r: &&SummaryRow| !failed(r) && r.iterations.unwrap_or(0) > 0;
     if !rows.iter().filter(ok).any(|r| r.solver == "kp-newton-eig8") {
         return None;
     }

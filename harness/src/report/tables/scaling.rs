@@ -2,15 +2,14 @@
 
 use super::Table;
 use crate::output::SummaryRow;
+use crate::report::{converged, failed, is_param_or_deform};
 
 /// The composite-majorization paper's Figure 6 as a table: per energy, the datasets sorted by
 /// size, and for each solver its iterations, median time per iteration and run time. `None`
 /// unless some energy has runs on at least three mesh sizes (`param` or `deform`).
 pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
-    let runs: Vec<&SummaryRow> = rows
-        .iter()
-        .filter(|r| (r.task == "param" || r.task == "deform") && r.status != "failed" && r.vertices.is_some())
-        .collect();
+    let runs: Vec<&SummaryRow> =
+        rows.iter().filter(|r| is_param_or_deform(r) && !failed(r) && r.vertices.is_some()).collect();
     let mut energies: Vec<&str> = Vec::new();
     let mut solvers: Vec<&str> = Vec::new();
     for r in &runs {
@@ -48,7 +47,7 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
             for s in &solvers {
                 match runs.iter().find(|r| r.energy == *e && r.dataset == d && r.solver == *s) {
                     Some(r) => {
-                        let mark = if r.status == "ok" { "" } else { "*" };
+                        let mark = if converged(r) { "" } else { "*" };
                         row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
                         row.push(r.iter_ms_median.map(|t| format!("{t:.1}")).unwrap_or_default());
                         row.push(r.time_s.map(|t| format!("{t:.2}")).unwrap_or_default());
