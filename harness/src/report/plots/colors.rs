@@ -47,7 +47,7 @@ const RDBU: [(u8, u8, u8); 5] = [(33, 102, 172), (146, 197, 222), (247, 247, 247
 pub(super) const FLIPPED_DISTORTION: [u8; 3] = [0, 110, 255];
 const FLIPPED_AREA: [u8; 3] = [0, 0, 0];
 /// Degenerate source triangles (no defined distortion).
-const UNDEFINED: [u8; 3] = [160, 160, 160];
+pub(super) const UNDEFINED: [u8; 3] = [160, 160, 160];
 
 /// Upper ends the color scale snaps to, so scales are round numbers.
 const SCALE_STEPS: [f64; 12] = [1.01, 1.02, 1.05, 1.1, 1.2, 1.5, 2.0, 3.0, 4.0, 8.0, 16.0, 100.0];

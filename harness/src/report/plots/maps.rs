@@ -12,6 +12,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use rayon::prelude::*;
+use solvers::local::{flatten, signed_area, LocalOp};
 use std::path::Path;
 
 /// Map renderings: the map square plus a title and a color bar below it.
@@ -62,41 +63,9 @@ pub(super) fn render_group(run_dir: &Path, (dataset, energy): (&str, &str), runs
         .collect::<Result<Vec<_>>>()
 }
 
-/// Area of a source triangle and its edge matrix in its own 2D frame (first edge along x):
-/// `[[a, bx], [0, by]]` as `(a, bx, by)`.
-fn source_frame(p: [[f64; 3]; 3]) -> (f64, f64, f64) {
-    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let a = (e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]).sqrt();
-    let cross = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
-    let by = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt() / a;
-    let bx = (e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / a;
-    (a, bx, by)
-}
-
-/// Signed area of a map triangle.
-fn map_area(q: [[f64; 2]; 3]) -> f64 {
-    0.5 * ((q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (q[1][1] - q[0][1]))
-}
-
-/// Singular values `(σ1 ≥ σ2 ≥ 0)` and determinant of the Jacobian from the source triangle
-/// (in its own frame) to the map triangle.
-fn jacobian_sv(p: [[f64; 3]; 3], q: [[f64; 2]; 3]) -> (f64, f64, f64) {
-    let (a, bx, by) = source_frame(p);
-    // J = M S^{-1} with M the map edge matrix and S = [[a, bx], [0, by]].
-    let (m00, m01) = (q[1][0] - q[0][0], q[2][0] - q[0][0]);
-    let (m10, m11) = (q[1][1] - q[0][1], q[2][1] - q[0][1]);
-    let (j00, j01) = (m00 / a, (m01 - m00 * bx / a) / by);
-    let (j10, j11) = (m10 / a, (m11 - m10 * bx / a) / by);
-    // Closed-form 2x2 SVD: J = similarity part (e, h) + anti-similarity part (f, g).
-    let (e, f) = ((j00 + j11) / 2.0, (j00 - j11) / 2.0);
-    let (g, h) = ((j10 + j01) / 2.0, (j10 - j01) / 2.0);
-    let (qs, rs) = (e.hypot(h), f.hypot(g));
-    (qs + rs, (qs - rs).abs(), j00 * j11 - j01 * j10)
-}
-
-fn corners(map: &MapFile, f: &[usize; 3]) -> ([[f64; 3]; 3], [[f64; 2]; 3]) {
-    (f.map(|v| map.source[v]), f.map(|v| map.uv[v]))
+/// A face's source triangle, flattened isometrically into its own plane, and its map triangle.
+fn corners(map: &MapFile, f: &[usize; 3]) -> ([[f64; 2]; 3], [[f64; 2]; 3]) {
+    (flatten(f.map(|v| map.source[v])), f.map(|v| map.uv[v]))
 }
 
 /// Per triangle `max(σ1, 1/σ2)` of the Jacobian divided by the global scale
@@ -109,11 +78,13 @@ fn distortion(map: &MapFile) -> Vec<Shade> {
     map.faces
         .iter()
         .map(|f| {
-            let (p, q) = corners(map, f);
-            let (s1, s2, det) = jacobian_sv(p, q);
-            if det <= 0.0 {
+            let (z, q) = corners(map, f);
+            let Some(op) = LocalOp::from_planar(z) else { return Some(f64::NAN) };
+            // The solvers' flip test (`Problem::flips`), so the count matches the summary's.
+            if signed_area(q) <= 0.0 {
                 return None;
             }
+            let [s1, s2] = op.wirtinger(q).singular_values();
             Some((s1 / scale).max(scale / s2))
         })
         .collect()
@@ -126,13 +97,12 @@ fn area_ratios(map: &MapFile) -> Vec<Shade> {
     map.faces
         .iter()
         .map(|f| {
-            let (p, q) = corners(map, f);
-            let (a, _, by) = source_frame(p);
-            let m = map_area(q);
+            let (z, q) = corners(map, f);
+            let m = signed_area(q);
             if m <= 0.0 {
                 return None;
             }
-            Some((m / map_total) / (0.5 * a * by / src_total))
+            Some((m / map_total) / (signed_area(z) / src_total))
         })
         .collect()
 }
@@ -140,9 +110,8 @@ fn area_ratios(map: &MapFile) -> Vec<Shade> {
 /// Total source area and total absolute map area.
 fn total_areas(map: &MapFile) -> (f64, f64) {
     map.faces.iter().fold((0.0, 0.0), |(s, m), f| {
-        let (p, q) = corners(map, f);
-        let (a, _, by) = source_frame(p);
-        (s + 0.5 * a * by, m + map_area(q).abs())
+        let (z, q) = corners(map, f);
+        (s + signed_area(z), m + signed_area(q).abs())
     })
 }
 
@@ -294,21 +263,27 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::report::plots::colors::FLIPPED_DISTORTION;
+    use crate::report::plots::colors::{FLIPPED_DISTORTION, UNDEFINED};
 
     fn one_triangle(source: [[f64; 3]; 3], uv: [[f64; 2]; 3]) -> MapFile {
         MapFile { source: source.to_vec(), uv: uv.to_vec(), faces: vec![[0, 1, 2]] }
+    }
+
+    /// Singular values and determinant of a face's Jacobian, as `distortion` gets them.
+    fn jacobian_sv(z: [[f64; 2]; 3], q: [[f64; 2]; 3]) -> (f64, f64, f64) {
+        let [s1, s2] = LocalOp::from_planar(z).unwrap().wirtinger(q).singular_values();
+        (s1, s2, s1 * s2)
     }
 
     #[test]
     fn similarities_have_distortion_one() {
         // A tilted source triangle, mapped by its own 2D frame turned by 0.7 rad and scaled by 3.
         let src = [[0.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.2, 1.5, 0.3]];
-        let (a, bx, by) = source_frame(src);
+        let [_, [a, _], [bx, by]] = flatten(src);
         let (c, s, k) = (0.7f64.cos(), 0.7f64.sin(), 3.0);
         let rot = |x: f64, y: f64| [k * (c * x - s * y) + 5.0, k * (s * x + c * y) - 2.0];
         let map = one_triangle(src, [rot(0.0, 0.0), rot(a, 0.0), rot(bx, by)]);
-        let (s1, s2, det) = jacobian_sv(src, [map.uv[0], map.uv[1], map.uv[2]]);
+        let (s1, s2, det) = jacobian_sv(flatten(src), [map.uv[0], map.uv[1], map.uv[2]]);
         assert!((s1 - 3.0).abs() < 1e-12 && (s2 - 3.0).abs() < 1e-12 && (det - 9.0).abs() < 1e-12);
         let d = distortion(&map)[0].unwrap();
         assert!((d - 1.0).abs() < 1e-12, "{d}");
@@ -339,8 +314,8 @@ mod tests {
         let mut m2 = map.clone();
         m2.uv = m2.source.iter().map(|p| [p[0], p[1]]).collect();
         m2.uv[3] = [1.5, 2.0 + 1.0];
-        let (a0, a1) = (0.5, map_area([m2.uv[1], m2.uv[3], m2.uv[2]]));
-        let (s0, s1) = (0.5, map_area([[1.0, 0.0], [1.5, 2.0], [0.3, 1.0]]));
+        let (a0, a1) = (0.5, signed_area([m2.uv[1], m2.uv[3], m2.uv[2]]));
+        let (s0, s1) = (0.5, signed_area([[1.0, 0.0], [1.5, 2.0], [0.3, 1.0]]));
         let r = area_ratios(&m2);
         assert!((r[0].unwrap() - (a0 / (a0 + a1)) / (s0 / (s0 + s1))).abs() < 1e-12);
         assert!((r[1].unwrap() - (a1 / (a0 + a1)) / (s1 / (s0 + s1))).abs() < 1e-12);
@@ -358,6 +333,19 @@ mod tests {
         assert_ne!(scale.color(Some(1.0)), FLIPPED_DISTORTION);
         let fine = one_triangle(src, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
         assert!(distortion(&fine)[0].is_some());
+    }
+
+    #[test]
+    fn a_degenerate_source_triangle_has_no_distortion() {
+        // Collinear source corners: no Jacobian, drawn in the undefined color, not as a flip.
+        let map = MapFile {
+            source: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            uv: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.5], [0.0, 1.0]],
+            faces: vec![[0, 1, 2], [0, 1, 3]],
+        };
+        let d = distortion(&map);
+        assert!(d[0].is_some_and(f64::is_nan) && d[1].is_some_and(f64::is_finite), "{d:?}");
+        assert_eq!(ColorScale { measure: Measure::Distortion, max: 4.0 }.color(d[0]), UNDEFINED);
     }
 
     #[test]
