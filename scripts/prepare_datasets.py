@@ -285,7 +285,7 @@ def write_obj(path: Path, v: np.ndarray, f: np.ndarray) -> bytes:
 
 
 # Longest dataset name written; mapbench refuses run names <dataset>__<energy>__<solver> over
-# 200 bytes (harness/src/names.rs), and 64 leaves room for every energy and solver name.
+# 200 bytes (harness/src/plan/names.rs), and 64 leaves room for every energy and solver name.
 MAX_NAME = 64
 
 

@@ -6,9 +6,9 @@
 //! steps after it ran), or the reader's error message. Neither is a finding: a panic, a hang
 //! or a huge allocation is. Nothing is read from or written to disk.
 
-use crate::check::{compare, render, Baseline, Record};
-use crate::config::{LoadedConfig, Task};
-use crate::registry::{resolve_inline, Registry};
+use crate::gate::check::{compare, render, Baseline, Record};
+use crate::plan::config::{LoadedConfig, Task};
+use crate::plan::registry::{resolve_inline, Registry};
 use anyhow::{Context, Result};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -56,7 +56,7 @@ pub fn config(data: &[u8]) -> Result<()> {
         c.smoothness_for(e);
     }
     let datasets = resolve_inline(&cfg, &[])?;
-    crate::runner::plan(&datasets, &energies, &c.solvers, &[]);
+    crate::run::plan(&datasets, &energies, &c.solvers, &[]);
     Ok(())
 }
 
@@ -74,7 +74,7 @@ pub fn handles(data: &[u8]) -> Result<()> {
     let text = text(data)?;
     let mut first = Ok(());
     for set in [0, 1, 2, usize::MAX] {
-        let r = crate::handles::parse_p2p(text, Path::new(SOURCE), set).map(|_| ());
+        let r = crate::plan::handles::parse_p2p(text, Path::new(SOURCE), set).map(|_| ());
         if set == 0 {
             first = r;
         }

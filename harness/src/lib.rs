@@ -1,17 +1,15 @@
-//! mapbench's harness as a library: the binary (`main.rs`) is its CLI edge, and the fuzz
+//! mapbench's harness as a library: the binary (`cli/main.rs`) is its CLI edge, and the fuzz
 //! targets (`fuzz/`) drive the same readers the CLI uses.
+//!
+//! One folder per concern: `plan` turns a config and the dataset registry into the runs of a
+//! batch, `run` executes them, `run_folder` owns every file of a run folder, `report` renders
+//! tables, plots and the HTML page from a run folder, `gate` compares a run folder with a
+//! baseline, `export` writes the Newton systems of a plan.
 
-pub mod check;
-pub mod config;
 pub mod export;
 pub mod fuzzing;
-pub mod handles;
-pub mod mapfile;
-pub mod merge;
-pub mod names;
-pub mod output;
-pub mod progress;
-pub mod registry;
+pub mod gate;
+pub mod plan;
 pub mod report;
-pub mod resume;
-pub mod runner;
+pub mod run;
+pub mod run_folder;

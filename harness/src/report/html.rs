@@ -3,9 +3,9 @@
 //! file and the provenance from `meta.json`. Readable on a phone: images scale down and
 //! wide tables scroll sideways in their own box.
 
-use crate::output::{run_stem, write_atomic, SummaryRow};
 use crate::report::plots::{Plot, PlotKind};
 use crate::report::tables::Table;
+use crate::run_folder::{run_stem, write_atomic, SummaryRow};
 use anyhow::{Context, Result};
 use serde_json::Value;
 use std::fmt::Write as _;

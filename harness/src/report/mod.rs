@@ -7,8 +7,8 @@ pub mod html;
 pub mod plots;
 pub mod tables;
 
-use crate::output::{iteration_csv, run_stem, write_atomic, SummaryRow};
-use crate::resume::read_run;
+use crate::run::resume::read_run;
+use crate::run_folder::{iteration_csv, run_stem, write_atomic, SummaryRow};
 use anyhow::Result;
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -6,8 +6,8 @@ use super::chart::{
     self, draw_legend, draw_series, format_count, format_linear, house_style, Series, CURVE_SIZE, LEGEND_WIDTH,
 };
 use super::{Plot, PlotKind};
-use crate::output::{write_atomic, SummaryRow};
 use crate::report::converged;
+use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;
 use rayon::prelude::*;
@@ -23,7 +23,7 @@ pub(super) fn render_group(
     let curves = runs
         .par_iter()
         .map(|r| {
-            let curve = Curve::new(crate::resume::read_run(run_dir, r)?);
+            let curve = Curve::new(crate::run::resume::read_run(run_dir, r)?);
             Ok(Series { solver: &r.solver, style: chart::style(solvers, &r.solver), converged: converged(r), curve })
         })
         .collect::<Result<Vec<_>>>()?;
@@ -58,7 +58,7 @@ pub(super) struct Curve {
 }
 
 impl Curve {
-    fn new(file: crate::resume::IterationFile) -> Curve {
+    fn new(file: crate::run::resume::IterationFile) -> Curve {
         let rows = &file.rows;
         Curve {
             iter: rows.iter().map(|r| r.iter as f64).collect(),

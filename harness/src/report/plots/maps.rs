@@ -4,9 +4,9 @@
 use super::canvas::{encode_png, register_font};
 use super::colors::{ColorScale, Measure, Shade};
 use super::{Plot, PlotKind};
-use crate::mapfile::{self, MapFile};
-use crate::output::{run_stem, write_atomic, SummaryRow};
 use crate::report::is_authalic;
+use crate::run_folder::map::{self as mapfile, MapFile};
+use crate::run_folder::{run_stem, write_atomic, SummaryRow};
 use anyhow::{bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;

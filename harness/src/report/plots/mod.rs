@@ -14,8 +14,8 @@ pub(crate) mod tests;
 
 pub use scaling::SCALING_MIN_SIZES;
 
-use crate::output::SummaryRow;
 use crate::report::failed;
+use crate::run_folder::SummaryRow;
 use anyhow::Result;
 use rayon::prelude::*;
 use std::path::Path;

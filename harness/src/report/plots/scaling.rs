@@ -7,8 +7,8 @@ use super::chart::{
 };
 use super::curves::Curve;
 use super::{Plot, PlotKind, ALL_DATASETS};
-use crate::output::{write_atomic, SummaryRow};
 use crate::report::{converged, failed, is_authalic};
+use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;
 use std::path::Path;

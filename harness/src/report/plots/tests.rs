@@ -4,8 +4,8 @@
 use super::chart::CURVE_SIZE;
 use super::maps::MAP_SIZE;
 use super::*;
-use crate::mapfile;
-use crate::output::{iteration_csv, write_atomic};
+use crate::run_folder::map as mapfile;
+use crate::run_folder::{iteration_csv, write_atomic};
 use solvers::solver::IterationRecord;
 
 /// Width and height from a PNG's signature and IHDR chunk; panics if it is not a PNG.

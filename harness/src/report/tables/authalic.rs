@@ -1,8 +1,8 @@
 //! Area-preserving (authalic) disk maps.
 
 use super::Table;
-use crate::output::SummaryRow;
 use crate::report::{failed, is_authalic};
+use crate::run_folder::SummaryRow;
 
 /// Short labels of the authalic solvers, in the column order of the AEM paper's Table 1.
 const AUTHALIC: [(&str, &str); 3] = [("sem", "SEM"), ("aem-cg", "AEM-CG"), ("aem-cg-safe", "AEM-CG-safe")];

@@ -2,8 +2,8 @@
 //! (`param`, `deform`) and the per-mesh iterations, time and final energy.
 
 use super::Table;
-use crate::output::SummaryRow;
 use crate::report::{converged, failed, is_param_or_deform};
+use crate::run_folder::SummaryRow;
 
 /// How a solver x energy table averages its runs.
 struct MeanSpec {

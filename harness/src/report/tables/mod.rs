@@ -11,7 +11,7 @@ pub use comparison::{deform_table, param_table, per_mesh_table};
 pub use projection::{projection_table, smoothness_table};
 pub use scaling::scaling_table;
 
-use crate::output::write_atomic;
+use crate::run_folder::write_atomic;
 use anyhow::Result;
 use std::path::Path;
 
@@ -98,7 +98,7 @@ impl Table {
 
 #[cfg(test)]
 pub(super) mod tests {
-    use crate::output::SummaryRow;
+    use crate::run_folder::SummaryRow;
 
     /// A finished `param`-like run with the per-iteration projection and solve medians.
     pub(crate) fn row(d: &str, s: &str, p: f64, sv: f64) -> SummaryRow {

@@ -2,8 +2,8 @@
 //! with the smoothness term.
 
 use super::Table;
-use crate::output::SummaryRow;
 use crate::report::failed;
+use crate::run_folder::SummaryRow;
 
 /// The solvers whose per-element projection the projection table compares, with short labels.
 const PROJECTIONS: [(&str, &str); 3] = [("kp-newton", "KP"), ("fp-newton-4x4", "FP4"), ("fp-newton-6x6", "FP6")];
@@ -39,7 +39,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
         // The solve costs the same for every strategy (same pattern): report the median over them.
         let mut solves: Vec<f64> =
             present.iter().filter_map(|(s, _)| of(s).and_then(|r| r.solve_ms_median)).collect::<Vec<_>>();
-        let Some(solve) = crate::output::median(&mut solves) else { continue };
+        let Some(solve) = crate::run_folder::median(&mut solves) else { continue };
         let vertices = runs.first().and_then(|r| r.vertices).map(|v| v.to_string()).unwrap_or_default();
         let mut row = vec![d.to_string(), e.to_string(), vertices, ms(solve)];
         for (s, _) in &present {
@@ -87,7 +87,7 @@ pub fn smoothness_table(rows: &[SummaryRow]) -> Option<Table> {
         let of = |s: &str| rows.iter().filter(ok).find(|r| r.dataset == d && r.energy == e && r.solver == s);
         let (an, nu) = (of("kp-newton"), of("kp-newton-eig8"));
         let mut solves: Vec<f64> = [an, nu].iter().flatten().filter_map(|r| r.solve_ms_median).collect();
-        let solve = crate::output::median(&mut solves);
+        let solve = crate::run_folder::median(&mut solves);
         let (pa, pn) = (an.and_then(|r| r.project_ms_median), nu.and_then(|r| r.project_ms_median));
         let vertices = an.or(nu).and_then(|r| r.vertices).map(|v| v.to_string()).unwrap_or_default();
         out.push(vec![

@@ -1,8 +1,8 @@
 //! Iterations and time against the mesh size.
 
 use super::Table;
-use crate::output::SummaryRow;
 use crate::report::{converged, failed, is_param_or_deform};
+use crate::run_folder::SummaryRow;
 
 /// The composite-majorization paper's Figure 6 as a table: per energy, the datasets sorted by
 /// size, and for each solver its iterations, median time per iteration and run time. `None`

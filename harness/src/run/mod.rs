@@ -2,11 +2,15 @@
 //! each run's failure recorded without stopping the batch. Workers solve; the calling thread
 //! writes every file, so each file has one writer.
 
-use crate::config::{LoadedConfig, Task};
-use crate::output::{iteration_csv, median, run_stem, write_atomic, SummaryRow, SummaryWriter};
-use crate::progress::Progress;
-use crate::registry::{resolve, Dataset};
+pub mod merge;
+pub mod progress;
+pub mod resume;
+
+use crate::plan::config::{LoadedConfig, Task};
+use crate::plan::registry::{resolve, Dataset};
+use crate::run_folder::{iteration_csv, median, run_stem, write_atomic, SummaryRow, SummaryWriter};
 use anyhow::{bail, Context, Result};
+use progress::Progress;
 use solvers::authalic::{solve_authalic, AreaMetrics, AUTHALIC_ENERGY};
 use solvers::deform::solve_deform;
 use solvers::linear::AnalysisCache;
@@ -222,9 +226,9 @@ pub fn run_batch(
                     let ds = &datasets[p.dataset];
                     progress.run_started(worker, &format!("{} {} {}", ds.name, p.energy, p.solver));
                     // An unreadable mesh file has no key; its run fails below as usual.
-                    let key = crate::resume::run_key(cfg, ds, &p.energy, &p.solver, code).ok();
+                    let key = crate::run::resume::run_key(cfg, ds, &p.energy, &p.solver, code).ok();
                     let previous = match (&key, opts.resume) {
-                        (Some(k), true) => crate::resume::previous(out_dir, &p.stem, k),
+                        (Some(k), true) => crate::run::resume::previous(out_dir, &p.stem, k),
                         _ => None,
                     };
                     let resumed = previous.is_some();
@@ -304,7 +308,7 @@ pub fn run_batch(
     // summary.csv in canonical order, whatever order the workers finished in.
     finished.sort_by_key(|(i, _)| *i);
     let rows: Vec<SummaryRow> = finished.into_iter().map(|(_, s)| s).collect();
-    crate::output::write_summary(&out_dir.join("summary.csv"), &rows)?;
+    crate::run_folder::write_summary(&out_dir.join("summary.csv"), &rows)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
     // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
     // CPU) must not fan the plots out to every core of the node.
@@ -347,7 +351,7 @@ fn write_run_files(out_dir: &Path, stem: &str, r: &mut RunResult, key: Option<&s
         let own_best = r.rows.iter().map(|x| x.energy).fold(f64::INFINITY, f64::min);
         write_atomic(&out_dir.join("runs").join(format!("{stem}.csv")), &iteration_csv(&r.rows, own_best)?)?;
         if let Some(k) = key {
-            crate::resume::write_sidecar(out_dir, stem, k, &r.summary)?;
+            crate::run::resume::write_sidecar(out_dir, stem, k, &r.summary)?;
         }
         Ok(())
     })();
@@ -357,7 +361,7 @@ fn write_run_files(out_dir: &Path, stem: &str, r: &mut RunResult, key: Option<&s
         }
         // A previous batch's sidecar would vouch for files that are now a mix.
         if key.is_some() {
-            let _ = std::fs::remove_file(crate::resume::sidecar_path(out_dir, stem));
+            let _ = std::fs::remove_file(crate::run::resume::sidecar_path(out_dir, stem));
         }
     }
     written
@@ -460,7 +464,7 @@ fn run_one(
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
         _ => String::new(),
     };
-    let map_obj = Some(crate::mapfile::to_obj(mesh, &outcome.x));
+    let map_obj = Some(crate::run_folder::map::to_obj(mesh, &outcome.x));
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted) && !timed_out;
     RunResult { summary, rows, map_obj, interrupted }
 }
@@ -578,7 +582,7 @@ impl Meta<'_> {
             "stop_per_energy": stop.iter().map(|(e, (g, d, m))| (e.clone(), serde_json::json!({
                 "grad_tol": g, "energy_decrease_tol": d, "max_iters": m
             }))).collect::<serde_json::Map<_, _>>(),
-            "meshes_dir": std::env::var(crate::registry::MESHES_ENV).ok(),
+            "meshes_dir": std::env::var(crate::plan::registry::MESHES_ENV).ok(),
             "mapbench_version": env!("CARGO_PKG_VERSION"),
             "rustc": env!("MAPBENCH_RUSTC"),
             "crates": env!("MAPBENCH_CRATES"),

@@ -3,10 +3,10 @@
 //! the solver, and the mesh and handle files' contents). A resumed batch reuses a run whose
 //! key matches and whose files (per-iteration CSV, map) are intact, and runs the others.
 
-use crate::config::LoadedConfig;
-use crate::handles::HandleSource;
-use crate::output::{csv_error, read_csv_bytes, run_stem, SummaryRow, ITERATION_COLUMNS};
-use crate::registry::{Dataset, MeshSource};
+use crate::plan::config::LoadedConfig;
+use crate::plan::handles::HandleSource;
+use crate::plan::registry::{Dataset, MeshSource};
+use crate::run_folder::{csv_error, read_csv_bytes, run_stem, SummaryRow, ITERATION_COLUMNS};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use solvers::authalic::EXTRA_COLUMNS;
@@ -83,7 +83,7 @@ pub(crate) fn sidecar_path(out_dir: &Path, stem: &str) -> PathBuf {
 
 pub fn write_sidecar(out_dir: &Path, stem: &str, key: &str, summary: &SummaryRow) -> Result<()> {
     let json = serde_json::to_string_pretty(&Sidecar { key: key.to_string(), summary: summary.clone() })?;
-    crate::output::write_atomic(&sidecar_path(out_dir, stem), json.as_bytes())
+    crate::run_folder::write_atomic(&sidecar_path(out_dir, stem), json.as_bytes())
 }
 
 /// The finished run `stem` if its sidecar has `key` and all its files are intact: the CSV
@@ -102,7 +102,7 @@ pub fn previous(out_dir: &Path, stem: &str, key: &str) -> Option<(SummaryRow, Ve
         return None;
     }
     if side.summary.iterations.is_some() {
-        crate::mapfile::read(&out_dir.join("uv").join(format!("{stem}.obj"))).ok()?;
+        crate::run_folder::map::read(&out_dir.join("uv").join(format!("{stem}.obj"))).ok()?;
     }
     Some((side.summary, rows))
 }
@@ -233,7 +233,7 @@ mod tests {
         ];
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("r.csv");
-        std::fs::write(&p, crate::output::iteration_csv(&rows, 2.0).unwrap()).unwrap();
+        std::fs::write(&p, crate::run_folder::iteration_csv(&rows, 2.0).unwrap()).unwrap();
         let back = read_rows(&p).unwrap();
         assert_eq!(back.len(), 2);
         assert_eq!(back[1], rows[1]);
@@ -250,7 +250,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir(dir.path().join("runs")).unwrap();
         let p = dir.path().join("runs/m__sd__cm.csv");
-        let good = String::from_utf8(crate::output::iteration_csv(&rows, 1.0).unwrap()).unwrap();
+        let good = String::from_utf8(crate::run_folder::iteration_csv(&rows, 1.0).unwrap()).unwrap();
         let err = |text: &[u8]| {
             std::fs::write(&p, text).unwrap();
             let e = format!("{:#}", read_iterations(&p).unwrap_err());

@@ -1,7 +1,7 @@
 //! `merge SHARD_DIR...`: combine the folders of `run --shard I/N` batches of one config into
 //! one run folder, as if the batch had run unsharded, and render its report.
 
-use crate::output::{read_summary, run_stem, write_atomic, write_summary, SummaryRow};
+use crate::run_folder::{read_summary, run_stem, write_atomic, write_summary, SummaryRow};
 use anyhow::{bail, Context, Result};
 use serde_json::Value;
 use std::collections::HashMap;
@@ -47,7 +47,8 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
         Some(o) => o.to_path_buf(),
         None => {
             let name = config["name"].as_str().unwrap_or("merged");
-            crate::names::check_name("config", name).with_context(|| format!("{}: meta.json", first.display()))?;
+            crate::plan::names::check_name("config", name)
+                .with_context(|| format!("{}: meta.json", first.display()))?;
             PathBuf::from("reports").join(name)
         }
     };

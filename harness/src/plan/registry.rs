@@ -1,8 +1,8 @@
 //! The dataset registry (`datasets.toml`): generated meshes built by our own code and file
 //! entries looked up in `MAPBENCH_MESHES`, selected by name or `tag:<tag>`.
 
-use crate::config::LoadedConfig;
-use crate::handles::HandleSource;
+use crate::plan::config::LoadedConfig;
+use crate::plan::handles::HandleSource;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use solvers::mesh::{load_obj, Mesh};
@@ -109,7 +109,7 @@ impl Registry {
 /// A registry entry's name is file-name safe and its files stay inside `MAPBENCH_MESHES`
 /// (relative, no `..`): the registry may come from `scripts/prepare_datasets.py` or a user.
 fn check_entry(e: &Entry) -> Result<()> {
-    crate::names::check_name("dataset", &e.name)?;
+    crate::plan::names::check_name("dataset", &e.name)?;
     for (key, file) in [("file", &e.file), ("handles", &e.handles)] {
         if let Some(f) = file {
             let p = Path::new(f);
@@ -240,7 +240,7 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
     let inline = resolve_inline(cfg, &out)?;
     out.extend(inline);
     let c = &cfg.config;
-    crate::names::check_run_names(out.iter().map(|d| d.name.as_str()), &c.energy_names(), &c.solvers)
+    crate::plan::names::check_run_names(out.iter().map(|d| d.name.as_str()), &c.energy_names(), &c.solvers)
         .with_context(|| format!("{}: invalid config", cfg.path.display()))?;
     if out.is_empty() {
         // Say why, instead of the runner's "--only selects no run" when no --only was given.
@@ -308,7 +308,8 @@ mod tests {
         for entry in std::fs::read_dir(&dir).unwrap() {
             let p = entry.unwrap().path();
             if p.extension().is_some_and(|x| x == "toml") {
-                let cfg = crate::config::LoadedConfig::load(&p).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
+                let cfg =
+                    crate::plan::config::LoadedConfig::load(&p).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
                 match resolve(&cfg) {
                     Ok(_) => {}
                     // A config of shared meshes only has nothing to run without the corpus.

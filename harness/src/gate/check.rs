@@ -87,7 +87,7 @@ fn default_rtol() -> f64 {
 
 /// Read the records of a run folder's `summary.csv`.
 pub fn read_summary(run_dir: &Path) -> Result<Vec<Record>> {
-    Ok(crate::output::read_summary(run_dir)?
+    Ok(crate::run_folder::read_summary(run_dir)?
         .into_iter()
         .map(|row| Record {
             dataset: row.dataset,

@@ -2,6 +2,8 @@
 //! `summary.csv`, with exactly the documented columns. Files are written atomically
 //! (temporary file + rename) so an interrupted batch never leaves a half-written run.
 
+pub mod map;
+
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use solvers::solver::IterationRecord;
@@ -308,7 +310,7 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>> {
         // `report` and `merge` derive file names from these fields: a folder written by
         // another tool or edited by hand must not make them write outside the run folder.
         for (kind, name) in [("dataset", &row.dataset), ("energy", &row.energy), ("solver", &row.solver)] {
-            crate::names::check_name(kind, name)
+            crate::plan::names::check_name(kind, name)
                 .with_context(|| format!("{}: line {}", path.display(), rec.position().map_or(0, |p| p.line())))?;
         }
         rows.push(row);

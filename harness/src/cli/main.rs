@@ -4,7 +4,10 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use config::LoadedConfig;
-use mapbench::{check, config, export, merge, output, progress, registry, report, runner};
+use mapbench::gate::check;
+use mapbench::plan::{config, registry};
+use mapbench::run::{self as runner, merge, progress};
+use mapbench::{export, report, run_folder as output};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};

@@ -2,10 +2,10 @@
 //! iteration, as Matrix Market files, so other sparse solvers can be timed on exactly the
 //! matrices mapbench factorizes (`scripts/bench_linear_solvers.py`).
 
-use crate::config::{LoadedConfig, Task};
-use crate::output::write_atomic;
-use crate::registry::resolve;
-use crate::runner::plan;
+use crate::plan::config::{LoadedConfig, Task};
+use crate::plan::registry::resolve;
+use crate::run::plan;
+use crate::run_folder::write_atomic;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 
@@ -137,8 +137,8 @@ pub fn time_system(sys: &SystemFile, ordering: solvers::ordering::Ordering, repe
         n: sys.n,
         ordering: lin.ordering().as_str(),
         analyse_ms,
-        factorize_ms: crate::output::median(&mut fact).unwrap_or(f64::NAN),
-        solve_ms: crate::output::median(&mut solve).unwrap_or(f64::NAN),
+        factorize_ms: crate::run_folder::median(&mut fact).unwrap_or(f64::NAN),
+        solve_ms: crate::run_folder::median(&mut solve).unwrap_or(f64::NAN),
         factor_entries: lin.factor_len(),
     })
 }

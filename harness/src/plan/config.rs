@@ -264,7 +264,7 @@ impl Config {
             }
         }
         for d in &self.dataset {
-            crate::registry::check_handles(d.handles.is_some(), d.handles_set, d.handles_rule.as_deref())
+            crate::plan::registry::check_handles(d.handles.is_some(), d.handles_set, d.handles_rule.as_deref())
                 .with_context(|| format!("[[dataset]] '{}'", d.name))?;
             // Handles only mean something to `deform`: silently ignoring them would hide a
             // config that was meant to be a deform batch.
@@ -346,19 +346,19 @@ impl Config {
         Ok(())
     }
 
-    /// Names that become file names are file-name safe (`crate::names`), and no list repeats
+    /// Names that become file names are file-name safe (`crate::plan::names`), and no list repeats
     /// an entry (a repeated energy or solver would run the same run twice into one file).
     fn check_names(&self) -> Result<()> {
         // `name` is the default run folder, reports/<name>.
-        crate::names::check_name("config", &self.name).context("'name'")?;
+        crate::plan::names::check_name("config", &self.name).context("'name'")?;
         for d in &self.dataset {
-            crate::names::check_name("dataset", &d.name).context("[[dataset]]")?;
+            crate::plan::names::check_name("dataset", &d.name).context("[[dataset]]")?;
         }
         for e in &self.energies {
-            crate::names::check_name("energy", e).context("'energies'")?;
+            crate::plan::names::check_name("energy", e).context("'energies'")?;
         }
         for s in &self.solvers {
-            crate::names::check_name("solver", s).context("'solvers'")?;
+            crate::plan::names::check_name("solver", s).context("'solvers'")?;
         }
         let inline: Vec<String> = self.dataset.iter().map(|d| d.name.clone()).collect();
         for (key, list) in [
