@@ -9,11 +9,8 @@
 pub mod export;
 pub mod fuzzing;
 pub mod gate;
-pub mod html;
 pub mod plan;
-pub mod plots;
 pub mod report;
 pub mod run;
 pub mod run_folder;
 pub mod stats;
-pub mod tables;

@@ -37,6 +37,13 @@ impl Wirtinger {
     pub fn y(&self) -> f64 {
         self.fzb[0] * self.fzb[0] + self.fzb[1] * self.fzb[1]
     }
+    /// The signed singular values `(sigma1, sigma2) = (|f_z| + |f_zbar|, |f_z| - |f_zbar|)` of
+    /// the Jacobian: `sigma2 < 0` when the map reverses orientation.
+    #[inline]
+    pub fn singular_values(&self) -> [f64; 2] {
+        let (a, b) = (self.x().sqrt(), self.y().sqrt());
+        [a + b, a - b]
+    }
     /// The stacked 4-vector `(f_z, f_zbar)`.
     #[inline]
     pub fn stacked(&self) -> Vector4<f64> {
@@ -69,22 +76,13 @@ impl LocalOp {
         Some(LocalOp { area, d_re, d_im })
     }
 
-    /// Isometric flattening of a 3D triangle from its edge lengths (vertex 1 at 0, vertex 2
-    /// on the positive real axis, vertex 3 in the upper half plane), as the reference code does.
+    /// The operator of a 3D triangle in its [`flatten`]ed frame.
     pub fn from_3d(p: [[f64; 3]; 3]) -> Option<LocalOp> {
-        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        let u = sub(p[1], p[0]);
-        let v = sub(p[2], p[0]);
-        let lu = dot(u, u).sqrt();
-        if !(lu > 0.0) {
+        let z = flatten(p);
+        if !(z[1][0] > 0.0) {
             return None;
         }
-        // coordinates of v in the frame (u/|u|, n x u/|u|): x = <u,v>/|u|, y = |u x v|/|u|
-        let cx = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
-        let vx = dot(u, v) / lu;
-        let vy = dot(cx, cx).sqrt() / lu;
-        LocalOp::from_planar([[0.0, 0.0], [lu, 0.0], [vx, vy]])
+        LocalOp::from_planar(z)
     }
 
     /// Wirtinger derivatives of the map with target vertex positions `y` (u, v per vertex).
@@ -127,6 +125,22 @@ impl LocalOp {
     pub fn mt_times(&self, w: Vector4<f64>) -> Vector6<f64> {
         self.m().transpose() * w
     }
+}
+
+/// Isometric flattening of a 3D triangle from its edge lengths: vertex 1 at 0, vertex 2 on
+/// the positive real axis, vertex 3 in the upper half plane, as the reference code does (NaN
+/// for a zero first edge).
+pub fn flatten(p: [[f64; 3]; 3]) -> [[f64; 2]; 3] {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let u = sub(p[1], p[0]);
+    let v = sub(p[2], p[0]);
+    let lu = dot(u, u).sqrt();
+    // coordinates of v in the frame (u/|u|, n x u/|u|): x = <u,v>/|u|, y = |u x v|/|u|
+    let cx = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    let vx = dot(u, v) / lu;
+    let vy = dot(cx, cx).sqrt() / lu;
+    [[0.0, 0.0], [lu, 0.0], [vx, vy]]
 }
 
 /// Local operators of every face of a mesh: planar meshes use their own coordinates (so
@@ -200,11 +214,35 @@ mod tests {
     }
 
     #[test]
+    fn singular_values_match_the_svd() {
+        // (a, b, c, d) of J = [[a, b], [c, d]]: a generic map, a stretch, a scaled rotation and
+        // a reflection (negative sigma2)
+        let (c, s) = (0.7f64.cos(), 0.7f64.sin());
+        let maps =
+            [(1.3, -0.4, 0.7, 2.1), (2.0, 0.0, 0.0, 1.0), (3.0 * c, -3.0 * s, 3.0 * s, 3.0 * c), (1.0, 0.0, 0.0, -1.0)];
+        let op = op_unit();
+        for (a, b, c, d) in maps {
+            let [s1, s2] = op.wirtinger([[0.0, 0.0], [a, c], [b, d]]).singular_values();
+            let sv = nalgebra::Matrix2::new(a, b, c, d).singular_values();
+            assert!((s1 - sv.max()).abs() < 1e-13 && (s2.abs() - sv.min()).abs() < 1e-13, "{s1} {s2} {sv}");
+            assert!((s1 * s2 - (a * d - b * c)).abs() < 1e-13, "sigma1 sigma2 = det J");
+        }
+    }
+
+    #[test]
     fn flattening_preserves_lengths_and_area() {
         let p = [[0.1, 0.2, 0.3], [1.0, -0.5, 0.7], [0.4, 0.9, -0.2]];
         let op = LocalOp::from_3d(p).unwrap();
         let mesh = Mesh::new("t", p.to_vec(), vec![[0, 1, 2]]);
         assert!((op.area - mesh.face_area(0)).abs() < 1e-14);
+        let z = flatten(p);
+        assert!((signed_area(z) - op.area).abs() < 1e-14);
+        let len =
+            |a: [f64; 3], b: [f64; 3]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        let len2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+        for (i, j) in [(0, 1), (1, 2), (2, 0)] {
+            assert!((len(p[i], p[j]) - len2(z[i], z[j])).abs() < 1e-14);
+        }
     }
 
     #[test]

@@ -3,12 +3,16 @@
 //! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
 //! CSVs alone.
 
+pub mod html;
+pub mod plots;
+pub mod tables;
+
 use crate::run_folder::read_run;
 use crate::run_folder::{iteration_csv, run_stem, write_atomic, SummaryRow};
-use crate::tables::Table;
 use anyhow::Result;
 use std::collections::BTreeMap;
 use std::path::Path;
+use tables::Table;
 
 /// Re-derive everything from `summary` rows and the per-iteration CSVs in `run_dir`.
 pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
@@ -17,8 +21,8 @@ pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     for (stem, table) in &tables {
         table.write(&run_dir.join("tables"), stem)?;
     }
-    let plots = crate::plots::render_all(run_dir, summary)?;
-    crate::html::write_index(run_dir, summary, &tables, &plots)
+    let plots = plots::render_all(run_dir, summary)?;
+    html::write_index(run_dir, summary, &tables, &plots)
 }
 
 /// Builds one table from the summary, `None` when it does not apply.
@@ -30,13 +34,13 @@ type Group = Vec<(String, Vec<solvers::solver::IterationRecord>)>;
 /// Every table that applies to these runs, with its file stem.
 pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
     let builders: [(&str, TableFn); 7] = [
-        ("param", crate::tables::param_table),
-        ("per_mesh", crate::tables::per_mesh_table),
-        ("projection", crate::tables::projection_table),
-        ("smoothness", crate::tables::smoothness_table),
-        ("deform", crate::tables::deform_table),
-        ("authalic", crate::tables::authalic_table),
-        ("scaling", crate::tables::scaling_table),
+        ("param", tables::param_table),
+        ("per_mesh", tables::per_mesh_table),
+        ("projection", tables::projection_table),
+        ("smoothness", tables::smoothness_table),
+        ("deform", tables::deform_table),
+        ("authalic", tables::authalic_table),
+        ("scaling", tables::scaling_table),
     ];
     builders.iter().filter_map(|(stem, f)| f(summary).map(|t| (stem.to_string(), t))).collect()
 }
@@ -47,7 +51,7 @@ pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
 /// all on disk. Files whose content would not change are left alone.
 pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     let mut groups: BTreeMap<(&str, &str), Group> = BTreeMap::new();
-    for s in summary.iter().filter(|s| s.status != "failed") {
+    for s in summary.iter().filter(|s| !failed(s)) {
         let stem = run_stem(&s.dataset, &s.energy, &s.solver);
         let rows = read_run(run_dir, s)?.rows;
         groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows));
@@ -70,4 +74,27 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+// The report's reading of the task and status strings, in one place (the tables and plots
+// filter and mark runs through these).
+
+/// The run failed: no iterations to show, left out of means and curves.
+fn failed(r: &SummaryRow) -> bool {
+    r.status == "failed"
+}
+
+/// The run converged (other finished runs are marked `*` or drawn dashed).
+fn converged(r: &SummaryRow) -> bool {
+    r.status == "ok"
+}
+
+/// An authalic run: its maps show area ratios, it has no distortion energy to compare.
+fn is_authalic(r: &SummaryRow) -> bool {
+    r.task == "authalic"
+}
+
+/// A `param` or `deform` run: a distortion energy minimized by the Newton-type solvers.
+fn is_param_or_deform(r: &SummaryRow) -> bool {
+    r.task == "param" || r.task == "deform"
 }

@@ -3,9 +3,9 @@
 //! file and the provenance from `meta.json`. Readable on a phone: images scale down and
 //! wide tables scroll sideways in their own box.
 
-use crate::plots::{Plot, PlotKind};
+use crate::report::plots::{Plot, PlotKind};
+use crate::report::tables::Table;
 use crate::run_folder::{run_stem, write_atomic, SummaryRow};
-use crate::tables::Table;
 use anyhow::{Context, Result};
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -401,7 +401,7 @@ fn provenance_section(h: &mut String, meta: Option<&Value>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plots::tests::{png_size, tiny_run};
+    use crate::report::plots::tests::{png_size, tiny_run};
 
     fn table(title: &str) -> Table {
         Table {
@@ -418,7 +418,7 @@ mod tests {
         let (dir, rows) = tiny_run();
         let p = dir.path();
         let tables = vec![("deform".to_string(), table("Deform & friends")), ("authalic".to_string(), table("AEM"))];
-        let plots = crate::plots::render_all(p, &rows).unwrap();
+        let plots = crate::report::plots::render_all(p, &rows).unwrap();
         write_index(p, &rows, &tables, &plots).unwrap();
         let html = std::fs::read_to_string(p.join("index.html")).unwrap();
         assert!(html.contains("<title>mapbench: tiny-config</title>"));
@@ -455,7 +455,7 @@ mod tests {
     #[test]
     fn a_plot_without_its_file_is_left_out() {
         let (dir, rows) = tiny_run();
-        let mut plots = crate::plots::render_all(dir.path(), &rows).unwrap();
+        let mut plots = crate::report::plots::render_all(dir.path(), &rows).unwrap();
         std::fs::remove_file(dir.path().join(&plots[0].file)).unwrap();
         plots.push(Plot {
             file: "plots/never_written.png".into(),

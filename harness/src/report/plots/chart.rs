@@ -1,0 +1,161 @@
+//! What the curve charts share: the size and legend column, one [`Series`] per solver with
+//! its color and marker, the axes' house style and the tick label formats.
+
+use super::colors::PALETTE;
+use super::curves::Curve;
+use anyhow::Result;
+use plotters::chart::MeshStyle;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+/// Curve plots: wide enough for a legend column right of the chart.
+pub(super) const CURVE_SIZE: (u32, u32) = (800, 500);
+/// Width of the legend column of curve plots.
+pub(super) const LEGEND_WIDTH: u32 = 190;
+
+/// One solver's curve in a plot.
+pub(super) struct Series<'a> {
+    pub(super) solver: &'a str,
+    /// The solver's index in summary order: picks its color and marker in every plot.
+    pub(super) style: usize,
+    /// Not converged runs are drawn dashed.
+    pub(super) converged: bool,
+    pub(super) curve: Curve,
+}
+
+impl Series<'_> {
+    fn color(&self) -> RGBColor {
+        PALETTE[self.style % PALETTE.len()]
+    }
+}
+
+/// A solver's style index: its position in summary order (`solvers`), so it keeps its color
+/// and marker in every plot.
+pub(super) fn style(solvers: &[&str], solver: &str) -> usize {
+    solvers.iter().position(|s| *s == solver).unwrap_or(0)
+}
+
+/// The look every curve plot's axes share: label sizes and light grid lines.
+pub(super) fn house_style<'m, 'a, 'b, X, Y, DB>(
+    mesh: &'m mut MeshStyle<'a, 'b, X, Y, DB>,
+) -> &'m mut MeshStyle<'a, 'b, X, Y, DB>
+where
+    X: Ranged,
+    Y: Ranged,
+    DB: DrawingBackend,
+{
+    mesh.label_style(("sans-serif", 14))
+        .light_line_style(BLACK.mix(0.04))
+        .bold_line_style(BLACK.mix(0.15))
+        .axis_desc_style(("sans-serif", 15))
+}
+
+/// Markers along the x axis: at most this many per curve, evenly spaced in x.
+const MARKERS_PER_AXIS: f64 = 16.0;
+
+/// Lines (dashed when the run did not converge) plus markers whose shape changes with the
+/// solver, so curves that coincide (FP4/FP6, CM/KP on SD) stay distinguishable. Markers go
+/// at the first and last point and where a curve enters a new x slot; each solver's slots
+/// are shifted so coinciding curves show their markers side by side.
+pub(super) fn draw_series<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    curves: &[Series],
+    points: &[Vec<(f64, f64)>],
+    x_max: f64,
+) -> Result<()>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    CT: CoordTranslate<From = (f64, f64)>,
+{
+    let slot = x_max / MARKERS_PER_AXIS;
+    for (s, pts) in curves.iter().zip(points) {
+        let line = s.color().stroke_width(2);
+        if s.converged {
+            chart.draw_series(LineSeries::new(pts.iter().copied(), line))?;
+        } else {
+            chart.draw_series(DashedLineSeries::new(pts.iter().copied(), 8, 5, line))?;
+        }
+        let shift = slot * (s.style % 4) as f64 / 4.0;
+        let mut last_slot = None;
+        for (i, p) in pts.iter().enumerate() {
+            let k = ((p.0 + shift) / slot).floor() as i64;
+            if last_slot != Some(k) || i + 1 == pts.len() {
+                draw_marker(chart.plotting_area(), s.style, *p, s.color())?;
+                last_slot = Some(k);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Draw the marker of the solver with index `style` at `p`: circle, triangle, square, cross.
+fn draw_marker<DB, CT>(area: &DrawingArea<DB, CT>, style: usize, p: CT::From, color: RGBColor) -> Result<()>
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+    CT: CoordTranslate,
+    CT::From: Clone,
+{
+    let filled = color.filled();
+    let at = || EmptyElement::at(p.clone());
+    match style % 4 {
+        0 => area.draw(&(at() + Circle::new((0, 0), 4, filled)))?,
+        1 => area.draw(&(at() + TriangleMarker::new((0, 0), 5, filled)))?,
+        2 => area.draw(&(at() + Rectangle::new([(-4, -4), (4, 4)], filled)))?,
+        _ => area.draw(&(at() + Cross::new((0, 0), 4, color.stroke_width(2))))?,
+    }
+    Ok(())
+}
+
+/// Tick labels of linear axes: integers without a fraction, otherwise a short float.
+pub(super) fn format_linear(v: f64) -> String {
+    if v == v.round() && v.abs() < 1e6 {
+        format!("{v:.0}")
+    } else if v.abs() >= 0.01 && v.abs() < 1e4 {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{v:.1e}")
+    }
+}
+
+/// #NE ticks: counts, but plotters may place ticks at fractions for small ranges.
+pub(super) fn format_count(v: f64) -> String {
+    if v == v.round() {
+        format!("{v:.0}")
+    } else {
+        String::new()
+    }
+}
+
+/// A boxed legend in its own column, so it never covers data.
+pub(super) fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, entries: &[Series]) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let row = 22;
+    let (top, left) = (50, 4);
+    let height = row * entries.len() as i32 + 10;
+    let width = LEGEND_WIDTH as i32 - 2 * left - 4;
+    area.draw(&Rectangle::new([(left, top), (left + width, top + height)], BLACK.mix(0.6).stroke_width(1)))?;
+    let font = TextStyle::from(("sans-serif", 14).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    for (k, s) in entries.iter().enumerate() {
+        let y = top + 5 + row * k as i32 + row / 2;
+        let line = s.color().stroke_width(2);
+        if s.converged {
+            area.draw(&PathElement::new(vec![(left + 6, y), (left + 34, y)], line))?;
+        } else {
+            area.draw(&PathElement::new(vec![(left + 4, y), (left + 12, y)], line))?;
+            area.draw(&PathElement::new(vec![(left + 28, y), (left + 36, y)], line))?;
+        }
+        draw_marker(area, s.style, (left + 20, y), s.color())?;
+        area.draw(&Text::new(s.solver.to_string(), (left + 42, y), font.clone()))?;
+    }
+    if entries.iter().any(|s| !s.converged) {
+        let note = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Left, VPos::Top));
+        area.draw(&Text::new("dashed: not converged", (left + 2, top + height + 6), note))?;
+    }
+    Ok(())
+}

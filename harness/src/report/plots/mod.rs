@@ -1,0 +1,88 @@
+//! The PNG plots of a run folder, read back from its files alone (`runs/*.csv`, `uv/*.obj`):
+//! per (dataset, energy) the convergence curves of every solver (energy gap vs iteration and
+//! vs time, #negative eigenvalues vs iteration, as in the complex-view paper's Figures 2-3),
+//! and per run the final map with each triangle colored by its distortion.
+
+mod canvas;
+mod chart;
+mod colors;
+mod curves;
+mod maps;
+mod scaling;
+#[cfg(test)]
+pub(crate) mod tests;
+
+pub use scaling::SCALING_MIN_SIZES;
+
+use crate::report::failed;
+use crate::run_folder::SummaryRow;
+use anyhow::Result;
+use rayon::prelude::*;
+use std::path::Path;
+
+/// What a plot shows.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum PlotKind {
+    /// `energy_minus_best` vs iteration, log y.
+    EnergyIter,
+    /// `energy_minus_best` vs cumulative time, log y.
+    EnergyTime,
+    /// `neg_eig` vs iteration.
+    NegEigIter,
+    /// The final map of one solver's run, colored by per-triangle distortion.
+    Map { solver: String },
+    /// Median time per iteration vs vertices over all datasets of an energy, log-log (the
+    /// composite-majorization paper's Figure 6 shape).
+    ScalingTime,
+    /// Iterations vs vertices over all datasets of an energy, log x.
+    ScalingIterations,
+}
+
+/// The `dataset` of the plots that span every dataset.
+pub const ALL_DATASETS: &str = "all datasets";
+
+/// One PNG written under the run folder.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plot {
+    /// Path relative to the run folder, e.g. `plots/bumpy_1k__sd__energy_iter.png`.
+    pub file: String,
+    pub title: String,
+    pub dataset: String,
+    pub energy: String,
+    pub kind: PlotKind,
+}
+
+/// Render every plot of a run folder into `run_dir/plots/` and return them in report order:
+/// per (dataset, energy) group the three curve plots, then the maps of its runs.
+pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>> {
+    let mut solvers: Vec<&str> = Vec::new();
+    let mut groups: Vec<(&str, &str)> = Vec::new();
+    for s in summaries {
+        if !solvers.contains(&s.solver.as_str()) {
+            solvers.push(&s.solver);
+        }
+        if !groups.contains(&(s.dataset.as_str(), s.energy.as_str())) {
+            groups.push((&s.dataset, &s.energy));
+        }
+    }
+    // Groups, and the plots inside a group, render in parallel (the caller's rayon pool);
+    // indexed collects keep the plots in the groups' order.
+    let per_group = |&group: &(&str, &str)| -> Result<Vec<Plot>> {
+        let (dataset, energy) = group;
+        let runs: Vec<&SummaryRow> =
+            summaries.iter().filter(|s| s.dataset == dataset && s.energy == energy && !failed(s)).collect();
+        if runs.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut plots = curves::render_group(run_dir, group, &runs, &solvers)?;
+        plots.extend(maps::render_group(run_dir, group, &runs)?);
+        Ok(plots)
+    };
+    let (groups, scaling) = rayon::join(
+        || groups.par_iter().map(per_group).collect::<Result<Vec<_>>>(),
+        || scaling::render_scaling(run_dir, summaries, &solvers),
+    );
+    let mut plots: Vec<Plot> = groups?.into_iter().flatten().collect();
+    plots.extend(scaling?);
+    Ok(plots)
+}

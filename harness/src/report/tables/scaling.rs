@@ -1,0 +1,100 @@
+//! Iterations and time against the mesh size.
+
+use super::Table;
+use crate::report::{converged, failed, is_param_or_deform};
+use crate::run_folder::SummaryRow;
+
+/// The composite-majorization paper's Figure 6 as a table: per energy, the datasets sorted by
+/// size, and for each solver its iterations, median time per iteration and run time. `None`
+/// unless some energy has runs on at least three mesh sizes (`param` or `deform`).
+pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
+    let runs: Vec<&SummaryRow> =
+        rows.iter().filter(|r| is_param_or_deform(r) && !failed(r) && r.vertices.is_some()).collect();
+    let mut energies: Vec<&str> = Vec::new();
+    let mut solvers: Vec<&str> = Vec::new();
+    for r in &runs {
+        if !energies.contains(&r.energy.as_str()) {
+            energies.push(&r.energy);
+        }
+        if !solvers.contains(&r.solver.as_str()) {
+            solvers.push(&r.solver);
+        }
+    }
+    energies.retain(|e| {
+        let mut sizes: Vec<usize> = runs.iter().filter(|r| r.energy == *e).filter_map(|r| r.vertices).collect();
+        sizes.sort_unstable();
+        sizes.dedup();
+        sizes.len() >= crate::report::plots::SCALING_MIN_SIZES
+    });
+    if energies.is_empty() {
+        return None;
+    }
+    let mut columns = ["energy", "dataset", "vertices"].map(String::from).to_vec();
+    for s in &solvers {
+        columns.extend([format!("{s} iter"), format!("{s} ms/iter"), format!("{s} time [s]")]);
+    }
+    let mut out = Vec::new();
+    for e in &energies {
+        let mut sets: Vec<(&str, usize)> = Vec::new();
+        for r in runs.iter().filter(|r| r.energy == *e) {
+            if !sets.iter().any(|(d, _)| *d == r.dataset) {
+                sets.push((&r.dataset, r.vertices.unwrap_or(0)));
+            }
+        }
+        sets.sort_by_key(|&(d, v)| (v, d));
+        for (d, v) in sets {
+            let mut row = vec![e.to_string(), d.to_string(), v.to_string()];
+            for s in &solvers {
+                match runs.iter().find(|r| r.energy == *e && r.dataset == d && r.solver == *s) {
+                    Some(r) => {
+                        let mark = if converged(r) { "" } else { "*" };
+                        row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
+                        row.push(r.iter_ms_median.map(|t| format!("{t:.1}")).unwrap_or_default());
+                        row.push(r.time_s.map(|t| format!("{t:.2}")).unwrap_or_default());
+                    }
+                    None => row.extend(std::iter::repeat_n(String::new(), 3)),
+                }
+            }
+            out.push(row);
+        }
+    }
+    Some(Table {
+        title: "Iterations and time vs mesh size (composite-majorization paper, Figure 6)".into(),
+        columns,
+        rows: out,
+        caption: "Datasets sorted by vertices; ms/iter = median wall time of one iteration; time = whole run; \
+                  * = did not converge. Plotted in plots/scaling__<energy>__*.png."
+            .into(),
+        bold: Vec::new(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaling_table_sorts_by_size_and_needs_three_sizes() {
+        let p = |d: &str, v: usize, s: &str, it: usize, ms: f64| SummaryRow {
+            dataset: d.into(),
+            task: "param".into(),
+            energy: "sd".into(),
+            solver: s.into(),
+            vertices: Some(v),
+            iterations: Some(it),
+            iter_ms_median: Some(ms),
+            time_s: Some(ms * it as f64 / 1e3),
+            status: "ok".into(),
+            ..Default::default()
+        };
+        let mut rows = vec![p("big", 50_000, "kp-newton", 30, 400.0), p("small", 1_000, "kp-newton", 10, 5.0)];
+        assert!(scaling_table(&rows).is_none(), "two sizes are not a trend");
+        rows.push(p("mid", 10_000, "kp-newton", 20, 50.0));
+        rows.push(p("mid", 10_000, "slim", 200, 20.0));
+        let t = scaling_table(&rows).unwrap();
+        let order: Vec<&str> = t.rows.iter().map(|r| r[1].as_str()).collect();
+        assert_eq!(order, ["small", "mid", "big"]);
+        assert_eq!(t.rows[1], ["sd", "mid", "10000", "20", "50.0", "1.00", "200", "20.0", "4.00"]);
+        assert_eq!(t.rows[0][6..], ["", "", ""]);
+    }
+}
