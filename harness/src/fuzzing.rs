@@ -82,7 +82,7 @@ pub fn baseline(data: &[u8]) -> Result<()> {
             Record {
                 iterations: other.iterations,
                 final_energy: other.final_energy,
-                status: other.status.clone(),
+                status: other.status,
                 flips: other.flips,
                 time_s: other.time_s,
                 ..base.runs[i].clone()

@@ -1,6 +1,8 @@
 //! The regression gate: a JSON baseline of iteration counts and final energies per run, and
 //! the comparison of a run folder against it (`baseline`, `check`).
 
+use crate::plan::Task;
+use crate::run_folder::Status;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -12,12 +14,12 @@ pub const DEFAULT_ENERGY_RTOL: f64 = 1e-6;
 #[serde(deny_unknown_fields)]
 pub struct Record {
     pub dataset: String,
-    pub task: String,
+    pub task: Task,
     pub energy: String,
     pub solver: String,
     pub iterations: Option<usize>,
     pub final_energy: Option<f64>,
-    pub status: String,
+    pub status: Status,
     pub flips: Option<usize>,
     /// Allowed increase of `iterations` before it counts as a regression (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -28,11 +30,11 @@ pub struct Record {
 }
 
 impl Record {
-    fn key(&self) -> (&str, &str, &str, &str) {
-        (&self.dataset, &self.task, &self.energy, &self.solver)
+    fn key(&self) -> (&str, Task, &str, &str) {
+        (&self.dataset, self.task, &self.energy, &self.solver)
     }
     fn label(&self) -> String {
-        format!("{} {} {} {}", self.dataset, self.task, self.energy, self.solver)
+        format!("{} {} {} {}", self.dataset, self.task.as_str(), self.energy, self.solver)
     }
 }
 
@@ -151,14 +153,6 @@ impl Comparison {
     }
 }
 
-fn status_rank(s: &str) -> u8 {
-    match s {
-        "ok" => 2,
-        "not_converged" => 1,
-        _ => 0,
-    }
-}
-
 /// Compare the runs of a folder with a baseline.
 pub fn compare(baseline: &Baseline, runs: &[Record]) -> Comparison {
     let mut cmp = Comparison::default();
@@ -173,8 +167,9 @@ pub fn compare(baseline: &Baseline, runs: &[Record]) -> Comparison {
             cmp.changes.push(Change { run: b.label(), metric, before, after, delta, regression })
         };
         if a.status != b.status {
-            let regression = status_rank(&a.status) < status_rank(&b.status) || a.status == "failed";
-            push("status", b.status.clone(), a.status.clone(), String::new(), regression);
+            // Status orders failed < not_converged < ok.
+            let regression = a.status < b.status || a.status == Status::Failed;
+            push("status", b.status.to_string(), a.status.to_string(), String::new(), regression);
         }
         match (b.iterations, a.iterations) {
             (Some(bi), Some(ai)) if ai != bi => {
@@ -263,12 +258,12 @@ mod tests {
     fn rec(solver: &str, it: usize, e: f64) -> Record {
         Record {
             dataset: "d".into(),
-            task: "param".into(),
+            task: Task::Param,
             energy: "sd".into(),
             solver: solver.into(),
             iterations: Some(it),
             final_energy: Some(e),
-            status: "ok".into(),
+            status: Status::Ok,
             flips: Some(0),
             iterations_tolerance: None,
             time_s: Some(1.0),
@@ -308,7 +303,7 @@ mod tests {
         assert_eq!(compare(&b, &[rec("a", 10, 2.01)]).exit_code(), 1);
         assert_eq!(compare(&b, &[rec("a", 10, 1.99)]).exit_code(), 0); // lower energy: improvement
         let mut worse = rec("a", 10, 2.0);
-        worse.status = "not_converged".into();
+        worse.status = Status::NotConverged;
         assert_eq!(compare(&b, &[worse]).exit_code(), 1);
         let mut flipped = rec("a", 10, 2.0);
         flipped.flips = Some(3);

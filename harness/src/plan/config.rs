@@ -14,12 +14,23 @@ use solvers::solver::{solver_names, LineSearchSettings, Settings, StopSettings};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Task {
+    #[default]
     Param,
     Deform,
     Authalic,
+}
+
+impl std::str::FromStr for Task {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Task, String> {
+        [Task::Param, Task::Deform, Task::Authalic]
+            .into_iter()
+            .find(|t| t.as_str() == s)
+            .ok_or_else(|| format!("unknown task '{s}'"))
+    }
 }
 
 impl Task {

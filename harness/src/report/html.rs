@@ -5,7 +5,7 @@
 
 use crate::report::plots::{Plot, PlotKind};
 use crate::report::tables::Table;
-use crate::run_folder::{run_stem, write_atomic, SummaryRow};
+use crate::run_folder::{run_stem, write_atomic, Status, SummaryRow};
 use anyhow::{Context, Result};
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -41,7 +41,7 @@ pub fn write_index(run_dir: &Path, summaries: &[SummaryRow], tables: &[(String, 
         .and_then(|c| c.get("task"))
         .and_then(Value::as_str)
         .map(str::to_string)
-        .or_else(|| summaries.first().map(|s| s.task.clone()))
+        .or_else(|| summaries.first().map(|s| s.task.as_str().to_string()))
         .unwrap_or_default();
     let mut h = String::new();
     let _ = write!(
@@ -106,13 +106,13 @@ fn href(path: &str) -> String {
 }
 
 fn counts(summaries: &[SummaryRow]) -> String {
-    let n = |st: &str| summaries.iter().filter(|s| s.status == st).count();
+    let n = |st: Status| summaries.iter().filter(|s| s.status == st).count();
     format!(
         "{} runs: {} ok, {} not converged, {} failed",
         summaries.len(),
-        n("ok"),
-        n("not_converged"),
-        summaries.len() - n("ok") - n("not_converged")
+        n(Status::Ok),
+        n(Status::NotConverged),
+        n(Status::Failed)
     )
 }
 
@@ -182,10 +182,10 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
         (Some(i), None) => format!("{i} it"),
         _ => String::new(),
     };
-    let (class, head, tip, small) = match s.status.as_str() {
-        "ok" => ("ok", "ok".to_string(), format!("converged ({})", s.stop_reason), detail),
-        "not_converged" => ("nc", s.stop_reason.clone(), format!("not converged: {}", s.stop_reason), detail),
-        other => ("failed", other.replace('_', " "), other.replace('_', " "), s.error.clone()),
+    let (class, head, tip, small) = match s.status {
+        Status::Ok => ("ok", "ok".to_string(), format!("converged ({})", s.stop_reason), detail),
+        Status::NotConverged => ("nc", s.stop_reason.clone(), format!("not converged: {}", s.stop_reason), detail),
+        Status::Failed => ("failed", "failed".to_string(), "failed".to_string(), s.error.clone()),
     };
     let body = format!("<b>{}</b><br><small>{}</small>", esc(&head), esc(&small));
     let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));

@@ -7,8 +7,9 @@ pub mod html;
 pub mod plots;
 pub mod tables;
 
+use crate::plan::Task;
 use crate::run_folder::read_run;
-use crate::run_folder::{iteration_csv, run_stem, write_atomic, SummaryRow};
+use crate::run_folder::{iteration_csv, run_stem, write_atomic, Status, SummaryRow};
 use anyhow::Result;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -81,20 +82,20 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
 
 /// The run failed: no iterations to show, left out of means and curves.
 fn failed(r: &SummaryRow) -> bool {
-    r.status == "failed"
+    r.status == Status::Failed
 }
 
 /// The run converged (other finished runs are marked `*` or drawn dashed).
 fn converged(r: &SummaryRow) -> bool {
-    r.status == "ok"
+    r.status == Status::Ok
 }
 
 /// An authalic run: its maps show area ratios, it has no distortion energy to compare.
 fn is_authalic(r: &SummaryRow) -> bool {
-    r.task == "authalic"
+    r.task == Task::Authalic
 }
 
 /// A `param` or `deform` run: a distortion energy minimized by the Newton-type solvers.
 fn is_param_or_deform(r: &SummaryRow) -> bool {
-    r.task == "param" || r.task == "deform"
+    matches!(r.task, Task::Param | Task::Deform)
 }

@@ -12,7 +12,7 @@ mod one;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::meta::{code_id, Meta};
-use crate::run_folder::{summary_csv, write_run, RunFiles, SummaryRow, SummaryWriter};
+use crate::run_folder::{summary_csv, write_run, RunFiles, Status, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
 use meshes::MeshCache;
 use one::{run_one, RunContext, RunResult};
@@ -142,13 +142,13 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
                 let s = &result.summary;
                 result.summary = SummaryRow {
                     dataset: s.dataset.clone(),
-                    task: s.task.clone(),
+                    task: s.task,
                     energy: s.energy.clone(),
                     solver: s.solver.clone(),
                     vertices: s.vertices,
                     faces: s.faces,
                     stop_reason: "error".into(),
-                    status: "failed".into(),
+                    status: Status::Failed,
                     error: format!("{e:#}"),
                     ..Default::default()
                 };

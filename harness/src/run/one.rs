@@ -3,7 +3,7 @@
 
 use super::progress::Progress;
 use crate::plan::{Plan, PlannedRun, RunSettings};
-use crate::run_folder::SummaryRow;
+use crate::run_folder::{Status, SummaryRow};
 use crate::stats::median;
 use anyhow::Result;
 use solvers::authalic::{solve_authalic, AreaMetrics};
@@ -63,13 +63,13 @@ pub(super) fn run_one(
 ) -> RunResult {
     let mut summary = SummaryRow {
         dataset: plan.dataset(run).name.clone(),
-        task: run.settings.task().as_str().to_string(),
+        task: run.settings.task(),
         energy: run.energy.clone(),
         solver: run.solver.clone(),
         ..Default::default()
     };
     let fail = |mut summary: SummaryRow, error: String| {
-        summary.status = "failed".into();
+        summary.status = Status::Failed;
         summary.stop_reason = "error".into();
         summary.error = error;
         RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false }
@@ -142,7 +142,7 @@ pub(super) fn run_one(
     summary.project_ms_median = per_iter(|r| r.t_project_s);
     summary.solve_ms_median = per_iter(|r| r.t_solve_s);
     summary.flips = Some(outcome.flips);
-    summary.status = if summary.converged { "ok" } else { "not_converged" }.into();
+    summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
         _ => String::new(),

@@ -13,7 +13,7 @@ pub mod summary;
 
 pub use error::FolderError;
 pub use iterations::{iteration_csv, read_iterations, read_rows, read_run, IterationFile, ITERATION_COLUMNS};
-pub use summary::{read_summary, write_summary, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
+pub use summary::{read_summary, write_summary, Status, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
 
 use anyhow::{Context, Result};
 use solvers::solver::IterationRecord;

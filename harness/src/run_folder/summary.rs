@@ -2,6 +2,7 @@
 //! rewritten in the plan's order at the end.
 
 use super::{csv_error, read_csv_bytes, write_atomic, FolderError};
+use crate::plan::Task;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use std::fs::{File, OpenOptions};
@@ -39,11 +40,52 @@ pub const SUMMARY_COLUMNS: [&str; 26] = [
     "analysis_shared",
 ];
 
+/// How a run ended: the `status` column.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// The run could not run or finish: bad mesh, unsupported pair, solver error, unwritable
+    /// files. What a row knows nothing else about.
+    #[default]
+    Failed,
+    /// It ran, but no stop rule of convergence was met (iteration limit, timeout, line
+    /// search failure, ...).
+    NotConverged,
+    /// It converged.
+    Ok,
+}
+
+impl Status {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Status::Failed => "failed",
+            Status::NotConverged => "not_converged",
+            Status::Ok => "ok",
+        }
+    }
+}
+
+impl std::str::FromStr for Status {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Status, String> {
+        [Status::Failed, Status::NotConverged, Status::Ok]
+            .into_iter()
+            .find(|x| x.as_str() == s)
+            .ok_or_else(|| format!("unknown status '{s}' (known: ok, not_converged, failed)"))
+    }
+}
+
+impl std::fmt::Display for Status {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// One row of `summary.csv`. Fields unknown for a failed run are empty.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SummaryRow {
     pub dataset: String,
-    pub task: String,
+    pub task: Task,
     pub energy: String,
     pub solver: String,
     pub vertices: Option<usize>,
@@ -60,7 +102,7 @@ pub struct SummaryRow {
     pub project_ms_median: Option<f64>,
     pub solve_ms_median: Option<f64>,
     pub flips: Option<usize>,
-    pub status: String,
+    pub status: Status,
     pub error: String,
     #[serde(default)]
     pub area_ratio_sd: Option<f64>,

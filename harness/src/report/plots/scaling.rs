@@ -126,20 +126,22 @@ fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> R
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plan::Task;
     use crate::report::plots::tests::png_size;
+    use crate::run_folder::Status;
 
     #[test]
     fn scaling_plots_need_three_sizes_and_are_log_log_pngs() {
         let dir = tempfile::tempdir().unwrap();
         let row = |d: &str, v: usize, solver: &str, ms: f64| SummaryRow {
             dataset: d.into(),
-            task: "param".into(),
+            task: Task::Param,
             energy: "sd".into(),
             solver: solver.into(),
             vertices: Some(v),
             iterations: Some(10),
             iter_ms_median: Some(ms),
-            status: "ok".into(),
+            status: Status::Ok,
             ..Default::default()
         };
         let mut rows = vec![row("a", 1_000, "kp-newton", 2.0), row("b", 10_000, "kp-newton", 25.0)];

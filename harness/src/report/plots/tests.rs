@@ -20,14 +20,14 @@ pub(crate) fn png_size(path: &Path) -> (u32, u32) {
 fn summary(dataset: &str, task: &str, solver: &str, status: &str, error: &str) -> SummaryRow {
     SummaryRow {
         dataset: dataset.into(),
-        task: task.into(),
+        task: task.parse().unwrap(),
         energy: if task == "authalic" { "authalic".into() } else { "sd".into() },
         solver: solver.into(),
         iterations: Some(3),
         time_s: Some(0.25),
         converged: status == "ok",
         stop_reason: if status == "ok" { "grad_tol".into() } else { "max_iters".into() },
-        status: status.into(),
+        status: status.parse().unwrap(),
         error: error.into(),
         ..Default::default()
     }

@@ -75,20 +75,22 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plan::Task;
     use crate::report::tables::tests::row;
+    use crate::run_folder::Status;
 
     #[test]
     fn authalic_table_has_the_shape_of_table_1() {
         let auth = |d: &str, s: &str, sd: f64, e: f64| SummaryRow {
             dataset: d.into(),
-            task: "authalic".into(),
+            task: Task::Authalic,
             energy: "authalic".into(),
             solver: s.into(),
             vertices: Some(10),
             faces: Some(12),
             iterations: Some(100),
             time_s: Some(1.234),
-            status: "not_converged".into(),
+            status: Status::NotConverged,
             area_ratio_sd: Some(sd),
             authalic_energy: Some(e),
             folded: Some(0),

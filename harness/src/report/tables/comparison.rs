@@ -2,12 +2,13 @@
 //! (`param`, `deform`) and the per-mesh iterations, time and final energy.
 
 use super::Table;
+use crate::plan::Task;
 use crate::report::{converged, failed, is_param_or_deform};
 use crate::run_folder::SummaryRow;
 
 /// How a solver x energy table averages its runs.
 struct MeanSpec {
-    task: &'static str,
+    task: Task,
     title: &'static str,
     /// The time of one run in the table's unit.
     time: fn(&SummaryRow) -> Option<f64>,
@@ -91,7 +92,7 @@ pub fn param_table(rows: &[SummaryRow]) -> Option<Table> {
     mean_table(
         rows,
         &MeanSpec {
-            task: "param",
+            task: Task::Param,
             title: "Parameterization (complex-view paper, Table 4)",
             time: |r| r.ms_per_vertex,
             time_label: "run time in ms per vertex",
@@ -105,7 +106,7 @@ pub fn deform_table(rows: &[SummaryRow]) -> Option<Table> {
     mean_table(
         rows,
         &MeanSpec {
-            task: "deform",
+            task: Task::Deform,
             title: "Shape deformation (complex-view paper, Table 6)",
             time: |r| r.time_s,
             time_label: "run time in seconds",
@@ -211,12 +212,12 @@ mod tests {
     fn deform_table_averages_over_shapes() {
         let d = |shape: &str, e: &str, s: &str, it: usize, t: f64, status: &str| SummaryRow {
             dataset: shape.into(),
-            task: "deform".into(),
+            task: Task::Deform,
             energy: e.into(),
             solver: s.into(),
             iterations: Some(it),
             time_s: Some(t),
-            status: status.into(),
+            status: status.parse().unwrap(),
             ..Default::default()
         };
         let rows = vec![
@@ -243,13 +244,13 @@ mod tests {
     fn param_table_is_table_4_in_ms_per_vertex() {
         let p = |d: &str, s: &str, it: usize, ms: f64, status: &str| SummaryRow {
             dataset: d.into(),
-            task: "param".into(),
+            task: Task::Param,
             energy: "sd".into(),
             solver: s.into(),
             iterations: Some(it),
             ms_per_vertex: Some(ms),
             time_s: Some(100.0),
-            status: status.into(),
+            status: status.parse().unwrap(),
             ..Default::default()
         };
         let rows = vec![
@@ -267,7 +268,7 @@ mod tests {
     fn per_mesh_table_marks_unconverged_failed_and_best() {
         let p = |s: &str, it: usize, t: f64, e: f64, status: &str| SummaryRow {
             dataset: "cow".into(),
-            task: "param".into(),
+            task: Task::Param,
             energy: "sd".into(),
             solver: s.into(),
             vertices: Some(4540),
@@ -275,7 +276,7 @@ mod tests {
             iterations: Some(it),
             time_s: Some(t),
             final_energy: Some(e),
-            status: status.into(),
+            status: status.parse().unwrap(),
             analysis_s: Some(0.0312),
             ..Default::default()
         };

@@ -98,7 +98,7 @@ impl Table {
 
 #[cfg(test)]
 pub(super) mod tests {
-    use crate::run_folder::SummaryRow;
+    use crate::run_folder::{Status, SummaryRow};
 
     /// A finished `param`-like run with the per-iteration projection and solve medians.
     pub(crate) fn row(d: &str, s: &str, p: f64, sv: f64) -> SummaryRow {
@@ -110,7 +110,7 @@ pub(super) mod tests {
             iterations: Some(5),
             project_ms_median: Some(p),
             solve_ms_median: Some(sv),
-            status: "ok".into(),
+            status: Status::Ok,
             ..Default::default()
         }
     }

@@ -72,19 +72,21 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plan::Task;
+    use crate::run_folder::Status;
 
     #[test]
     fn scaling_table_sorts_by_size_and_needs_three_sizes() {
         let p = |d: &str, v: usize, s: &str, it: usize, ms: f64| SummaryRow {
             dataset: d.into(),
-            task: "param".into(),
+            task: Task::Param,
             energy: "sd".into(),
             solver: s.into(),
             vertices: Some(v),
             iterations: Some(it),
             iter_ms_median: Some(ms),
             time_s: Some(ms * it as f64 / 1e3),
-            status: "ok".into(),
+            status: Status::Ok,
             ..Default::default()
         };
         let mut rows = vec![p("big", 50_000, "kp-newton", 30, 400.0), p("small", 1_000, "kp-newton", 10, 5.0)];
