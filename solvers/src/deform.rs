@@ -7,19 +7,12 @@
 //! file's frame and transformed the same way.
 
 use crate::energy::EnergyKind;
-use crate::error::MeshError;
-use crate::mesh::{validate_for, Mesh, Task};
+pub use crate::handle::Handle;
+use crate::mesh::{validate_for, Mesh, MeshError, Task};
 use crate::problem::{DegenerateFace, MapProblem, Penalty};
 use crate::smoothness::Projection;
 use crate::solver::registry::SpecError;
 use crate::solver::{newton, Observer, Outcome, Settings, SolverSpec, StopSettings};
-
-/// One positional constraint: vertex `vertex` should go to `target` (file frame).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Handle {
-    pub vertex: usize,
-    pub target: [f64; 2],
-}
 
 /// Settings of a `deform` run.
 #[derive(Clone, Debug, PartialEq)]

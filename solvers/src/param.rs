@@ -2,9 +2,8 @@
 //! from a Tutte initialization (complex-view paper, Section 6.1).
 
 use crate::energy::EnergyKind;
-use crate::error::MeshError;
 use crate::init::{global_scale, tutte, InitError, TutteBoundary};
-use crate::mesh::{validate_for, Mesh, Task};
+use crate::mesh::{validate_for, Mesh, MeshError, Task};
 use crate::problem::{DegenerateFace, MapProblem};
 use crate::smoothness::Projection;
 use crate::solver::registry::SpecError;

@@ -36,7 +36,7 @@ pub enum AuthalicError {
     #[error("unknown authalic solver '{0}' (known: sem, aem-cg, aem-cg-safe)")]
     UnknownSolver(String),
     #[error(transparent)]
-    Mesh(#[from] crate::error::MeshError),
+    Mesh(#[from] crate::mesh::MeshError),
     #[error("{source_name}: face {face} has zero source area")]
     DegenerateFace { source_name: String, face: usize },
     #[error("{source_name}: the mesh has {count} boundary loops; the authalic task needs exactly one (a disk)")]

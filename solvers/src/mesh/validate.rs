@@ -2,8 +2,7 @@
 //! bad input ends in a clear message instead of a panic or a silent wrong answer.
 
 use super::topology::{self, is_proper};
-use super::Mesh;
-use crate::error::MeshError;
+use super::{Mesh, MeshError};
 use std::fmt;
 
 /// One defect of a mesh. Vertex and face numbers are 0-based indices into the mesh.
@@ -322,7 +321,7 @@ pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
                 let xy = |v: usize| [rest.positions[v][0], rest.positions[v][1]];
                 report.problems.extend(
                     (0..rest.n_faces())
-                        .filter(|&t| crate::local::signed_area(rest.faces[t].map(xy)) <= 0.0)
+                        .filter(|&t| super::signed_area(rest.faces[t].map(xy)) <= 0.0)
                         .map(|face| Problem::ClockwiseFace { face }),
                 );
             }

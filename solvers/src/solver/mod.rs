@@ -6,6 +6,7 @@
 pub mod newton;
 pub mod registry;
 
+pub use crate::line_search::LineSearchSettings;
 pub use newton::{newton, NewtonSettings};
 pub use registry::{solver_names, SolverSpec};
 
@@ -141,25 +142,6 @@ pub struct StopSettings {
     /// Stop when `E_old - E_new < energy_decrease_tol`; 0 disables the rule.
     pub energy_decrease_tol: f64,
     pub max_iters: usize,
-}
-
-/// Line search (`[line_search]`), shared by every Newton-like solver.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LineSearchSettings {
-    /// `t0 = min(1, max_step_fraction * t_max)`.
-    pub max_step_fraction: f64,
-    /// Armijo constant `c` in `E(x + t d) <= E(x) + c t <g, d>`.
-    pub armijo_c: f64,
-    /// Backtracking factor.
-    pub shrink: f64,
-    /// Give up when `t |d| <= min_step`.
-    pub min_step: f64,
-}
-
-impl Default for LineSearchSettings {
-    fn default() -> Self {
-        LineSearchSettings { max_step_fraction: 0.9, armijo_c: 0.2, shrink: 0.5, min_step: 1e-12 }
-    }
 }
 
 /// Everything a solver run needs besides the problem.
