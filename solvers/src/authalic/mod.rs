@@ -494,8 +494,16 @@ pub(crate) struct Reporter<'a> {
 }
 
 impl Reporter<'_> {
-    /// Report the iterate `iter` and return whether the observer wants to stop.
-    pub fn report(&mut self, iter: usize, t: &Terms, grad_norm: f64, step: f64, tm: Timings, ex: Extras) -> bool {
+    /// Report the iterate `iter`; `Some` when the observer wants to stop, with the reason.
+    pub fn report(
+        &mut self,
+        iter: usize,
+        t: &Terms,
+        grad_norm: f64,
+        step: f64,
+        tm: Timings,
+        ex: Extras,
+    ) -> Option<StopReason> {
         self.iterations = iter;
         self.t_cum += tm.iter;
         let b = |v: bool| f64::from(u8::from(v));
@@ -531,7 +539,7 @@ impl Reporter<'_> {
                 ])
                 .collect(),
         };
-        self.observer.observe(&record) == crate::solver::Flow::Stop
+        self.observer.observe(&record).stop_reason()
     }
 
     pub fn finish(

@@ -266,3 +266,16 @@ fn bad_meshes_are_typed_errors_naming_the_source() {
         .to_string();
     assert!(err.contains("unknown authalic solver 'sem2'"));
 }
+
+#[test]
+fn a_passed_deadline_stops_each_authalic_solver_with_timeout() {
+    let mesh = generate("bumpy_1k").unwrap();
+    for solver in ["sem", "aem-cg", "aem-cg-safe"] {
+        for k in [0, 2] {
+            let mut obs = crate::solver::TimeoutAt(k);
+            let out = solve_authalic(&mesh, solver, &AuthalicSettings::default(), &mut obs).unwrap();
+            assert_eq!(out.outcome.stop_reason, StopReason::Timeout, "{solver} at {k}");
+            assert_eq!(out.outcome.iterations, k, "{solver}");
+        }
+    }
+}

@@ -48,8 +48,21 @@ pub struct IterationRecord {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flow {
     Continue,
-    /// Stop after this row (timeouts, Ctrl-C); recorded as [`StopReason::Interrupted`].
+    /// Stop after this row (Ctrl-C, SIGTERM); recorded as [`StopReason::Interrupted`].
     Stop,
+    /// Stop after this row because the run's deadline passed; recorded as [`StopReason::Timeout`].
+    Timeout,
+}
+
+impl Flow {
+    /// The reason a solver records when it stops on this answer (`None`: go on).
+    pub fn stop_reason(self) -> Option<StopReason> {
+        match self {
+            Flow::Continue => None,
+            Flow::Stop => Some(StopReason::Interrupted),
+            Flow::Timeout => Some(StopReason::Timeout),
+        }
+    }
 }
 
 pub trait Observer {
@@ -65,6 +78,22 @@ impl Observer for StopAt {
     fn observe(&mut self, r: &IterationRecord) -> Flow {
         if r.iter >= self.0 {
             Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    }
+}
+
+/// An observer whose deadline passes at iteration `k` (tests of the timeout path).
+#[cfg(test)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TimeoutAt(pub usize);
+
+#[cfg(test)]
+impl Observer for TimeoutAt {
+    fn observe(&mut self, r: &IterationRecord) -> Flow {
+        if r.iter >= self.0 {
+            Flow::Timeout
         } else {
             Flow::Continue
         }
@@ -104,9 +133,30 @@ pub enum StopReason {
     EnergyIncreased,
     /// The observer asked to stop.
     Interrupted,
+    /// The observer stopped the run at its deadline.
+    Timeout,
 }
 
+/// A `stop_reason` string that names no [`StopReason`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown stop reason '{0}' (known: {known})", known = StopReason::ALL.map(|r| r.as_str()).join(", "))]
+pub struct UnknownStopReason(pub String);
+
 impl StopReason {
+    /// Every reason, payloads empty (parsing, listings).
+    pub const ALL: [StopReason; 10] = [
+        StopReason::GradientTolerance,
+        StopReason::EnergyDecrease,
+        StopReason::MaxIterations,
+        StopReason::LineSearchFailed,
+        StopReason::LinearSolveFailed(String::new()),
+        StopReason::NotDescent,
+        StopReason::NonFinite(String::new()),
+        StopReason::EnergyIncreased,
+        StopReason::Interrupted,
+        StopReason::Timeout,
+    ];
+
     pub fn as_str(&self) -> &'static str {
         match self {
             StopReason::GradientTolerance => "grad_tol",
@@ -118,6 +168,7 @@ impl StopReason {
             StopReason::NonFinite(_) => "non_finite",
             StopReason::EnergyIncreased => "energy_increased",
             StopReason::Interrupted => "interrupted",
+            StopReason::Timeout => "timeout",
         }
     }
 
@@ -132,6 +183,36 @@ impl StopReason {
             StopReason::LinearSolveFailed(s) | StopReason::NonFinite(s) => Some(s),
             _ => None,
         }
+    }
+}
+
+/// The `stop_reason` column's string; the variants with a detail get an empty one (the
+/// detail travels in the `error` column).
+impl std::str::FromStr for StopReason {
+    type Err = UnknownStopReason;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        StopReason::ALL.into_iter().find(|r| r.as_str() == s).ok_or_else(|| UnknownStopReason(s.to_string()))
+    }
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// As its `stop_reason` string (the detail is not part of it).
+impl serde::Serialize for StopReason {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for StopReason {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = <std::borrow::Cow<'de, str>>::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
     }
 }
 
@@ -180,4 +261,35 @@ pub struct Outcome {
     pub flips: usize,
     /// The system's symbolic analysis (`None` for solvers without a shared system).
     pub analysis: Option<AnalysisReport>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stop_reasons_round_trip_through_their_strings() {
+        for r in StopReason::ALL {
+            assert_eq!(r.as_str().parse::<StopReason>(), Ok(r.clone()));
+            assert_eq!(r.to_string(), r.as_str());
+            let de = serde::de::value::StrDeserializer::<serde::de::value::Error>::new(r.as_str());
+            assert_eq!(<StopReason as serde::Deserialize>::deserialize(de), Ok(r.clone()));
+        }
+        let names: std::collections::BTreeSet<_> = StopReason::ALL.iter().map(|r| r.as_str()).collect();
+        assert_eq!(names.len(), StopReason::ALL.len(), "one string per reason");
+        // the detail travels in the error column, not in the reason
+        assert_eq!("non_finite".parse(), Ok(StopReason::NonFinite(String::new())));
+        assert_eq!(StopReason::LinearSolveFailed("pivot 3".into()).as_str(), "linear_solve_failed");
+        let err = "converged".parse::<StopReason>().unwrap_err().to_string();
+        assert!(err.starts_with("unknown stop reason 'converged' (known: grad_tol, "), "{err}");
+        assert_eq!(StopReason::Timeout.as_str(), "timeout");
+        assert!(!StopReason::Timeout.is_converged());
+    }
+
+    #[test]
+    fn flows_map_to_their_stop_reasons() {
+        assert_eq!(Flow::Continue.stop_reason(), None);
+        assert_eq!(Flow::Stop.stop_reason(), Some(StopReason::Interrupted));
+        assert_eq!(Flow::Timeout.stop_reason(), Some(StopReason::Timeout));
+    }
 }
