@@ -5,7 +5,7 @@ pub mod topology;
 pub mod validate;
 
 pub use obj::load_obj;
-pub use validate::{validate, validate_for, Problem, Task, ValidationReport};
+pub use validate::{validate, validate_for, Problem, Task, UnknownTask, ValidationReport};
 
 /// Why a mesh could not be read or used. Every message names the mesh source.
 #[derive(Debug, thiserror::Error)]

@@ -53,7 +53,9 @@ pub enum Problem {
 
 /// The tasks a mesh is validated for: each task's run refuses exactly what
 /// [`validate_for`] reports for it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Its string (`task = "param"` in a config) is [`Task::as_str`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Task {
     /// A topological disk (3D or planar, either orientation).
     Param,
@@ -61,6 +63,38 @@ pub enum Task {
     Deform,
     /// A topological disk with at least one interior vertex.
     Authalic,
+}
+
+impl Task {
+    /// Every task, in the README's order.
+    pub const ALL: [Task; 3] = [Task::Param, Task::Deform, Task::Authalic];
+
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Task::Param => "param",
+            Task::Deform => "deform",
+            Task::Authalic => "authalic",
+        }
+    }
+}
+
+impl fmt::Display for Task {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A task name that names no [`Task`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown task '{0}' (known: {known})", known = Task::ALL.map(|t| t.as_str()).join(", "))]
+pub struct UnknownTask(pub String);
+
+impl std::str::FromStr for Task {
+    type Err = UnknownTask;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Task::ALL.into_iter().find(|t| t.as_str() == s).ok_or_else(|| UnknownTask(s.to_string()))
+    }
 }
 
 impl Problem {
@@ -346,6 +380,18 @@ pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
 mod tests {
     use super::*;
 
+    #[test]
+    fn tasks_round_trip_through_their_names() {
+        for t in Task::ALL {
+            assert_eq!(t.as_str().parse::<Task>(), Ok(t));
+            assert_eq!(t.to_string(), t.as_str());
+            let de = serde::de::value::StrDeserializer::<serde::de::value::Error>::new(t.as_str());
+            assert_eq!(<Task as serde::Deserialize>::deserialize(de), Ok(t));
+        }
+        let err = "Param".parse::<Task>().unwrap_err().to_string();
+        assert_eq!(err, "unknown task 'Param' (known: param, deform, authalic)");
+    }
+
     /// 3x3 grid of vertices (2x2 quads, 8 counter-clockwise triangles): a valid disk.
     fn grid() -> Mesh {
         let mut positions = Vec::new();
@@ -572,7 +618,7 @@ mod tests {
             let m = scaled(&grid(), k);
             let r = validate(&m, true);
             assert!(r.is_ok(), "{k}: {r}");
-            for task in [Task::Param, Task::Deform, Task::Authalic] {
+            for task in Task::ALL {
                 assert!(validate_for(&m, task).is_ok(), "{k} {task:?}: {}", validate_for(&m, task));
             }
             // a collinear face is still degenerate at that scale
