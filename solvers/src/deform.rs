@@ -15,7 +15,7 @@ use crate::solver::registry::SpecError;
 use crate::solver::{newton, Observer, Outcome, Settings, SolverSpec, StopSettings};
 
 /// Settings of a `deform` run.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DeformSettings {
     pub solver: Settings,
     /// Penalty weight `lambda` (on the area-1 mesh).
@@ -35,6 +35,18 @@ pub const DEFAULT_LAMBDA: f64 = 1e5;
 /// the reference's `|grad| <= 1e-10` as a second rule; 1000 iterations.
 pub fn default_stop() -> StopSettings {
     StopSettings { grad_tol: 1e-10, energy_decrease_tol: 1e-6, max_iters: 1000 }
+}
+
+impl Default for DeformSettings {
+    /// [`default_stop`], the default line search and linear solves, [`DEFAULT_LAMBDA`], no
+    /// smoothness term.
+    fn default() -> Self {
+        DeformSettings {
+            solver: Settings { stop: default_stop(), ..Settings::default() },
+            lambda: DEFAULT_LAMBDA,
+            smoothness: None,
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]

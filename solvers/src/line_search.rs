@@ -6,7 +6,8 @@ use crate::problem::{EnergyScratch, MapProblem};
 use rayon::prelude::*;
 
 /// Line search (`[line_search]`), shared by every Newton-like solver.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct LineSearchSettings {
     /// `t0 = min(1, max_step_fraction * t_max)`.
     pub max_step_fraction: f64,

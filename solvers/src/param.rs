@@ -10,7 +10,7 @@ use crate::solver::registry::SpecError;
 use crate::solver::{newton, Observer, Outcome, Settings, SolverSpec, StopSettings};
 
 /// Settings of a `param` run.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ParamSettings {
     pub solver: Settings,
     pub tutte_boundary: TutteBoundary,
@@ -23,10 +23,23 @@ pub struct ParamSettings {
 /// design.md defaults: `|grad| <= 1e-3`, SARAP on energy decrease `< 1e-8` (its gradient
 /// indicator fails near conformal maps, Section 6.1), 1000 iterations.
 pub fn default_stop(energy: &EnergyKind) -> StopSettings {
-    StopSettings {
-        grad_tol: 1e-3,
-        energy_decrease_tol: if matches!(energy, EnergyKind::Sarap) { 1e-8 } else { 0.0 },
-        max_iters: 1000,
+    let d = StopSettings::default();
+    StopSettings { energy_decrease_tol: if matches!(energy, EnergyKind::Sarap) { 1e-8 } else { 0.0 }, ..d }
+}
+
+/// Jump threshold of the global-scaling heuristic in the paper (Section 4.2).
+pub const DEFAULT_SCALING_JUMP: f64 = 0.1;
+
+impl ParamSettings {
+    /// design.md's settings for `energy`: [`default_stop`], the default line search and linear
+    /// solves, the uniform Tutte boundary, the paper's scaling jump, no smoothness term.
+    pub fn for_energy(energy: &EnergyKind) -> ParamSettings {
+        ParamSettings {
+            solver: Settings { stop: default_stop(energy), ..Settings::default() },
+            tutte_boundary: TutteBoundary::Uniform,
+            scaling_jump: DEFAULT_SCALING_JUMP,
+            smoothness: None,
+        }
     }
 }
 

@@ -68,8 +68,13 @@ pub enum FoldGuard {
 }
 
 /// Settings of an `authalic` run (`[authalic]` and `[stop]` in a config).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct AuthalicSettings {
+    /// Not a key of `[authalic]`: the config's `[stop]` is laid over the paper's protocol
+    /// ([`default_stop`]); a partial nested table would otherwise take the other fields
+    /// from `StopSettings::default()`.
+    #[serde(skip_deserializing)]
     pub stop: StopSettings,
     /// Fixed-boundary stretch steps of the initialization (Algorithm 1, lines 4-7).
     pub init_steps: usize,

@@ -216,8 +216,11 @@ impl<'de> serde::Deserialize<'de> for StopReason {
     }
 }
 
-/// Stopping rules (`[stop]`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Stopping rules (`[stop]`). The default is design.md's `param` rule; the tasks that stop
+/// otherwise have their own (`param::default_stop` for SARAP, `deform::default_stop`,
+/// `authalic::default_stop`), and [`StopOverrides`] lays a config's keys over any of them.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct StopSettings {
     pub grad_tol: f64,
     /// Stop when `E_old - E_new < energy_decrease_tol`; 0 disables the rule.
@@ -225,14 +228,43 @@ pub struct StopSettings {
     pub max_iters: usize,
 }
 
+impl Default for StopSettings {
+    /// `|grad| <= 1e-3`, no energy-decrease rule, 1000 iterations.
+    fn default() -> Self {
+        StopSettings { grad_tol: 1e-3, energy_decrease_tol: 0.0, max_iters: 1000 }
+    }
+}
+
+/// The keys a `[stop]` section sets; the others keep the task's and energy's default
+/// (a partial [`StopSettings`], since those defaults differ: SARAP, deform, authalic).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StopOverrides {
+    pub grad_tol: Option<f64>,
+    pub energy_decrease_tol: Option<f64>,
+    pub max_iters: Option<usize>,
+}
+
+impl StopOverrides {
+    /// `base` with the keys that were set replaced.
+    pub fn over(&self, base: StopSettings) -> StopSettings {
+        StopSettings {
+            grad_tol: self.grad_tol.unwrap_or(base.grad_tol),
+            energy_decrease_tol: self.energy_decrease_tol.unwrap_or(base.energy_decrease_tol),
+            max_iters: self.max_iters.unwrap_or(base.max_iters),
+        }
+    }
+}
+
 /// Everything a solver run needs besides the problem.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Settings {
     pub stop: StopSettings,
     pub line_search: LineSearchSettings,
     pub linear: LinearSettings,
     /// Symbolic analyses shared with the other runs on the same mesh (`None`: analyse
     /// privately). Sharing never changes results, only the setup time.
+    #[serde(skip)]
     pub analyses: Option<Arc<AnalysisCache>>,
 }
 
