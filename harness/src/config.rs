@@ -3,14 +3,16 @@
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
-use solvers::authalic::{AuthalicSettings, FoldGuard, AUTHALIC_ENERGY, AUTHALIC_SOLVERS};
+use solvers::authalic::{AuthalicSettings, FoldGuard, AUTHALIC_ENERGY};
 use solvers::deform::DeformSettings;
 use solvers::energy::{EnergyKind, ENERGY_NAMES};
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
+use solvers::mesh::Task as SolverTask;
 use solvers::param::{default_stop, ParamSettings};
 use solvers::smoothness::Projection;
-use solvers::solver::{solver_names, LineSearchSettings, Settings, StopSettings};
+use solvers::solver::catalogue::names_for;
+use solvers::solver::{LineSearchSettings, Settings, StopSettings};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -287,22 +289,22 @@ impl Config {
             bail!("'energies' is empty: name at least one of {}", ENERGY_NAMES.join(", "));
         }
         if self.solvers.is_empty() {
-            bail!("'solvers' is empty: name at least one of {}", solver_names().join(", "));
+            bail!("'solvers' is empty: name at least one of {}", names_for(SolverTask::Param).join(", "));
         }
         if self.datasets.is_empty() && self.dataset.is_empty() {
             bail!("no datasets: give 'datasets = [...]' (names or tag:<tag>) or [[dataset]] entries");
         }
         for s in &self.solvers {
-            if AUTHALIC_SOLVERS.contains(&s.as_str()) {
+            if names_for(SolverTask::Authalic).contains(&s.as_str()) {
                 bail!(
                     "'{s}' is an authalic solver: it runs in a config with task = \"authalic\" (this config's \
                      task is {}; its solvers: {})",
                     self.task.as_str(),
-                    solver_names().join(", ")
+                    names_for(SolverTask::Param).join(", ")
                 );
             }
-            if !solver_names().contains(&s.as_str()) {
-                bail!("unknown solver '{s}' (known: {})", solver_names().join(", "));
+            if !names_for(SolverTask::Param).contains(&s.as_str()) {
+                bail!("unknown solver '{s}' (known: {})", names_for(SolverTask::Param).join(", "));
             }
         }
         for e in &self.energies {
@@ -402,14 +404,17 @@ impl Config {
             bail!("task authalic has the one energy '{AUTHALIC_ENERGY}' (got {:?}); omit 'energies'", self.energies);
         }
         if self.solvers.is_empty() {
-            bail!("'solvers' is empty: name at least one of {}", AUTHALIC_SOLVERS.join(", "));
+            bail!("'solvers' is empty: name at least one of {}", names_for(SolverTask::Authalic).join(", "));
         }
         for s in &self.solvers {
-            if solver_names().contains(&s.as_str()) {
-                bail!("'{s}' is a param/deform solver: task authalic runs {} only", AUTHALIC_SOLVERS.join(", "));
+            if names_for(SolverTask::Param).contains(&s.as_str()) {
+                bail!(
+                    "'{s}' is a param/deform solver: task authalic runs {} only",
+                    names_for(SolverTask::Authalic).join(", ")
+                );
             }
-            if !AUTHALIC_SOLVERS.contains(&s.as_str()) {
-                bail!("unknown solver '{s}' for task authalic (known: {})", AUTHALIC_SOLVERS.join(", "));
+            if !names_for(SolverTask::Authalic).contains(&s.as_str()) {
+                bail!("unknown solver '{s}' for task authalic (known: {})", names_for(SolverTask::Authalic).join(", "));
             }
         }
         if self.datasets.is_empty() && self.dataset.is_empty() {

@@ -282,7 +282,9 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         }
         Command::List { what, registry } => {
             match what {
-                ListWhat::Solvers => solvers::solver::solver_names().iter().for_each(|s| println!("{s}")),
+                ListWhat::Solvers => solvers::solver::catalogue::names_for(solvers::mesh::Task::Param)
+                    .iter()
+                    .for_each(|s| println!("{s}")),
                 ListWhat::Energies => solvers::energy::ENERGY_NAMES.iter().for_each(|s| println!("{s}")),
                 ListWhat::Datasets => {
                     let reg = registry::Registry::load(&registry)

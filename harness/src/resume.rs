@@ -9,7 +9,6 @@ use crate::output::{csv_error, read_csv_bytes, run_stem, SummaryRow, ITERATION_C
 use crate::registry::{Dataset, MeshSource};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::{Deserialize, Serialize};
-use solvers::authalic::EXTRA_COLUMNS;
 use solvers::solver::IterationRecord;
 use std::path::{Path, PathBuf};
 
@@ -137,7 +136,7 @@ pub fn read_iterations(path: &Path) -> Result<IterationFile> {
     // from the records, so a column they cannot hold is refused rather than dropped.
     let mut extra_cols: Vec<(&'static str, usize)> = Vec::new();
     for (j, name) in header.iter().enumerate().filter(|(_, n)| !ITERATION_COLUMNS.contains(n)) {
-        let known = EXTRA_COLUMNS.iter().copied().find(|k| *k == name);
+        let known = solvers::solver::catalogue::extra_column(name);
         let known = known.with_context(|| format!("{}: line 1: unknown column `{name}`", path.display()))?;
         extra_cols.push((known, j));
     }

@@ -5,7 +5,7 @@
 use crate::config::{LoadedConfig, Task};
 use crate::output::{iteration_csv, median, run_stem, write_atomic, SummaryRow, SummaryWriter};
 use crate::progress::Progress;
-use crate::registry::{resolve, Dataset};
+use crate::registry::{resolve, Dataset, MeshSource};
 use anyhow::{bail, Context, Result};
 use solvers::authalic::{solve_authalic, AreaMetrics, AUTHALIC_ENERGY};
 use solvers::deform::solve_deform;
@@ -505,7 +505,12 @@ fn solve(
             let mut settings = cfg.config.deform_settings();
             settings.smoothness = cfg.config.smoothness_for(energy);
             settings.solver.analyses = Some(analyses.clone());
-            Ok((solve_deform(mesh, &handles, kind, solver, &settings, rows)?, None))
+            // A generated shape may bring its start (the released bar), like its handles.
+            let init = match &ds.source {
+                MeshSource::Generated(g) => solvers::generate::generated_init(g),
+                MeshSource::File(_) => None,
+            };
+            Ok((solve_deform(mesh, &handles, init.as_deref(), kind, solver, &settings, rows)?, None))
         }
     }
 }

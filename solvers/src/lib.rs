@@ -24,6 +24,7 @@ pub mod line_search;
 pub mod linear;
 pub mod linear_error;
 pub mod local;
+pub mod map_task;
 pub mod mesh;
 pub mod ordering;
 pub mod param;

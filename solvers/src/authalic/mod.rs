@@ -17,6 +17,7 @@ pub mod sem;
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::mesh::topology::boundary_loops;
 use crate::mesh::{validate_for, Mesh, Task};
+use crate::solver::catalogue::{lookup, Method, SolverError, AUTHALIC_COLUMNS};
 use crate::solver::{IterationRecord, Observer, Outcome, StopReason, StopSettings};
 use laplacian::{stretch_weights, LaplacianPattern, SubBlock};
 use rayon::prelude::*;
@@ -25,16 +26,12 @@ use std::f64::consts::PI;
 /// Faces per parallel chunk (fixed: sums do not depend on the thread count).
 const CHUNK: usize = 2048;
 
-/// Solvers of the `authalic` task.
-pub const AUTHALIC_SOLVERS: [&str; 3] = ["sem", "aem-cg", "aem-cg-safe"];
-
-/// The only energy of the `authalic` task (the name in CSVs and configs).
-pub const AUTHALIC_ENERGY: &str = "authalic";
+pub use crate::energy::AUTHALIC_ENERGY;
 
 #[derive(Debug, thiserror::Error)]
 pub enum AuthalicError {
-    #[error("unknown authalic solver '{0}' (known: sem, aem-cg, aem-cg-safe)")]
-    UnknownSolver(String),
+    #[error(transparent)]
+    Solver(#[from] SolverError),
     #[error(transparent)]
     Mesh(#[from] crate::mesh::MeshError),
     #[error("{source_name}: face {face} has zero source area")]
@@ -113,10 +110,6 @@ impl Default for AuthalicSettings {
 pub fn default_stop() -> StopSettings {
     StopSettings { grad_tol: 0.0, energy_decrease_tol: 0.0, max_iters: 100 }
 }
-
-/// Names of the extra per-iteration CSV columns of every authalic solver, in order.
-pub const EXTRA_COLUMNS: [&str; 8] =
-    ["image_area", "stretch_energy", "ascent", "wolfe", "backtracks", "restarted", "fold_rejects", "quad_fallback"];
 
 /// Area-distortion metrics of a map (design.md): the normalized ratio
 /// `r = (|f(t)| / A(f)) / (|t| / |S|)` per face.
@@ -466,7 +459,7 @@ impl AuthalicProblem {
 /// is a Laplacian with a Dirichlet boundary.
 const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
 
-/// What the step rule of one iteration did (the extra columns, [`EXTRA_COLUMNS`]).
+/// What the step rule of one iteration did (the extra columns, [`AUTHALIC_COLUMNS`]).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Extras {
     pub ascent: bool,
@@ -529,8 +522,8 @@ impl Reporter<'_> {
             t_iter_s: tm.iter,
             t_cum_s: self.t_cum,
             ls_evals: ex.ls_evals,
-            // In EXTRA_COLUMNS order.
-            extra: EXTRA_COLUMNS
+            // In AUTHALIC_COLUMNS order.
+            extra: AUTHALIC_COLUMNS
                 .into_iter()
                 .zip([
                     t.area,
@@ -592,22 +585,25 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Run the named authalic solver on `mesh` (validated here).
+/// Run the named authalic solver (of the catalogue) on `mesh` (validated here).
 pub fn solve_authalic(
     mesh: &Mesh,
     solver: &str,
     settings: &AuthalicSettings,
     observer: &mut dyn Observer,
 ) -> Result<AuthalicOutcome, AuthalicError> {
-    if !AUTHALIC_SOLVERS.contains(&solver) {
-        return Err(AuthalicError::UnknownSolver(solver.to_string()));
-    }
+    let entry = lookup(solver, Task::Authalic)?;
+    // `None` is SEM, `Some(safe)` AEM-CG; decided before the mesh is looked at.
+    let aem_safe = match entry.method {
+        Method::Sem => None,
+        Method::AemCg { safe } => Some(safe),
+        Method::Newton(_) => return Err(entry.wrong_task(Task::Authalic).into()),
+    };
     let problem = AuthalicProblem::new(mesh)?;
     let z0 = problem.initial_map(settings.init_steps)?;
-    Ok(match solver {
-        "sem" => sem::sem(&problem, z0, settings, observer),
-        "aem-cg" => aem::aem_cg(&problem, z0, settings, false, observer),
-        _ => aem::aem_cg(&problem, z0, settings, true, observer),
+    Ok(match aem_safe {
+        None => sem::sem(&problem, z0, settings, observer),
+        Some(safe) => aem::aem_cg(&problem, z0, settings, safe, observer),
     })
 }
 

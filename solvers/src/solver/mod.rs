@@ -3,12 +3,12 @@
 //! A solver never prints and never touches files: it calls [`Observer::observe`] once per
 //! iteration (row 0 is the initial state) and returns a [`Outcome`]. The harness owns I/O.
 
+pub mod catalogue;
 pub mod newton;
-pub mod registry;
 
 pub use crate::line_search::LineSearchSettings;
+pub use catalogue::{SolverEntry, SolverError, SolverSpec, SOLVERS};
 pub use newton::{newton, NewtonSettings};
-pub use registry::{solver_names, SolverSpec};
 
 use crate::linear::{AnalysisCache, LinearSettings};
 use std::sync::Arc;

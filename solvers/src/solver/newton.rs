@@ -229,7 +229,7 @@ mod tests {
     use crate::hessian::kp::Kp;
     use crate::local::LocalOp;
     use crate::mesh::Mesh;
-    use crate::solver::{LineSearchSettings, Recorder, StopSettings};
+    use crate::solver::{Recorder, StopSettings};
 
     /// A 4-triangle fan mapped with a stretch, so SD has work to do.
     fn problem() -> (MapProblem, Vec<f64>) {
@@ -243,9 +243,7 @@ mod tests {
     fn settings() -> Settings {
         Settings {
             stop: StopSettings { grad_tol: 1e-9, energy_decrease_tol: 0.0, max_iters: 100 },
-            line_search: LineSearchSettings::default(),
-            linear: LinearSettings::default(),
-            analyses: None,
+            ..Settings::default()
         }
     }
 
