@@ -92,10 +92,9 @@ pub(crate) struct TimeoutAt(pub usize);
 #[cfg(test)]
 impl Observer for TimeoutAt {
     fn observe(&mut self, r: &IterationRecord) -> Flow {
-        if r.iter >= self.0 {
-            Flow::Timeout
-        } else {
-            Flow::Continue
+        match StopAt(self.0).observe(r) {
+            Flow::Stop => Flow::Timeout,
+            flow => flow,
         }
     }
 }
