@@ -73,3 +73,18 @@ fn enum_settings_take_their_kebab_case_names() {
     assert_eq!((t.tutte, t.projection, t.guard), (TutteBoundary::Arclength, Projection::Numeric, FoldGuard::None));
     assert!(parse::<T>("tutte = \"circle\"\nprojection = \"numeric\"\nguard = \"none\"\n").is_err());
 }
+
+#[test]
+fn run_settings_serialize_without_the_runtime_cache() {
+    use solvers::energy::EnergyKind;
+    let mut p = solvers::param::ParamSettings::for_energy(&EnergyKind::Sarap);
+    p.solver.analyses = Some(std::sync::Arc::new(solvers::linear::AnalysisCache::new()));
+    let text = toml::to_string(&p).unwrap();
+    assert!(
+        text.contains("energy_decrease_tol = 0.00000001") && text.contains("tutte_boundary = \"uniform\""),
+        "{text}"
+    );
+    assert!(!text.contains("analyses"), "{text}");
+    let d = toml::to_string(&solvers::deform::DeformSettings::default()).unwrap();
+    assert!(d.contains("lambda = 100000.0") && d.contains("max_iters = 1000"), "{d}");
+}
