@@ -521,8 +521,15 @@ fn list_shows_registry_solvers_and_energies() {
     let o = mapbench(&["list", "datasets"], &root);
     let t = text(&o);
     assert!(o.status.success() && t.contains("camelhead") && t.contains("generated:bumpy_10k"), "{t}");
+    // Every task's solvers, with their tasks and energies.
     let o = mapbench(&["list", "solvers"], &root);
-    assert!(text(&o).contains("kp-newton"));
+    let t = text(&o);
+    let line = |name: &str| t.lines().find(|l| l.split_whitespace().next() == Some(name)).unwrap_or("").to_string();
+    assert!(line("kp-newton").contains("tasks=param,deform") && line("kp-newton").contains("energies=sd,"), "{t}");
+    assert!(line("cm").contains("tasks=param,deform"), "{t}");
+    for s in ["sem", "aem-cg", "aem-cg-safe"] {
+        assert!(line(s).contains("tasks=authalic") && line(s).contains("energies=authalic"), "{s}: {t}");
+    }
     let o = mapbench(&["list", "energies"], &root);
     assert_eq!(text(&o).lines().count(), 6);
 }

@@ -7,22 +7,16 @@
 //! file's frame and transformed the same way.
 
 use crate::energy::EnergyKind;
-use crate::error::MeshError;
-use crate::mesh::{validate_for, Mesh, Task};
-use crate::problem::{DegenerateFace, MapProblem, Penalty};
+pub use crate::handle::Handle;
+pub use crate::map_task::MapError;
+use crate::map_task::{check_handles, checked_spec, map_problem};
+use crate::mesh::{Mesh, Task};
+use crate::problem::Penalty;
 use crate::smoothness::Projection;
-use crate::solver::registry::SpecError;
-use crate::solver::{newton, Observer, Outcome, Settings, SolverSpec, StopSettings};
-
-/// One positional constraint: vertex `vertex` should go to `target` (file frame).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Handle {
-    pub vertex: usize,
-    pub target: [f64; 2],
-}
+use crate::solver::{newton, Observer, Outcome, Settings, StopSettings};
 
 /// Settings of a `deform` run.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DeformSettings {
     pub solver: Settings,
     /// Penalty weight `lambda` (on the area-1 mesh).
@@ -44,26 +38,16 @@ pub fn default_stop() -> StopSettings {
     StopSettings { grad_tol: 1e-10, energy_decrease_tol: 1e-6, max_iters: 1000 }
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum DeformError {
-    #[error(transparent)]
-    Solver(#[from] SpecError),
-    #[error("{0}")]
-    Energy(String),
-    #[error(transparent)]
-    Mesh(#[from] MeshError),
-    #[error(transparent)]
-    Degenerate(#[from] DegenerateFace),
-    #[error("{source_name}: no handles; the deform task needs positional constraints")]
-    NoHandles { source_name: String },
-    #[error("{source_name}: handle {index} names vertex {vertex}, but the mesh has {n} vertices")]
-    HandleOutOfRange { source_name: String, index: usize, vertex: usize, n: usize },
-    #[error("{source_name}: handle {index} has a non-finite target {target:?}")]
-    BadTarget { source_name: String, index: usize, target: [f64; 2] },
-    #[error("{source_name}: initial map: {detail}")]
-    BadInit { source_name: String, detail: String },
-    #[error("{source_name}: {err}")]
-    Solve { source_name: String, err: crate::solver::newton::SolveError },
+impl Default for DeformSettings {
+    /// [`default_stop`], the default line search and linear solves, [`DEFAULT_LAMBDA`], no
+    /// smoothness term.
+    fn default() -> Self {
+        DeformSettings {
+            solver: Settings { stop: default_stop(), ..Settings::default() },
+            lambda: DEFAULT_LAMBDA,
+            smoothness: None,
+        }
+    }
 }
 
 /// Handle rules for shapes that ship without handles (`handles_rule` in a dataset entry).
@@ -107,24 +91,11 @@ pub fn rule_handles(mesh: &Mesh, rule: &str) -> Result<Vec<Handle>, String> {
 }
 
 /// Deform `mesh` (validated here: planar, holes allowed) towards `handles` with `energy` and
-/// the named solver, starting from the rest pose, or, for a generated shape that brings its
-/// own initial map (`generate::generated_init`, the released bar), from that map: a generated
-/// shape brings its start like it brings its handles.
+/// the named solver, starting from `init` (one point per vertex, in the file's frame like
+/// the handle targets; orientation preserving), or from the rest pose when `None`. The
+/// caller knows where the mesh came from: a generated shape brings its start
+/// (`generate::generated_init`) like it brings its handles.
 pub fn solve_deform(
-    mesh: &Mesh,
-    handles: &[Handle],
-    energy: EnergyKind,
-    solver: &str,
-    settings: &DeformSettings,
-    observer: &mut dyn Observer,
-) -> Result<Outcome, DeformError> {
-    let init = mesh.source.strip_prefix("generated:").and_then(crate::generate::generated_init);
-    solve_deform_from(mesh, handles, init.as_deref(), energy, solver, settings, observer)
-}
-
-/// [`solve_deform`] from an explicit initial map `init` (one point per vertex, in the file's
-/// frame like the handle targets; orientation preserving); `None` is the rest pose.
-pub fn solve_deform_from(
     mesh: &Mesh,
     handles: &[Handle],
     init: Option<&[[f64; 2]]>,
@@ -132,66 +103,43 @@ pub fn solve_deform_from(
     solver: &str,
     settings: &DeformSettings,
     observer: &mut dyn Observer,
-) -> Result<Outcome, DeformError> {
-    let spec = SolverSpec::build(solver, &energy)?;
-    energy.check().map_err(DeformError::Energy)?;
+) -> Result<Outcome, MapError> {
     // Planarity and the rest pose's orientation included.
-    validate_for(mesh, Task::Deform).into_result()?;
+    let spec = checked_spec(mesh, Task::Deform, &energy, solver)?;
+    check_handles(mesh, handles)?;
     let source_name = mesh.source.clone();
-    if handles.is_empty() {
-        return Err(DeformError::NoHandles { source_name });
-    }
     let n = mesh.n_vertices();
-    for (index, h) in handles.iter().enumerate() {
-        if h.vertex >= n {
-            return Err(DeformError::HandleOutOfRange { source_name, index, vertex: h.vertex, n });
-        }
-        if !h.target.iter().all(|c| c.is_finite()) {
-            return Err(DeformError::BadTarget { source_name, index, target: h.target });
-        }
-    }
     let (mid, s) = mesh.normalization();
     let rest = mesh.normalized();
     let x: Vec<f64> = rest.positions.iter().flat_map(|p| [p[0], p[1]]).collect();
     let x = match init {
         None => x,
         Some(p) if p.len() != n => {
-            return Err(DeformError::BadInit { source_name, detail: format!("{} points for {n} vertices", p.len()) })
+            return Err(MapError::BadInit { source_name, detail: format!("{} points for {n} vertices", p.len()) })
         }
         Some(p) => match p.iter().position(|q| !q.iter().all(|c| c.is_finite())) {
-            Some(v) => return Err(DeformError::BadInit { source_name, detail: format!("point {v} is not finite") }),
+            Some(v) => return Err(MapError::BadInit { source_name, detail: format!("point {v} is not finite") }),
             None => p.iter().flat_map(|q| [(q[0] - mid[0]) * s, (q[1] - mid[1]) * s]).collect(),
         },
     };
-    let mut problem = MapProblem::new(&rest, energy)?;
-    if let Some((w, proj)) = settings.smoothness {
-        problem = problem.with_smoothness(&rest, w, spec.smoothness_projection.unwrap_or(proj));
-    }
+    let mut problem = map_problem(&rest, energy, &spec, settings.smoothness)?;
     problem.penalty = Some(Penalty {
         lambda: settings.lambda,
         handles: handles.iter().map(|h| (h.vertex, [(h.target[0] - mid[0]) * s, (h.target[1] - mid[1]) * s])).collect(),
     });
     newton(&problem, x, spec.block.as_ref(), &settings.solver, observer)
-        .map_err(|err| DeformError::Solve { source_name, err })
+        .map_err(|err| MapError::Solve { source_name, err })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::generate::{generate, generated_handles};
+    use crate::problem::MapProblem;
     use crate::solver::Recorder;
 
     fn settings() -> DeformSettings {
-        DeformSettings {
-            solver: Settings {
-                stop: default_stop(),
-                line_search: Default::default(),
-                linear: Default::default(),
-                analyses: None,
-            },
-            lambda: DEFAULT_LAMBDA,
-            smoothness: None,
-        }
+        DeformSettings::default()
     }
 
     #[test]
@@ -229,7 +177,7 @@ mod tests {
             };
             for &energy in energies {
                 let mut rec = Recorder::default();
-                let out = solve_deform(&mesh, &handles, energy, solver, &settings(), &mut rec)
+                let out = solve_deform(&mesh, &handles, None, energy, solver, &settings(), &mut rec)
                     .unwrap_or_else(|e| panic!("{solver}: {e}"));
                 let label = format!("{solver} {energy:?}");
                 assert!(out.stop_reason.is_converged(), "{label}: {:?} after {}", out.stop_reason, out.iterations);
@@ -280,7 +228,7 @@ mod tests {
         for proj in [crate::smoothness::Projection::Analytic, crate::smoothness::Projection::Numeric] {
             let s = DeformSettings { smoothness: Some((0.25, proj)), ..settings() };
             let mut rec = Recorder::default();
-            let out = solve_deform(&mesh, &handles, EnergyKind::Sd, "kp-newton", &s, &mut rec).unwrap();
+            let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd, "kp-newton", &s, &mut rec).unwrap();
             assert!(out.stop_reason.is_converged(), "{proj:?}: {:?}", out.stop_reason);
             assert!(rec.rows.windows(2).all(|w| w[1].energy <= w[0].energy), "{proj:?}");
             assert!(rec.rows.iter().all(|r| r.flips == 0), "{proj:?}");
@@ -290,8 +238,8 @@ mod tests {
         assert!((energies[0] - energies[1]).abs() < 1e-4 * energies[0], "{energies:?}");
         // the eig8 solver overrides the configured projection
         let s = DeformSettings { smoothness: Some((0.25, crate::smoothness::Projection::Analytic)), ..settings() };
-        let out =
-            solve_deform(&mesh, &handles, EnergyKind::Sd, "kp-newton-eig8", &s, &mut Recorder::default()).unwrap();
+        let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd, "kp-newton-eig8", &s, &mut Recorder::default())
+            .unwrap();
         assert!((out.final_energy - energies[1]).abs() < 1e-9 * energies[1]);
     }
 
@@ -308,10 +256,11 @@ mod tests {
         let mut tight = settings();
         tight.solver.stop.energy_decrease_tol = 0.0;
         tight.solver.stop.grad_tol = 1e-6;
+        let init = crate::generate::generated_init(name).unwrap();
         for energy in [EnergyKind::Sd, EnergyKind::Nh { mu: 0.2, kappa: 0.8 }] {
             let e_min = energy.value(1.0, 0.0);
             let mut rec = Recorder::default();
-            let out = solve_deform(&mesh, &handles, energy, "kp-newton", &tight, &mut rec).unwrap();
+            let out = solve_deform(&mesh, &handles, Some(&init), energy, "kp-newton", &tight, &mut rec).unwrap();
             assert!(
                 out.stop_reason.is_converged() && rec.rows.iter().all(|r| r.flips == 0),
                 "{energy:?}: {:?}",
@@ -320,7 +269,6 @@ mod tests {
             assert!(out.init_energy > e_min + 1e-4, "{energy:?} starts bent: {}", out.init_energy);
             assert!((out.final_energy - e_min).abs() < 1e-4, "{energy:?}: {}", out.final_energy);
             // back at rest to within 1% of how far the bent bar's free end was
-            let init = crate::generate::generated_init(name).unwrap();
             let (mid, sc) = mesh.normalization();
             let dist = |v: usize, q: [f64; 2]| (q[0] - rest.positions[v][0]).hypot(q[1] - rest.positions[v][1]);
             let worst =
@@ -331,7 +279,7 @@ mod tests {
         }
         // an explicit init must fit the mesh
         let short = [[0.0, 0.0]];
-        let err = solve_deform_from(
+        let err = solve_deform(
             &mesh,
             &handles,
             Some(&short),
@@ -354,7 +302,7 @@ mod tests {
                 h.iter().filter(|h| h.target == [mesh.positions[h.vertex][0], mesh.positions[h.vertex][1]]).count();
             assert!(held > 10 && held < h.len(), "{rule}");
             let mut rec = Recorder::default();
-            let out = solve_deform(&mesh, &h, EnergyKind::Sd, "kp-newton", &settings(), &mut rec).unwrap();
+            let out = solve_deform(&mesh, &h, None, EnergyKind::Sd, "kp-newton", &settings(), &mut rec).unwrap();
             assert!(out.stop_reason.is_converged() && rec.rows.iter().all(|r| r.flips == 0), "{rule}");
         }
         assert!(rule_handles(&mesh, "bend").unwrap_err().contains("unknown handles rule 'bend'"));
@@ -364,7 +312,7 @@ mod tests {
     fn bad_inputs_are_typed_errors() {
         let mesh = generate("planar_bar_2k").unwrap();
         let run = |m: &Mesh, h: &[Handle]| {
-            solve_deform(m, h, EnergyKind::Sd, "kp-newton", &settings(), &mut Recorder::default())
+            solve_deform(m, h, None, EnergyKind::Sd, "kp-newton", &settings(), &mut Recorder::default())
                 .unwrap_err()
                 .to_string()
         };

@@ -9,7 +9,7 @@
 //! The planar shapes of the `deform` task (`planar_*`, z = 0) are unions of grid cells with
 //! their handles given by rule ([`generated_handles`]).
 
-use crate::deform::Handle;
+use crate::handle::Handle;
 use crate::mesh::Mesh;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

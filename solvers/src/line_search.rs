@@ -3,8 +3,27 @@
 //! line 7), `t0 = min(1, 0.9 t_max)`, then Armijo backtracking (Eq. 1).
 
 use crate::problem::{EnergyScratch, MapProblem};
-use crate::solver::LineSearchSettings;
 use rayon::prelude::*;
+
+/// Line search (`[line_search]`), shared by every Newton-like solver.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LineSearchSettings {
+    /// `t0 = min(1, max_step_fraction * t_max)`.
+    pub max_step_fraction: f64,
+    /// Armijo constant `c` in `E(x + t d) <= E(x) + c t <g, d>`.
+    pub armijo_c: f64,
+    /// Backtracking factor.
+    pub shrink: f64,
+    /// Give up when `t |d| <= min_step`.
+    pub min_step: f64,
+}
+
+impl Default for LineSearchSettings {
+    fn default() -> Self {
+        LineSearchSettings { max_step_fraction: 0.9, armijo_c: 0.2, shrink: 0.5, min_step: 1e-12 }
+    }
+}
 
 /// Smallest positive root of `a t^2 + b t + c` for `c > 0`, `+inf` if there is none.
 ///

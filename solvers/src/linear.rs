@@ -8,6 +8,7 @@
 //! `(S A S + tau I) y = S b`.
 
 use crate::assembly::Pattern;
+pub use crate::linear_error::LinearError;
 use crate::ordering::{metis_order_timed, Ordering};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -21,20 +22,9 @@ use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-#[derive(Debug, thiserror::Error, Clone, PartialEq)]
-pub enum LinearError {
-    #[error("symbolic Cholesky analysis failed: {0}")]
-    Symbolic(String),
-    #[error("Cholesky factorization failed: matrix not positive definite (pivot {pivot})")]
-    NotPositiveDefinite { pivot: usize },
-    #[error("matrix diagonal entry {index} is {value} (not positive and finite)")]
-    BadDiagonal { index: usize, value: f64 },
-    #[error("solve requested before a successful factorization")]
-    NotFactored,
-}
-
 /// Linear-system settings (`[linear]` in the config).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct LinearSettings {
     /// Tikhonov shift, added before and after Jacobi scaling.
     pub tikhonov: f64,

@@ -167,11 +167,8 @@ pub fn local_ops(mesh: &Mesh) -> Result<Vec<LocalOp>, usize> {
         .collect()
 }
 
-/// Signed area of a target triangle.
-#[inline]
-pub fn signed_area(y: [[f64; 2]; 3]) -> f64 {
-    0.5 * ((y[1][0] - y[0][0]) * (y[2][1] - y[0][1]) - (y[1][1] - y[0][1]) * (y[2][0] - y[0][0]))
-}
+/// Signed area of a target triangle (defined beside the mesh, whose validation needs it).
+pub use crate::mesh::signed_area;
 
 #[cfg(test)]
 mod tests {

@@ -10,7 +10,7 @@
 //!   only contiguous columns into supernodes, and raw METIS output gave 2.6x more
 //!   supernodes and a slower factorization than AMD.
 
-use crate::linear::LinearError;
+use crate::linear_error::LinearError;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 

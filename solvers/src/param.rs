@@ -2,16 +2,15 @@
 //! from a Tutte initialization (complex-view paper, Section 6.1).
 
 use crate::energy::EnergyKind;
-use crate::error::MeshError;
-use crate::init::{global_scale, tutte, InitError, TutteBoundary};
-use crate::mesh::{validate_for, Mesh, Task};
-use crate::problem::{DegenerateFace, MapProblem};
+use crate::init::{global_scale, tutte, TutteBoundary};
+pub use crate::map_task::MapError;
+use crate::map_task::{checked_spec, map_problem};
+use crate::mesh::{Mesh, Task};
 use crate::smoothness::Projection;
-use crate::solver::registry::SpecError;
-use crate::solver::{newton, Observer, Outcome, Settings, SolverSpec, StopSettings};
+use crate::solver::{newton, Observer, Outcome, Settings, StopSettings};
 
 /// Settings of a `param` run.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ParamSettings {
     pub solver: Settings,
     pub tutte_boundary: TutteBoundary,
@@ -24,27 +23,24 @@ pub struct ParamSettings {
 /// design.md defaults: `|grad| <= 1e-3`, SARAP on energy decrease `< 1e-8` (its gradient
 /// indicator fails near conformal maps, Section 6.1), 1000 iterations.
 pub fn default_stop(energy: &EnergyKind) -> StopSettings {
-    StopSettings {
-        grad_tol: 1e-3,
-        energy_decrease_tol: if matches!(energy, EnergyKind::Sarap) { 1e-8 } else { 0.0 },
-        max_iters: 1000,
-    }
+    let d = StopSettings::default();
+    StopSettings { energy_decrease_tol: if matches!(energy, EnergyKind::Sarap) { 1e-8 } else { 0.0 }, ..d }
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum ParamError {
-    #[error(transparent)]
-    Solver(#[from] SpecError),
-    #[error("{0}")]
-    Energy(String),
-    #[error(transparent)]
-    Mesh(#[from] MeshError),
-    #[error(transparent)]
-    Degenerate(#[from] DegenerateFace),
-    #[error("{source_name}: initialization failed: {err}")]
-    Init { source_name: String, err: InitError },
-    #[error("{source_name}: {err}")]
-    Solve { source_name: String, err: crate::solver::newton::SolveError },
+/// Jump threshold of the global-scaling heuristic in the paper (Section 4.2).
+pub const DEFAULT_SCALING_JUMP: f64 = 0.1;
+
+impl ParamSettings {
+    /// design.md's settings for `energy`: [`default_stop`], the default line search and linear
+    /// solves, the uniform Tutte boundary, the paper's scaling jump, no smoothness term.
+    pub fn for_energy(energy: &EnergyKind) -> ParamSettings {
+        ParamSettings {
+            solver: Settings { stop: default_stop(energy), ..Settings::default() },
+            tutte_boundary: TutteBoundary::Uniform,
+            scaling_jump: DEFAULT_SCALING_JUMP,
+            smoothness: None,
+        }
+    }
 }
 
 /// Parameterize `mesh` (validated here: it must be a topological disk) with `energy` and the
@@ -55,16 +51,11 @@ pub fn solve_param(
     solver: &str,
     settings: &ParamSettings,
     observer: &mut dyn Observer,
-) -> Result<Outcome, ParamError> {
-    let spec = SolverSpec::build(solver, &energy)?;
-    energy.check().map_err(ParamError::Energy)?;
-    validate_for(mesh, Task::Param).into_result()?;
+) -> Result<Outcome, MapError> {
+    let spec = checked_spec(mesh, Task::Param, &energy, solver)?;
     let mesh = mesh.normalized();
-    let mut problem = MapProblem::new(&mesh, energy)?;
-    if let Some((w, proj)) = settings.smoothness {
-        problem = problem.with_smoothness(&mesh, w, spec.smoothness_projection.unwrap_or(proj));
-    }
-    let init_err = |err| ParamError::Init { source_name: mesh.source.clone(), err };
+    let problem = map_problem(&mesh, energy, &spec, settings.smoothness)?;
+    let init_err = |err| MapError::Init { source_name: mesh.source.clone(), err };
     let mut x = tutte(&mesh, settings.tutte_boundary).map_err(init_err)?;
     if spec.global_scaling {
         if let Some(s) = global_scale(&problem, &x, settings.scaling_jump) {
@@ -72,7 +63,7 @@ pub fn solve_param(
         }
     }
     newton(&problem, x, spec.block.as_ref(), &settings.solver, observer)
-        .map_err(|err| ParamError::Solve { source_name: mesh.source.clone(), err })
+        .map_err(|err| MapError::Solve { source_name: mesh.source.clone(), err })
 }
 
 #[cfg(test)]
@@ -81,20 +72,9 @@ mod tests {
     use crate::generate::generate;
     use crate::solver::Recorder;
 
-    fn run(mesh: &Mesh) -> Result<Outcome, ParamError> {
+    fn run(mesh: &Mesh) -> Result<Outcome, MapError> {
         let energy = EnergyKind::Sd;
-        let settings = ParamSettings {
-            solver: Settings {
-                stop: default_stop(&energy),
-                line_search: Default::default(),
-                linear: Default::default(),
-                analyses: None,
-            },
-            tutte_boundary: TutteBoundary::Uniform,
-            scaling_jump: 0.1,
-            smoothness: None,
-        };
-        solve_param(mesh, energy, "kp-newton", &settings, &mut Recorder::default())
+        solve_param(mesh, energy, "kp-newton", &ParamSettings::for_energy(&energy), &mut Recorder::default())
     }
 
     /// The same surface drawn the other way round, lifted to z = 5, or in units of 1e300 (areas

@@ -4,11 +4,14 @@
 
 use crate::energy::EnergyKind;
 use crate::linear::regularize;
+use crate::map_task::{map_problem, MapError};
 use crate::mesh::Mesh;
-use crate::param::{solve_param, ParamError, ParamSettings};
-use crate::problem::{Evaluation, MapProblem};
+use crate::mesh::Task;
+use crate::param::{solve_param, ParamSettings};
+use crate::problem::Evaluation;
+use crate::solver::catalogue::newton_spec;
 use crate::solver::newton::{project_blocks, scatter, system_pattern};
-use crate::solver::{SolverSpec, StopAt};
+use crate::solver::StopAt;
 use std::fmt::Write as _;
 
 /// A symmetric system `A d = b` with `A` as its lower triangle in CSC form.
@@ -33,15 +36,16 @@ pub fn param_system(
     solver: &str,
     settings: &ParamSettings,
     iteration: usize,
-) -> Result<NewtonSystem, ParamError> {
+) -> Result<NewtonSystem, MapError> {
     let out = solve_param(mesh, energy, solver, settings, &mut StopAt(iteration))?;
-    let spec = SolverSpec::build(solver, &energy)?;
+    let spec = newton_spec(solver, Task::Param, &energy)?;
     let mesh = mesh.normalized();
-    let problem = MapProblem::new(&mesh, energy)?;
+    // The run's own problem, smoothness term included: the matrix it factorizes.
+    let problem = map_problem(&mesh, energy, &spec, settings.smoothness)?;
     let mut ev = Evaluation::default();
     problem
         .evaluate(&out.x, &mut ev)
-        .map_err(|e| ParamError::Energy(format!("{}: iterate {}: {e}", mesh.source, out.iterations)))?;
+        .map_err(|e| MapError::Energy(format!("{}: iterate {}: {e}", mesh.source, out.iterations)))?;
     let pattern = system_pattern(&problem);
     let (mut blocks, mut edge_blocks, mut values) = (Vec::new(), Vec::new(), Vec::new());
     project_blocks(&problem, &ev, spec.block.as_ref(), &mut blocks, &mut edge_blocks);
@@ -56,7 +60,7 @@ pub fn param_system(
         &mut scaled,
         &mut scale,
     )
-    .map_err(|e| ParamError::Energy(format!("{}: iterate {}: {e}", mesh.source, out.iterations)))?;
+    .map_err(|e| MapError::Energy(format!("{}: iterate {}: {e}", mesh.source, out.iterations)))?;
     Ok(NewtonSystem {
         n: pattern.n,
         col_ptr: pattern.col_ptr.clone(),
@@ -105,17 +109,7 @@ mod tests {
     fn the_exported_system_is_the_one_newton_solves() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
         let e = EnergyKind::Sd;
-        let settings = ParamSettings {
-            solver: crate::solver::Settings {
-                stop: crate::param::default_stop(&e),
-                line_search: Default::default(),
-                linear: Default::default(),
-                analyses: None,
-            },
-            tutte_boundary: Default::default(),
-            scaling_jump: 0.1,
-            smoothness: None,
-        };
+        let settings = ParamSettings::for_energy(&e);
         let sys = param_system(&mesh, e, "kp-newton", &settings, 2).unwrap();
         assert_eq!(sys.iteration, 2);
         assert_eq!(sys.n, 2 * mesh.n_vertices());
@@ -133,5 +127,22 @@ mod tests {
         assert_eq!(mm.lines().count(), 3 + sys.values.len());
         assert!(mm.starts_with("%%MatrixMarket matrix coordinate real symmetric"));
         assert_eq!(sys.rhs_matrix_market().lines().count(), 2 + sys.n);
+    }
+
+    /// With a smoothness term the exported system is that of the run's problem: the edge
+    /// blocks widen the pattern and the term enters the right-hand side.
+    #[test]
+    fn the_exported_system_carries_the_smoothness_term() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let e = EnergyKind::Sd;
+        let plain = param_system(&mesh, e, "kp-newton", &ParamSettings::for_energy(&e), 0).unwrap();
+        let settings = ParamSettings {
+            smoothness: Some((0.25, crate::smoothness::Projection::Analytic)),
+            ..ParamSettings::for_energy(&e)
+        };
+        let smooth = param_system(&mesh, e, "kp-newton", &settings, 0).unwrap();
+        assert_eq!((smooth.n, smooth.iteration), (plain.n, 0));
+        assert!(smooth.values.len() > plain.values.len());
+        assert_ne!(smooth.rhs, plain.rhs);
     }
 }

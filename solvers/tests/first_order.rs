@@ -3,24 +3,13 @@
 
 use solvers::energy::EnergyKind;
 use solvers::generate::generate;
-use solvers::init::TutteBoundary;
 use solvers::mesh::{load_obj, Mesh};
-use solvers::param::{default_stop, solve_param, ParamSettings};
-use solvers::solver::{Outcome, Recorder, Settings};
+use solvers::param::{solve_param, ParamSettings};
+use solvers::solver::{Outcome, Recorder};
 
 fn run(mesh: &Mesh, solver: &str) -> (Outcome, Recorder) {
     let e = EnergyKind::Sd;
-    let settings = ParamSettings {
-        solver: Settings {
-            stop: default_stop(&e),
-            line_search: Default::default(),
-            linear: Default::default(),
-            analyses: None,
-        },
-        tutte_boundary: TutteBoundary::Uniform,
-        scaling_jump: 0.1,
-        smoothness: None,
-    };
+    let settings = ParamSettings::for_energy(&e);
     let mut rec = Recorder::default();
     let out = solve_param(mesh, e, solver, &settings, &mut rec).unwrap_or_else(|err| panic!("{solver}: {err}"));
     (out, rec)

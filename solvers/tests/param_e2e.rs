@@ -3,30 +3,15 @@
 
 use solvers::energy::EnergyKind;
 use solvers::generate::generate;
-use solvers::init::TutteBoundary;
 use solvers::mesh::{load_obj, Mesh};
-use solvers::param::{default_stop, solve_param, ParamSettings};
-use solvers::solver::{Recorder, Settings, StopReason};
-
-fn settings(energy: &EnergyKind) -> ParamSettings {
-    ParamSettings {
-        solver: Settings {
-            stop: default_stop(energy),
-            line_search: Default::default(),
-            linear: Default::default(),
-            analyses: None,
-        },
-        tutte_boundary: TutteBoundary::Uniform,
-        scaling_jump: 0.1,
-        smoothness: None,
-    }
-}
+use solvers::param::{solve_param, ParamSettings};
+use solvers::solver::{Recorder, StopReason};
 
 /// Runs KP-Newton with SD and checks the invariants of design.md; returns (iters, energy, s).
 fn check_sd_run(mesh: &Mesh) -> (usize, f64, f64) {
     let e = EnergyKind::Sd;
     let mut rec = Recorder::default();
-    let out = solve_param(mesh, e, "kp-newton", &settings(&e), &mut rec).unwrap();
+    let out = solve_param(mesh, e, "kp-newton", &ParamSettings::for_energy(&e), &mut rec).unwrap();
     assert_eq!(out.stop_reason, StopReason::GradientTolerance, "{}: {:?}", mesh.source, out.stop_reason);
     assert!(out.grad_norm <= 1e-3);
     assert_eq!(rec.rows.len(), out.iterations + 1);
@@ -56,7 +41,7 @@ fn every_energy_descends_without_flips() {
     for name in solvers::energy::ENERGY_NAMES {
         let e = EnergyKind::default_for(name).unwrap();
         let mut rec = Recorder::default();
-        let out = solve_param(&mesh, e, "kp-newton", &settings(&e), &mut rec).unwrap();
+        let out = solve_param(&mesh, e, "kp-newton", &ParamSettings::for_energy(&e), &mut rec).unwrap();
         assert!(out.stop_reason.is_converged(), "{name}: {:?}", out.stop_reason);
         for w in rec.rows.windows(2) {
             assert!(w[1].energy <= w[0].energy && w[1].flips == 0, "{name}");
@@ -84,7 +69,7 @@ fn identical_runs_are_deterministic() {
     let e = EnergyKind::Sd;
     let run = || {
         let mut rec = Recorder::default();
-        solve_param(&mesh, e, "kp-newton", &settings(&e), &mut rec).unwrap();
+        solve_param(&mesh, e, "kp-newton", &ParamSettings::for_energy(&e), &mut rec).unwrap();
         rec.rows.iter().map(|r| (r.energy.to_bits(), r.grad_norm.to_bits(), r.neg_eig)).collect::<Vec<_>>()
     };
     assert_eq!(run(), run());

@@ -3,28 +3,13 @@
 
 use solvers::energy::EnergyKind;
 use solvers::generate::generate;
-use solvers::init::TutteBoundary;
 use solvers::mesh::{load_obj, Mesh};
-use solvers::param::{default_stop, solve_param, ParamSettings};
-use solvers::solver::{Outcome, Recorder, Settings};
-
-fn settings(energy: &EnergyKind) -> ParamSettings {
-    ParamSettings {
-        solver: Settings {
-            stop: default_stop(energy),
-            line_search: Default::default(),
-            linear: Default::default(),
-            analyses: None,
-        },
-        tutte_boundary: TutteBoundary::Uniform,
-        scaling_jump: 0.1,
-        smoothness: None,
-    }
-}
+use solvers::param::{solve_param, ParamSettings};
+use solvers::solver::{Outcome, Recorder};
 
 fn run(mesh: &Mesh, energy: EnergyKind, solver: &str) -> (Outcome, Recorder) {
     let mut rec = Recorder::default();
-    let out = solve_param(mesh, energy, solver, &settings(&energy), &mut rec)
+    let out = solve_param(mesh, energy, solver, &ParamSettings::for_energy(&energy), &mut rec)
         .unwrap_or_else(|e| panic!("{} {solver}: {e}", mesh.source));
     (out, rec)
 }
@@ -121,7 +106,7 @@ fn unprojected_newton_ends_with_a_recorded_reason() {
 fn undefined_majorizer_is_an_error_not_a_fallback() {
     let mesh = generate("bumpy_1k").unwrap();
     let e = EnergyKind::Bconf { k: 1.5 };
-    let err = solve_param(&mesh, e, "cm", &settings(&e), &mut Recorder::default()).unwrap_err();
+    let err = solve_param(&mesh, e, "cm", &ParamSettings::for_energy(&e), &mut Recorder::default()).unwrap_err();
     assert!(err.to_string().contains("k <= 1"), "{err}");
 }
 
@@ -141,7 +126,7 @@ fn solvers_on_one_mesh_share_the_analysis_and_take_the_same_steps() {
     let runs = [(sd, "kp-newton"), (sd, "fp-newton-4x4"), (sd, "cm"), (sd, "slim"), (sd, "akvf"), (bconf, "kp-newton")];
     for (energy, solver) in runs {
         let (private, private_rec) = run(&mesh, energy, solver);
-        let mut s = settings(&energy);
+        let mut s = ParamSettings::for_energy(&energy);
         s.solver.analyses = Some(cache.clone());
         let mut rec = Recorder::default();
         let shared = solve_param(&mesh, energy, solver, &s, &mut rec).unwrap();
@@ -151,7 +136,7 @@ fn solvers_on_one_mesh_share_the_analysis_and_take_the_same_steps() {
         computed += usize::from(!shared.analysis.unwrap().reused);
     }
     assert_eq!((computed, cache.len()), (1, 1));
-    let mut s = settings(&EnergyKind::Sd);
+    let mut s = ParamSettings::for_energy(&EnergyKind::Sd);
     s.solver.analyses = Some(cache.clone());
     s.smoothness = Some((1e-3, solvers::smoothness::Projection::Analytic));
     let out = solve_param(&mesh, EnergyKind::Sd, "kp-newton", &s, &mut Recorder::default()).unwrap();

@@ -246,7 +246,14 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         }
         Command::List { what, registry } => {
             match what {
-                ListWhat::Solvers => solvers::solver::solver_names().iter().for_each(|s| println!("{s}")),
+                // Every task's solvers, from the one catalogue.
+                ListWhat::Solvers => {
+                    for s in solvers::solver::catalogue::SOLVERS {
+                        let tasks: Vec<&str> = s.tasks.iter().map(|t| t.as_str()).collect();
+                        println!("{:<20} tasks={:<14} energies={}", s.name, tasks.join(","), s.energies.join(","));
+                        println!("{:<20} {}", "", s.description);
+                    }
+                }
                 ListWhat::Energies => solvers::energy::ENERGY_NAMES.iter().for_each(|s| println!("{s}")),
                 ListWhat::Datasets => {
                     let reg = registry::Registry::load(&registry)

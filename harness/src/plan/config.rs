@@ -3,45 +3,20 @@
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
-use solvers::authalic::{AuthalicSettings, FoldGuard, AUTHALIC_ENERGY, AUTHALIC_SOLVERS};
+use solvers::authalic::{AuthalicSettings, FoldGuard, AUTHALIC_ENERGY};
 use solvers::deform::DeformSettings;
 use solvers::energy::{EnergyKind, ENERGY_NAMES};
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
 use solvers::param::{default_stop, ParamSettings};
 use solvers::smoothness::Projection;
-use solvers::solver::{solver_names, LineSearchSettings, Settings, StopSettings};
+use solvers::solver::catalogue::{self, names_for, SolverError};
+use solvers::solver::{LineSearchSettings, Settings, StopSettings};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Task {
-    #[default]
-    Param,
-    Deform,
-    Authalic,
-}
-
-impl std::str::FromStr for Task {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Task, String> {
-        [Task::Param, Task::Deform, Task::Authalic]
-            .into_iter()
-            .find(|t| t.as_str() == s)
-            .ok_or_else(|| format!("unknown task '{s}'"))
-    }
-}
-
-impl Task {
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            Task::Param => "param",
-            Task::Deform => "deform",
-            Task::Authalic => "authalic",
-        }
-    }
-}
+/// The task of a config: the solvers' own enum (one definition from the config to the CSV).
+pub use solvers::mesh::Task;
 
 /// A dataset given inline in the config (`[[dataset]]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -297,24 +272,9 @@ impl Config {
         if self.energies.is_empty() {
             bail!("'energies' is empty: name at least one of {}", ENERGY_NAMES.join(", "));
         }
-        if self.solvers.is_empty() {
-            bail!("'solvers' is empty: name at least one of {}", solver_names().join(", "));
-        }
+        self.check_solvers()?;
         if self.datasets.is_empty() && self.dataset.is_empty() {
             bail!("no datasets: give 'datasets = [...]' (names or tag:<tag>) or [[dataset]] entries");
-        }
-        for s in &self.solvers {
-            if AUTHALIC_SOLVERS.contains(&s.as_str()) {
-                bail!(
-                    "'{s}' is an authalic solver: it runs in a config with task = \"authalic\" (this config's \
-                     task is {}; its solvers: {})",
-                    self.task.as_str(),
-                    solver_names().join(", ")
-                );
-            }
-            if !solver_names().contains(&s.as_str()) {
-                bail!("unknown solver '{s}' (known: {})", solver_names().join(", "));
-            }
         }
         for e in &self.energies {
             self.energy_kind(e)?;
@@ -407,22 +367,30 @@ impl Config {
         }
     }
 
+    /// Every solver is in the catalogue and runs this config's task.
+    fn check_solvers(&self) -> Result<()> {
+        if self.solvers.is_empty() {
+            bail!("'solvers' is empty: name at least one of {}", names_for(self.task).join(", "));
+        }
+        for s in &self.solvers {
+            match catalogue::lookup(s, self.task) {
+                Ok(_) => {}
+                Err(e @ SolverError::WrongTask { runs, .. }) => {
+                    let tasks: Vec<String> = runs.iter().map(|t| format!("\"{t}\"")).collect();
+                    bail!("{e}; it runs in a config with task = {}", tasks.join(" or "))
+                }
+                Err(e) => bail!("{e}"),
+            }
+        }
+        Ok(())
+    }
+
     /// The `authalic` task's rules: one energy, its own solvers, no Newton sections.
     fn check_authalic(&self) -> Result<()> {
         if self.energies.iter().any(|e| e != AUTHALIC_ENERGY) {
             bail!("task authalic has the one energy '{AUTHALIC_ENERGY}' (got {:?}); omit 'energies'", self.energies);
         }
-        if self.solvers.is_empty() {
-            bail!("'solvers' is empty: name at least one of {}", AUTHALIC_SOLVERS.join(", "));
-        }
-        for s in &self.solvers {
-            if solver_names().contains(&s.as_str()) {
-                bail!("'{s}' is a param/deform solver: task authalic runs {} only", AUTHALIC_SOLVERS.join(", "));
-            }
-            if !AUTHALIC_SOLVERS.contains(&s.as_str()) {
-                bail!("unknown solver '{s}' for task authalic (known: {})", AUTHALIC_SOLVERS.join(", "));
-            }
-        }
+        self.check_solvers()?;
         if self.datasets.is_empty() && self.dataset.is_empty() {
             bail!("no datasets: give 'datasets = [...]' (names or tag:<tag>) or [[dataset]] entries");
         }

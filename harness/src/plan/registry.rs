@@ -172,6 +172,15 @@ pub struct Dataset {
 }
 
 impl Dataset {
+    /// The initial map a `deform` run starts from when the dataset brings one (a generated
+    /// shape's released pose); `None`: the rest pose.
+    pub fn initial_map(&self) -> Option<Vec<[f64; 2]>> {
+        match &self.source {
+            MeshSource::Generated(g) => solvers::generate::generated_init(g),
+            MeshSource::File(_) => None,
+        }
+    }
+
     /// Build or read the mesh and check the registry's counts.
     pub fn load(&self) -> Result<Mesh> {
         let mesh = self.source.load()?;

@@ -186,7 +186,9 @@ fn solve(
             let handles = plan.dataset(run).handles.load(mesh)?;
             let mut settings = settings.clone();
             settings.solver.analyses = Some(analyses.clone());
-            Ok((solve_deform(mesh, &handles, *energy, &run.solver, &settings, rows)?, None))
+            // A generated shape may bring its own start (the released bar), as it brings its handles.
+            let init = plan.dataset(run).initial_map();
+            Ok((solve_deform(mesh, &handles, init.as_deref(), *energy, &run.solver, &settings, rows)?, None))
         }
     }
 }

@@ -6,7 +6,7 @@
 use crate::plan::handles::HandleSource;
 use crate::plan::registry::MeshSource;
 use crate::plan::{Plan, PlannedRun};
-use crate::run_folder::{iterations_csv, map_obj, read_rows, sidecar, SummaryRow};
+use crate::run_folder::{map_obj, read_run, sidecar, SummaryRow};
 use anyhow::{Context, Result};
 use solvers::solver::IterationRecord;
 use std::path::Path;
@@ -70,7 +70,7 @@ pub fn previous(out_dir: &Path, stem: &str, key: &str) -> Option<(SummaryRow, Ve
     if side.key != key {
         return None;
     }
-    let rows = read_rows(&iterations_csv(out_dir, stem)).ok()?;
+    let rows = read_run(out_dir, &side.summary).ok()?.rows;
     // A run that finished has its final row; a failed run has none.
     let expected = side.summary.iterations.map_or(0, |i| i + 1);
     if rows.len() != expected {

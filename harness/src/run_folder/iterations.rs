@@ -4,7 +4,6 @@
 use super::{csv_error, read_csv_bytes, run_stem, FolderError, SummaryRow};
 use anyhow::{Context, Result};
 use serde::Serialize;
-use solvers::authalic::EXTRA_COLUMNS;
 use solvers::solver::IterationRecord;
 use std::path::Path;
 
@@ -115,14 +114,9 @@ pub struct IterationFile {
     pub energy_minus_best: Vec<f64>,
 }
 
-/// Read a per-iteration CSV back into records (the inverse of `output::iteration_csv`).
-pub fn read_rows(path: &Path) -> Result<Vec<IterationRecord>> {
-    Ok(read_iterations(path)?.rows)
-}
-
 /// The one reader of per-iteration CSVs (resume, report, plots), columns by header name.
 /// Every error names the file and the line, and the column of a bad cell.
-pub fn read_iterations(path: &Path) -> Result<IterationFile, FolderError> {
+pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<IterationFile, FolderError> {
     let bytes = read_csv_bytes(path)?;
     let mut r = csv::Reader::from_reader(bytes.as_slice());
     let header = r.headers().map_err(|e| csv_error(path, None, None, &e))?.clone();
@@ -138,7 +132,7 @@ pub fn read_iterations(path: &Path) -> Result<IterationFile, FolderError> {
     // from the records, so a column they cannot hold is refused rather than dropped.
     let mut extra_cols: Vec<(&'static str, usize)> = Vec::new();
     for (j, name) in header.iter().enumerate().filter(|(_, n)| !ITERATION_COLUMNS.contains(n)) {
-        let known = EXTRA_COLUMNS.iter().copied().find(|k| *k == name);
+        let known = extra_columns.iter().copied().find(|k| *k == name);
         let known = known.ok_or_else(|| at_line(1, format!("unknown column `{name}`")))?;
         extra_cols.push((known, j));
     }
@@ -192,7 +186,9 @@ pub fn read_iterations(path: &Path) -> Result<IterationFile, FolderError> {
 /// iteration the summary counts (a file cut at a row boundary still parses).
 pub fn read_run(run_dir: &Path, s: &SummaryRow) -> Result<IterationFile, FolderError> {
     let path = super::iterations_csv(run_dir, &run_stem(&s.dataset, &s.energy, &s.solver));
-    let file = read_iterations(&path)?;
+    // The extra columns the run's solver declares in the catalogue.
+    let extra = solvers::solver::catalogue::find(&s.solver).map_or(&[][..], |e| e.extra_columns);
+    let file = read_iterations(&path, extra)?;
     if let Some(n) = s.iterations {
         // Iteration 0 (the initial state) has a row too.
         if file.rows.len() != n + 1 {
@@ -252,13 +248,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("r.csv");
         std::fs::write(&p, crate::run_folder::iteration_csv(&rows, 2.0).unwrap()).unwrap();
-        let back = read_rows(&p).unwrap();
+        let back = read_iterations(&p, &["ascent", "wolfe"]).unwrap().rows;
         assert_eq!(back.len(), 2);
         assert_eq!(back[1], rows[1]);
         assert_eq!(back[0].energy, 3.0);
         assert!(back[0].extra[1].1.is_nan());
         std::fs::write(&p, "a,b\n1,2\n").unwrap();
-        assert!(read_rows(&p).is_err());
+        assert!(read_iterations(&p, &[]).is_err());
     }
 
     #[test]
@@ -271,7 +267,7 @@ mod tests {
         let good = String::from_utf8(crate::run_folder::iteration_csv(&rows, 1.0).unwrap()).unwrap();
         let err = |text: &[u8]| {
             std::fs::write(&p, text).unwrap();
-            let e = format!("{:#}", read_iterations(&p).unwrap_err());
+            let e = format!("{:#}", read_iterations(&p, &[]).unwrap_err());
             assert!(e.starts_with(&format!("{}: ", p.display())), "{e}");
             e
         };
@@ -288,7 +284,7 @@ mod tests {
         assert!(err(good.replace("ls_evals", "ls_evals,x").as_bytes()).contains("line 1: unknown column `x`"));
         // columns are found by name, and energy_minus_best is kept as written
         std::fs::write(&p, &good).unwrap();
-        let file = read_iterations(&p).unwrap();
+        let file = read_iterations(&p, &[]).unwrap();
         assert_eq!(file.rows, rows);
         assert_eq!(file.energy_minus_best, vec![2.0, 1.0, 0.0]);
         // a file cut at a row boundary parses, but not as the run the summary counts

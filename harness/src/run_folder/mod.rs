@@ -12,7 +12,7 @@ pub mod sidecar;
 pub mod summary;
 
 pub use error::FolderError;
-pub use iterations::{iteration_csv, read_iterations, read_rows, read_run, IterationFile, ITERATION_COLUMNS};
+pub use iterations::{iteration_csv, read_iterations, read_run, IterationFile, ITERATION_COLUMNS};
 pub use summary::{read_summary, write_summary, Status, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
 
 use anyhow::{Context, Result};

@@ -75,8 +75,8 @@ pub fn aem_cg(
     let (mut terms, mut g) = problem.terms_and_gradient(&z);
     let mut gnorm = norm(&g);
     let mut rep = Reporter { observer, t_cum: 0.0, init_energy: terms.energy, iterations: 0 };
-    if rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
-        return rep.finish(problem, &z, &terms, gnorm, StopReason::Interrupted);
+    if let Some(reason) = rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
+        return rep.finish(problem, &z, &terms, gnorm, reason);
     }
     let linear_failed = |e: LinearError| StopReason::LinearSolveFailed(format!("preconditioner: {e}"));
     let mut precond = match Preconditioner::new(problem, &z) {
@@ -151,8 +151,8 @@ pub fn aem_cg(
         let tm =
             Timings { assemble: t_assemble, solve: t_solve, linesearch: t_ls, iter: t_start.elapsed().as_secs_f64() };
         let iter = rep.iterations + 1;
-        if rep.report(iter, &terms, gnorm, step.alpha, tm, extras) {
-            break StopReason::Interrupted;
+        if let Some(reason) = rep.report(iter, &terms, gnorm, step.alpha, tm, extras) {
+            break reason;
         }
         if let Some(s) = tolerance_stop(&settings.stop, decrease, gnorm) {
             break s;

@@ -17,6 +17,7 @@ pub mod sem;
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::mesh::topology::boundary_loops;
 use crate::mesh::{validate_for, Mesh, Task};
+use crate::solver::catalogue::{lookup, Method, SolverError, AUTHALIC_COLUMNS};
 use crate::solver::{IterationRecord, Observer, Outcome, StopReason, StopSettings};
 use laplacian::{stretch_weights, LaplacianPattern, SubBlock};
 use rayon::prelude::*;
@@ -25,18 +26,14 @@ use std::f64::consts::PI;
 /// Faces per parallel chunk (fixed: sums do not depend on the thread count).
 const CHUNK: usize = 2048;
 
-/// Solvers of the `authalic` task.
-pub const AUTHALIC_SOLVERS: [&str; 3] = ["sem", "aem-cg", "aem-cg-safe"];
-
-/// The only energy of the `authalic` task (the name in CSVs and configs).
-pub const AUTHALIC_ENERGY: &str = "authalic";
+pub use crate::energy::AUTHALIC_ENERGY;
 
 #[derive(Debug, thiserror::Error)]
 pub enum AuthalicError {
-    #[error("unknown authalic solver '{0}' (known: sem, aem-cg, aem-cg-safe)")]
-    UnknownSolver(String),
     #[error(transparent)]
-    Mesh(#[from] crate::error::MeshError),
+    Solver(#[from] SolverError),
+    #[error(transparent)]
+    Mesh(#[from] crate::mesh::MeshError),
     #[error("{source_name}: face {face} has zero source area")]
     DegenerateFace { source_name: String, face: usize },
     #[error("{source_name}: the mesh has {count} boundary loops; the authalic task needs exactly one (a disk)")]
@@ -68,8 +65,13 @@ pub enum FoldGuard {
 }
 
 /// Settings of an `authalic` run (`[authalic]` and `[stop]` in a config).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct AuthalicSettings {
+    /// Not a key of `[authalic]`: the config's `[stop]` is laid over the paper's protocol
+    /// ([`default_stop`]); a partial nested table would otherwise take the other fields
+    /// from `StopSettings::default()`.
+    #[serde(skip_deserializing)]
     pub stop: StopSettings,
     /// Fixed-boundary stretch steps of the initialization (Algorithm 1, lines 4-7).
     pub init_steps: usize,
@@ -108,10 +110,6 @@ impl Default for AuthalicSettings {
 pub fn default_stop() -> StopSettings {
     StopSettings { grad_tol: 0.0, energy_decrease_tol: 0.0, max_iters: 100 }
 }
-
-/// Names of the extra per-iteration CSV columns of every authalic solver, in order.
-pub const EXTRA_COLUMNS: [&str; 8] =
-    ["image_area", "stretch_energy", "ascent", "wolfe", "backtracks", "restarted", "fold_rejects", "quad_fallback"];
 
 /// Area-distortion metrics of a map (design.md): the normalized ratio
 /// `r = (|f(t)| / A(f)) / (|t| / |S|)` per face.
@@ -461,7 +459,7 @@ impl AuthalicProblem {
 /// is a Laplacian with a Dirichlet boundary.
 const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
 
-/// What the step rule of one iteration did (the extra columns, [`EXTRA_COLUMNS`]).
+/// What the step rule of one iteration did (the extra columns, [`AUTHALIC_COLUMNS`]).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Extras {
     pub ascent: bool,
@@ -494,8 +492,16 @@ pub(crate) struct Reporter<'a> {
 }
 
 impl Reporter<'_> {
-    /// Report the iterate `iter` and return whether the observer wants to stop.
-    pub fn report(&mut self, iter: usize, t: &Terms, grad_norm: f64, step: f64, tm: Timings, ex: Extras) -> bool {
+    /// Report the iterate `iter`; `Some` when the observer wants to stop, with the reason.
+    pub fn report(
+        &mut self,
+        iter: usize,
+        t: &Terms,
+        grad_norm: f64,
+        step: f64,
+        tm: Timings,
+        ex: Extras,
+    ) -> Option<StopReason> {
         self.iterations = iter;
         self.t_cum += tm.iter;
         let b = |v: bool| f64::from(u8::from(v));
@@ -516,8 +522,8 @@ impl Reporter<'_> {
             t_iter_s: tm.iter,
             t_cum_s: self.t_cum,
             ls_evals: ex.ls_evals,
-            // In EXTRA_COLUMNS order.
-            extra: EXTRA_COLUMNS
+            // In AUTHALIC_COLUMNS order.
+            extra: AUTHALIC_COLUMNS
                 .into_iter()
                 .zip([
                     t.area,
@@ -531,7 +537,7 @@ impl Reporter<'_> {
                 ])
                 .collect(),
         };
-        self.observer.observe(&record) == crate::solver::Flow::Stop
+        self.observer.observe(&record).stop_reason()
     }
 
     pub fn finish(
@@ -579,22 +585,25 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Run the named authalic solver on `mesh` (validated here).
+/// Run the named authalic solver (of the catalogue) on `mesh` (validated here).
 pub fn solve_authalic(
     mesh: &Mesh,
     solver: &str,
     settings: &AuthalicSettings,
     observer: &mut dyn Observer,
 ) -> Result<AuthalicOutcome, AuthalicError> {
-    if !AUTHALIC_SOLVERS.contains(&solver) {
-        return Err(AuthalicError::UnknownSolver(solver.to_string()));
-    }
+    let entry = lookup(solver, Task::Authalic)?;
+    // `None` is SEM, `Some(safe)` AEM-CG; decided before the mesh is looked at.
+    let aem_safe = match entry.method {
+        Method::Sem => None,
+        Method::AemCg { safe } => Some(safe),
+        Method::Newton(_) => return Err(entry.wrong_task(Task::Authalic).into()),
+    };
     let problem = AuthalicProblem::new(mesh)?;
     let z0 = problem.initial_map(settings.init_steps)?;
-    Ok(match solver {
-        "sem" => sem::sem(&problem, z0, settings, observer),
-        "aem-cg" => aem::aem_cg(&problem, z0, settings, false, observer),
-        _ => aem::aem_cg(&problem, z0, settings, true, observer),
+    Ok(match aem_safe {
+        None => sem::sem(&problem, z0, settings, observer),
+        Some(safe) => aem::aem_cg(&problem, z0, settings, safe, observer),
     })
 }
 

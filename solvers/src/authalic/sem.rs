@@ -25,8 +25,8 @@ pub fn sem(
     let (mut terms, g) = problem.terms_and_gradient(&z);
     let mut gnorm = norm(&g);
     let mut rep = Reporter { observer, t_cum: 0.0, init_energy: terms.energy, iterations: 0 };
-    if rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
-        return rep.finish(problem, &z, &terms, gnorm, StopReason::Interrupted);
+    if let Some(reason) = rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
+        return rep.finish(problem, &z, &terms, gnorm, reason);
     }
     let solvers = SpdSolver::from_csc(
         problem.n_interior(),
@@ -85,8 +85,8 @@ pub fn sem(
         };
         let iter = rep.iterations + 1;
         let extras = Extras { ascent, ..Default::default() };
-        if rep.report(iter, &terms, gnorm, step_len, tm, extras) {
-            break StopReason::Interrupted;
+        if let Some(reason) = rep.report(iter, &terms, gnorm, step_len, tm, extras) {
+            break reason;
         }
         if let Some(s) = super::tolerance_stop(&settings.stop, decrease, gnorm) {
             break s;

@@ -202,7 +202,7 @@ fn aem_cg_beats_sem_on_the_thin_strip() {
         assert!(o.outcome.final_energy >= 0.0 && o.outcome.final_energy < rows[0].energy, "{label}");
         assert_eq!(o.metrics.authalic_energy, o.outcome.final_energy);
         for r in rows.iter() {
-            assert_eq!(r.extra.iter().map(|e| e.0).collect::<Vec<_>>(), EXTRA_COLUMNS);
+            assert_eq!(r.extra.iter().map(|e| e.0).collect::<Vec<_>>(), AUTHALIC_COLUMNS);
             assert_eq!(
                 extra(r, "ascent") == 1.0,
                 r.iter > 0 && r.energy > rows[r.iter - 1].energy,
@@ -265,4 +265,57 @@ fn bad_meshes_are_typed_errors_naming_the_source() {
         .unwrap()
         .to_string();
     assert!(err.contains("unknown authalic solver 'sem2'"));
+}
+
+#[test]
+fn a_passed_deadline_stops_each_authalic_solver_with_timeout() {
+    let mesh = generate("bumpy_1k").unwrap();
+    for solver in ["sem", "aem-cg", "aem-cg-safe"] {
+        for k in [0, 2] {
+            let mut obs = crate::solver::TimeoutAt(k);
+            let out = solve_authalic(&mesh, solver, &AuthalicSettings::default(), &mut obs).unwrap();
+            assert_eq!(out.outcome.stop_reason, StopReason::Timeout, "{solver} at {k}");
+            assert_eq!(out.outcome.iterations, k, "{solver}");
+        }
+    }
+}
+
+#[test]
+fn each_authalic_name_is_dispatched_to_exactly_its_method() {
+    let mesh = generate("bumpy_1k").unwrap();
+    let settings = AuthalicSettings { stop: StopSettings { max_iters: 4, ..default_stop() }, ..Default::default() };
+    let energies = |rows: &[crate::solver::IterationRecord]| rows.iter().map(|r| r.energy).collect::<Vec<_>>();
+    let direct = |method: Method| {
+        let problem = AuthalicProblem::new(&mesh).unwrap();
+        let z0 = problem.initial_map(settings.init_steps).unwrap();
+        let mut rec = Recorder::default();
+        match method {
+            Method::Sem => sem::sem(&problem, z0, &settings, &mut rec),
+            Method::AemCg { safe } => aem::aem_cg(&problem, z0, &settings, safe, &mut rec),
+            Method::Newton(_) => unreachable!("not an authalic method"),
+        };
+        energies(&rec.rows)
+    };
+    let mut seen = Vec::new();
+    for name in crate::solver::catalogue::names_for(Task::Authalic) {
+        let entry = crate::solver::catalogue::find(name).unwrap();
+        let mut rec = Recorder::default();
+        solve_authalic(&mesh, name, &settings, &mut rec).unwrap();
+        let rows = energies(&rec.rows);
+        assert_eq!(rows, direct(entry.method), "{name}");
+        seen.push(rows);
+    }
+    // the three paths differ, so a wrong dispatch would show
+    assert_eq!(seen.len(), 3);
+    assert!(seen[0] != seen[1] && seen[1] != seen[2] && seen[0] != seen[2], "{seen:?}");
+}
+
+#[test]
+fn a_newton_solver_is_refused_by_name() {
+    let err =
+        solve_authalic(&generate("bumpy_1k").unwrap(), "kp-newton", &Default::default(), &mut Recorder::default())
+            .err()
+            .unwrap()
+            .to_string();
+    assert!(err.starts_with("'kp-newton' is a param/deform solver: task authalic runs sem, aem-cg, aem-cg-safe"));
 }

@@ -43,6 +43,10 @@ pub enum EnergyKind {
     Bconf { k: f64 },
 }
 
+/// The one energy of the `authalic` task (the name in CSVs and configs): the normalized
+/// authalic energy of Liu and Yueh, not a density of `f_z`, `f_zbar` like the others.
+pub const AUTHALIC_ENERGY: &str = "authalic";
+
 /// All energy names, in the order of the paper's Table 1.
 pub const ENERGY_NAMES: [&str; 6] = ["sd", "exp-sd", "sarap", "nh", "barap", "bconf"];
 

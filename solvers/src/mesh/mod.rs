@@ -5,7 +5,28 @@ pub mod topology;
 pub mod validate;
 
 pub use obj::load_obj;
-pub use validate::{validate, validate_for, Problem, Task, ValidationReport};
+pub use validate::{validate, validate_for, Problem, Task, UnknownTask, ValidationReport};
+
+/// Why a mesh could not be read or used. Every message names the mesh source.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    #[error("{path}: cannot read file: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: malformed OBJ: {message}")]
+    Malformed { path: String, message: String },
+    #[error("{path}: invalid mesh: {}", validate::summarize_problems(problems, 10, "; "))]
+    Invalid { path: String, problems: Vec<Problem> },
+}
+
+/// Signed area of a planar triangle, positive when counter-clockwise.
+#[inline]
+pub fn signed_area(y: [[f64; 2]; 3]) -> f64 {
+    0.5 * ((y[1][0] - y[0][0]) * (y[2][1] - y[0][1]) - (y[1][1] - y[0][1]) * (y[2][0] - y[0][0]))
+}
 
 /// A triangle mesh as read from a file or generated.
 ///

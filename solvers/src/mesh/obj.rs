@@ -10,8 +10,7 @@
 //! unknown statements, comments) is ignored. A UTF-8 byte-order mark is skipped, and lines may
 //! end in `\n`, `\r\n` or a lone `\r` (classic Mac OS exports).
 
-use super::Mesh;
-use crate::error::MeshError;
+use super::{Mesh, MeshError};
 use std::path::Path;
 
 /// Read a triangle mesh from an OBJ file. The mesh's `source` is the path as displayed.

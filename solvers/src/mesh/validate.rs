@@ -2,8 +2,7 @@
 //! bad input ends in a clear message instead of a panic or a silent wrong answer.
 
 use super::topology::{self, is_proper};
-use super::Mesh;
-use crate::error::MeshError;
+use super::{Mesh, MeshError};
 use std::fmt;
 
 /// One defect of a mesh. Vertex and face numbers are 0-based indices into the mesh.
@@ -54,14 +53,49 @@ pub enum Problem {
 
 /// The tasks a mesh is validated for: each task's run refuses exactly what
 /// [`validate_for`] reports for it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Its string (`task = "param"` in a config) is [`Task::as_str`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Task {
-    /// A topological disk (3D or planar, either orientation).
+    /// A topological disk (3D or planar, either orientation). The default task of a config.
+    #[default]
     Param,
     /// A planar (z = 0), counter-clockwise shape; holes allowed.
     Deform,
     /// A topological disk with at least one interior vertex.
     Authalic,
+}
+
+impl Task {
+    /// Every task, in the README's order.
+    pub const ALL: [Task; 3] = [Task::Param, Task::Deform, Task::Authalic];
+
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Task::Param => "param",
+            Task::Deform => "deform",
+            Task::Authalic => "authalic",
+        }
+    }
+}
+
+impl fmt::Display for Task {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A task name that names no [`Task`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown task '{0}' (known: {known})", known = Task::ALL.map(|t| t.as_str()).join(", "))]
+pub struct UnknownTask(pub String);
+
+impl std::str::FromStr for Task {
+    type Err = UnknownTask;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Task::ALL.into_iter().find(|t| t.as_str() == s).ok_or_else(|| UnknownTask(s.to_string()))
+    }
 }
 
 impl Problem {
@@ -322,7 +356,7 @@ pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
                 let xy = |v: usize| [rest.positions[v][0], rest.positions[v][1]];
                 report.problems.extend(
                     (0..rest.n_faces())
-                        .filter(|&t| crate::local::signed_area(rest.faces[t].map(xy)) <= 0.0)
+                        .filter(|&t| super::signed_area(rest.faces[t].map(xy)) <= 0.0)
                         .map(|face| Problem::ClockwiseFace { face }),
                 );
             }
@@ -346,6 +380,18 @@ pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tasks_round_trip_through_their_names() {
+        for t in Task::ALL {
+            assert_eq!(t.as_str().parse::<Task>(), Ok(t));
+            assert_eq!(t.to_string(), t.as_str());
+            let de = serde::de::value::StrDeserializer::<serde::de::value::Error>::new(t.as_str());
+            assert_eq!(<Task as serde::Deserialize>::deserialize(de), Ok(t));
+        }
+        let err = "Param".parse::<Task>().unwrap_err().to_string();
+        assert_eq!(err, "unknown task 'Param' (known: param, deform, authalic)");
+    }
 
     /// 3x3 grid of vertices (2x2 quads, 8 counter-clockwise triangles): a valid disk.
     fn grid() -> Mesh {
@@ -573,7 +619,7 @@ mod tests {
             let m = scaled(&grid(), k);
             let r = validate(&m, true);
             assert!(r.is_ok(), "{k}: {r}");
-            for task in [Task::Param, Task::Deform, Task::Authalic] {
+            for task in Task::ALL {
                 assert!(validate_for(&m, task).is_ok(), "{k} {task:?}: {}", validate_for(&m, task));
             }
             // a collinear face is still degenerate at that scale

@@ -3,11 +3,12 @@
 //! A solver never prints and never touches files: it calls [`Observer::observe`] once per
 //! iteration (row 0 is the initial state) and returns a [`Outcome`]. The harness owns I/O.
 
+pub mod catalogue;
 pub mod newton;
-pub mod registry;
 
+pub use crate::line_search::LineSearchSettings;
+pub use catalogue::{SolverEntry, SolverError, SolverSpec, SOLVERS};
 pub use newton::{newton, NewtonSettings};
-pub use registry::{solver_names, SolverSpec};
 
 use crate::linear::{AnalysisCache, LinearSettings};
 use std::sync::Arc;
@@ -47,8 +48,21 @@ pub struct IterationRecord {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flow {
     Continue,
-    /// Stop after this row (timeouts, Ctrl-C); recorded as [`StopReason::Interrupted`].
+    /// Stop after this row (Ctrl-C, SIGTERM); recorded as [`StopReason::Interrupted`].
     Stop,
+    /// Stop after this row because the run's deadline passed; recorded as [`StopReason::Timeout`].
+    Timeout,
+}
+
+impl Flow {
+    /// The reason a solver records when it stops on this answer (`None`: go on).
+    pub fn stop_reason(self) -> Option<StopReason> {
+        match self {
+            Flow::Continue => None,
+            Flow::Stop => Some(StopReason::Interrupted),
+            Flow::Timeout => Some(StopReason::Timeout),
+        }
+    }
 }
 
 pub trait Observer {
@@ -66,6 +80,21 @@ impl Observer for StopAt {
             Flow::Stop
         } else {
             Flow::Continue
+        }
+    }
+}
+
+/// An observer whose deadline passes at iteration `k` (tests of the timeout path).
+#[cfg(test)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TimeoutAt(pub usize);
+
+#[cfg(test)]
+impl Observer for TimeoutAt {
+    fn observe(&mut self, r: &IterationRecord) -> Flow {
+        match StopAt(self.0).observe(r) {
+            Flow::Stop => Flow::Timeout,
+            flow => flow,
         }
     }
 }
@@ -103,9 +132,30 @@ pub enum StopReason {
     EnergyIncreased,
     /// The observer asked to stop.
     Interrupted,
+    /// The observer stopped the run at its deadline.
+    Timeout,
 }
 
+/// A `stop_reason` string that names no [`StopReason`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown stop reason '{0}' (known: {known})", known = StopReason::ALL.map(|r| r.as_str()).join(", "))]
+pub struct UnknownStopReason(pub String);
+
 impl StopReason {
+    /// Every reason, payloads empty (parsing, listings).
+    pub const ALL: [StopReason; 10] = [
+        StopReason::GradientTolerance,
+        StopReason::EnergyDecrease,
+        StopReason::MaxIterations,
+        StopReason::LineSearchFailed,
+        StopReason::LinearSolveFailed(String::new()),
+        StopReason::NotDescent,
+        StopReason::NonFinite(String::new()),
+        StopReason::EnergyIncreased,
+        StopReason::Interrupted,
+        StopReason::Timeout,
+    ];
+
     pub fn as_str(&self) -> &'static str {
         match self {
             StopReason::GradientTolerance => "grad_tol",
@@ -117,6 +167,7 @@ impl StopReason {
             StopReason::NonFinite(_) => "non_finite",
             StopReason::EnergyIncreased => "energy_increased",
             StopReason::Interrupted => "interrupted",
+            StopReason::Timeout => "timeout",
         }
     }
 
@@ -134,8 +185,41 @@ impl StopReason {
     }
 }
 
-/// Stopping rules (`[stop]`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The `stop_reason` column's string; the variants with a detail get an empty one (the
+/// detail travels in the `error` column).
+impl std::str::FromStr for StopReason {
+    type Err = UnknownStopReason;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        StopReason::ALL.into_iter().find(|r| r.as_str() == s).ok_or_else(|| UnknownStopReason(s.to_string()))
+    }
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// As its `stop_reason` string (the detail is not part of it).
+impl serde::Serialize for StopReason {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for StopReason {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = <std::borrow::Cow<'de, str>>::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+/// Stopping rules (`[stop]`). The default is design.md's `param` rule; the tasks that stop
+/// otherwise have their own (`param::default_stop` for SARAP, `deform::default_stop`,
+/// `authalic::default_stop`), and [`StopOverrides`] lays a config's keys over any of them.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct StopSettings {
     pub grad_tol: f64,
     /// Stop when `E_old - E_new < energy_decrease_tol`; 0 disables the rule.
@@ -143,33 +227,43 @@ pub struct StopSettings {
     pub max_iters: usize,
 }
 
-/// Line search (`[line_search]`), shared by every Newton-like solver.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LineSearchSettings {
-    /// `t0 = min(1, max_step_fraction * t_max)`.
-    pub max_step_fraction: f64,
-    /// Armijo constant `c` in `E(x + t d) <= E(x) + c t <g, d>`.
-    pub armijo_c: f64,
-    /// Backtracking factor.
-    pub shrink: f64,
-    /// Give up when `t |d| <= min_step`.
-    pub min_step: f64,
+impl Default for StopSettings {
+    /// `|grad| <= 1e-3`, no energy-decrease rule, 1000 iterations.
+    fn default() -> Self {
+        StopSettings { grad_tol: 1e-3, energy_decrease_tol: 0.0, max_iters: 1000 }
+    }
 }
 
-impl Default for LineSearchSettings {
-    fn default() -> Self {
-        LineSearchSettings { max_step_fraction: 0.9, armijo_c: 0.2, shrink: 0.5, min_step: 1e-12 }
+/// The keys a `[stop]` section sets; the others keep the task's and energy's default
+/// (a partial [`StopSettings`], since those defaults differ: SARAP, deform, authalic).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StopOverrides {
+    pub grad_tol: Option<f64>,
+    pub energy_decrease_tol: Option<f64>,
+    pub max_iters: Option<usize>,
+}
+
+impl StopOverrides {
+    /// `base` with the keys that were set replaced.
+    pub fn over(&self, base: StopSettings) -> StopSettings {
+        StopSettings {
+            grad_tol: self.grad_tol.unwrap_or(base.grad_tol),
+            energy_decrease_tol: self.energy_decrease_tol.unwrap_or(base.energy_decrease_tol),
+            max_iters: self.max_iters.unwrap_or(base.max_iters),
+        }
     }
 }
 
 /// Everything a solver run needs besides the problem.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Settings {
     pub stop: StopSettings,
     pub line_search: LineSearchSettings,
     pub linear: LinearSettings,
     /// Symbolic analyses shared with the other runs on the same mesh (`None`: analyse
     /// privately). Sharing never changes results, only the setup time.
+    #[serde(skip)]
     pub analyses: Option<Arc<AnalysisCache>>,
 }
 
@@ -198,4 +292,35 @@ pub struct Outcome {
     pub flips: usize,
     /// The system's symbolic analysis (`None` for solvers without a shared system).
     pub analysis: Option<AnalysisReport>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stop_reasons_round_trip_through_their_strings() {
+        for r in StopReason::ALL {
+            assert_eq!(r.as_str().parse::<StopReason>(), Ok(r.clone()));
+            assert_eq!(r.to_string(), r.as_str());
+            let de = serde::de::value::StrDeserializer::<serde::de::value::Error>::new(r.as_str());
+            assert_eq!(<StopReason as serde::Deserialize>::deserialize(de), Ok(r.clone()));
+        }
+        let names: std::collections::BTreeSet<_> = StopReason::ALL.iter().map(|r| r.as_str()).collect();
+        assert_eq!(names.len(), StopReason::ALL.len(), "one string per reason");
+        // the detail travels in the error column, not in the reason
+        assert_eq!("non_finite".parse(), Ok(StopReason::NonFinite(String::new())));
+        assert_eq!(StopReason::LinearSolveFailed("pivot 3".into()).as_str(), "linear_solve_failed");
+        let err = "converged".parse::<StopReason>().unwrap_err().to_string();
+        assert!(err.starts_with("unknown stop reason 'converged' (known: grad_tol, "), "{err}");
+        assert_eq!(StopReason::Timeout.as_str(), "timeout");
+        assert!(!StopReason::Timeout.is_converged());
+    }
+
+    #[test]
+    fn flows_map_to_their_stop_reasons() {
+        assert_eq!(Flow::Continue.stop_reason(), None);
+        assert_eq!(Flow::Stop.stop_reason(), Some(StopReason::Interrupted));
+        assert_eq!(Flow::Timeout.stop_reason(), Some(StopReason::Timeout));
+    }
 }

@@ -3,7 +3,7 @@
 //! injective step plus Armijo line search, repeat. "All methods share the same pipeline and
 //! we only replace the system matrix" (Section 6).
 
-use super::{AnalysisReport, Flow, IterationRecord, Observer, Outcome, Settings, StopReason};
+use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason};
 use crate::assembly::Pattern;
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
@@ -114,7 +114,7 @@ pub fn newton(
         flips: problem.flips(&x),
         ..Default::default()
     };
-    let mut interrupted = observer.observe(&record) == Flow::Stop;
+    let mut halt = observer.observe(&record).stop_reason();
 
     let mut blocks = vec![Matrix6::<f64>::zeros(); problem.n_faces()];
     let mut values = Vec::new();
@@ -127,8 +127,8 @@ pub fn newton(
     let mut t_cum = 0.0;
     let mut iter = 0usize;
     let stop = loop {
-        if interrupted {
-            break StopReason::Interrupted;
+        if let Some(reason) = halt.take() {
+            break reason;
         }
         if record.grad_norm <= settings.stop.grad_tol {
             break StopReason::GradientTolerance;
@@ -208,7 +208,7 @@ pub fn newton(
             ls_evals,
             extra: Vec::new(),
         };
-        interrupted = observer.observe(&record) == Flow::Stop;
+        halt = observer.observe(&record).stop_reason();
     };
     Ok(Outcome {
         iterations: iter,
@@ -229,7 +229,7 @@ mod tests {
     use crate::hessian::kp::Kp;
     use crate::local::LocalOp;
     use crate::mesh::Mesh;
-    use crate::solver::{LineSearchSettings, Recorder, StopSettings};
+    use crate::solver::{Recorder, StopSettings};
 
     /// A 4-triangle fan mapped with a stretch, so SD has work to do.
     fn problem() -> (MapProblem, Vec<f64>) {
@@ -243,9 +243,7 @@ mod tests {
     fn settings() -> Settings {
         Settings {
             stop: StopSettings { grad_tol: 1e-9, energy_decrease_tol: 0.0, max_iters: 100 },
-            line_search: LineSearchSettings::default(),
-            linear: LinearSettings::default(),
-            analyses: None,
+            ..Settings::default()
         }
     }
 
@@ -288,6 +286,16 @@ mod tests {
         let out = newton(&pb, x, &Kp, &settings(), &mut crate::solver::StopAt(1)).unwrap();
         assert_eq!(out.stop_reason, StopReason::Interrupted);
         assert_eq!(out.iterations, 1);
+    }
+
+    #[test]
+    fn a_passed_deadline_stops_with_timeout() {
+        let (pb, x) = problem();
+        for k in [0, 1] {
+            let out = newton(&pb, x.clone(), &Kp, &settings(), &mut crate::solver::TimeoutAt(k)).unwrap();
+            assert_eq!(out.stop_reason, StopReason::Timeout, "at {k}");
+            assert_eq!(out.iterations, k);
+        }
     }
 
     #[test]

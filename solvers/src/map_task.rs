@@ -1,0 +1,80 @@
+//! What the two planar-map tasks, `param` and `deform`, share: the preamble of a run (the
+//! solver from the catalogue, the energy's parameters, the mesh checked for the task, the
+//! problem on the normalized mesh with its smoothness term) and the error type.
+
+use crate::energy::EnergyKind;
+use crate::handle::Handle;
+use crate::init::InitError;
+use crate::mesh::{validate_for, Mesh, MeshError, Task};
+use crate::problem::{DegenerateFace, MapProblem};
+use crate::smoothness::Projection;
+use crate::solver::catalogue::{newton_spec, SolverError, SolverSpec};
+use crate::solver::newton::SolveError;
+
+/// Why a `param` or `deform` run could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum MapError {
+    #[error(transparent)]
+    Solver(#[from] SolverError),
+    #[error("{0}")]
+    Energy(String),
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    #[error(transparent)]
+    Degenerate(#[from] DegenerateFace),
+    #[error("{source_name}: initialization failed: {err}")]
+    Init { source_name: String, err: InitError },
+    #[error("{source_name}: no handles; the deform task needs positional constraints")]
+    NoHandles { source_name: String },
+    #[error("{source_name}: handle {index} names vertex {vertex}, but the mesh has {n} vertices")]
+    HandleOutOfRange { source_name: String, index: usize, vertex: usize, n: usize },
+    #[error("{source_name}: handle {index} has a non-finite target {target:?}")]
+    BadTarget { source_name: String, index: usize, target: [f64; 2] },
+    #[error("{source_name}: initial map: {detail}")]
+    BadInit { source_name: String, detail: String },
+    #[error("{source_name}: {err}")]
+    Solve { source_name: String, err: SolveError },
+}
+
+/// The catalogue's `solver` for `task` and `energy`, once the energy's parameters and the
+/// mesh (validated for `task`) are known to be usable. In this order: a misspelt solver is
+/// reported before anything about the mesh.
+pub(crate) fn checked_spec(mesh: &Mesh, task: Task, energy: &EnergyKind, solver: &str) -> Result<SolverSpec, MapError> {
+    let spec = newton_spec(solver, task, energy)?;
+    energy.check().map_err(MapError::Energy)?;
+    validate_for(mesh, task).into_result()?;
+    Ok(spec)
+}
+
+/// The problem on the normalized mesh `rest`, with the smoothness term projected as the
+/// solver says (`kp-newton-eig8`) or as configured.
+pub(crate) fn map_problem(
+    rest: &Mesh,
+    energy: EnergyKind,
+    spec: &SolverSpec,
+    smoothness: Option<(f64, Projection)>,
+) -> Result<MapProblem, MapError> {
+    let mut problem = MapProblem::new(rest, energy)?;
+    if let Some((w, proj)) = smoothness {
+        problem = problem.with_smoothness(rest, w, spec.smoothness_projection.unwrap_or(proj));
+    }
+    Ok(problem)
+}
+
+/// `handles` all name a vertex of `mesh` and have finite targets; there is at least one.
+pub(crate) fn check_handles(mesh: &Mesh, handles: &[Handle]) -> Result<(), MapError> {
+    let source_name = mesh.source.clone();
+    if handles.is_empty() {
+        return Err(MapError::NoHandles { source_name });
+    }
+    let n = mesh.n_vertices();
+    for (index, h) in handles.iter().enumerate() {
+        if h.vertex >= n {
+            return Err(MapError::HandleOutOfRange { source_name, index, vertex: h.vertex, n });
+        }
+        if !h.target.iter().all(|c| c.is_finite()) {
+            return Err(MapError::BadTarget { source_name, index, target: h.target });
+        }
+    }
+    Ok(())
+}

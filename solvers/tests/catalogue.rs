@@ -1,0 +1,47 @@
+//! The catalogue against the solvers themselves: every entry writes exactly the extra
+//! columns it declares, and the tasks refuse each other's solvers by name.
+
+use solvers::authalic::{solve_authalic, AuthalicSettings};
+use solvers::energy::EnergyKind;
+use solvers::generate::{generate, generated_handles};
+use solvers::mesh::Task;
+use solvers::param::{solve_param, ParamSettings};
+use solvers::solver::{Recorder, StopSettings, SOLVERS};
+
+#[test]
+fn every_solver_writes_exactly_the_extra_columns_it_declares() {
+    let disk = generate("bumpy_1k").unwrap();
+    for entry in SOLVERS {
+        let mut rec = Recorder::default();
+        if entry.runs(Task::Authalic) {
+            let stop = StopSettings { max_iters: 2, ..solvers::authalic::default_stop() };
+            let settings = AuthalicSettings { stop, ..Default::default() };
+            solve_authalic(&disk, entry.name, &settings, &mut rec).unwrap();
+        } else {
+            let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+            settings.solver.stop.max_iters = 2;
+            solve_param(&disk, EnergyKind::Sd, entry.name, &settings, &mut rec).unwrap();
+        }
+        assert!(rec.rows.len() >= 2, "{}", entry.name);
+        for r in &rec.rows {
+            let names: Vec<&str> = r.extra.iter().map(|e| e.0).collect();
+            assert_eq!(names, entry.extra_columns, "{} row {}", entry.name, r.iter);
+        }
+    }
+}
+
+#[test]
+fn param_and_deform_refuse_an_authalic_solver_by_name() {
+    let e = EnergyKind::Sd;
+    let disk = generate("bumpy_1k").unwrap();
+    let err = solve_param(&disk, e, "sem", &ParamSettings::for_energy(&e), &mut Recorder::default()).unwrap_err();
+    assert!(err.to_string().starts_with("'sem' is an authalic solver: task param runs kp-newton, "), "{err}");
+    let bar = generate("planar_bar_2k").unwrap();
+    let handles = generated_handles("planar_bar_2k").unwrap();
+    let settings = solvers::deform::DeformSettings::default();
+    let err = solvers::deform::solve_deform(&bar, &handles, None, e, "aem-cg", &settings, &mut Recorder::default())
+        .unwrap_err();
+    assert!(err.to_string().starts_with("'aem-cg' is an authalic solver: task deform runs "), "{err}");
+    let err = solve_param(&disk, e, "kp", &ParamSettings::for_energy(&e), &mut Recorder::default()).unwrap_err();
+    assert!(err.to_string().starts_with("unknown solver 'kp' (known: kp-newton, "), "{err}");
+}
