@@ -183,8 +183,10 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
         _ => String::new(),
     };
     let (class, head, tip, small) = match s.status {
-        Status::Ok => ("ok", "ok".to_string(), format!("converged ({})", s.stop_reason), detail),
-        Status::NotConverged => ("nc", s.stop_reason.clone(), format!("not converged: {}", s.stop_reason), detail),
+        Status::Ok => ("ok", "ok".to_string(), format!("converged ({})", s.stop_column()), detail),
+        Status::NotConverged => {
+            ("nc", s.stop_column().to_string(), format!("not converged: {}", s.stop_column()), detail)
+        }
         Status::Failed => ("failed", "failed".to_string(), "failed".to_string(), s.error.clone()),
     };
     let body = format!("<b>{}</b><br><small>{}</small>", esc(&head), esc(&small));

@@ -147,7 +147,6 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
                     solver: s.solver.clone(),
                     vertices: s.vertices,
                     faces: s.faces,
-                    stop_reason: "error".into(),
                     status: Status::Failed,
                     error: format!("{e:#}"),
                     ..Default::default()
@@ -203,7 +202,7 @@ fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String 
         if resumed { "resumed, " } else { "" },
         s.status,
         match (&s.iterations, &s.final_energy, &s.time_s) {
-            (Some(it), Some(e), Some(t)) => format!(" ({}), {it} iterations, E = {e:.8}, {t:.2} s", s.stop_reason),
+            (Some(it), Some(e), Some(t)) => format!(" ({}), {it} iterations, E = {e:.8}, {t:.2} s", s.stop_column()),
             _ => format!(": {}", s.error),
         }
     )

@@ -23,7 +23,6 @@ use std::time::Instant;
 struct Rows<'a> {
     rows: Vec<IterationRecord>,
     deadline: Option<Instant>,
-    timed_out: bool,
     interrupt: &'a AtomicBool,
     progress: &'a dyn Progress,
     worker: usize,
@@ -37,8 +36,7 @@ impl Observer for Rows<'_> {
             return Flow::Stop;
         }
         if self.deadline.is_some_and(|d| Instant::now() >= d) {
-            self.timed_out = true;
-            return Flow::Stop;
+            return Flow::Timeout;
         }
         Flow::Continue
     }
@@ -70,7 +68,6 @@ pub(super) fn run_one(
     };
     let fail = |mut summary: SummaryRow, error: String| {
         summary.status = Status::Failed;
-        summary.stop_reason = "error".into();
         summary.error = error;
         RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false }
     };
@@ -83,7 +80,6 @@ pub(super) fn run_one(
     let mut rows = Rows {
         rows: Vec::new(),
         deadline: plan.timeout.map(|t| Instant::now() + t),
-        timed_out: false,
         interrupt: ctx.interrupt,
         progress: ctx.progress,
         worker: ctx.worker,
@@ -114,7 +110,6 @@ pub(super) fn run_one(
         summary.authalic_energy = Some(m.authalic_energy);
         summary.folded = Some(m.folded);
     }
-    let timed_out = rows.timed_out;
     let rows = rows.rows;
     let per_iter = |f: fn(&IterationRecord) -> f64| {
         let mut v: Vec<f64> = rows.iter().skip(1).map(|r| 1e3 * f(r)).collect();
@@ -122,10 +117,7 @@ pub(super) fn run_one(
     };
     summary.iterations = Some(outcome.iterations);
     summary.converged = outcome.stop_reason.is_converged();
-    summary.stop_reason = match (&outcome.stop_reason, timed_out) {
-        (StopReason::Interrupted, true) => "timeout".to_string(),
-        (r, _) => r.as_str().to_string(),
-    };
+    summary.stop_reason = Some(outcome.stop_reason.clone());
     summary.init_energy = Some(outcome.init_energy);
     summary.final_energy = Some(outcome.final_energy);
     summary.grad_norm = Some(outcome.grad_norm);
@@ -148,7 +140,8 @@ pub(super) fn run_one(
         _ => String::new(),
     };
     let map_obj = Some(crate::run_folder::map::to_obj(mesh, &outcome.x));
-    let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted) && !timed_out;
+    // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
+    let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
     RunResult { summary, rows, map_obj, interrupted }
 }
 

@@ -5,6 +5,7 @@ use super::{csv_error, read_csv_bytes, write_atomic, FolderError};
 use crate::plan::Task;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
+use solvers::solver::StopReason;
 use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -81,6 +82,26 @@ impl std::fmt::Display for Status {
     }
 }
 
+/// The `stop_reason` column: the solver's reason, or `error` for a run that failed.
+mod stop_column {
+    use serde::{de::Error, Deserialize, Deserializer, Serializer};
+    use solvers::solver::StopReason;
+
+    pub const FAILED: &str = "error";
+
+    pub fn serialize<S: Serializer>(v: &Option<StopReason>, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(v.as_ref().map_or(FAILED, StopReason::as_str))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<StopReason>, D::Error> {
+        let text = String::deserialize(d)?;
+        if text == FAILED {
+            return Ok(None);
+        }
+        text.parse().map(Some).map_err(D::Error::custom)
+    }
+}
+
 /// One row of `summary.csv`. Fields unknown for a failed run are empty.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SummaryRow {
@@ -92,7 +113,9 @@ pub struct SummaryRow {
     pub faces: Option<usize>,
     pub iterations: Option<usize>,
     pub converged: bool,
-    pub stop_reason: String,
+    /// Why the solver stopped; `None` for a failed run (the column says `error`).
+    #[serde(with = "stop_column")]
+    pub stop_reason: Option<StopReason>,
     pub init_energy: Option<f64>,
     pub final_energy: Option<f64>,
     pub grad_norm: Option<f64>,
@@ -119,6 +142,13 @@ pub struct SummaryRow {
     /// The run took the analysis computed by another run on the same mesh.
     #[serde(default)]
     pub analysis_shared: Option<bool>,
+}
+
+impl SummaryRow {
+    /// The `stop_reason` column's text.
+    pub fn stop_column(&self) -> &'static str {
+        self.stop_reason.as_ref().map_or(stop_column::FAILED, StopReason::as_str)
+    }
 }
 
 /// `summary.csv`, appended a row at a time as runs finish (flushed each time).
@@ -194,6 +224,40 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>, FolderError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Task, status and stop reason are enums up to the file: their column strings are
+    /// written and read back to the same values, a failed run's reason as `error`.
+    #[test]
+    fn typed_columns_round_trip_through_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let row = |task, status, stop_reason| SummaryRow {
+            dataset: "m".into(),
+            task,
+            energy: "sd".into(),
+            solver: "cm".into(),
+            status,
+            stop_reason,
+            ..Default::default()
+        };
+        let rows = vec![
+            row(Task::Param, Status::Ok, Some(StopReason::GradientTolerance)),
+            row(Task::Deform, Status::NotConverged, Some(StopReason::Timeout)),
+            row(Task::Authalic, Status::Failed, None),
+        ];
+        write_summary(&dir.path().join("summary.csv"), &rows).unwrap();
+        let text = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
+        let cells: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
+        let col = |name: &str| SUMMARY_COLUMNS.iter().position(|c| *c == name).unwrap();
+        let column = |name: &str| cells.iter().map(|r| r[col(name)]).collect::<Vec<_>>();
+        assert_eq!(column("task"), ["param", "deform", "authalic"]);
+        assert_eq!(column("status"), ["ok", "not_converged", "failed"]);
+        assert_eq!(column("stop_reason"), ["grad_tol", "timeout", "error"]);
+        assert_eq!(read_summary(dir.path()).unwrap(), rows);
+        let bad = text.replace("timeout", "timed_out");
+        std::fs::write(dir.path().join("summary.csv"), bad).unwrap();
+        let e = read_summary(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("summary.csv: line 3: unknown stop reason 'timed_out'"), "{e}");
+    }
 
     #[test]
     fn the_header_is_exactly_the_design_columns() {

@@ -6,7 +6,7 @@ use super::maps::MAP_SIZE;
 use super::*;
 use crate::run_folder::map as mapfile;
 use crate::run_folder::{iteration_csv, write_atomic};
-use solvers::solver::IterationRecord;
+use solvers::solver::{IterationRecord, StopReason};
 
 /// Width and height from a PNG's signature and IHDR chunk; panics if it is not a PNG.
 pub(crate) fn png_size(path: &Path) -> (u32, u32) {
@@ -26,7 +26,7 @@ fn summary(dataset: &str, task: &str, solver: &str, status: &str, error: &str) -
         iterations: Some(3),
         time_s: Some(0.25),
         converged: status == "ok",
-        stop_reason: if status == "ok" { "grad_tol".into() } else { "max_iters".into() },
+        stop_reason: Some(if status == "ok" { StopReason::GradientTolerance } else { StopReason::MaxIterations }),
         status: status.parse().unwrap(),
         error: error.into(),
         ..Default::default()
