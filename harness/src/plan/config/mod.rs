@@ -1,0 +1,203 @@
+//! The run configuration (design.md "Config"): TOML, unknown keys are an error, every key has
+//! a documented default (see README.md).
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use solvers::authalic::AuthalicSettings;
+use solvers::init::TutteBoundary;
+use solvers::linear::LinearSettings;
+use solvers::smoothness::Projection;
+use solvers::solver::{LineSearchSettings, StopOverrides};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The task of a config: the solvers' own enum (one definition from the config to the CSV).
+pub use solvers::mesh::Task;
+
+/// A dataset given inline in the config (`[[dataset]]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InlineDataset {
+    pub name: String,
+    /// OBJ file; relative paths resolve against the config file's folder.
+    pub path: PathBuf,
+    /// `deform`: a `*.p2p.json` handles file (relative to the config's folder) ...
+    pub handles: Option<PathBuf>,
+    /// ... and its constraint set (default 0);
+    pub handles_set: Option<usize>,
+    /// or a handles rule (`stretch`, `twist`).
+    pub handles_rule: Option<String>,
+}
+
+/// `[init]`: the `param` task's initial map; a key not given keeps
+/// `ParamSettings::for_energy`'s value.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitConfig {
+    /// `uniform` (default) or `arclength`.
+    pub tutte_boundary: Option<TutteBoundary>,
+    /// Jump threshold of the global-scaling heuristic, default 0.1.
+    pub scaling_jump: Option<f64>,
+}
+
+/// The `deform` task's settings (`[deform]`); a key not given keeps `DeformSettings`'s default.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeformConfig {
+    /// Handle penalty weight on the area-1 mesh, default `solvers::deform::DEFAULT_LAMBDA`.
+    pub lambda: Option<f64>,
+}
+
+/// Parameters of one energy (`[energy.<name>]`); which keys apply depends on the energy.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnergyParams {
+    /// exp-sd exponent weight.
+    pub s: Option<f64>,
+    /// nh shear modulus.
+    pub mu: Option<f64>,
+    /// nh bulk modulus.
+    pub kappa: Option<f64>,
+    /// barap / bconf barrier weight.
+    pub k: Option<f64>,
+    /// Weight `w` of the smoothness term `w sum_e l_e (psi_i - psi_j)^2` (Section 4.3), any
+    /// energy; default 0 (off).
+    pub smoothness: Option<f64>,
+    /// `analytic` (default, Appendix B), `numeric` (8x8 eigen-decomposition), or `exact`
+    /// (no projection, a diagnostic: the system may be indefinite).
+    pub smoothness_projection: Option<Projection>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Output folder `reports/<name>/` unless `--out`.
+    pub name: String,
+    #[serde(default = "default_task")]
+    pub task: Task,
+    /// Names or `tag:<tag>` selectors of `datasets.toml` entries.
+    #[serde(default)]
+    pub datasets: Vec<String>,
+    /// `param`/`deform`: energy names. `authalic` has one energy and may omit this.
+    #[serde(default)]
+    pub energies: Vec<String>,
+    pub solvers: Vec<String>,
+    /// Inline datasets.
+    #[serde(default)]
+    pub dataset: Vec<InlineDataset>,
+    /// The dataset registry, relative to the config's folder; default: the nearest
+    /// `datasets.toml` in the config's folder or above.
+    pub registry: Option<PathBuf>,
+    /// `[stop]`: the keys given replace the task's and energy's default rule (SARAP,
+    /// `deform` and `authalic` have their own).
+    #[serde(default)]
+    pub stop: StopOverrides,
+    /// `[line_search]`, straight into the solvers' settings (their `Default` for the keys not
+    /// given); `None` when the section is absent.
+    pub line_search: Option<LineSearchSettings>,
+    /// `[linear]`, likewise.
+    pub linear: Option<LinearSettings>,
+    #[serde(default)]
+    pub init: InitConfig,
+    #[serde(default)]
+    pub energy: BTreeMap<String, EnergyParams>,
+    /// `[authalic]`, straight into `AuthalicSettings` (the paper's protocol for the keys not
+    /// given; its stop rule comes from `[stop]`).
+    pub authalic: Option<AuthalicSettings>,
+    pub deform: Option<DeformConfig>,
+    /// Wall-clock limit per run, e.g. "90s", "10m", "1h" (checked after every iteration;
+    /// a run that passes it stops with `stop_reason = timeout`). Default: none.
+    pub timeout: Option<String>,
+    /// rayon threads inside each run. Default: 1 while the batch has at least as many runs as
+    /// `--jobs` workers, otherwise the cores divided among the runs. Results do not depend on
+    /// it (every reduction is in a fixed order); timings do.
+    pub threads_per_run: Option<usize>,
+}
+
+/// The cores this process may use.
+pub fn available_cores() -> usize {
+    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+}
+
+/// `threads_per_run` is at least 1 and at most 4 x the cores: more threads than that only
+/// slow a run down (they share the cores), and a typo like 100000 would spawn that many.
+pub fn check_threads_per_run(threads: Option<usize>, cores: usize) -> Result<()> {
+    match threads {
+        Some(0) => bail!("threads_per_run must be at least 1"),
+        Some(t) if t > 4 * cores => bail!(
+            "threads_per_run = {t} is more than 4 x the {cores} cores of this machine ({}): threads beyond the \
+             cores share them and only slow each run down",
+            4 * cores
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// The longest `timeout`: any run deadline `now + timeout` fits an `Instant`.
+pub const MAX_TIMEOUT_SECS: f64 = 1e9;
+
+fn default_task() -> Task {
+    Task::Param
+}
+
+/// A config read from a file, with the folder its relative paths resolve against.
+#[derive(Clone, Debug)]
+pub struct LoadedConfig {
+    pub path: PathBuf,
+    pub dir: PathBuf,
+    pub config: Config,
+}
+
+impl LoadedConfig {
+    pub fn load(path: &Path) -> Result<LoadedConfig> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read config", path.display()))?;
+        Self::parse(&text, path)
+    }
+
+    /// A config from its text; `path` is the file it came from (errors name it, relative paths
+    /// resolve against its folder). Nothing is read from disk.
+    pub fn parse(text: &str, path: &Path) -> Result<LoadedConfig> {
+        let config: Config = toml::from_str(text).with_context(|| format!("{}: invalid config", path.display()))?;
+        config.check().with_context(|| format!("{}: invalid config", path.display()))?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };
+        Ok(LoadedConfig { path: path.to_path_buf(), dir, config })
+    }
+
+    /// The registry file: the configured one, or the nearest `datasets.toml` upwards.
+    pub fn registry_path(&self) -> Option<PathBuf> {
+        if let Some(p) = &self.config.registry {
+            return Some(self.dir.join(p));
+        }
+        let start = std::fs::canonicalize(&self.dir).unwrap_or_else(|_| self.dir.clone());
+        start.ancestors().map(|d| d.join("datasets.toml")).find(|p| p.is_file())
+    }
+}
+
+impl Config {
+    /// `timeout` in seconds (`None` when not set).
+    pub fn timeout_secs(&self) -> Result<Option<f64>> {
+        let Some(t) = &self.timeout else { return Ok(None) };
+        let t = t.trim();
+        let (num, unit) = t.split_at(t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len()));
+        let factor = match unit {
+            "" | "s" => 1.0,
+            "m" | "min" => 60.0,
+            "h" => 3600.0,
+            _ => bail!("timeout = \"{t}\": unknown unit '{unit}' (use s, m or h, e.g. \"10m\")"),
+        };
+        match num.trim().parse::<f64>() {
+            // The runner adds it to `Instant::now()`, which panics far below f64's range.
+            Ok(v) if v > 0.0 && v * factor > MAX_TIMEOUT_SECS => {
+                bail!("timeout = \"{t}\" is too long (at most {MAX_TIMEOUT_SECS:e} s, about 30 years)")
+            }
+            Ok(v) if v > 0.0 && v.is_finite() => Ok(Some(v * factor)),
+            _ => bail!("timeout = \"{t}\" is not a positive duration (e.g. \"90s\", \"10m\", \"1h\")"),
+        }
+    }
+}
+
+mod checks;
+mod settings;
+#[cfg(test)]
+mod tests;

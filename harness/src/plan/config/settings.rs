@@ -1,0 +1,138 @@
+//! The one place where config sections become solver settings: the task's defaults (the
+//! solvers' own `Default`s), the config's overrides, the energy's parameters.
+
+use super::{Config, Task};
+use crate::plan::RunSettings;
+use anyhow::{bail, Context, Result};
+use solvers::authalic::AuthalicSettings;
+use solvers::deform::DeformSettings;
+use solvers::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
+use solvers::param::ParamSettings;
+use solvers::smoothness::Projection;
+use solvers::solver::Settings;
+
+impl Config {
+    /// The energies of the runs: the configured ones, or the authalic task's one energy.
+    pub fn energy_names(&self) -> Vec<String> {
+        if self.task == Task::Authalic {
+            vec![AUTHALIC_ENERGY.to_string()]
+        } else {
+            self.energies.clone()
+        }
+    }
+
+    /// The `authalic` settings: `[authalic]` (the paper's Table 1 protocol for the keys not
+    /// given: 100 iterations, no tolerance stop) with `[stop]` laid over its stop rule.
+    pub(super) fn authalic_settings(&self) -> AuthalicSettings {
+        let mut s = self.authalic.unwrap_or_default();
+        s.stop = self.stop.over(s.stop);
+        s
+    }
+
+    /// The energy `name` with the config's parameters applied over the defaults.
+    pub fn energy_kind(&self, name: &str) -> Result<EnergyKind> {
+        let mut kind = EnergyKind::default_for(name)
+            .with_context(|| format!("unknown energy '{name}' (known: {})", ENERGY_NAMES.join(", ")))?;
+        if let Some(p) = self.energy.get(name) {
+            let not_for = |key: &str| anyhow::anyhow!("[energy.{name}] has no parameter '{key}'");
+            match &mut kind {
+                EnergyKind::Sd | EnergyKind::Sarap => {
+                    for (key, v) in [("s", p.s), ("mu", p.mu), ("kappa", p.kappa), ("k", p.k)] {
+                        if v.is_some() {
+                            return Err(not_for(key));
+                        }
+                    }
+                }
+                EnergyKind::ExpSd { s } => {
+                    for (key, v) in [("mu", p.mu), ("kappa", p.kappa), ("k", p.k)] {
+                        if v.is_some() {
+                            return Err(not_for(key));
+                        }
+                    }
+                    *s = p.s.unwrap_or(*s);
+                }
+                EnergyKind::Nh { mu, kappa } => {
+                    for (key, v) in [("s", p.s), ("k", p.k)] {
+                        if v.is_some() {
+                            return Err(not_for(key));
+                        }
+                    }
+                    *mu = p.mu.unwrap_or(*mu);
+                    *kappa = p.kappa.unwrap_or(*kappa);
+                }
+                EnergyKind::Barap { k } | EnergyKind::Bconf { k } => {
+                    for (key, v) in [("s", p.s), ("mu", p.mu), ("kappa", p.kappa)] {
+                        if v.is_some() {
+                            return Err(not_for(key));
+                        }
+                    }
+                    *k = p.k.unwrap_or(*k);
+                }
+            }
+        }
+        kind.check().map_err(anyhow::Error::msg)?;
+        if let Some(p) = self.energy.get(name) {
+            match (p.smoothness, p.smoothness_projection) {
+                (Some(w), _) if !(w >= 0.0 && w.is_finite()) => {
+                    bail!("[energy.{name}] smoothness = {w} must be non-negative and finite")
+                }
+                (None, Some(_)) => bail!("[energy.{name}] smoothness_projection needs smoothness = <weight>"),
+                _ => {}
+            }
+        }
+        Ok(kind)
+    }
+
+    /// The resolved settings of the runs of energy `name` (the one place where config sections
+    /// become solver settings): the task's defaults, the config's overrides, the energy's
+    /// parameters and its smoothness term.
+    pub fn run_settings(&self, name: &str) -> Result<RunSettings> {
+        Ok(match self.task {
+            Task::Authalic => RunSettings::Authalic(self.authalic_settings()),
+            Task::Param => {
+                let energy = self.energy_kind(name)?;
+                let mut settings = self.param_settings(&energy);
+                settings.smoothness = self.smoothness_for(name);
+                RunSettings::Param { energy, settings }
+            }
+            Task::Deform => {
+                let energy = self.energy_kind(name)?;
+                let mut settings = self.deform_settings();
+                settings.smoothness = self.smoothness_for(name);
+                RunSettings::Deform { energy, settings }
+            }
+        })
+    }
+
+    /// The smoothness term of energy `name`: weight and projection, `None` when off.
+    pub(super) fn smoothness_for(&self, name: &str) -> Option<(f64, Projection)> {
+        let p = self.energy.get(name)?;
+        p.smoothness.filter(|w| *w > 0.0).map(|w| (w, p.smoothness_projection.unwrap_or_default()))
+    }
+
+    /// The `deform` settings (the same for every energy): `DeformSettings`'s defaults (energy
+    /// decrease < 1e-6, no global scaling) overridden by `[stop]`, `[line_search]`, `[linear]`,
+    /// `[deform]`.
+    pub(super) fn deform_settings(&self) -> DeformSettings {
+        let mut s = DeformSettings::default();
+        self.solver_overrides(&mut s.solver);
+        s.lambda = self.deform.as_ref().and_then(|d| d.lambda).unwrap_or(s.lambda);
+        s
+    }
+
+    /// The `param` settings of one energy: `ParamSettings::for_energy` overridden by the config.
+    pub(super) fn param_settings(&self, energy: &EnergyKind) -> ParamSettings {
+        let mut s = ParamSettings::for_energy(energy);
+        self.solver_overrides(&mut s.solver);
+        s.tutte_boundary = self.init.tutte_boundary.unwrap_or(s.tutte_boundary);
+        s.scaling_jump = self.init.scaling_jump.unwrap_or(s.scaling_jump);
+        s
+    }
+
+    /// `[stop]` over the default stop rule, and the `[line_search]` and `[linear]` sections.
+    fn solver_overrides(&self, s: &mut Settings) {
+        s.stop = self.stop.over(s.stop);
+        s.line_search = self.line_search.unwrap_or(s.line_search);
+        s.linear = self.linear.unwrap_or(s.linear);
+    }
+}
