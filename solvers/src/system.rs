@@ -11,7 +11,7 @@ use crate::param::{solve_param, ParamSettings};
 use crate::problem::Evaluation;
 use crate::solver::catalogue::newton_spec;
 use crate::solver::newton::{project_blocks, scatter, system_pattern};
-use crate::solver::StopAt;
+use crate::solver::{StopAt, SystemView};
 use std::fmt::Write as _;
 
 /// A symmetric system `A d = b` with `A` as its lower triangle in CSC form.
@@ -72,6 +72,21 @@ pub fn param_system(
 }
 
 impl NewtonSystem {
+    /// The system a solver reported to [`Observer::system`], shifted and scaled as its
+    /// factorization does ([`regularize`]).
+    pub fn from_view(view: &SystemView) -> Result<NewtonSystem, crate::linear::LinearError> {
+        let (mut values, mut scale) = (Vec::new(), Vec::new());
+        regularize(view.col_ptr, view.row_idx, view.diag, view.values, view.linear, &mut values, &mut scale)?;
+        Ok(NewtonSystem {
+            n: view.diag.len(),
+            col_ptr: view.col_ptr.to_vec(),
+            row_idx: view.row_idx.to_vec(),
+            values,
+            rhs: view.grad.iter().zip(&scale).map(|(g, s)| -g * s).collect(),
+            iteration: view.iter,
+        })
+    }
+
     /// The matrix as Matrix Market (`coordinate real symmetric`, lower triangle, 1-based).
     pub fn matrix_market(&self) -> String {
         let mut s = format!(
@@ -104,6 +119,47 @@ mod tests {
     use super::*;
     use crate::linear::{LinearSettings, SpdSolver};
     use crate::ordering::Ordering;
+
+    /// Keeps the system the solver factorizes at iteration `k`, then stops it.
+    struct Capture {
+        k: usize,
+        system: Option<NewtonSystem>,
+    }
+
+    impl crate::solver::Observer for Capture {
+        fn observe(&mut self, _: &crate::solver::IterationRecord) -> crate::solver::Flow {
+            if self.system.is_some() {
+                crate::solver::Flow::Stop
+            } else {
+                crate::solver::Flow::Continue
+            }
+        }
+        fn system(&mut self, view: &SystemView) {
+            if view.iter == self.k {
+                self.system = Some(NewtonSystem::from_view(view).unwrap());
+            }
+        }
+    }
+
+    /// `param_system` rebuilds exactly the matrix and right-hand side the run factorizes,
+    /// with the smoothness term (whose edge blocks change the pattern) and without it.
+    #[test]
+    fn the_exported_system_is_bit_for_bit_the_one_the_run_factorizes() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let e = EnergyKind::Sd;
+        let mut smooth = ParamSettings::for_energy(&e);
+        smooth.smoothness = Some((0.25, crate::smoothness::Projection::Analytic));
+        let mut nnz = Vec::new();
+        for (settings, k) in [(ParamSettings::for_energy(&e), 0), (smooth.clone(), 0), (smooth, 2)] {
+            let mut run = Capture { k, system: None };
+            solve_param(&mesh, e, "kp-newton", &settings, &mut run).unwrap();
+            let exported = param_system(&mesh, e, "kp-newton", &settings, k).unwrap();
+            assert_eq!(Some(&exported), run.system.as_ref(), "iteration {k}");
+            nnz.push(exported.values.len());
+        }
+        // the smoothness term couples the vertices opposite each interior edge
+        assert!(nnz[1] > nnz[0] * 3 / 2, "{nnz:?}");
+    }
 
     #[test]
     fn the_exported_system_is_the_one_newton_solves() {

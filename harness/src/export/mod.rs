@@ -132,3 +132,56 @@ pub fn time_system(sys: &SystemFile, ordering: solvers::ordering::Ordering, repe
         factor_entries: lin.factor_len(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::config::LoadedConfig;
+    use solvers::solver::{Flow, IterationRecord, Observer, SystemView};
+    use solvers::system::NewtonSystem;
+
+    /// Keeps the first system a run factorizes, then stops it.
+    #[derive(Default)]
+    struct FirstSystem(Option<NewtonSystem>);
+
+    impl Observer for FirstSystem {
+        fn observe(&mut self, _: &IterationRecord) -> Flow {
+            if self.0.is_some() {
+                Flow::Stop
+            } else {
+                Flow::Continue
+            }
+        }
+        fn system(&mut self, view: &SystemView) {
+            self.0.get_or_insert_with(|| NewtonSystem::from_view(view).unwrap());
+        }
+    }
+
+    /// `export-system` on a config with the smoothness term writes the matrix `run`
+    /// factorizes: the plan's run, solved with the settings `run` uses, reports its first
+    /// system, and the exported file holds exactly that (before the plan, export-system
+    /// dropped the term and wrote a matrix of another pattern).
+    #[test]
+    fn the_exported_matrix_is_the_runs_own_first_system_smoothness_included() {
+        let cfg = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/export-test.toml");
+        let text = "name = \"x\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\"]\n\
+                    [energy.sd]\nsmoothness = 0.25\n";
+        let plan = Plan::resolve(LoadedConfig::parse(text, &cfg).unwrap(), &[]).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let files = export_systems(&plan, 0, dir.path()).unwrap();
+        let exported = read_matrix_market(&files[0]).unwrap();
+        let run = &plan.runs[0];
+        let RunSettings::Param { energy, settings } = &run.settings else { panic!("{run:?}") };
+        assert!(settings.smoothness.is_some());
+        let mesh = plan.dataset(run).load().unwrap();
+        let mut first = FirstSystem::default();
+        solvers::param::solve_param(&mesh, *energy, &run.solver, settings, &mut first).unwrap();
+        let own = first.0.unwrap();
+        assert_eq!((exported.n, &exported.col_ptr, &exported.row_idx), (own.n, &own.col_ptr, &own.row_idx));
+        assert_eq!(exported.values, own.values);
+        // without the term the pattern is another one
+        let plain = solvers::param::ParamSettings { smoothness: None, ..settings.clone() };
+        let other = solvers::system::param_system(&mesh, *energy, &run.solver, &plain, 0).unwrap();
+        assert!(other.values.len() < own.values.len(), "{} vs {}", other.values.len(), own.values.len());
+    }
+}

@@ -67,6 +67,24 @@ impl Flow {
 
 pub trait Observer {
     fn observe(&mut self, record: &IterationRecord) -> Flow;
+
+    /// The system a Newton-type solver is about to factorize for the step from iterate
+    /// `system.iter`; most observers ignore it (exports and tests look at it).
+    fn system(&mut self, _system: &SystemView) {}
+}
+
+/// The Newton system before the factorization: the assembled lower triangle in CSC form
+/// (before the shift and scaling of `linear`, which the factorization applies) and the
+/// gradient at iterate `iter`.
+pub struct SystemView<'a> {
+    pub iter: usize,
+    pub col_ptr: &'a [usize],
+    pub row_idx: &'a [usize],
+    /// Position of each column's diagonal entry.
+    pub diag: &'a [usize],
+    pub values: &'a [f64],
+    pub grad: &'a [f64],
+    pub linear: &'a LinearSettings,
 }
 
 /// An observer that stops the solver once it reports iteration `k` (exporting the system

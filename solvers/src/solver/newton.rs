@@ -3,7 +3,7 @@
 //! injective step plus Armijo line search, repeat. "All methods share the same pipeline and
 //! we only replace the system matrix" (Section 6).
 
-use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason};
+use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason, SystemView};
 use crate::assembly::Pattern;
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
@@ -148,6 +148,15 @@ pub fn newton(
         scatter(problem, &pattern, strategy, &blocks, &edge_blocks, &mut values);
         let t_scatter = t0.elapsed().as_secs_f64();
 
+        observer.system(&SystemView {
+            iter,
+            col_ptr: &pattern.col_ptr,
+            row_idx: &pattern.row_idx,
+            diag: &pattern.diag,
+            values: &values,
+            grad: &ev.grad,
+            linear: &settings.linear,
+        });
         let t0 = Instant::now();
         rhs.clear();
         rhs.extend(ev.grad.iter().map(|g| -g));
