@@ -100,8 +100,8 @@ enum Command {
         mesh: String,
         /// `param` and `authalic` need a topological disk (`authalic` an interior vertex);
         /// `deform` allows holes but needs a planar, counter-clockwise shape.
-        #[arg(long, value_enum, default_value = "param")]
-        task: ValidateTask,
+        #[arg(long, default_value = "param")]
+        task: solvers::mesh::Task,
     },
     /// List the registered datasets, solvers or energies.
     List {
@@ -111,13 +111,6 @@ enum Command {
         #[arg(long, default_value = "datasets.toml")]
         registry: PathBuf,
     },
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum ValidateTask {
-    Param,
-    Deform,
-    Authalic,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -233,11 +226,6 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let mesh = match mesh.strip_prefix("generated:") {
                 Some(g) => solvers::generate::generate(g)?,
                 None => solvers::mesh::load_obj(std::path::Path::new(&mesh))?,
-            };
-            let task = match task {
-                ValidateTask::Param => solvers::mesh::Task::Param,
-                ValidateTask::Deform => solvers::mesh::Task::Deform,
-                ValidateTask::Authalic => solvers::mesh::Task::Authalic,
             };
             // The check the run of that task makes, so the two cannot disagree.
             let report = solvers::mesh::validate_for(&mesh, task);

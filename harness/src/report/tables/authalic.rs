@@ -1,11 +1,10 @@
 //! Area-preserving (authalic) disk maps.
 
 use super::Table;
+use crate::plan::Task;
 use crate::report::{failed, is_authalic};
 use crate::run_folder::SummaryRow;
-
-/// Short labels of the authalic solvers, in the column order of the AEM paper's Table 1.
-const AUTHALIC: [(&str, &str); 3] = [("sem", "SEM"), ("aem-cg", "AEM-CG"), ("aem-cg-safe", "AEM-CG-safe")];
+use solvers::solver::catalogue;
 
 /// The AEM paper's Table 1 shape: per mesh, for each solver the SD of the area ratios, the
 /// normalized authalic energy, the time and the number of folded triangles. `None` when no
@@ -13,8 +12,12 @@ const AUTHALIC: [(&str, &str); 3] = [("sem", "SEM"), ("aem-cg", "AEM-CG"), ("aem
 pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
     let done: Vec<&SummaryRow> =
         rows.iter().filter(|r| is_authalic(r) && !failed(r) && r.authalic_energy.is_some()).collect();
-    let present: Vec<(&str, &str)> =
-        AUTHALIC.iter().copied().filter(|(s, _)| done.iter().any(|r| r.solver == *s)).collect();
+    // The catalogue's authalic solvers, in its order, with its labels.
+    let present: Vec<(&str, &str)> = catalogue::SOLVERS
+        .iter()
+        .filter(|e| e.runs(Task::Authalic) && done.iter().any(|r| r.solver == e.name))
+        .map(|e| (e.name, e.label))
+        .collect();
     if present.is_empty() {
         return None;
     }

@@ -4,16 +4,22 @@
 use super::Table;
 use crate::report::failed;
 use crate::run_folder::SummaryRow;
+use solvers::solver::catalogue;
 
-/// The solvers whose per-element projection the projection table compares, with short labels.
-const PROJECTIONS: [(&str, &str); 3] = [("kp-newton", "KP"), ("fp-newton-4x4", "FP4"), ("fp-newton-6x6", "FP6")];
+/// The solvers whose per-element projection the projection table compares (Table 5); their
+/// column labels come from the catalogue.
+const PROJECTIONS: [&str; 3] = ["kp-newton", "fp-newton-4x4", "fp-newton-6x6"];
 
 /// The complex-view paper's Table 5 shape: per mesh and energy, the median per-iteration time
 /// of each projection next to the linear solve, and their ratio. `None` when no run of a
 /// projection solver finished.
 pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
-    let present: Vec<(&str, &str)> =
-        PROJECTIONS.iter().copied().filter(|(s, _)| rows.iter().any(|r| r.solver == *s && !failed(r))).collect();
+    let present: Vec<(&str, &str)> = PROJECTIONS
+        .iter()
+        .copied()
+        .filter(|s| rows.iter().any(|r| r.solver == *s && !failed(r)))
+        .map(|s| (s, catalogue::find(s).map_or(s, |e| e.label)))
+        .collect();
     if present.is_empty() {
         return None;
     }
