@@ -32,3 +32,4 @@ pub mod problem;
 pub mod smoothness;
 pub mod solver;
 pub mod system;
+pub mod task;

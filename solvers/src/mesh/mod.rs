@@ -4,8 +4,9 @@ pub mod obj;
 pub mod topology;
 pub mod validate;
 
+pub use crate::task::{Task, UnknownTask};
 pub use obj::load_obj;
-pub use validate::{validate, validate_for, Problem, Task, UnknownTask, ValidationReport};
+pub use validate::{validate, validate_for, Problem, ValidationReport};
 
 /// Why a mesh could not be read or used. Every message names the mesh source.
 #[derive(Debug, thiserror::Error)]
