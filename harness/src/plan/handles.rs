@@ -50,6 +50,22 @@ impl HandleSource {
     }
 }
 
+/// `handles` and `handles_rule` exclude each other; `handles_set` needs `handles`.
+pub fn check_handles(file: bool, set: Option<usize>, rule: Option<&str>) -> Result<()> {
+    if file && rule.is_some() {
+        bail!("give 'handles' or 'handles_rule', not both");
+    }
+    if set.is_some() && !file {
+        bail!("'handles_set' needs 'handles'");
+    }
+    if let Some(r) = rule {
+        if !solvers::deform::HANDLE_RULES.contains(&r) {
+            bail!("unknown handles_rule '{r}' (known: {})", solvers::deform::HANDLE_RULES.join(", "));
+        }
+    }
+    Ok(())
+}
+
 /// One vertex pulled to two different targets has no meaning as a constraint (the penalty
 /// would settle between them): refuse it. A repeated identical handle is harmless.
 pub fn check_conflicts(handles: &[Handle]) -> Result<()> {

@@ -120,7 +120,7 @@ impl Plan {
         for (d, ds) in datasets.iter().enumerate() {
             for (energy, settings) in &settings {
                 for solver in &c.solvers {
-                    let stem = crate::run_folder::run_stem(&ds.name, energy, solver);
+                    let stem = names::run_stem(&ds.name, energy, solver);
                     if only.is_empty() || only.iter().any(|g| glob_match(g, &stem)) {
                         runs.push(PlannedRun {
                             dataset: d,

@@ -85,6 +85,11 @@ pub fn check_run_names<'a>(
     Ok(())
 }
 
+/// The name and file stem of a run: `<dataset>__<energy>__<solver>`.
+pub fn run_stem(dataset: &str, energy: &str, solver: &str) -> String {
+    format!("{dataset}__{energy}__{solver}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -73,7 +73,7 @@ impl Registry {
                 (None, Some(_)) => {}
                 _ => bail!("{}: dataset '{}' needs exactly one of 'generator' and 'file'", path.display(), e.name),
             }
-            check_handles(e.handles.is_some(), e.handles_set, e.handles_rule.as_deref())
+            crate::plan::handles::check_handles(e.handles.is_some(), e.handles_set, e.handles_rule.as_deref())
                 .with_context(|| format!("{}: dataset '{}'", path.display(), e.name))?;
         }
         Ok(reg)
@@ -122,22 +122,6 @@ fn check_entry(e: &Entry) -> Result<()> {
                     e.name
                 );
             }
-        }
-    }
-    Ok(())
-}
-
-/// `handles` and `handles_rule` exclude each other; `handles_set` needs `handles`.
-pub fn check_handles(file: bool, set: Option<usize>, rule: Option<&str>) -> Result<()> {
-    if file && rule.is_some() {
-        bail!("give 'handles' or 'handles_rule', not both");
-    }
-    if set.is_some() && !file {
-        bail!("'handles_set' needs 'handles'");
-    }
-    if let Some(r) = rule {
-        if !solvers::deform::HANDLE_RULES.contains(&r) {
-            bail!("unknown handles_rule '{r}' (known: {})", solvers::deform::HANDLE_RULES.join(", "));
         }
     }
     Ok(())

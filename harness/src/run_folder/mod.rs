@@ -11,6 +11,7 @@ pub mod meta;
 pub mod sidecar;
 pub mod summary;
 
+pub use crate::plan::names::run_stem;
 pub use error::FolderError;
 pub use iterations::{iteration_csv, read_iterations, read_run, IterationFile, ITERATION_COLUMNS};
 pub use summary::{read_summary, write_summary, Status, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
@@ -82,11 +83,6 @@ pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
         }
     }
     written
-}
-
-/// The file stem of a run: `<dataset>__<energy>__<solver>`.
-pub fn run_stem(dataset: &str, energy: &str, solver: &str) -> String {
-    format!("{dataset}__{energy}__{solver}")
 }
 
 /// Write `bytes` to `path` atomically: a temporary file in the same folder, then rename.

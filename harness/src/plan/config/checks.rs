@@ -27,7 +27,7 @@ impl Config {
             }
         }
         for d in &self.dataset {
-            crate::plan::registry::check_handles(d.handles.is_some(), d.handles_set, d.handles_rule.as_deref())
+            crate::plan::handles::check_handles(d.handles.is_some(), d.handles_set, d.handles_rule.as_deref())
                 .with_context(|| format!("[[dataset]] '{}'", d.name))?;
             // Handles only mean something to `deform`: silently ignoring them would hide a
             // config that was meant to be a deform batch.
