@@ -10,8 +10,8 @@ use mapbench::gate::check;
 use mapbench::plan::select::Shard;
 use mapbench::plan::Plan;
 use mapbench::plan::{config, registry};
-use mapbench::run::{self as runner, merge, progress};
-use mapbench::{export, report, run_folder as output};
+use mapbench::run::{self, merge, progress};
+use mapbench::{export, report, run_folder};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -100,7 +100,7 @@ enum Command {
         mesh: String,
         /// `param` and `authalic` need a topological disk (`authalic` an interior vertex);
         /// `deform` allows holes but needs a planar, counter-clockwise shape.
-        #[arg(long, default_value = "param")]
+        #[arg(long, default_value = "param", value_parser = task_parser())]
         task: solvers::mesh::Task,
     },
     /// List the registered datasets, solvers or energies.
@@ -126,6 +126,13 @@ enum ListWhat {
     Energies,
 }
 
+/// `--task`: the solvers' `Task`, its names listed in `--help` and in the error.
+fn task_parser() -> impl clap::builder::TypedValueParser<Value = solvers::mesh::Task> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(solvers::mesh::Task::ALL.map(|t| t.as_str()))
+        .try_map(|s| s.parse::<solvers::mesh::Task>())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match dispatch(cli) {
@@ -147,9 +154,9 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
             let interrupt = Arc::new(AtomicBool::new(false));
             let signal = signals::on_interrupt(interrupt.clone());
-            let opts = runner::RunOptions { resume, jobs, shard, interrupt };
+            let opts = run::RunOptions { resume, jobs, shard, interrupt };
             let progress = progress::for_stderr();
-            let report = runner::run_batch(&plan, &out, &opts, progress.as_ref())?;
+            let report = run::run_batch(&plan, &out, &opts, progress.as_ref())?;
             eprintln!(
                 "{} runs: {} ok, {} not converged, {} failed{}; results in {}",
                 report.runs,
@@ -173,7 +180,10 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             })
         }
         Command::ExportSystem { config, out, only, iteration } => {
-            let plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
+            let cfg = LoadedConfig::load(&config)?;
+            // Before the registry: a config of another task is refused for what it is.
+            export::check_task(&cfg)?;
+            let plan = Plan::resolve(cfg, &only)?;
             for n in &plan.notices {
                 eprintln!("{n}");
             }
@@ -192,7 +202,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Report { run_dir } => {
-            let rows = output::read_summary(&run_dir)?;
+            let rows = run_folder::read_summary(&run_dir)?;
             report::refresh(&run_dir, &rows)?;
             eprintln!("report of {} runs in {}", rows.len(), run_dir.display());
             Ok(ExitCode::SUCCESS)
@@ -218,7 +228,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Baseline { run_dir, write } => {
             let base = check::make_baseline(&run_dir)?;
             let json = serde_json::to_string_pretty(&base)? + "\n";
-            output::write_atomic(&write, json.as_bytes())?;
+            run_folder::write_atomic(&write, json.as_bytes())?;
             eprintln!("wrote {} runs to {}", base.runs.len(), write.display());
             Ok(ExitCode::SUCCESS)
         }

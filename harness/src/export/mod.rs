@@ -2,6 +2,7 @@
 //! iteration, as Matrix Market files, so other sparse solvers can be timed on exactly the
 //! matrices mapbench factorizes (`scripts/bench_linear_solvers.py`).
 
+use crate::plan::config::LoadedConfig;
 use crate::plan::{Plan, RunSettings, Task};
 use crate::run_folder::write_atomic;
 use anyhow::{bail, Context, Result};
@@ -11,9 +12,7 @@ use std::path::{Path, PathBuf};
 /// every run of the plan, with the settings `run` solves it with. Returns the matrix files. A run that stops before
 /// iteration `K` exports the system at its last iterate (named by that iteration).
 pub fn export_systems(plan: &Plan, iteration: usize, out: &Path) -> Result<Vec<PathBuf>> {
-    if plan.task != Task::Param {
-        bail!("{}: export-system supports task = \"param\"", plan.config.path.display());
-    }
+    check_task(&plan.config)?;
     let mut written = Vec::new();
     for r in &plan.runs {
         let RunSettings::Param { energy, settings } = &r.settings else {
@@ -29,6 +28,14 @@ pub fn export_systems(plan: &Plan, iteration: usize, out: &Path) -> Result<Vec<P
         written.push(path);
     }
     Ok(written)
+}
+
+/// export-system writes the systems of `param` runs only.
+pub fn check_task(cfg: &LoadedConfig) -> Result<()> {
+    if cfg.config.task != Task::Param {
+        bail!("{}: export-system supports task = \"param\"", cfg.path.display());
+    }
+    Ok(())
 }
 
 /// A system read back from the files [`export_systems`] writes.
@@ -136,7 +143,6 @@ pub fn time_system(sys: &SystemFile, ordering: solvers::ordering::Ordering, repe
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::config::LoadedConfig;
     use solvers::solver::{Flow, IterationRecord, Observer, SystemView};
     use solvers::system::NewtonSystem;
 

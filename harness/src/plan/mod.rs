@@ -7,54 +7,16 @@ pub mod handles;
 pub mod names;
 pub mod registry;
 pub mod select;
+pub mod settings;
 
 use anyhow::{bail, Context, Result};
 use config::LoadedConfig;
 use registry::Dataset;
 use select::glob_match;
-use solvers::authalic::AuthalicSettings;
-use solvers::deform::DeformSettings;
-use solvers::energy::EnergyKind;
-use solvers::param::ParamSettings;
-use solvers::solver::StopSettings;
 use std::time::Duration;
 
 pub use config::Task;
-
-/// The fully resolved settings of one run: what the solver gets, defaults and overrides
-/// applied, smoothness term included.
-#[derive(Clone, Debug, PartialEq)]
-pub enum RunSettings {
-    Param { energy: EnergyKind, settings: ParamSettings },
-    Deform { energy: EnergyKind, settings: DeformSettings },
-    Authalic(AuthalicSettings),
-}
-
-impl RunSettings {
-    pub fn task(&self) -> Task {
-        match self {
-            RunSettings::Param { .. } => Task::Param,
-            RunSettings::Deform { .. } => Task::Deform,
-            RunSettings::Authalic(_) => Task::Authalic,
-        }
-    }
-
-    /// The stop rules the run applies.
-    pub fn stop(&self) -> StopSettings {
-        match self {
-            RunSettings::Param { settings, .. } => settings.solver.stop,
-            RunSettings::Deform { settings, .. } => settings.solver.stop,
-            RunSettings::Authalic(s) => s.stop,
-        }
-    }
-
-    /// Everything that determines the run's result, as text for its `--resume` key. Debug
-    /// prints every field, floats exactly (shortest round-trip form); the key also holds the
-    /// code's revision, so a change of this text's layout comes with a change of the key.
-    pub fn key_text(&self) -> String {
-        format!("{self:?}")
-    }
-}
+pub use settings::RunSettings;
 
 /// The resolved settings of each energy of a config, in the config's order.
 pub fn energy_settings(cfg: &LoadedConfig) -> Result<Vec<(String, RunSettings)>> {
@@ -154,23 +116,12 @@ impl Plan {
     pub fn dataset(&self, run: &PlannedRun) -> &Dataset {
         &self.datasets[run.dataset]
     }
-
-    /// The resolved settings of each energy, in the config's order (one entry per energy:
-    /// every run of an energy has the same settings).
-    pub fn settings_per_energy(&self) -> Vec<(&str, &RunSettings)> {
-        let mut out: Vec<(&str, &RunSettings)> = Vec::new();
-        for r in &self.runs {
-            if !out.iter().any(|(e, _)| *e == r.energy) {
-                out.push((&r.energy, &r.settings));
-            }
-        }
-        out
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use solvers::energy::EnergyKind;
     use std::path::Path;
 
     fn plan(text: &str, only: &[&str]) -> Result<Plan> {
@@ -206,7 +157,7 @@ mod tests {
         assert_eq!(settings.solver.stop.max_iters, 7);
         let RunSettings::Param { settings, .. } = &p.runs[2].settings else { panic!() };
         assert_eq!((settings.smoothness, settings.solver.stop.energy_decrease_tol), (None, 1e-8));
-        assert_eq!(p.settings_per_energy().len(), 2);
+        assert_eq!(energy_settings(&p.config).unwrap().len(), 2);
     }
 
     #[test]

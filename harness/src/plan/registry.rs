@@ -236,7 +236,7 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
     crate::plan::names::check_run_names(out.iter().map(|d| d.name.as_str()), &c.energy_names(), &c.solvers)
         .with_context(|| format!("{}: invalid config", cfg.path.display()))?;
     if out.is_empty() {
-        // Say why, instead of the runner's "--only selects no run" when no --only was given.
+        // Say why, instead of the plan's "--only selects no run" when no --only was given.
         bail!(
             "{}: no dataset to run: every selected dataset was skipped ({})",
             cfg.path.display(),

@@ -155,10 +155,10 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
             }
             let s = &result.summary;
             progress.run_finished(worker, &run_line(finished.len() + 1, total, s, resumed));
-            match s.status.as_str() {
-                "ok" => report.ok += 1,
-                "not_converged" => report.not_converged += 1,
-                _ => report.failed += 1,
+            match s.status {
+                Status::Ok => report.ok += 1,
+                Status::NotConverged => report.not_converged += 1,
+                Status::Failed => report.failed += 1,
             }
             report.runs += 1;
             summary.append(s)?;

@@ -1,5 +1,5 @@
 //! `run --resume`: every finished run leaves `runs/<run>.json` with a key of everything that
-//! determines its result (code version, task, the config sections that apply, the energy,
+//! determines its result (code version, the run's resolved settings from the plan, the energy,
 //! the solver, and the mesh and handle files' contents). A resumed batch reuses a run whose
 //! key matches and whose files (per-iteration CSV, map) are intact, and runs the others.
 
@@ -64,7 +64,7 @@ pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
 
 /// The finished run `stem` if its sidecar has `key` and all its files are intact: the CSV
 /// reads back completely and, for a run that produced a map (every run with iterations,
-/// see `runner::run_one`), `uv/<stem>.obj` reads back too. Otherwise the run runs again.
+/// see `run::one::run_one`), `uv/<stem>.obj` reads back too. Otherwise the run runs again.
 pub fn previous(out_dir: &Path, stem: &str, key: &str) -> Option<(SummaryRow, Vec<IterationRecord>)> {
     let side = sidecar::read(out_dir, stem)?;
     if side.key != key {

@@ -25,8 +25,9 @@ impl Meta<'_> {
         let plan = self.plan;
         let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
         let (rev, dirty) = git_revision(&plan.config.dir);
-        let per_energy = plan.settings_per_energy();
-        let stop: BTreeMap<&str, StopSettings> = per_energy.iter().map(|(e, s)| (*e, s.stop())).collect();
+        // Every energy of the config, whatever `--only` kept.
+        let per_energy = crate::plan::energy_settings(&plan.config)?;
+        let stop: BTreeMap<&str, StopSettings> = per_energy.iter().map(|(e, s)| (e.as_str(), s.stop())).collect();
         let ordering = per_energy
             .iter()
             .find_map(|(_, s)| match s {
@@ -37,7 +38,10 @@ impl Meta<'_> {
             .unwrap_or_default();
         let meta = serde_json::json!({
             "config_path": plan.config.path.display().to_string(),
-            "config": plan.config.config,
+            // The config as read, and what each energy's runs resolve it to.
+            "config": plan.config.raw,
+            "settings_per_energy": per_energy.iter().map(|(e, s)| (e.clone(), serde_json::to_value(s).unwrap_or_default()))
+                .collect::<serde_json::Map<_, _>>(),
             "only": plan.only,
             "resume": self.resume,
             "shard": self.shard.map(|s| s.to_string()),

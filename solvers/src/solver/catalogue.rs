@@ -183,11 +183,6 @@ pub fn names_for(task: Task) -> Vec<&'static str> {
     SOLVERS.iter().filter(|s| s.runs(task)).map(|s| s.name).collect()
 }
 
-/// The declared extra column called `name` (readers of iteration CSVs).
-pub fn extra_column(name: &str) -> Option<&'static str> {
-    SOLVERS.iter().flat_map(|s| s.extra_columns.iter().copied()).find(|c| *c == name)
-}
-
 /// The Newton-type solver `name` of `task` built for `energy`.
 pub fn newton_spec(name: &str, task: Task, energy: &EnergyKind) -> Result<SolverSpec, SolverError> {
     lookup(name, task)?.newton_spec(task, energy)
@@ -292,7 +287,5 @@ mod tests {
             let expected: &[&str] = if s.runs(Task::Authalic) { &AUTHALIC_COLUMNS } else { &[] };
             assert_eq!(s.extra_columns, expected, "{}", s.name);
         }
-        assert_eq!(extra_column("wolfe"), Some("wolfe"));
-        assert_eq!(extra_column("energy"), None);
     }
 }

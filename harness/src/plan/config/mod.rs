@@ -146,6 +146,8 @@ pub struct LoadedConfig {
     pub path: PathBuf,
     pub dir: PathBuf,
     pub config: Config,
+    /// The file's tables as read (`meta.json` echoes them; `merge` compares them).
+    pub raw: toml::Table,
 }
 
 impl LoadedConfig {
@@ -158,10 +160,11 @@ impl LoadedConfig {
     /// resolve against its folder). Nothing is read from disk.
     pub fn parse(text: &str, path: &Path) -> Result<LoadedConfig> {
         let config: Config = toml::from_str(text).with_context(|| format!("{}: invalid config", path.display()))?;
+        let raw: toml::Table = toml::from_str(text).with_context(|| format!("{}: invalid config", path.display()))?;
         config.check().with_context(|| format!("{}: invalid config", path.display()))?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };
-        Ok(LoadedConfig { path: path.to_path_buf(), dir, config })
+        Ok(LoadedConfig { path: path.to_path_buf(), dir, config, raw })
     }
 
     /// The registry file: the configured one, or the nearest `datasets.toml` upwards.

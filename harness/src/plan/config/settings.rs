@@ -2,7 +2,7 @@
 //! solvers' own `Default`s), the config's overrides, the energy's parameters.
 
 use super::{Config, Task};
-use crate::plan::RunSettings;
+use crate::plan::settings::RunSettings;
 use anyhow::{bail, Context, Result};
 use solvers::authalic::AuthalicSettings;
 use solvers::deform::DeformSettings;

@@ -1,0 +1,45 @@
+//! The fully resolved settings of a run: what the solver gets.
+
+use serde::Serialize;
+use solvers::authalic::AuthalicSettings;
+use solvers::deform::DeformSettings;
+use solvers::energy::EnergyKind;
+use solvers::mesh::Task;
+use solvers::param::ParamSettings;
+use solvers::solver::StopSettings;
+
+/// The fully resolved settings of one run: what the solver gets, defaults and overrides
+/// applied, smoothness term included.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RunSettings {
+    Param { energy: EnergyKind, settings: ParamSettings },
+    Deform { energy: EnergyKind, settings: DeformSettings },
+    Authalic(AuthalicSettings),
+}
+
+impl RunSettings {
+    pub fn task(&self) -> Task {
+        match self {
+            RunSettings::Param { .. } => Task::Param,
+            RunSettings::Deform { .. } => Task::Deform,
+            RunSettings::Authalic(_) => Task::Authalic,
+        }
+    }
+
+    /// The stop rules the run applies.
+    pub fn stop(&self) -> StopSettings {
+        match self {
+            RunSettings::Param { settings, .. } => settings.solver.stop,
+            RunSettings::Deform { settings, .. } => settings.solver.stop,
+            RunSettings::Authalic(s) => s.stop,
+        }
+    }
+
+    /// Everything that determines the run's result, as JSON for its `--resume` key: every
+    /// setting (floats round-trip exactly; the shared analyses are not a setting and are
+    /// skipped), the energy with its parameters, the stop rule.
+    pub fn key_text(&self) -> String {
+        serde_json::to_string(self).unwrap_or_else(|e| format!("unserializable settings: {e}"))
+    }
+}
