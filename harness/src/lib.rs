@@ -4,8 +4,10 @@
 //! One folder per concern: `plan` turns a config and the dataset registry into the runs of a
 //! batch, `run` executes them, `run_folder` owns every file of a run folder, `report` renders
 //! tables, plots and the HTML page from a run folder, `gate` compares a run folder with a
-//! baseline, `export` writes the Newton systems of a plan.
+//! baseline, `export` writes the Newton systems of a plan, `calibration` times the machine's
+//! reference workload.
 
+pub mod calibration;
 pub mod export;
 pub mod fuzzing;
 pub mod gate;

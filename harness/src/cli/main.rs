@@ -158,11 +158,12 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let progress = progress::for_stderr();
             let report = run::run_batch(&plan, &out, &opts, progress.as_ref())?;
             eprintln!(
-                "{} runs: {} ok, {} not converged, {} failed{}; results in {}",
+                "{} runs: {} ok, {} not converged, {} failed{}{}; results in {}",
                 report.runs,
                 report.ok,
                 report.not_converged,
                 report.failed,
+                if report.skipped > 0 { format!(", {} skipped", report.skipped) } else { String::new() },
                 if report.interrupted > 0 {
                     format!(", {} not run (interrupted)", report.interrupted)
                 } else {

@@ -58,6 +58,8 @@ pub struct Plan {
     pub timeout: Option<Duration>,
     /// rayon threads inside each run, when the config fixes them.
     pub threads_per_run: Option<usize>,
+    /// Times each run is repeated (`repeat`, or `--repeat`), at least 1.
+    pub repeat: usize,
 }
 
 impl Plan {
@@ -100,7 +102,10 @@ impl Plan {
         }
         let invalid = || format!("{}: invalid config", cfg.path.display());
         let timeout = c.timeout_secs().with_context(invalid)?.map(Duration::from_secs_f64);
+        let repeat = c.repeat.unwrap_or(1);
+        config::check_repeat(repeat).with_context(invalid)?;
         Ok(Plan {
+            repeat,
             task: c.task,
             threads_per_run: c.threads_per_run,
             config: cfg,

@@ -20,7 +20,7 @@ table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #bbb;paddin
 th{background:#eee}td.k,th.k{text-align:left;white-space:nowrap}\
 table.status td,table.status th{text-align:center;white-space:nowrap}table.status td.k{text-align:left;background:#fff}\
 .ds{position:sticky;left:0;z-index:1}table.status th.ds{background:#eee}\
-.ok{background:#d8f0d8}.nc{background:#fff0c2}.failed{background:#f6d0d3}\
+.ok{background:#d8f0d8}.nc{background:#fff0c2}.failed{background:#f6d0d3}.skipped{background:#e4e4e4;color:#666}\
 table.status td.failed{text-align:left;white-space:normal;min-width:12em;max-width:22em;word-break:break-word}\
 td.none{background:#f4f4f4;color:#999}td a{color:inherit;text-decoration:none}td small{color:#555}\
 img{max-width:100%;height:auto}\
@@ -188,6 +188,7 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
             ("nc", s.stop_column().to_string(), format!("not converged: {}", s.stop_column()), detail)
         }
         Status::Failed => ("failed", "failed".to_string(), "failed".to_string(), s.error.clone()),
+        Status::Skipped => ("skipped", "skipped".to_string(), format!("skipped: {}", s.error), s.error.clone()),
     };
     let body = format!("<b>{}</b><br><small>{}</small>", esc(&head), esc(&small));
     let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));

@@ -9,6 +9,7 @@ pub mod resume;
 mod meshes;
 mod one;
 
+use crate::calibration::Calibration;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::meta::{code_id, Meta};
@@ -29,6 +30,8 @@ pub struct BatchReport {
     pub ok: usize,
     pub not_converged: usize,
     pub failed: usize,
+    /// Pairs outside a solver's declared energies: not run.
+    pub skipped: usize,
     /// Runs not done because the batch was interrupted.
     pub interrupted: usize,
     pub skipped_datasets: Vec<String>,
@@ -65,7 +68,9 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     let jobs = opts.jobs.unwrap_or(cores).clamp(1, mine.len().max(1));
     let threads = plan.threads_per_run.unwrap_or_else(|| (opts.jobs.unwrap_or(cores) / mine.len().max(1)).max(1));
     let meta = Meta { plan, shard: opts.shard, resume: opts.resume, jobs, threads, started: SystemTime::now() };
-    meta.write(out_dir, None, false)?;
+    let mut calibration = Calibration::new();
+    calibrate(&mut calibration, threads, progress);
+    meta.write(out_dir, None, false, &calibration)?;
     let mut summary = SummaryWriter::create(&summary_csv(out_dir))?;
     let mut report =
         BatchReport { skipped_datasets: plan.notices.clone(), out_dir: out_dir.to_path_buf(), ..Default::default() };
@@ -159,6 +164,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
                 Status::Ok => report.ok += 1,
                 Status::NotConverged => report.not_converged += 1,
                 Status::Failed => report.failed += 1,
+                Status::Skipped => report.skipped += 1,
             }
             report.runs += 1;
             summary.append(s)?;
@@ -168,6 +174,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     });
     progress.finish();
     outcome?;
+    calibrate(&mut calibration, threads, progress);
     let interrupted = opts.interrupt.load(Ordering::Relaxed);
     report.interrupted = total - report.runs;
     if interrupted {
@@ -188,8 +195,20 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         Ok(pool) => pool.install(|| crate::report::refresh(out_dir, &rows))?,
         Err(_) => crate::report::refresh(out_dir, &rows)?,
     }
-    meta.write(out_dir, Some(SystemTime::now()), interrupted)?;
+    meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
     Ok(report)
+}
+
+/// One more calibration sample, on a pool of the runs' thread count. A failed sample is a
+/// notice, never the end of the batch: the runs' own times do not depend on it.
+fn calibrate(calibration: &mut Calibration, threads: usize, progress: &dyn Progress) {
+    let sample = match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(pool) => pool.install(|| calibration.sample()),
+        Err(_) => calibration.sample(),
+    };
+    if let Err(e) = sample {
+        progress.notice(&format!("calibration sample failed (time_norm left empty if none succeeds): {e:#}"));
+    }
 }
 
 /// The line a finished run prints.

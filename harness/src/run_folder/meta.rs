@@ -1,5 +1,6 @@
 //! `meta.json` of a run folder: the plan and provenance of the batch.
 
+use crate::calibration::Calibration;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, RunSettings};
 use crate::run_folder::write_atomic;
@@ -21,7 +22,13 @@ pub struct Meta<'a> {
 }
 
 impl Meta<'_> {
-    pub fn write(&self, out_dir: &Path, ended: Option<SystemTime>, interrupted: bool) -> Result<()> {
+    pub fn write(
+        &self,
+        out_dir: &Path,
+        ended: Option<SystemTime>,
+        interrupted: bool,
+        calibration: &Calibration,
+    ) -> Result<()> {
         let plan = self.plan;
         let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
         let (rev, dirty) = git_revision(&plan.config.dir);
@@ -64,6 +71,11 @@ impl Meta<'_> {
             "started_unix": secs(self.started),
             "ended_unix": ended.map(secs),
             "interrupted": interrupted,
+            "repeat": self.plan.repeat,
+            // The reference workload's samples; `time_norm` divides by their median.
+            "calibration": calibration,
+            "calibration_median_s": calibration.median_s(),
+            "calibration_spread": calibration.spread(),
         });
         write_atomic(&super::meta_json(out_dir), serde_json::to_string_pretty(&meta)?.as_bytes())
     }
@@ -90,4 +102,12 @@ fn git_revision(dir: &Path) -> (Option<String>, Option<bool>) {
     let dirty =
         rev.as_ref().and_then(|_| git(&["status", "--porcelain", "--untracked-files=no"])).map(|s| !s.is_empty());
     (rev, dirty)
+}
+
+/// The calibration samples of a run folder's `meta.json` (`None`: no meta, or a batch from
+/// before calibration).
+pub fn read_calibration(run_dir: &Path) -> Option<Calibration> {
+    let text = std::fs::read_to_string(super::meta_json(run_dir)).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    serde_json::from_value(v.get("calibration")?.clone()).ok()
 }

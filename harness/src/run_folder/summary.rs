@@ -11,8 +11,10 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// `summary.csv` columns, in design.md order; `area_ratio_sd` .. `folded` are filled by
-/// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers.
-pub const SUMMARY_COLUMNS: [&str; 26] = [
+/// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers; then the
+/// repeat and calibration columns (`time_s` is the median over `repeats`) and the count of
+/// iterations whose system needed more than the base Tikhonov shift.
+pub const SUMMARY_COLUMNS: [&str; 31] = [
     "dataset",
     "task",
     "energy",
@@ -39,12 +41,21 @@ pub const SUMMARY_COLUMNS: [&str; 26] = [
     "folded",
     "analysis_s",
     "analysis_shared",
+    "repeats",
+    "time_s_min",
+    "time_s_max",
+    "time_norm",
+    "shifted_iters",
 ];
 
-/// How a run ended: the `status` column.
+/// How a run ended: the `status` column. Ordered worst to best for the gate: a pair that
+/// stops being run (`skipped`) is worse than one that runs and fails.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Status {
+    /// Not run: the solver is not defined for the energy (the reason is in `error`). Neither
+    /// ok nor failed, and left out of aggregates and rankings.
+    Skipped,
     /// The run could not run or finish: bad mesh, unsupported pair, solver error, unwritable
     /// files. What a row knows nothing else about.
     #[default]
@@ -62,6 +73,7 @@ impl Status {
             Status::Failed => "failed",
             Status::NotConverged => "not_converged",
             Status::Ok => "ok",
+            Status::Skipped => "skipped",
         }
     }
 }
@@ -69,10 +81,10 @@ impl Status {
 impl std::str::FromStr for Status {
     type Err = String;
     fn from_str(s: &str) -> Result<Status, String> {
-        [Status::Failed, Status::NotConverged, Status::Ok]
+        [Status::Failed, Status::NotConverged, Status::Ok, Status::Skipped]
             .into_iter()
             .find(|x| x.as_str() == s)
-            .ok_or_else(|| format!("unknown status '{s}' (known: ok, not_converged, failed)"))
+            .ok_or_else(|| format!("unknown status '{s}' (known: ok, not_converged, failed, skipped)"))
     }
 }
 
@@ -142,6 +154,19 @@ pub struct SummaryRow {
     /// The run took the analysis computed by another run on the same mesh.
     #[serde(default)]
     pub analysis_shared: Option<bool>,
+    /// How many times the run was repeated (`repeat` in the config); `time_s` is their median.
+    #[serde(default)]
+    pub repeats: Option<usize>,
+    #[serde(default)]
+    pub time_s_min: Option<f64>,
+    #[serde(default)]
+    pub time_s_max: Option<f64>,
+    /// `time_s` over the batch's median calibration time (`meta.json`'s `calibration`).
+    #[serde(default)]
+    pub time_norm: Option<f64>,
+    /// Iterations whose Newton system was solved with more than the base Tikhonov shift.
+    #[serde(default)]
+    pub shifted_iters: Option<usize>,
 }
 
 impl SummaryRow {

@@ -1,7 +1,7 @@
 //! What serde cannot check in a config: names, the solvers of the task (the catalogue),
 //! parameters that do not belong to an energy or a task, out-of-range values.
 
-use super::{available_cores, check_threads_per_run, Config, InitConfig, Task};
+use super::{available_cores, check_repeat, check_threads_per_run, Config, InitConfig, Task};
 use anyhow::{bail, Context, Result};
 use solvers::energy::{AUTHALIC_ENERGY, ENERGY_NAMES};
 use solvers::solver::catalogue::{self, names_for, SolverError};
@@ -12,6 +12,9 @@ impl Config {
     pub fn check(&self) -> Result<()> {
         self.timeout_secs()?;
         check_threads_per_run(self.threads_per_run, available_cores())?;
+        if let Some(r) = self.repeat {
+            check_repeat(r)?;
+        }
         self.check_names()?;
         if self.task != Task::Deform && self.deform.is_some() {
             bail!("[deform] applies only to task = \"deform\"");

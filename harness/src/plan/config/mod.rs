@@ -112,6 +112,21 @@ pub struct Config {
     /// `--jobs` workers, otherwise the cores divided among the runs. Results do not depend on
     /// it (every reduction is in a fixed order); timings do.
     pub threads_per_run: Option<usize>,
+    /// Times each run is repeated, round-robin over the plan (every run once, then every run
+    /// again), so that a slow phase of the machine hits every solver alike; `time_s` is the
+    /// median. Default 1; `--repeat N` overrides.
+    pub repeat: Option<usize>,
+}
+
+/// The most repeats a batch may ask for (a typo like 10000 would run the plan that often).
+pub const MAX_REPEAT: usize = 100;
+
+/// `repeat` is at least 1 and at most [`MAX_REPEAT`].
+pub fn check_repeat(repeat: usize) -> Result<()> {
+    if !(1..=MAX_REPEAT).contains(&repeat) {
+        bail!("repeat = {repeat}: give 1 to {MAX_REPEAT} (each repeat runs the whole plan again)");
+    }
+    Ok(())
 }
 
 /// The cores this process may use.
