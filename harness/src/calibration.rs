@@ -39,8 +39,12 @@ impl Calibration {
         }
     }
 
-    /// Time the workload once more and keep the sample.
+    /// Time the workload once more and keep the sample. The first sample is preceded by an
+    /// untimed run (page faults, allocator, caches), which would otherwise make it the slowest.
     pub fn sample(&mut self) -> anyhow::Result<f64> {
+        if self.samples_s.is_empty() {
+            time_workload()?;
+        }
         let s = time_workload()?;
         self.samples_s.push(s);
         Ok(s)

@@ -28,7 +28,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];
@@ -295,6 +295,136 @@ fn a_run_past_its_timeout_stops_with_reason_timeout() {
     assert_eq!(rows[0][col("stop_reason")], "timeout");
     assert_eq!(rows[0][col("status")], "not_converged");
     assert_eq!(rows[0][col("iterations")], "0", "the deadline passed before the first iteration ended");
+}
+
+#[test]
+fn repeats_run_round_robin_reproduce_the_iterates_and_report_median_min_max() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("quad.obj"), QUAD_OBJ).unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"rep\"\nrepeat = 3\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n\
+         [[dataset]]\nname = \"broken\"\npath = \"quad.obj\"\n",
+    );
+    let out = tmp.path().join("out");
+    let run = |extra: &[&str]| {
+        let args = [&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1"], extra].concat();
+        let o = mapbench(&args, tmp.path());
+        assert_eq!(o.status.code(), Some(1), "the broken mesh fails its runs: {}", text(&o));
+        text(&o)
+    };
+    let log = run(&[]);
+    // every run once, then every run again: the repeat lines alternate between the solvers
+    let repeats: Vec<&str> = log.lines().filter(|l| l.trim_start().starts_with("repeat ")).map(str::trim).collect();
+    assert_eq!(
+        repeats.iter().map(|l| l.split(':').next().unwrap()).collect::<Vec<_>>(),
+        [
+            "repeat 1/3 bumpy_1k__sd__kp-newton",
+            "repeat 1/3 bumpy_1k__sd__cm",
+            "repeat 2/3 bumpy_1k__sd__kp-newton",
+            "repeat 2/3 bumpy_1k__sd__cm"
+        ],
+        "{log}"
+    );
+    let (h, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| h.iter().position(|x| x == name).unwrap();
+    let num = |r: &Vec<String>, c: &str| r[col(c)].parse::<f64>().unwrap();
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+    // a sample before the first round, between the rounds and after the last
+    let samples: Vec<f64> =
+        meta["calibration"]["samples_s"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert_eq!(samples.len(), 4, "{meta}");
+    let cal = meta["calibration_median_s"].as_f64().unwrap();
+    for r in rows.iter().filter(|r| r[col("dataset")] == "bumpy_1k") {
+        assert_eq!(r[col("status")], "ok");
+        assert_eq!(r[col("repeats")], "3");
+        let (t, lo, hi) = (num(r, "time_s"), num(r, "time_s_min"), num(r, "time_s_max"));
+        assert!(lo <= t && t <= hi && lo > 0.0, "{r:?}");
+        assert!((num(r, "time_norm") - t / cal).abs() <= 1e-12 * t / cal, "{r:?}");
+    }
+    // a failed run is not repeated and has no times
+    for r in rows.iter().filter(|r| r[col("dataset")] == "broken") {
+        assert_eq!(
+            (r[col("status")].as_str(), r[col("repeats")].as_str(), r[col("time_norm")].as_str()),
+            ("failed", "", "")
+        );
+    }
+    // the per-iteration CSV's rows are those of every repeat (checked equal), times their medians
+    let (ih, irows) = read_csv(&out.join("runs/bumpy_1k__sd__cm.csv"));
+    assert_eq!(irows.len(), num(&rows[1], "iterations") as usize + 1);
+    assert!(ih.iter().any(|c| c == "t_iter_s"));
+    // --resume keeps every finished run, repeats, normalized times and all
+    let before = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let log = run(&["--resume"]);
+    assert_eq!(log.matches("resumed, ").count(), 4, "the failed runs too: {log}");
+    assert!(!log.contains("repeat 1/3"), "resumed runs are not repeated: {log}");
+    let again = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    assert_eq!(again, before);
+    // another repeat count is another measurement: nothing is resumed
+    let log = run(&["--resume", "--repeat", "2"]);
+    assert_eq!(log.matches("resumed, ").count(), 0, "{log}");
+    let (_, rows) = read_csv(&out.join("summary.csv"));
+    assert_eq!(rows[0][col("repeats")], "2");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--repeat", "0"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--repeat") && text(&o).contains("give 1 to 100"), "{}", text(&o));
+}
+
+#[test]
+fn a_repeat_of_a_timed_out_run_replays_its_iterations() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"t\"\ntimeout = \"0.001s\"\nrepeat = 2\ndatasets = [\"bumpy_5k\"]\nenergies = [\"sd\"]\nsolvers = [\"slim\"]\n",
+    );
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert_eq!(
+        [&rows[0][col("stop_reason")], &rows[0][col("status")], &rows[0][col("repeats")]],
+        ["timeout", "not_converged", "2"],
+        "{rows:?}"
+    );
+}
+
+#[test]
+fn shards_with_repeats_merge_with_every_shards_calibration() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"m\"\nrepeat = 2\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n",
+    );
+    let shards: Vec<PathBuf> = (1..=2)
+        .map(|i| {
+            let out = tmp.path().join(format!("s{i}"));
+            let args = ["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--shard", &format!("{i}/2")];
+            let o = mapbench(&args, tmp.path());
+            assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+            out
+        })
+        .collect();
+    let merged = tmp.path().join("merged");
+    let o = mapbench(
+        &["merge", shards[0].to_str().unwrap(), shards[1].to_str().unwrap(), "--out", merged.to_str().unwrap()],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (h, rows) = read_csv(&merged.join("summary.csv"));
+    let col = |name: &str| h.iter().position(|x| x == name).unwrap();
+    assert!(rows.iter().all(|r| r[col("repeats")] == "2" && !r[col("time_norm")].is_empty()), "{rows:?}");
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(merged.join("meta.json")).unwrap()).unwrap();
+    assert_eq!(meta["calibration"]["samples_s"].as_array().unwrap().len(), 6, "3 samples per shard: {meta}");
+    // shards of another repeat count are not one batch
+    let other = tmp.path().join("other");
+    let args = ["run", cfg.to_str().unwrap(), "--out", other.to_str().unwrap(), "--shard", "2/2", "--repeat", "1"];
+    assert_eq!(mapbench(&args, tmp.path()).status.code(), Some(0));
+    let o = mapbench(&["merge", shards[0].to_str().unwrap(), other.to_str().unwrap(), "--out", "x"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--repeat"), "{}", text(&o));
 }
 
 #[test]

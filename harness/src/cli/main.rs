@@ -48,6 +48,10 @@ enum Command {
         /// Give each shard its own --out and combine them with `merge`.
         #[arg(long)]
         shard: Option<Shard>,
+        /// Repeat every run N times, round-robin over the batch (overrides `repeat`);
+        /// `time_s` is the median, `time_s_min`/`time_s_max` the spread.
+        #[arg(long)]
+        repeat: Option<usize>,
     },
     /// Re-render the tables, plots and index.html of a run folder from its CSVs alone.
     Report { run_dir: PathBuf },
@@ -146,11 +150,15 @@ fn main() -> ExitCode {
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Run { config, out, only, resume, jobs, shard } => {
+        Command::Run { config, out, only, resume, jobs, shard, repeat } => {
             if jobs == Some(0) {
                 anyhow::bail!("--jobs must be at least 1");
             }
-            let plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
+            let mut plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
+            if let Some(r) = repeat {
+                mapbench::plan::config::check_repeat(r).context("--repeat")?;
+                plan.repeat = r;
+            }
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
             let interrupt = Arc::new(AtomicBool::new(false));
             let signal = signals::on_interrupt(interrupt.clone());

@@ -1,6 +1,7 @@
 //! `merge SHARD_DIR...`: combine the folders of `run --shard I/N` batches of one config into
 //! one run folder, as if the batch had run unsharded, and render its report.
 
+use crate::calibration::Calibration;
 use crate::run_folder::{
     iterations_csv, map_obj, meta_json, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary,
     SummaryRow,
@@ -31,9 +32,9 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
     let metas: Vec<Value> = shards.iter().map(|d| read_meta(d)).collect::<Result<_>>()?;
     let (config, plan) = (&metas[0]["config"], &metas[0]["plan"]);
     for (dir, m) in shards.iter().zip(&metas).skip(1) {
-        if &m["config"] != config || &m["plan"] != plan {
+        if &m["config"] != config || &m["plan"] != plan || m["repeat"] != metas[0]["repeat"] {
             bail!(
-                "{}: was run from a different config or --only than {} (merge shards of one batch)",
+                "{}: was run from a different config, --only or --repeat than {} (merge shards of one batch)",
                 dir.display(),
                 first.display()
             );
@@ -96,7 +97,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
                     "dir": d.display().to_string(), "shard": m["shard"], "host": m["host"],
                     "git_revision": m["git_revision"], "git_dirty": m["git_dirty"],
                     "started_unix": m["started_unix"], "ended_unix": m["ended_unix"],
-                    "interrupted": m["interrupted"],
+                    "interrupted": m["interrupted"], "calibration": m["calibration"],
                 })
             })
             .collect(),
@@ -107,6 +108,18 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
     meta["ended_unix"] =
         if ends.iter().all(Option::is_some) { ends.iter().flatten().max().copied().into() } else { Value::Null };
     meta["interrupted"] = metas.iter().any(|m| m["interrupted"] == Value::Bool(true)).into();
+    // Every shard's runs keep the time_norm of their own shard's calibration; the merged
+    // folder's calibration holds all the samples, so its spread shows how far the shards'
+    // machines (or moments) differed.
+    let mut calibration = Calibration::new();
+    for m in &metas {
+        if let Ok(c) = serde_json::from_value::<Calibration>(m["calibration"].clone()) {
+            calibration.samples_s.extend(c.samples_s);
+        }
+    }
+    meta["calibration"] = serde_json::to_value(&calibration)?;
+    meta["calibration_median_s"] = calibration.median_s().into();
+    meta["calibration_spread"] = calibration.spread().into();
     write_atomic(&meta_json(&out_dir), serde_json::to_string_pretty(&meta)?.as_bytes())?;
     crate::report::refresh(&out_dir, &rows)?;
     Ok(Merged { out_dir, runs: rows.len(), missing: missing.into_iter().map(|(_, s)| s).collect() })

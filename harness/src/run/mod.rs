@@ -8,16 +8,19 @@ pub mod resume;
 
 mod meshes;
 mod one;
+mod repeats;
 
 use crate::calibration::Calibration;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::meta::{code_id, Meta};
-use crate::run_folder::{summary_csv, write_run, RunFiles, Status, SummaryRow, SummaryWriter};
+use crate::run_folder::{sidecar, summary_csv, write_run, RunFiles, Status, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
 use meshes::MeshCache;
 use one::{run_one, RunContext, RunResult};
 use progress::Progress;
+use repeats::Repeats;
+use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{mpsc, Arc};
@@ -50,7 +53,21 @@ pub struct RunOptions {
     pub interrupt: Arc<AtomicBool>,
 }
 
-/// Run the plan's runs (those of `opts.shard`) into `out_dir`, then render its report.
+/// A run of the batch across its repeats: its first result, where it came from, and what
+/// its repeats measured. Its files are written once its last repeat is in.
+struct Slot {
+    first: RunResult,
+    resumed: bool,
+    key: Option<String>,
+    repeats: Option<Repeats>,
+}
+
+/// One finished work item of a round: the run's index in the batch and its result.
+type Done = (usize, usize, RunResult, bool, Option<String>);
+
+/// Run the plan's runs (those of `opts.shard`) into `out_dir`, then render its report. With
+/// `repeat = N` every run runs once, then every run again (round-robin), N times, with a
+/// calibration sample before the first round, between rounds and after the last.
 pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn Progress) -> Result<BatchReport> {
     for n in &plan.notices {
         progress.notice(n);
@@ -75,29 +92,226 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     let mut report =
         BatchReport { skipped_datasets: plan.notices.clone(), out_dir: out_dir.to_path_buf(), ..Default::default() };
     let code = code_id(&plan.config.dir);
-    let meshes = MeshCache::new(mine.iter().map(|r| r.dataset), plan.datasets.len());
-    let next = AtomicUsize::new(0);
     let total = mine.len();
-    progress.start(total, jobs);
-    let mut finished: Vec<(usize, SummaryRow)> = Vec::new();
-    let (tx, rx) = mpsc::channel::<(usize, usize, RunResult, bool, Option<String>)>();
-    let outcome: Result<()> = std::thread::scope(|scope| {
-        for worker in 0..jobs {
+    if plan.repeat > 1 {
+        progress.notice(&format!("{total} runs, each repeated {} times round-robin", plan.repeat));
+    }
+    progress.start(total * plan.repeat, jobs);
+    let mut slots: Vec<Option<Slot>> = (0..total).map(|_| None).collect();
+    // Each finished run, with the key of the sidecar this batch wrote for it.
+    let mut finished: Vec<(usize, SummaryRow, Option<String>)> = Vec::new();
+    let mut finish = |i: usize, worker: usize, slot: Slot, complete: bool, report: &mut BatchReport| -> Result<()> {
+        let Slot { mut first, resumed, key, repeats } = slot;
+        if let Some(r) = repeats {
+            r.apply(&mut first);
+        }
+        let p = mine[i];
+        // A run whose files cannot be written (a folder in the way, a name the OS refuses)
+        // fails alone, like any other failed run; without a sidecar `--resume` retries it.
+        // Neither has a run whose repeats were cut short by an interrupt.
+        let sidecar_key = key.as_deref().filter(|_| !resumed && complete);
+        let files = RunFiles {
+            stem: &p.stem,
+            summary: &first.summary,
+            rows: &first.rows,
+            map_obj: first.map_obj.as_deref(),
+            key: sidecar_key,
+        };
+        let written = write_run(out_dir, &files);
+        let wrote = sidecar_key.filter(|_| written.is_ok()).map(str::to_string);
+        if sidecar_key.is_none() && !resumed {
+            // A previous batch's sidecar must not vouch for these files.
+            let _ = std::fs::remove_file(sidecar::path(out_dir, &p.stem));
+        }
+        if let Err(e) = written {
+            let s = &first.summary;
+            first.summary = SummaryRow {
+                dataset: s.dataset.clone(),
+                task: s.task,
+                energy: s.energy.clone(),
+                solver: s.solver.clone(),
+                vertices: s.vertices,
+                faces: s.faces,
+                status: Status::Failed,
+                error: format!("{e:#}"),
+                ..Default::default()
+            };
+        }
+        let s = &first.summary;
+        let line = run_line(finished.len() + 1, total, s, resumed);
+        progress.run_finished(worker, &line);
+        match s.status {
+            Status::Ok => report.ok += 1,
+            Status::NotConverged => report.not_converged += 1,
+            Status::Failed => report.failed += 1,
+            Status::Skipped => report.skipped += 1,
+        }
+        report.runs += 1;
+        summary.append(s)?;
+        finished.push((i, first.summary, wrote));
+        Ok(())
+    };
+    for round in 0..plan.repeat {
+        if opts.interrupt.load(Ordering::Relaxed) {
+            break;
+        }
+        // Round 0 runs everything; later rounds the runs that ran and agree so far.
+        let todo: Vec<(usize, Option<usize>)> = if round == 0 {
+            (0..total).map(|i| (i, None)).collect()
+        } else {
+            calibrate(&mut calibration, threads, progress);
+            slots
+                .iter()
+                .enumerate()
+                .filter_map(|(i, s)| s.as_ref().filter(|s| s.repeats.is_some()).map(|s| (i, replay_to(&s.first))))
+                .collect()
+        };
+        if todo.is_empty() {
+            break;
+        }
+        let last = round + 1 == plan.repeat;
+        let outcome = run_round(plan, out_dir, &mine, &todo, opts, progress, jobs, threads, &code, round, |done| {
+            let (i, worker, result, resumed, key) = done;
+            if result.interrupted {
+                return Ok(());
+            }
+            match slots[i].take() {
+                None => {
+                    let repeats =
+                        (!resumed && plan.repeat > 1 && Repeats::wanted(&result)).then(|| Repeats::new(&result));
+                    let slot = Slot { first: result, resumed, key, repeats };
+                    if last || slot.repeats.is_none() {
+                        finish(i, worker, slot, true, &mut report)?;
+                    } else {
+                        let line = format!("  repeat 1/{} {}: {}", plan.repeat, mine[i].stem, seconds_of(&slot.first));
+                        progress.run_finished(worker, &line);
+                        slots[i] = Some(slot);
+                    }
+                }
+                Some(mut slot) => {
+                    if let Some(r) = slot.repeats.as_mut() {
+                        r.add(&slot.first, &result);
+                        if !last {
+                            let line = format!(
+                                "  repeat {}/{} {}: {}",
+                                round + 1,
+                                plan.repeat,
+                                mine[i].stem,
+                                seconds_of(&result)
+                            );
+                            progress.run_finished(worker, &line);
+                        }
+                    }
+                    if last {
+                        finish(i, worker, slot, true, &mut report)?;
+                    } else {
+                        slots[i] = Some(slot);
+                    }
+                }
+            }
+            Ok(())
+        });
+        outcome?;
+    }
+    // Runs whose repeats an interrupt cut short keep the repeats they have (no sidecar).
+    for (i, slot) in slots.iter_mut().enumerate() {
+        if let Some(slot) = slot.take() {
+            finish(i, 0, slot, false, &mut report)?;
+        }
+    }
+    progress.finish();
+    calibrate(&mut calibration, threads, progress);
+    let interrupted = opts.interrupt.load(Ordering::Relaxed);
+    report.interrupted = total - report.runs;
+    if interrupted {
+        progress.notice(&format!(
+            "interrupted: {} runs finished and written, {} not run (`--resume` runs them)",
+            report.runs, report.interrupted
+        ));
+    }
+    if calibration.unsteady() {
+        progress.notice(&format!(
+            "the calibration samples spread by {:.0}% (over {:.0}%): the machine changed speed during the batch",
+            100.0 * calibration.spread().unwrap_or(0.0),
+            100.0 * crate::calibration::SPREAD_WARNING
+        ));
+    }
+    // summary.csv in canonical order, whatever order the workers finished in, with the runs
+    // measured here normalized by this batch's calibration (a resumed run keeps its own).
+    finished.sort_by_key(|(i, _, _)| *i);
+    let mut rows: Vec<SummaryRow> = Vec::with_capacity(finished.len());
+    for (i, mut s, wrote) in finished {
+        if s.time_norm.is_none() {
+            s.time_norm = s.time_s.and_then(|t| calibration.normalize(t));
+            if let Some(key) = wrote {
+                sidecar::write(out_dir, &mine[i].stem, &key, &s)?;
+            }
+        }
+        rows.push(s);
+    }
+    crate::run_folder::write_summary(&summary_csv(out_dir), &rows)?;
+    progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
+    // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
+    // CPU) must not fan the plots out to every core of the node.
+    let report_threads = opts.jobs.unwrap_or(cores).max(1);
+    match rayon::ThreadPoolBuilder::new().num_threads(report_threads).build() {
+        Ok(pool) => pool.install(|| crate::report::refresh(out_dir, &rows))?,
+        Err(_) => crate::report::refresh(out_dir, &rows)?,
+    }
+    meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
+    Ok(report)
+}
+
+/// A repeat of a run that timed out replays its iterations: it stops (as a timeout) where
+/// the first one did, rather than at a deadline the machine's speed moves.
+fn replay_to(first: &RunResult) -> Option<usize> {
+    matches!(first.summary.stop_reason, Some(StopReason::Timeout)).then_some(first.summary.iterations).flatten()
+}
+
+fn seconds_of(r: &RunResult) -> String {
+    match r.summary.time_s {
+        Some(t) => format!("{t:.3} s"),
+        None => r.summary.status.to_string(),
+    }
+}
+
+/// One round: the runs `todo` (index into `mine`, and where a replay stops) on `jobs`
+/// workers; the calling thread hands each result to `done` as it arrives.
+#[allow(clippy::too_many_arguments)]
+fn run_round(
+    plan: &Plan,
+    out_dir: &Path,
+    mine: &[&PlannedRun],
+    todo: &[(usize, Option<usize>)],
+    opts: &RunOptions,
+    progress: &dyn Progress,
+    jobs: usize,
+    threads: usize,
+    code: &str,
+    round: usize,
+    mut done: impl FnMut(Done) -> Result<()>,
+) -> Result<()> {
+    let meshes = MeshCache::new(todo.iter().map(|(i, _)| mine[*i].dataset), plan.datasets.len());
+    let next = AtomicUsize::new(0);
+    let (tx, rx) = mpsc::channel::<Done>();
+    std::thread::scope(|scope| {
+        for worker in 0..jobs.min(todo.len()) {
             let tx = tx.clone();
-            let (mine, meshes, next, code) = (&mine, &meshes, &next, &code);
+            let (meshes, next) = (&meshes, &next);
             scope.spawn(move || {
                 let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
                 let work = || loop {
                     if opts.interrupt.load(Ordering::Relaxed) {
                         break;
                     }
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(p) = mine.get(i) else { break };
+                    let Some(&(i, stop_at)) = todo.get(next.fetch_add(1, Ordering::Relaxed)) else { break };
+                    let p = mine[i];
                     let ds = plan.dataset(p);
-                    progress.run_started(worker, &format!("{} {} {}", ds.name, p.energy, p.solver));
+                    let again = if round > 0 { format!(" (repeat {})", round + 1) } else { String::new() };
+                    progress.run_started(worker, &format!("{} {} {}{again}", ds.name, p.energy, p.solver));
                     // An unreadable mesh file has no key; its run fails below as usual.
                     let key = resume::run_key(plan, p, code).ok();
-                    let previous = match (&key, opts.resume) {
+                    let previous = match (&key, opts.resume && round == 0) {
                         (Some(k), true) => resume::previous(out_dir, &p.stem, k),
                         _ => None,
                     };
@@ -111,6 +325,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
                                 progress,
                                 worker,
                                 analyses: loaded.analyses.clone(),
+                                stop_at,
                             };
                             run_one(plan, p, loaded.mesh.as_ref(), &ctx)
                         }
@@ -128,75 +343,11 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         }
         drop(tx);
         // The calling thread writes every file as results arrive.
-        for (i, worker, mut result, resumed, key) in rx {
-            if result.interrupted {
-                continue;
-            }
-            let p = mine[i];
-            // A run whose files cannot be written (a folder in the way, a name the OS refuses)
-            // fails alone, like any other failed run; without a sidecar `--resume` retries it.
-            let sidecar_key = key.as_deref().filter(|_| !resumed);
-            let files = RunFiles {
-                stem: &p.stem,
-                summary: &result.summary,
-                rows: &result.rows,
-                map_obj: result.map_obj.as_deref(),
-                key: sidecar_key,
-            };
-            if let Err(e) = write_run(out_dir, &files) {
-                let s = &result.summary;
-                result.summary = SummaryRow {
-                    dataset: s.dataset.clone(),
-                    task: s.task,
-                    energy: s.energy.clone(),
-                    solver: s.solver.clone(),
-                    vertices: s.vertices,
-                    faces: s.faces,
-                    status: Status::Failed,
-                    error: format!("{e:#}"),
-                    ..Default::default()
-                };
-                result.rows.clear();
-            }
-            let s = &result.summary;
-            progress.run_finished(worker, &run_line(finished.len() + 1, total, s, resumed));
-            match s.status {
-                Status::Ok => report.ok += 1,
-                Status::NotConverged => report.not_converged += 1,
-                Status::Failed => report.failed += 1,
-                Status::Skipped => report.skipped += 1,
-            }
-            report.runs += 1;
-            summary.append(s)?;
-            finished.push((i, result.summary));
+        for d in rx {
+            done(d)?;
         }
         Ok(())
-    });
-    progress.finish();
-    outcome?;
-    calibrate(&mut calibration, threads, progress);
-    let interrupted = opts.interrupt.load(Ordering::Relaxed);
-    report.interrupted = total - report.runs;
-    if interrupted {
-        progress.notice(&format!(
-            "interrupted: {} runs finished and written, {} not run (`--resume` runs them)",
-            report.runs, report.interrupted
-        ));
-    }
-    // summary.csv in canonical order, whatever order the workers finished in.
-    finished.sort_by_key(|(i, _)| *i);
-    let rows: Vec<SummaryRow> = finished.into_iter().map(|(_, s)| s).collect();
-    crate::run_folder::write_summary(&summary_csv(out_dir), &rows)?;
-    progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
-    // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
-    // CPU) must not fan the plots out to every core of the node.
-    let report_threads = opts.jobs.unwrap_or(cores).max(1);
-    match rayon::ThreadPoolBuilder::new().num_threads(report_threads).build() {
-        Ok(pool) => pool.install(|| crate::report::refresh(out_dir, &rows))?,
-        Err(_) => crate::report::refresh(out_dir, &rows)?,
-    }
-    meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
-    Ok(report)
+    })
 }
 
 /// One more calibration sample, on a pool of the runs' thread count. A failed sample is a

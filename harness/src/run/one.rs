@@ -26,6 +26,9 @@ struct Rows<'a> {
     interrupt: &'a AtomicBool,
     progress: &'a dyn Progress,
     worker: usize,
+    /// Stop as a timeout after this iteration: a repeat of a run that timed out replays the
+    /// same iterations (a deadline would cut it elsewhere).
+    stop_at: Option<usize>,
 }
 
 impl Observer for Rows<'_> {
@@ -35,7 +38,7 @@ impl Observer for Rows<'_> {
         if self.interrupt.load(Ordering::Relaxed) {
             return Flow::Stop;
         }
-        if self.deadline.is_some_and(|d| Instant::now() >= d) {
+        if self.deadline.is_some_and(|d| Instant::now() >= d) || self.stop_at.is_some_and(|n| record.iter >= n) {
             return Flow::Timeout;
         }
         Flow::Continue
@@ -79,10 +82,11 @@ pub(super) fn run_one(
     summary.faces = Some(mesh.n_faces());
     let mut rows = Rows {
         rows: Vec::new(),
-        deadline: plan.timeout.map(|t| Instant::now() + t),
+        deadline: if ctx.stop_at.is_some() { None } else { plan.timeout.map(|t| Instant::now() + t) },
         interrupt: ctx.interrupt,
         progress: ctx.progress,
         worker: ctx.worker,
+        stop_at: ctx.stop_at,
     };
     let t0 = Instant::now();
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(plan, run, mesh, &ctx.analyses, &mut rows)));
@@ -111,10 +115,6 @@ pub(super) fn run_one(
         summary.folded = Some(m.folded);
     }
     let rows = rows.rows;
-    let per_iter = |f: fn(&IterationRecord) -> f64| {
-        let mut v: Vec<f64> = rows.iter().skip(1).map(|r| 1e3 * f(r)).collect();
-        median(&mut v)
-    };
     summary.iterations = Some(outcome.iterations);
     summary.converged = outcome.stop_reason.is_converged();
     summary.stop_reason = Some(outcome.stop_reason.clone());
@@ -129,10 +129,8 @@ pub(super) fn run_one(
     summary.analysis_s = outcome.analysis.map(|a| a.seconds);
     summary.analysis_shared = outcome.analysis.map(|a| a.reused);
     summary.time_s = Some(elapsed);
-    summary.ms_per_vertex = Some(1e3 * elapsed / mesh.n_vertices().max(1) as f64);
-    summary.iter_ms_median = per_iter(|r| r.t_iter_s);
-    summary.project_ms_median = per_iter(|r| r.t_project_s);
-    summary.solve_ms_median = per_iter(|r| r.t_solve_s);
+    (summary.repeats, summary.time_s_min, summary.time_s_max) = (Some(1), Some(elapsed), Some(elapsed));
+    fill_times(&mut summary, &rows);
     summary.flips = Some(outcome.flips);
     summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
@@ -145,6 +143,19 @@ pub(super) fn run_one(
     RunResult { summary, rows, map_obj, interrupted }
 }
 
+/// The statistics of a run's times: `ms_per_vertex` from `time_s`, and the medians over
+/// iterations (row 0 is the initial state) of the per-iteration times.
+pub(super) fn fill_times(summary: &mut SummaryRow, rows: &[IterationRecord]) {
+    let per_iter = |f: fn(&IterationRecord) -> f64| {
+        let mut v: Vec<f64> = rows.iter().skip(1).map(|r| 1e3 * f(r)).collect();
+        median(&mut v)
+    };
+    summary.ms_per_vertex = summary.time_s.zip(summary.vertices).map(|(t, n)| 1e3 * t / n.max(1) as f64);
+    summary.iter_ms_median = per_iter(|r| r.t_iter_s);
+    summary.project_ms_median = per_iter(|r| r.t_project_s);
+    summary.solve_ms_median = per_iter(|r| r.t_solve_s);
+}
+
 /// What a run needs from the batch around it.
 pub(super) struct RunContext<'a> {
     pub interrupt: &'a AtomicBool,
@@ -152,6 +163,8 @@ pub(super) struct RunContext<'a> {
     pub worker: usize,
     /// Symbolic analyses shared by the runs on this mesh.
     pub analyses: Arc<AnalysisCache>,
+    /// Stop after this iteration (with `stop_reason = timeout`) instead of at the deadline.
+    pub stop_at: Option<usize>,
 }
 
 /// One solve with the run's settings; `authalic` runs also return their area metrics.

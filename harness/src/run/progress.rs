@@ -8,7 +8,7 @@ use std::time::Duration;
 
 /// Receives the events of a batch from the runner's worker threads.
 pub trait Progress: Sync {
-    /// The batch will run `total` runs on `workers` threads.
+    /// The batch will run `total` solves (its runs times their repeats) on `workers` threads.
     fn start(&self, total: usize, workers: usize);
     /// Worker `worker` starts run `label`.
     fn run_started(&self, worker: usize, label: &str);
@@ -36,7 +36,7 @@ pub struct Lines;
 
 impl Progress for Lines {
     fn start(&self, total: usize, workers: usize) {
-        eprintln!("{total} runs on {workers} worker(s)");
+        eprintln!("{total} solves on {workers} worker(s)");
     }
     fn run_started(&self, _: usize, _: &str) {}
     fn iteration(&self, _: usize, _: usize, _: f64) {}
@@ -68,8 +68,9 @@ impl Bars {
 
 impl Progress for Bars {
     fn start(&self, total: usize, workers: usize) {
-        let style = ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} runs  {elapsed_precise} (ETA {eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar());
+        let style =
+            ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} solves  {elapsed_precise} (ETA {eta})")
+                .unwrap_or_else(|_| ProgressStyle::default_bar());
         let bar = self.multi.add(ProgressBar::new(total as u64).with_style(style));
         *self.overall.lock().unwrap_or_else(|e| e.into_inner()) = Some(bar);
         let line =

@@ -36,11 +36,12 @@ impl Fnv {
 
 /// The key of one run (hex): `code` identifies the code (version and git revision), then
 /// the run's resolved settings (task, energy parameters, stop, line search, linear, init,
-/// smoothness, deform or authalic settings), the timeout, the solver, and the mesh and
+/// smoothness, deform or authalic settings), the timeout and repeat count, the solver, and the mesh and
 /// handles it runs on (files by content).
 pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
     let ds = plan.dataset(run);
-    let settings = format!("{} timeout={:?}", run.settings.key_text(), plan.timeout);
+    // The repeat count too: a median over another number of repeats is another measurement.
+    let settings = format!("{} timeout={:?} repeat={}", run.settings.key_text(), plan.timeout, plan.repeat);
     let (energy, solver) = (&run.energy, &run.solver);
     let mut h = Fnv::new();
     h.bytes(code.as_bytes()).bytes(settings.to_string().as_bytes()).bytes(energy.as_bytes()).bytes(solver.as_bytes());

@@ -1,0 +1,197 @@
+//! Repeats of one run (`repeat = N`): every repeat must reproduce the first one's iterates
+//! bit for bit (anything else is non-determinism, and fails the run); the run's times are
+//! the median over repeats with their min and max, and each timing column of the
+//! per-iteration CSV is the median of that row over repeats.
+
+use super::one::{fill_times, RunResult};
+use crate::run_folder::Status;
+use crate::stats::median;
+use solvers::solver::IterationRecord;
+
+/// The timing columns of one row: assemble, project, solve, line search, iteration, cumulative.
+type Timings = [f64; 6];
+
+fn timings(r: &IterationRecord) -> Timings {
+    [r.t_assemble_s, r.t_project_s, r.t_solve_s, r.t_linesearch_s, r.t_iter_s, r.t_cum_s]
+}
+
+/// What the repeats of one run measured so far.
+#[derive(Debug)]
+pub(super) struct Repeats {
+    /// `time_s` of each repeat, the first one's first.
+    times: Vec<f64>,
+    /// Each repeat's timing columns, row by row.
+    rows: Vec<Vec<Timings>>,
+    /// Why a repeat did not reproduce the first (the run then fails with this message).
+    mismatch: Option<String>,
+}
+
+impl Repeats {
+    /// Start from the run's first result.
+    pub fn new(first: &RunResult) -> Repeats {
+        Repeats {
+            times: first.summary.time_s.into_iter().collect(),
+            rows: vec![first.rows.iter().map(timings).collect()],
+            mismatch: None,
+        }
+    }
+
+    /// How many repeats were measured (the first included).
+    #[cfg(test)]
+    pub fn count(&self) -> usize {
+        self.times.len()
+    }
+
+    /// A run may be repeated: it ran (converged or not), and its repeats agreed so far.
+    pub fn wanted(first: &RunResult) -> bool {
+        matches!(first.summary.status, Status::Ok | Status::NotConverged) && first.summary.time_s.is_some()
+    }
+
+    /// Add repeat `again` of the run whose first result is `first`; a repeat whose iterates
+    /// differ records the first differing iteration.
+    pub fn add(&mut self, first: &RunResult, again: &RunResult) {
+        if self.mismatch.is_some() {
+            return;
+        }
+        let n = self.times.len() + 1;
+        if again.summary.status == Status::Failed {
+            self.mismatch = Some(format!("repeat {n} failed where repeat 1 ran: {}", again.summary.error));
+            return;
+        }
+        if let Some(what) = first_difference(&first.rows, &again.rows) {
+            self.mismatch =
+                Some(format!("repeat {n} does not reproduce repeat 1 ({what}): the solver is not deterministic"));
+            return;
+        }
+        if let Some(t) = again.summary.time_s {
+            self.times.push(t);
+            self.rows.push(again.rows.iter().map(timings).collect());
+        }
+    }
+
+    /// Write the repeats into the first result: `time_s` the median with its min and max,
+    /// the timing columns per-row medians, the per-row statistics recomputed from them. A
+    /// mismatch fails the run with its message.
+    pub fn apply(self, result: &mut RunResult) {
+        let s = &mut result.summary;
+        if let Some(m) = self.mismatch {
+            s.status = Status::Failed;
+            s.converged = false;
+            s.error = if s.error.is_empty() { m } else { format!("{m}; {}", s.error) };
+            return;
+        }
+        let mut times = self.times.clone();
+        s.repeats = Some(times.len());
+        s.time_s = median(&mut times);
+        s.time_s_min = times.first().copied();
+        s.time_s_max = times.last().copied();
+        for (i, row) in result.rows.iter_mut().enumerate() {
+            let column =
+                |c: usize| median(&mut self.rows.iter().filter_map(|r| r.get(i).map(|t| t[c])).collect::<Vec<_>>());
+            let m: Vec<f64> = (0..6).map(|c| column(c).unwrap_or(f64::NAN)).collect();
+            [row.t_assemble_s, row.t_project_s, row.t_solve_s, row.t_linesearch_s, row.t_iter_s, row.t_cum_s] =
+                [m[0], m[1], m[2], m[3], m[4], m[5]];
+        }
+        fill_times(s, &result.rows);
+    }
+}
+
+/// The first row where two runs' iterates differ (energy or gradient norm, bit for bit, or
+/// the number of rows), described; `None` when they agree.
+fn first_difference(a: &[IterationRecord], b: &[IterationRecord]) -> Option<String> {
+    for (x, y) in a.iter().zip(b) {
+        if x.energy.to_bits() != y.energy.to_bits() || x.grad_norm.to_bits() != y.grad_norm.to_bits() {
+            return Some(format!(
+                "first difference at iteration {}: energy {:e} vs {:e}, |grad| {:e} vs {:e}",
+                x.iter, x.energy, y.energy, x.grad_norm, y.grad_norm
+            ));
+        }
+    }
+    (a.len() != b.len()).then(|| {
+        format!(
+            "{} iterations vs {}, first difference at iteration {}",
+            a.len().saturating_sub(1),
+            b.len().saturating_sub(1),
+            a.len().min(b.len())
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run_folder::SummaryRow;
+
+    fn result(energies: &[f64], time: f64, t_iter: f64) -> RunResult {
+        let rows = energies
+            .iter()
+            .enumerate()
+            .map(|(i, &e)| IterationRecord {
+                iter: i,
+                energy: e,
+                t_iter_s: t_iter,
+                t_cum_s: t_iter * i as f64,
+                ..Default::default()
+            })
+            .collect();
+        let summary = SummaryRow {
+            status: Status::Ok,
+            iterations: Some(energies.len() - 1),
+            vertices: Some(10),
+            time_s: Some(time),
+            ..Default::default()
+        };
+        RunResult { summary, rows, map_obj: None, interrupted: false }
+    }
+
+    #[test]
+    fn the_median_min_and_max_are_over_repeats_and_timings_are_per_row_medians() {
+        let mut first = result(&[3.0, 2.0, 1.0], 0.30, 0.1);
+        let mut r = Repeats::new(&first);
+        r.add(&first, &result(&[3.0, 2.0, 1.0], 0.10, 0.3));
+        r.add(&first, &result(&[3.0, 2.0, 1.0], 0.20, 0.2));
+        assert_eq!(r.count(), 3);
+        r.apply(&mut first);
+        let s = &first.summary;
+        assert_eq!((s.repeats, s.time_s, s.time_s_min, s.time_s_max), (Some(3), Some(0.20), Some(0.10), Some(0.30)));
+        assert_eq!(first.rows[1].t_iter_s, 0.2);
+        assert_eq!(first.rows[2].t_cum_s, 0.4);
+        assert_eq!(s.iter_ms_median, Some(200.0));
+        assert!((s.ms_per_vertex.unwrap() - 20.0).abs() < 1e-12);
+        assert_eq!(s.status, Status::Ok);
+    }
+
+    #[test]
+    fn a_repeat_that_differs_fails_the_run_with_the_first_differing_iteration() {
+        let mut first = result(&[3.0, 2.0, 1.0], 0.3, 0.1);
+        let mut r = Repeats::new(&first);
+        r.add(&first, &result(&[3.0, 2.0, 1.0], 0.3, 0.1));
+        r.add(&first, &result(&[3.0, 2.0, 1.0 + 1e-15], 0.3, 0.1));
+        r.apply(&mut first);
+        assert_eq!(first.summary.status, Status::Failed);
+        let e = &first.summary.error;
+        assert!(e.contains("repeat 3 does not reproduce repeat 1") && e.contains("iteration 2"), "{e}");
+
+        let mut first = result(&[3.0, 2.0, 1.0], 0.3, 0.1);
+        let mut r = Repeats::new(&first);
+        r.add(&first, &result(&[3.0, 2.0], 0.3, 0.1));
+        r.apply(&mut first);
+        assert!(
+            first.summary.error.contains("2 iterations vs 1, first difference at iteration 2"),
+            "{}",
+            first.summary.error
+        );
+    }
+
+    #[test]
+    fn only_runs_that_ran_are_repeated() {
+        let mut failed = result(&[1.0], 0.1, 0.1);
+        failed.summary.status = Status::Failed;
+        assert!(!Repeats::wanted(&failed));
+        failed.summary.status = Status::Skipped;
+        assert!(!Repeats::wanted(&failed));
+        let mut nc = result(&[1.0], 0.1, 0.1);
+        nc.summary.status = Status::NotConverged;
+        assert!(Repeats::wanted(&nc));
+    }
+}
