@@ -39,13 +39,16 @@ impl Calibration {
         }
     }
 
-    /// Time the workload once more and keep the sample. The first sample is preceded by an
-    /// untimed run (page faults, allocator, caches), which would otherwise make it the slowest.
-    pub fn sample(&mut self) -> anyhow::Result<f64> {
+    /// Time the workload once more and keep the sample: `copies` copies at once (the batch's
+    /// `--jobs`, so that the workload meets the load its runs meet), each on a rayon pool of
+    /// `threads` (the runs' `threads_per_run`); the sample is their median. The first sample
+    /// is preceded by an untimed round (page faults, allocator, caches), which would
+    /// otherwise make it the slowest.
+    pub fn sample(&mut self, copies: usize, threads: usize) -> anyhow::Result<f64> {
         if self.samples_s.is_empty() {
-            time_workload()?;
+            concurrently(copies, threads)?;
         }
-        let s = time_workload()?;
+        let s = concurrently(copies, threads)?;
         self.samples_s.push(s);
         Ok(s)
     }
@@ -72,6 +75,23 @@ impl Calibration {
     pub fn normalize(&self, time_s: f64) -> Option<f64> {
         self.median_s().filter(|m| *m > 0.0).map(|m| time_s / m)
     }
+}
+
+/// The median time of `copies` copies of the workload run at once.
+fn concurrently(copies: usize, threads: usize) -> anyhow::Result<f64> {
+    let times: Vec<anyhow::Result<f64>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..copies.max(1))
+            .map(|_| {
+                scope.spawn(move || match rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build() {
+                    Ok(pool) => pool.install(time_workload),
+                    Err(_) => time_workload(),
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap_or_else(|_| Err(anyhow::anyhow!("calibration panicked")))).collect()
+    });
+    let mut times = times.into_iter().collect::<anyhow::Result<Vec<f64>>>()?;
+    median(&mut times).ok_or_else(|| anyhow::anyhow!("no calibration copy ran"))
 }
 
 /// One timing of the reference workload, on the calling thread's rayon pool.
@@ -114,7 +134,7 @@ mod tests {
     #[test]
     fn the_workload_runs_its_iterations() {
         let mut c = Calibration::new();
-        let t = c.sample().unwrap();
+        let t = c.sample(2, 1).unwrap();
         assert!(t > 0.0 && c.samples_s == vec![t]);
     }
 }

@@ -86,7 +86,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     let threads = plan.threads_per_run.unwrap_or_else(|| (opts.jobs.unwrap_or(cores) / mine.len().max(1)).max(1));
     let meta = Meta { plan, shard: opts.shard, resume: opts.resume, jobs, threads, started: SystemTime::now() };
     let mut calibration = Calibration::new();
-    calibrate(&mut calibration, threads, progress);
+    calibrate(&mut calibration, jobs, threads, progress);
     meta.write(out_dir, None, false, &calibration)?;
     let mut summary = SummaryWriter::create(&summary_csv(out_dir))?;
     let mut report =
@@ -159,7 +159,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         let todo: Vec<(usize, Option<usize>)> = if round == 0 {
             (0..total).map(|i| (i, None)).collect()
         } else {
-            calibrate(&mut calibration, threads, progress);
+            calibrate(&mut calibration, jobs, threads, progress);
             slots
                 .iter()
                 .enumerate()
@@ -220,7 +220,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         }
     }
     progress.finish();
-    calibrate(&mut calibration, threads, progress);
+    calibrate(&mut calibration, jobs, threads, progress);
     let interrupted = opts.interrupt.load(Ordering::Relaxed);
     report.interrupted = total - report.runs;
     if interrupted {
@@ -350,14 +350,11 @@ fn run_round(
     })
 }
 
-/// One more calibration sample, on a pool of the runs' thread count. A failed sample is a
-/// notice, never the end of the batch: the runs' own times do not depend on it.
-fn calibrate(calibration: &mut Calibration, threads: usize, progress: &dyn Progress) {
-    let sample = match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
-        Ok(pool) => pool.install(|| calibration.sample()),
-        Err(_) => calibration.sample(),
-    };
-    if let Err(e) = sample {
+/// One more calibration sample, `jobs` copies at once on pools of the runs' thread count. A
+/// failed sample is a notice, never the end of the batch: the runs' own times do not depend
+/// on it.
+fn calibrate(calibration: &mut Calibration, jobs: usize, threads: usize, progress: &dyn Progress) {
+    if let Err(e) = calibration.sample(jobs, threads) {
         progress.notice(&format!("calibration sample failed (time_norm left empty if none succeeds): {e:#}"));
     }
 }
