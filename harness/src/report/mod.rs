@@ -52,7 +52,7 @@ pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
 /// all on disk. Files whose content would not change are left alone.
 pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     let mut groups: BTreeMap<(&str, &str), Group> = BTreeMap::new();
-    for s in summary.iter().filter(|s| !failed(s)) {
+    for s in summary.iter().filter(|s| finished(s)) {
         let stem = run_stem(&s.dataset, &s.energy, &s.solver);
         let rows = read_run(run_dir, s)?.rows;
         groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows));
@@ -83,6 +83,17 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
 /// The run failed: no iterations to show, left out of means and curves.
 fn failed(r: &SummaryRow) -> bool {
     r.status == Status::Failed
+}
+
+/// The pair was not run (outside the solver's declared energies): no files, left out of
+/// means, aggregates, profiles and curves, and never ranked.
+fn skipped(r: &SummaryRow) -> bool {
+    r.status == Status::Skipped
+}
+
+/// The run ran to a stop (converged or not): it has iterations, curves and a map to show.
+fn finished(r: &SummaryRow) -> bool {
+    matches!(r.status, Status::Ok | Status::NotConverged)
 }
 
 /// The run converged (other finished runs are marked `*` or drawn dashed).

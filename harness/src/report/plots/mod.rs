@@ -14,7 +14,7 @@ pub(crate) mod tests;
 
 pub use scaling::SCALING_MIN_SIZES;
 
-use crate::report::failed;
+use crate::report::finished;
 use crate::run_folder::SummaryRow;
 use anyhow::Result;
 use rayon::prelude::*;
@@ -70,7 +70,7 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
     let per_group = |&group: &(&str, &str)| -> Result<Vec<Plot>> {
         let (dataset, energy) = group;
         let runs: Vec<&SummaryRow> =
-            summaries.iter().filter(|s| s.dataset == dataset && s.energy == energy && !failed(s)).collect();
+            summaries.iter().filter(|s| s.dataset == dataset && s.energy == energy && finished(s)).collect();
         if runs.is_empty() {
             return Ok(Vec::new());
         }

@@ -7,7 +7,7 @@ use super::chart::{
 };
 use super::curves::Curve;
 use super::{Plot, PlotKind, ALL_DATASETS};
-use crate::report::{converged, failed, is_authalic};
+use crate::report::{converged, finished, is_authalic};
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;
@@ -29,7 +29,7 @@ pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: 
     for energy in energies {
         let runs: Vec<&SummaryRow> = summaries
             .iter()
-            .filter(|s| s.energy == energy && !failed(s) && !is_authalic(s) && s.vertices.is_some())
+            .filter(|s| s.energy == energy && finished(s) && !is_authalic(s) && s.vertices.is_some())
             .collect();
         let mut sizes: Vec<usize> = runs.iter().filter_map(|r| r.vertices).collect();
         sizes.sort_unstable();

@@ -1,17 +1,23 @@
 //! Area-preserving (authalic) disk maps.
 
+use super::ranking::{self, comparable_at_budget, lowest, Timed};
 use super::Table;
 use crate::plan::Task;
-use crate::report::{failed, is_authalic};
+use crate::report::{finished, is_authalic};
 use crate::run_folder::SummaryRow;
 use solvers::solver::catalogue;
 
 /// The AEM paper's Table 1 shape: per mesh, for each solver the SD of the area ratios, the
 /// normalized authalic energy, the time and the number of folded triangles. `None` when no
 /// authalic run finished.
+///
+/// Bold: the lowest area ratio SD and E_A of the row. The solvers run a fixed iteration
+/// budget, as in the paper, so the comparable runs ([`comparable_at_budget`]) are those that
+/// converged or used the whole budget; a run that stopped early, failed or was skipped is
+/// never bold.
 pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
     let done: Vec<&SummaryRow> =
-        rows.iter().filter(|r| is_authalic(r) && !failed(r) && r.authalic_energy.is_some()).collect();
+        rows.iter().filter(|r| is_authalic(r) && finished(r) && r.authalic_energy.is_some()).collect();
     // The catalogue's authalic solvers, in its order, with its labels.
     let present: Vec<(&str, &str)> = catalogue::SOLVERS
         .iter()
@@ -35,12 +41,15 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
     let (mut out, mut bold) = (Vec::new(), Vec::new());
     for (i, d) in datasets.into_iter().enumerate() {
         let runs: Vec<&&SummaryRow> = done.iter().filter(|r| r.dataset == d).collect();
-        // Bold the lowest area ratio SD and E_A of the row.
+        // Bold the lowest area ratio SD and E_A of the row among the comparable runs.
         for (k, f) in [|r: &SummaryRow| r.area_ratio_sd, |r: &SummaryRow| r.authalic_energy].iter().enumerate() {
-            let vals: Vec<Option<f64>> =
-                present.iter().map(|(s, _)| runs.iter().find(|r| r.solver == *s).and_then(|r| f(r))).collect();
-            let best = vals.iter().flatten().copied().fold(f64::INFINITY, f64::min);
-            bold.extend((0..vals.len()).filter(|&j| vals[j] == Some(best)).map(|j| (i, 3 + 4 * j + k)));
+            let vals: Vec<Option<f64>> = present
+                .iter()
+                .map(|(s, _)| {
+                    runs.iter().find(|r| r.solver == *s).filter(|r| comparable_at_budget(r)).and_then(|r| f(r))
+                })
+                .collect();
+            bold.extend(lowest(&vals, ranking::equal).into_iter().map(|j| (i, 3 + 4 * j + k)));
         }
         let count = |f: fn(&SummaryRow) -> Option<usize>| runs.first().and_then(|r| f(r)).map(|v| v.to_string());
         let mut row =
@@ -50,7 +59,7 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
                 Some(r) => row.extend([
                     sci(r.area_ratio_sd),
                     sci(r.authalic_energy),
-                    r.time_s.map(|t| format!("{t:.2}")).unwrap_or_default(),
+                    Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default(),
                     r.folded.map(|f| f.to_string()).unwrap_or_default(),
                 ]),
                 None => row.extend(std::iter::repeat_n(String::new(), 4)),
@@ -68,8 +77,11 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
         rows: out,
         caption: format!(
             "Iterations: {iters}. Area ratio SD = population standard deviation of r = (|f(t)|/A(f)) / (|t|/|S|) \
-             over faces; E_A = normalized authalic energy (Eq. 4); time = whole run including the initial map; \
-             folds = faces with non-positive image area; bold = lowest of the row."
+             over faces; E_A = normalized authalic energy (Eq. 4); time = whole run including the initial map \
+             (the median over repeats, min–max in parentheses); folds = faces with non-positive image area. \
+             Bold = lowest of the row among the runs that converged or ran the whole iteration budget (the \
+             paper's fixed-budget comparison); a run that stopped early (line search, non-finite values, \
+             energy increase, timeout), failed or was skipped is never bold."
         ),
         bold,
     })
@@ -81,6 +93,7 @@ mod tests {
     use crate::plan::Task;
     use crate::report::tables::tests::row;
     use crate::run_folder::Status;
+    use solvers::solver::StopReason;
 
     #[test]
     fn authalic_table_has_the_shape_of_table_1() {
@@ -94,6 +107,7 @@ mod tests {
             iterations: Some(100),
             time_s: Some(1.234),
             status: Status::NotConverged,
+            stop_reason: Some(StopReason::MaxIterations),
             area_ratio_sd: Some(sd),
             authalic_energy: Some(e),
             folded: Some(0),
@@ -115,5 +129,16 @@ mod tests {
         assert_eq!(t.bold, [(0, 7), (0, 8), (1, 7), (1, 8)], "AEM-CG has the lower SD and E_A");
         assert!(t.caption.starts_with("Iterations: 100."));
         assert!(authalic_table(&[row("a", "kp-newton", 1.0, 1.0)]).is_none());
+        assert!(t.caption.contains("never bold"), "{}", t.caption);
+        // An AEM-CG run that stopped early (energy increase) is not comparable with one that
+        // ran the budget, however low its SD: SEM is bold on "face" now.
+        let mut early = rows.clone();
+        early[1].stop_reason = Some(StopReason::EnergyIncreased);
+        early[1].iterations = Some(7);
+        assert_eq!(authalic_table(&early).unwrap().bold, [(0, 3), (0, 4), (1, 7), (1, 8)]);
+        // Repeats show their spread.
+        early[0].repeats = Some(3);
+        (early[0].time_s_min, early[0].time_s_max) = (Some(1.2), Some(1.3));
+        assert_eq!(authalic_table(&early).unwrap().rows[0][5], "1.23 (1.20–1.30)");
     }
 }

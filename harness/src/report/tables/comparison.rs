@@ -1,30 +1,38 @@
 //! Solver comparisons over a task's runs: the mean iterations and time per solver and energy
 //! (`param`, `deform`) and the per-mesh iterations, time and final energy.
 
+use super::ranking::{self, comparable, equal, fastest, lowest, Timed};
 use super::Table;
 use crate::plan::Task;
-use crate::report::{converged, failed, is_param_or_deform};
+use crate::report::{converged, failed, finished, is_param_or_deform, skipped};
 use crate::run_folder::SummaryRow;
 
 /// How a solver x energy table averages its runs.
 struct MeanSpec {
     task: Task,
     title: &'static str,
-    /// The time of one run in the table's unit.
+    /// The time of one run in the table's unit (proportional to `time_s`).
     time: fn(&SummaryRow) -> Option<f64>,
     time_label: &'static str,
     time_digits: usize,
 }
 
+/// Marks a cell whose runs solved some Newton systems with more than the base Tikhonov shift.
+const SHIFTED: &str = "§";
+
 /// The complex-view paper's Table 4 (`param`: iterations / ms per vertex) and Table 6
 /// (`deform`: iterations / seconds) shape: per solver (rows) and energy (columns), the mean
 /// number of iterations and the mean time over the datasets, `it/t`, including runs that did
-/// not converge (marked `*`, their iterations count as run); failed runs are left out and
-/// counted in the caption. The lowest mean time of each energy is bold. `None` when no run of
-/// the task finished.
+/// not converge (marked `*`, their iterations count as run); failed runs and skipped pairs are
+/// left out and counted in the caption (a solver skipped for an energy says `skipped`).
+///
+/// Bold ([`ranking`]): per energy, the fastest solver among those that converged on every
+/// dataset of the energy (any failed, unconverged or missing run there takes a solver out:
+/// its mean would be over other runs), with time ties on overlapping min–max intervals (the
+/// means of the runs' min and max). `None` when no run of the task finished.
 fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
     let all: Vec<&SummaryRow> = rows.iter().filter(|r| r.task == spec.task).collect();
-    let done: Vec<&SummaryRow> = all.iter().copied().filter(|r| !failed(r)).collect();
+    let done: Vec<&SummaryRow> = all.iter().copied().filter(|r| finished(r)).collect();
     if done.is_empty() {
         return None;
     }
@@ -38,50 +46,81 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
             solvers.push(&r.solver);
         }
     }
+    // The datasets each energy was run on (some solver's run there was not skipped).
+    let datasets_of = |e: &str| {
+        let mut d: Vec<&str> =
+            all.iter().filter(|r| r.energy == e && !skipped(r)).map(|r| r.dataset.as_str()).collect();
+        d.sort_unstable();
+        d.dedup();
+        d
+    };
     let mut columns = vec!["it/t".to_string()];
     columns.extend(energies.iter().map(|e| e.to_string()));
-    let mut out = Vec::new();
-    let mut times: Vec<Vec<Option<f64>>> = Vec::new();
+    // Per solver and energy: the cell's text without marks of the ranking, and its time when
+    // the solver competes.
+    let mut texts: Vec<Vec<String>> = Vec::new();
+    let mut times: Vec<Vec<Option<Timed>>> = Vec::new();
     for s in &solvers {
-        let mut row = vec![s.to_string()];
-        let mut trow = Vec::new();
+        let (mut trow, mut crow) = (Vec::new(), Vec::new());
         for e in &energies {
-            let cell: Vec<&&SummaryRow> = done.iter().filter(|r| r.solver == *s && r.energy == *e).collect();
+            let of = |r: &&&SummaryRow| r.solver == *s && r.energy == *e;
+            let cell: Vec<&&SummaryRow> = done.iter().filter(of).collect();
             if cell.is_empty() {
-                row.push(String::new());
-                trow.push(None);
+                let all_skipped = all.iter().filter(of).count() > 0 && all.iter().filter(of).all(|r| skipped(r));
+                trow.push(if all_skipped { "skipped".to_string() } else { String::new() });
+                crow.push(None);
                 continue;
             }
             let n = cell.len() as f64;
             let it = cell.iter().filter_map(|r| r.iterations).sum::<usize>() as f64 / n;
-            let t = cell.iter().filter_map(|r| (spec.time)(r)).sum::<f64>() / n;
+            let parts: Vec<Timed> = cell.iter().filter_map(|r| (spec.time)(r).map(|t| Timed::of(r, t))).collect();
+            let t = if parts.len() == cell.len() { Timed::mean(&parts) } else { None };
             let mark = if cell.iter().any(|r| !converged(r)) { "*" } else { "" };
-            row.push(format!("{it:.1}/{t:.prec$}{mark}", prec = spec.time_digits));
-            trow.push(Some(t));
+            let shifted = if cell.iter().any(|r| r.shifted_iters.unwrap_or(0) > 0) { SHIFTED } else { "" };
+            let time = t.map(|t| t.format(spec.time_digits)).unwrap_or_default();
+            trow.push(format!("{it:.1}/{time}{mark}{shifted}"));
+            // Competes: converged on every dataset the energy was run on.
+            let sets = datasets_of(e);
+            let mut solved: Vec<&str> = cell.iter().filter(|r| comparable(r)).map(|r| r.dataset.as_str()).collect();
+            solved.sort_unstable();
+            solved.dedup();
+            let all_converged = solved == sets && cell.iter().all(|r| comparable(r));
+            crow.push(t.filter(|_| all_converged));
         }
-        out.push(row);
-        times.push(trow);
+        texts.push(trow);
+        times.push(crow);
     }
-    let bold = (0..energies.len())
-        .filter_map(|j| {
-            let best =
-                (0..solvers.len()).filter_map(|i| times[i][j].map(|t| (i, t))).min_by(|a, b| a.1.total_cmp(&b.1));
-            best.map(|(i, _)| (i, j + 1))
-        })
-        .collect();
+    let mut bold = Vec::new();
+    let mut single = false;
+    for j in 0..energies.len() {
+        let marks = fastest(&times.iter().map(|t| t[j]).collect::<Vec<_>>());
+        single |= marks.single_sample && !marks.best.is_empty();
+        for &i in &marks.best {
+            bold.push((i, j + 1));
+            texts[i][j] = marks.label(i, std::mem::take(&mut texts[i][j]));
+        }
+    }
+    bold.sort_unstable();
+    let out = solvers.iter().zip(texts).map(|(s, t)| std::iter::once(s.to_string()).chain(t).collect()).collect();
     let sets: std::collections::BTreeSet<&str> = done.iter().map(|r| r.dataset.as_str()).collect();
-    let failed = all.len() - done.len();
+    let failed = all.iter().filter(|r| failed(r)).count();
+    let skipped = all.iter().filter(|r| skipped(r)).count();
     Some(Table {
         title: spec.title.into(),
         columns,
         rows: out,
         caption: format!(
             "Mean iterations / mean {} over {} datasets ({}), including runs that did not converge (* = at \
-             least one, its iterations count as run); {failed} failed runs left out. Bold: the fastest solver \
-             per energy.",
+             least one, its iterations count as run); {failed} failed and {skipped} skipped runs (solver not defined \
+             for the energy) left out; \
+             {SHIFTED} = some run solved Newton systems with a Tikhonov shift above the base (shifted_iters > 0). \
+             {} Bold: the fastest solver per energy among those that converged on every dataset of the energy \
+             (a solver with a failed, unconverged or missing run there is never bold). {}",
             spec.time_label,
             sets.len(),
-            sets.into_iter().collect::<Vec<_>>().join(", ")
+            sets.into_iter().collect::<Vec<_>>().join(", "),
+            ranking::CONVERGED_RULE,
+            ranking::time_rule(single),
         ),
         bold,
     })
@@ -117,9 +156,11 @@ pub fn deform_table(rows: &[SummaryRow]) -> Option<Table> {
 
 /// The composite-majorization paper's Table 1 shape: one row per mesh and energy, for each
 /// solver its iterations, run time and final energy. Runs that hit `max_iters` (or stopped
-/// without converging) are marked `*`, failed runs say `failed`. Bold: per row, the fewest
-/// iterations, the shortest time and the lowest energy. `None` without `param` or `deform`
-/// runs.
+/// without converging) are marked `*`, failed runs say `failed`, skipped pairs `skipped`;
+/// iterations that needed a Tikhonov shift above the base are counted (`(k shifted)`).
+/// Bold ([`ranking`], converged runs only): per row, the fewest iterations, the shortest time
+/// (ties on overlapping min–max intervals) and the lowest energy (ties at the 5 printed
+/// decimals). `None` without `param` or `deform` runs.
 pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
     let runs: Vec<&SummaryRow> = rows.iter().filter(|r| is_param_or_deform(r)).collect();
     if runs.is_empty() {
@@ -140,6 +181,7 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
         columns.extend([format!("{s} iter"), format!("{s} time [s]"), format!("{s} energy")]);
     }
     let (mut out, mut bold) = (Vec::new(), Vec::new());
+    let mut single = false;
     for (i, (d, e)) in groups.iter().enumerate() {
         let of = |s: &str| runs.iter().find(|r| r.dataset == *d && r.energy == *e && r.solver == s);
         let first = runs.iter().find(|r| r.dataset == *d && r.vertices.is_some());
@@ -155,50 +197,60 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
                 .map(|t| format!("{t:.3}"))
                 .unwrap_or_default(),
         ];
-        // (iterations, time, energy) of each finished solver, for the bold marks
-        let mut values: Vec<Option<(f64, f64, f64)>> = Vec::new();
+        // The converged runs' iterations, times and energies compete for the bold marks.
+        let (mut iters, mut times, mut energies) = (Vec::new(), Vec::new(), Vec::new());
         for s in &solvers {
-            match of(s) {
-                Some(r) if failed(r) => {
-                    row.extend(["failed".to_string(), String::new(), String::new()]);
-                    values.push(None);
+            let r = of(s).copied();
+            match r {
+                Some(r) if failed(r) || skipped(r) => {
+                    row.extend([r.status.as_str().to_string(), String::new(), String::new()]);
                 }
                 Some(r) => {
                     let mark = if converged(r) { "" } else { "*" };
-                    row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
-                    row.push(r.time_s.map(|t| format!("{t:.2}")).unwrap_or_default());
+                    let shifted = match r.shifted_iters {
+                        Some(k) if k > 0 => format!(" ({k} shifted)"),
+                        _ => String::new(),
+                    };
+                    row.push(r.iterations.map(|i| format!("{i}{mark}{shifted}")).unwrap_or_default());
+                    row.push(Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default());
                     row.push(r.final_energy.map(|x| format!("{x:.5}")).unwrap_or_default());
-                    values.push(r.iterations.zip(r.time_s).zip(r.final_energy).map(|((i, t), x)| (i as f64, t, x)));
                 }
-                None => {
-                    row.extend(std::iter::repeat_n(String::new(), 3));
-                    values.push(None);
-                }
+                None => row.extend(std::iter::repeat_n(String::new(), 3)),
             }
+            let ranked = r.filter(|r| comparable(r));
+            iters.push(ranked.and_then(|r| r.iterations).map(|i| i as f64));
+            times.push(ranked.and_then(Timed::time_s));
+            energies.push(ranked.and_then(|r| r.final_energy));
         }
-        for k in 0..3 {
-            let pick = |v: &(f64, f64, f64)| [v.0, v.1, v.2][k];
-            let best = values.iter().flatten().map(pick).fold(f64::INFINITY, f64::min);
-            // Energies tie at the printed precision: bold every solver that reaches the best.
-            let ties = |x: f64| if k == 2 { format!("{x:.5}") == format!("{best:.5}") } else { x == best };
-            for (j, v) in values.iter().enumerate() {
-                if v.as_ref().is_some_and(|v| ties(pick(v))) {
-                    bold.push((i, 5 + 3 * j + k));
-                }
-            }
+        let column = |j: usize, k: usize| 5 + 3 * j + k;
+        bold.extend(lowest(&iters, equal).into_iter().map(|j| (i, column(j, 0))));
+        let marks = fastest(&times);
+        single |= marks.single_sample && !marks.best.is_empty();
+        for &j in &marks.best {
+            bold.push((i, column(j, 1)));
+            row[column(j, 1)] = marks.label(j, std::mem::take(&mut row[column(j, 1)]));
         }
+        // Energies tie at the printed precision.
+        let printed = |a: f64, b: f64| format!("{a:.5}") == format!("{b:.5}");
+        bold.extend(lowest(&energies, printed).into_iter().map(|j| (i, column(j, 2))));
         out.push(row);
     }
+    bold.sort_unstable();
     Some(Table {
         title: "Per mesh: iterations, time and final energy per solver (composite-majorization paper, Table 1)".into(),
         columns,
         rows: out,
-        caption: "analysis = the symbolic analysis of the Newton system (ordering + symbolic Cholesky), done \
-                  once per mesh and shared by its runs; time = whole run including the initial map, without \
-                  the analysis; energy = final energy (normalized by area); \
-                  * = did not converge (hit max_iters or another stop rule); bold = best of the row (fewest \
-                  iterations, shortest time, lowest energy to 5 decimals)."
-            .into(),
+        caption: format!(
+            "analysis = the symbolic analysis of the Newton system (ordering + symbolic Cholesky), done \
+             once per mesh and shared by its runs; time = whole run including the initial map, without \
+             the analysis (the median over repeats); energy = final energy (normalized by area); \
+             * = did not converge (hit max_iters or another stop rule); (k shifted) = k iterations solved \
+             their Newton system with a Tikhonov shift above the base (regularized Newton); skipped = the \
+             solver is not defined for the energy (not run). {} Bold = best of the row: fewest iterations, \
+             shortest time, lowest energy to 5 decimals. {}",
+            ranking::CONVERGED_RULE,
+            ranking::time_rule(single)
+        ),
         bold,
     })
 }
@@ -207,6 +259,7 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
 mod tests {
     use super::*;
     use crate::report::tables::tests::row;
+    use crate::run_folder::Status;
 
     #[test]
     fn deform_table_averages_over_shapes() {
@@ -229,13 +282,16 @@ mod tests {
         ];
         let t = deform_table(&rows).unwrap();
         assert_eq!(t.columns, ["it/t", "sd", "bconf"]);
-        assert_eq!(t.rows[0], ["kp-newton", "25.0/0.600", "10.0/0.100"]);
+        // Single samples: the bold time says so.
+        assert_eq!(t.rows[0], ["kp-newton", "25.0/0.600†", "10.0/0.100"]);
         assert_eq!(t.rows[1], ["akvf", "100.0/2.000*", ""]);
         assert!(t.caption.contains("2 datasets (a, b)") && t.caption.contains("1 failed"), "{}", t.caption);
-        // the fastest solver of each energy is bold
-        assert_eq!(t.bold, [(0, 1), (0, 2)]);
-        assert!(t.to_markdown().contains("| kp-newton | **25.0/0.600** | **10.0/0.100** |"));
-        assert!(t.to_html().contains("<td><b>25.0/0.600</b></td>"));
+        assert!(t.caption.contains("† single sample"), "{}", t.caption);
+        // sd: kp-newton converged on both shapes. bconf: no solver converged on both (akvf
+        // failed on b, kp-newton has no run there), so nothing is bold.
+        assert_eq!(t.bold, [(0, 1)]);
+        assert!(t.to_markdown().contains("| kp-newton | **25.0/0.600†** | 10.0/0.100 |"));
+        assert!(t.to_html().contains("<td><b>25.0/0.600†</b></td>"));
         assert!(deform_table(&[row("a", "kp-newton", 1.0, 1.0)]).is_none());
         assert!(param_table(&rows).is_none());
     }
@@ -259,9 +315,93 @@ mod tests {
             p("a", "slim", 300, 0.1, "not_converged"),
         ];
         let t = param_table(&rows).unwrap();
-        assert_eq!(t.rows, [["kp-newton", "15.0/0.300"], ["slim", "300.0/0.100*"]]);
-        assert_eq!(t.bold, [(1, 1)]);
+        // slim is faster but did not converge: kp-newton is the best.
+        assert_eq!(t.rows, [["kp-newton", "15.0/0.300†"], ["slim", "300.0/0.100*"]]);
+        assert_eq!(t.bold, [(0, 1)]);
         assert!(t.title.contains("Table 4"));
+    }
+
+    /// A param run of `solver` on `d` (sd) with 5 repeats spread +-`spread` around `t`.
+    fn timed(d: &str, s: &str, it: usize, t: f64, spread: f64, status: Status) -> SummaryRow {
+        SummaryRow {
+            dataset: d.into(),
+            task: Task::Param,
+            energy: "sd".into(),
+            solver: s.into(),
+            vertices: Some(1000),
+            iterations: Some(it),
+            time_s: Some(t),
+            ms_per_vertex: Some(t),
+            time_s_min: Some(t - spread),
+            time_s_max: Some(t + spread),
+            repeats: Some(5),
+            final_energy: Some(2.0),
+            status,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn mean_tables_never_bold_failed_newton_and_tie_on_overlap() {
+        // The issue's case: newton fails its factorization at once in every run (0
+        // iterations, the shortest time), cm and kp converge with overlapping spreads.
+        let mut rows = vec![
+            timed("a", "newton", 0, 0.01, 0.001, Status::NotConverged),
+            timed("b", "newton", 0, 0.01, 0.001, Status::NotConverged),
+            timed("a", "cm", 10, 1.0, 0.1, Status::Ok),
+            timed("b", "cm", 10, 1.0, 0.1, Status::Ok),
+            timed("a", "kp-newton", 12, 1.15, 0.1, Status::Ok),
+            timed("b", "kp-newton", 12, 1.15, 0.1, Status::Ok),
+            timed("a", "slim", 300, 3.0, 0.1, Status::Ok),
+            timed("b", "slim", 300, 3.0, 0.1, Status::Ok),
+        ];
+        rows.push(SummaryRow {
+            status: Status::Skipped,
+            error: "not defined".into(),
+            ..timed("a", "akvf", 0, 0.0, 0.0, Status::Skipped)
+        });
+        rows[2].shifted_iters = Some(3);
+        let t = param_table(&rows).unwrap();
+        let solvers: Vec<&str> = t.rows.iter().map(|r| r[0].as_str()).collect();
+        assert_eq!(solvers, ["newton", "cm", "kp-newton", "slim", "akvf"]);
+        // cm [0.9, 1.1] and kp-newton [1.05, 1.25] overlap: both bold; slim does not.
+        assert_eq!(t.bold, [(1, 1), (2, 1)]);
+        assert_eq!(t.rows[1][1], "10.0/1.000 (0.900–1.100)§", "spread, shifted mark, no single-sample mark");
+        assert_eq!(t.rows[0][1], "0.0/0.010 (0.009–0.011)*");
+        assert_eq!(t.rows[4][1], "skipped");
+        assert!(t.caption.contains("0 failed and 1 skipped runs") && !t.caption.contains('†'), "{}", t.caption);
+        // Disjoint spreads: only the fastest.
+        for r in rows.iter_mut().filter(|r| r.solver == "kp-newton") {
+            (r.time_s_min, r.time_s_max) = (Some(1.11), Some(1.2));
+        }
+        assert_eq!(param_table(&rows).unwrap().bold, [(1, 1)]);
+        // A solver that converged on one dataset only does not compete with its mean of one.
+        rows[3].status = Status::NotConverged;
+        assert_eq!(param_table(&rows).unwrap().bold, [(2, 1)]);
+    }
+
+    #[test]
+    fn per_mesh_table_ranks_converged_runs_only() {
+        let mut rows = vec![
+            timed("cow", "newton", 0, 0.01, 0.0, Status::NotConverged),
+            timed("cow", "cm", 30, 1.0, 0.1, Status::Ok),
+            timed("cow", "kp-newton", 30, 1.05, 0.1, Status::Ok),
+            SummaryRow {
+                error: "slim is not defined for nh".into(),
+                ..timed("cow", "slim", 0, 0.0, 0.0, Status::Skipped)
+            },
+        ];
+        rows[0].final_energy = Some(1.0);
+        rows[1].shifted_iters = Some(2);
+        rows[2].final_energy = Some(2.000001);
+        let t = per_mesh_table(&rows).unwrap();
+        assert_eq!(t.rows[0][5..8], ["0*", "0.01 (0.01–0.01)", "1.00000"]);
+        assert_eq!(t.rows[0][8..11], ["30 (2 shifted)", "1.00 (0.90–1.10)", "2.00000"]);
+        assert_eq!(t.rows[0][14..], ["skipped", "", ""]);
+        // newton: fewest iterations, shortest time and lowest energy, and never bold; cm and
+        // kp tie on iterations, on time (overlap) and on energy (5 decimals).
+        assert_eq!(t.bold, [(0, 8), (0, 9), (0, 10), (0, 11), (0, 12), (0, 13)]);
+        assert!(t.caption.contains("never best") && t.caption.contains("(k shifted)"), "{}", t.caption);
     }
 
     #[test]
@@ -296,13 +436,12 @@ mod tests {
         assert_eq!(
             t.rows[0],
             [
-                "cow", "sd", "4540", "8626", "0.031", "33", "0.60", "2.08413", "41", "0.98", "2.08413", "394*", "0.50",
-                "2.08417", "failed", "", ""
+                "cow", "sd", "4540", "8626", "0.031", "33", "0.60†", "2.08413", "41", "0.98", "2.08413", "394*",
+                "0.50", "2.08417", "failed", "", ""
             ]
         );
-        // fewest iterations (cm), shortest time (slim), lowest energy at 5 decimals (cm and kp tie)
-        let mut b = t.bold.clone();
-        b.sort();
-        assert_eq!(b, [(0, 5), (0, 7), (0, 10), (0, 12)]);
+        // fewest iterations and shortest time of the converged runs (cm: slim is faster but did
+        // not converge), lowest energy at 5 decimals (cm and kp tie)
+        assert_eq!(t.bold, [(0, 5), (0, 6), (0, 7), (0, 10)]);
     }
 }

@@ -4,6 +4,7 @@
 mod authalic;
 mod comparison;
 mod projection;
+pub mod ranking;
 mod scaling;
 
 pub use authalic::authalic_table;
@@ -23,7 +24,8 @@ pub struct Table {
     pub rows: Vec<Vec<String>>,
     /// A sentence under the table saying what the numbers are.
     pub caption: String,
-    /// Cells `(row, column)` shown in bold: the best value among the solvers compared.
+    /// Cells `(row, column)` shown in bold: the best value among the solvers compared, by the
+    /// rule of [`ranking`].
     pub bold: Vec<(usize, usize)>,
 }
 

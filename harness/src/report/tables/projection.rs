@@ -2,7 +2,7 @@
 //! with the smoothness term.
 
 use super::Table;
-use crate::report::failed;
+use crate::report::finished;
 use crate::run_folder::SummaryRow;
 use solvers::solver::catalogue;
 
@@ -17,7 +17,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
     let present: Vec<(&str, &str)> = PROJECTIONS
         .iter()
         .copied()
-        .filter(|s| rows.iter().any(|r| r.solver == *s && !failed(r)))
+        .filter(|s| rows.iter().any(|r| r.solver == *s && finished(r)))
         .map(|s| (s, catalogue::find(s).map_or(s, |e| e.label)))
         .collect();
     if present.is_empty() {
@@ -39,7 +39,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
     for (d, e) in groups {
         let runs: Vec<&SummaryRow> = rows
             .iter()
-            .filter(|r| r.dataset == d && r.energy == e && !failed(r) && r.iterations.unwrap_or(0) > 0)
+            .filter(|r| r.dataset == d && r.energy == e && finished(r) && r.iterations.unwrap_or(0) > 0)
             .collect();
         let of = |s: &str| runs.iter().find(|r| r.solver == s).copied();
         // The solve costs the same for every strategy (same pattern): report the median over them.
@@ -76,7 +76,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
 /// edge projection (`kp-newton`) and the numeric one (`kp-newton-eig8`). `None` unless a
 /// `kp-newton-eig8` run finished.
 pub fn smoothness_table(rows: &[SummaryRow]) -> Option<Table> {
-    let ok = |r: &&SummaryRow| !failed(r) && r.iterations.unwrap_or(0) > 0;
+    let ok = |r: &&SummaryRow| finished(r) && r.iterations.unwrap_or(0) > 0;
     if !rows.iter().filter(ok).any(|r| r.solver == "kp-newton-eig8") {
         return None;
     }

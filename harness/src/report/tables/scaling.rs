@@ -1,15 +1,17 @@
 //! Iterations and time against the mesh size.
 
+use super::ranking::Timed;
 use super::Table;
-use crate::report::{converged, failed, is_param_or_deform};
+use crate::report::{converged, finished, is_param_or_deform};
 use crate::run_folder::SummaryRow;
 
 /// The composite-majorization paper's Figure 6 as a table: per energy, the datasets sorted by
-/// size, and for each solver its iterations, median time per iteration and run time. `None`
-/// unless some energy has runs on at least three mesh sizes (`param` or `deform`).
+/// size, and for each solver its iterations, median time per iteration and run time (with
+/// its min–max over the repeats). It ranks nothing (no bold). `None` unless some energy has
+/// runs on at least three mesh sizes (`param` or `deform`); failed and skipped runs are left out.
 pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
     let runs: Vec<&SummaryRow> =
-        rows.iter().filter(|r| is_param_or_deform(r) && !failed(r) && r.vertices.is_some()).collect();
+        rows.iter().filter(|r| is_param_or_deform(r) && finished(r) && r.vertices.is_some()).collect();
     let mut energies: Vec<&str> = Vec::new();
     let mut solvers: Vec<&str> = Vec::new();
     for r in &runs {
@@ -50,7 +52,7 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
                         let mark = if converged(r) { "" } else { "*" };
                         row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
                         row.push(r.iter_ms_median.map(|t| format!("{t:.1}")).unwrap_or_default());
-                        row.push(r.time_s.map(|t| format!("{t:.2}")).unwrap_or_default());
+                        row.push(Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default());
                     }
                     None => row.extend(std::iter::repeat_n(String::new(), 3)),
                 }
@@ -62,8 +64,9 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
         title: "Iterations and time vs mesh size (composite-majorization paper, Figure 6)".into(),
         columns,
         rows: out,
-        caption: "Datasets sorted by vertices; ms/iter = median wall time of one iteration; time = whole run; \
-                  * = did not converge. Plotted in plots/scaling__<energy>__*.png."
+        caption: "Datasets sorted by vertices; ms/iter = median wall time of one iteration; time = whole run \
+                  (the median over repeats, min–max in parentheses); * = did not converge; failed runs and \
+                  skipped pairs are left out (empty cells). Plotted in plots/scaling__<energy>__*.png."
             .into(),
         bold: Vec::new(),
     })

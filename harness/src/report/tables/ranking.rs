@@ -1,0 +1,298 @@
+//! The one rule by which every table marks a value as best (bold), so that a mark is a claim
+//! the data supports (issue 18, "Rankings that respect convergence and noise"):
+//!
+//! - Only runs that reached the table's common stopping criterion compete: converged runs
+//!   (`status = ok`, [`comparable`]). A failed, not converged or skipped run is never best.
+//!   Fixed-budget tables (authalic, where every solver runs its `max_iters` as in the AEM
+//!   paper) also admit runs that used the whole budget ([`comparable_at_budget`]).
+//! - Counts and energies are deterministic: the lowest value is best, equal values tie.
+//! - Times are noisy: the fastest (lowest median) is best, and every competitor whose
+//!   `[time_s_min, time_s_max]` interval (over the repeats) overlaps the fastest's ties with
+//!   it. With one sample per run there is no interval; the marks then carry
+//!   [`SINGLE_SAMPLE`] and the caption says so ([`time_rule`]).
+
+use crate::run_folder::{Status, SummaryRow};
+use solvers::solver::StopReason;
+
+/// Appended to a bold time made from single samples (repeat = 1).
+pub const SINGLE_SAMPLE: &str = "†";
+
+/// The run may be ranked: it converged.
+pub fn comparable(r: &SummaryRow) -> bool {
+    r.status == Status::Ok
+}
+
+/// The run may be ranked in a fixed-budget comparison: it converged, or it ran the whole
+/// iteration budget (`stop_reason = max_iters`). Runs that stopped early for another reason
+/// (line search, non-finite values, energy increase, timeout, interruption), failed or were
+/// skipped never compete.
+pub fn comparable_at_budget(r: &SummaryRow) -> bool {
+    comparable(r) || (r.status == Status::NotConverged && r.stop_reason == Some(StopReason::MaxIterations))
+}
+
+/// A time (or a time-derived value such as ms per vertex) with its spread over the repeats.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timed {
+    /// The median over repeats (or a mean of medians).
+    pub value: f64,
+    pub lo: f64,
+    pub hi: f64,
+    /// Repeats behind the value (the fewest of the runs it is made of); 1 = a single
+    /// measurement, no spread; 0 = not a measurement (a cap, a constant).
+    pub samples: usize,
+}
+
+impl Timed {
+    /// `value`, a quantity proportional to `r.time_s` (time_s itself, ms per vertex,
+    /// time_norm), with the run's min–max spread scaled alike. A run without a recorded
+    /// spread counts as a single sample.
+    pub fn of(r: &SummaryRow, value: f64) -> Timed {
+        let single = Timed { value, lo: value, hi: value, samples: 1 };
+        let (Some(t), Some(min), Some(max)) = (r.time_s, r.time_s_min, r.time_s_max) else { return single };
+        let repeats = r.repeats.unwrap_or(1);
+        // A spread is trusted when it comes from repeats and brackets the median.
+        let spread = repeats > 1 && t > 0.0 && min <= t && t <= max;
+        if !spread {
+            return single;
+        }
+        let k = value / t;
+        Timed { value, lo: min * k, hi: max * k, samples: repeats }
+    }
+
+    /// The run's `time_s` with its spread.
+    pub fn time_s(r: &SummaryRow) -> Option<Timed> {
+        r.time_s.map(|t| Timed::of(r, t))
+    }
+
+    /// A value that is not a measurement (a cap, a constant): no spread, and it does not make
+    /// a combination with measured times single-sample.
+    pub fn exact(value: f64) -> Timed {
+        Timed { value, lo: value, hi: value, samples: 0 }
+    }
+
+    /// The mean of several times: each bound is the mean of the bounds (the mean of values
+    /// that each lie in their interval lies in this one).
+    pub fn mean(items: &[Timed]) -> Option<Timed> {
+        Timed::combine(items, |v| v.iter().sum::<f64>() / v.len() as f64)
+    }
+
+    /// `f` applied to the values, the lower and the upper bounds separately; `f` must be
+    /// non-decreasing in every argument (a mean, a shifted geometric mean) for the result's
+    /// bounds to bracket its value.
+    pub fn combine(items: &[Timed], f: impl Fn(&[f64]) -> f64) -> Option<Timed> {
+        if items.is_empty() {
+            return None;
+        }
+        let pick = |g: fn(&Timed) -> f64| f(&items.iter().map(g).collect::<Vec<_>>());
+        Some(Timed {
+            value: pick(|t| t.value),
+            lo: pick(|t| t.lo),
+            hi: pick(|t| t.hi),
+            // The fewest repeats of the measured parts (caps and constants have none).
+            samples: items.iter().map(|t| t.samples).filter(|s| *s > 0).min().unwrap_or(0),
+        })
+    }
+
+    /// No spread to show or to rank by: a single measurement, or no measurement at all.
+    pub fn single_sample(&self) -> bool {
+        self.samples <= 1
+    }
+
+    /// The two intervals share a point.
+    pub fn overlaps(&self, other: &Timed) -> bool {
+        self.lo <= other.hi && other.lo <= self.hi
+    }
+
+    /// `0.600` for a single sample, `0.600 (0.580–0.630)` with a spread.
+    pub fn format(&self, digits: usize) -> String {
+        if self.single_sample() {
+            format!("{:.digits$}", self.value)
+        } else {
+            format!("{:.digits$} ({:.digits$}–{:.digits$})", self.value, self.lo, self.hi)
+        }
+    }
+}
+
+/// The indices of the lowest of the competing `values` (`None` = does not compete; non-finite
+/// values never do), every value `same` as the lowest included.
+pub fn lowest(values: &[Option<f64>], same: impl Fn(f64, f64) -> bool) -> Vec<usize> {
+    let competing = || values.iter().enumerate().filter_map(|(i, v)| v.filter(|v| v.is_finite()).map(|v| (i, v)));
+    let Some(best) = competing().map(|(_, v)| v).min_by(f64::total_cmp) else { return Vec::new() };
+    competing().filter(|&(_, v)| v == best || same(v, best)).map(|(i, _)| i).collect()
+}
+
+/// Exact equality: the tie rule of deterministic counts.
+pub fn equal(a: f64, b: f64) -> bool {
+    a == b
+}
+
+/// What [`fastest`] marks.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TimeMarks {
+    /// The fastest and every competitor tied with it.
+    pub best: Vec<usize>,
+    /// Some competitor's time is a single sample: the marks carry [`SINGLE_SAMPLE`].
+    pub single_sample: bool,
+}
+
+impl TimeMarks {
+    pub fn contains(&self, i: usize) -> bool {
+        self.best.contains(&i)
+    }
+
+    /// `text` with the single-sample mark when competitor `i` is marked best.
+    pub fn label(&self, i: usize, text: String) -> String {
+        if self.single_sample && self.contains(i) {
+            text + SINGLE_SAMPLE
+        } else {
+            text
+        }
+    }
+}
+
+/// The fastest of the competing `times` (`None` = does not compete; non-finite never does)
+/// and every competitor whose min–max interval overlaps the fastest's.
+pub fn fastest(times: &[Option<Timed>]) -> TimeMarks {
+    let competing = || times.iter().enumerate().filter_map(|(i, t)| t.filter(|t| t.value.is_finite()).map(|t| (i, t)));
+    let Some((_, best)) = competing().min_by(|a, b| a.1.value.total_cmp(&b.1.value)) else {
+        return TimeMarks::default();
+    };
+    TimeMarks {
+        best: competing().filter(|(_, t)| t.overlaps(&best)).map(|(i, _)| i).collect(),
+        single_sample: competing().any(|(_, t)| t.single_sample()),
+    }
+}
+
+/// The caption sentence of a time ranking: the tie rule, and the single-sample label when
+/// `single` (some compared time has no spread).
+pub fn time_rule(single: bool) -> String {
+    let mut s = "Times tie when their min–max intervals over the repeats overlap the fastest's (all tied \
+                 solvers are bold); times in parentheses are the min–max over the repeats."
+        .to_string();
+    if single {
+        s += &format!(
+            " {SINGLE_SAMPLE} single sample (repeat = 1): the times have no spread, so only equal times tie and \
+             differences within the machine's noise are not resolved."
+        );
+    }
+    s
+}
+
+/// The caption sentence of the convergence rule.
+pub const CONVERGED_RULE: &str =
+    "Bold considers converged runs only (status ok): a failed, not converged or skipped run is never best.";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(status: Status, t: f64, spread: Option<(f64, f64, usize)>) -> SummaryRow {
+        SummaryRow {
+            status,
+            time_s: Some(t),
+            time_s_min: spread.map(|s| s.0).or(Some(t)),
+            time_s_max: spread.map(|s| s.1).or(Some(t)),
+            repeats: spread.map(|s| s.2),
+            ..Default::default()
+        }
+    }
+
+    /// What a table does: competitors are the comparable runs' times.
+    fn marks(rows: &[SummaryRow]) -> TimeMarks {
+        let times: Vec<Option<Timed>> =
+            rows.iter().map(|r| comparable(r).then(|| Timed::time_s(r)).flatten()).collect();
+        fastest(&times)
+    }
+
+    #[test]
+    fn a_failed_unconverged_or_skipped_solver_is_never_best() {
+        // The failed, unconverged and skipped runs are the fastest, and still not marked.
+        let rows = [
+            run(Status::Failed, 0.001, None),
+            run(Status::NotConverged, 0.01, Some((0.009, 0.011, 5))),
+            run(Status::Skipped, 0.0, None),
+            run(Status::Ok, 1.0, Some((0.9, 1.1, 5))),
+        ];
+        assert_eq!(marks(&rows).best, [3]);
+        // Iteration counts likewise: 0 iterations of a failed Newton are not the fewest.
+        let iters = [Some(0.0), None, Some(12.0)];
+        assert_eq!(lowest(&iters[1..], equal), [1]);
+        let counts: Vec<Option<f64>> =
+            rows.iter().zip([0.0, 3.0, 0.0, 12.0]).map(|(r, c)| comparable(r).then_some(c)).collect();
+        assert_eq!(lowest(&counts, equal), [3]);
+        // Nothing comparable: nothing is bold.
+        assert_eq!(marks(&rows[..3]), TimeMarks::default());
+        assert!(lowest(&[None, Some(f64::NAN)], equal).is_empty());
+    }
+
+    #[test]
+    fn overlapping_intervals_tie_and_disjoint_ones_do_not() {
+        let a = run(Status::Ok, 1.00, Some((0.95, 1.10, 5)));
+        let b = run(Status::Ok, 1.10, Some((1.08, 1.20, 5)));
+        let c = run(Status::Ok, 1.30, Some((1.25, 1.40, 5)));
+        // b's interval overlaps a's (1.08 <= 1.10): both bold; c's does not.
+        let m = marks(&[c.clone(), a.clone(), b.clone()]);
+        assert_eq!(m.best, [1, 2]);
+        assert!(!m.single_sample);
+        assert_eq!(m.label(1, "1.00".into()), "1.00", "no single-sample mark with repeats");
+        // Disjoint: only the fastest.
+        let b_far = run(Status::Ok, 1.2, Some((1.11, 1.3, 5)));
+        assert_eq!(marks(&[a.clone(), b_far]).best, [0]);
+        // Touching intervals share a point: a tie.
+        let b_touch = run(Status::Ok, 1.2, Some((1.10, 1.3, 5)));
+        assert_eq!(marks(&[a, b_touch]).best, [0, 1]);
+    }
+
+    #[test]
+    fn single_samples_tie_only_when_equal_and_say_so() {
+        let a = run(Status::Ok, 1.00, None);
+        let b = run(Status::Ok, 1.01, None);
+        let m = marks(&[a.clone(), b]);
+        assert_eq!(m.best, [0]);
+        assert!(m.single_sample);
+        assert_eq!(m.label(0, "1.00".into()), "1.00†");
+        assert_eq!(m.label(1, "1.01".into()), "1.01", "only bold cells carry the mark");
+        assert_eq!(marks(&[a.clone(), a.clone()]).best, [0, 1]);
+        // repeats = 1 with min = max = time_s, and a row without the columns: single samples.
+        let one = SummaryRow { repeats: Some(1), ..run(Status::Ok, 2.0, Some((2.0, 2.0, 1))) };
+        assert!(Timed::time_s(&one).unwrap().single_sample());
+        let old = SummaryRow { status: Status::Ok, time_s: Some(2.0), ..Default::default() };
+        assert_eq!(Timed::time_s(&old), Some(Timed { value: 2.0, lo: 2.0, hi: 2.0, samples: 1 }));
+        assert!(time_rule(true).contains("† single sample"));
+        assert!(!time_rule(false).contains('†'));
+    }
+
+    #[test]
+    fn spreads_scale_with_derived_units_and_average() {
+        let r = run(Status::Ok, 2.0, Some((1.0, 4.0, 3)));
+        // ms per vertex of a 1000-vertex mesh: 2 ms, spread 1–4 ms.
+        let t = Timed::of(&r, 2.0);
+        assert_eq!((t.lo, t.hi, t.samples), (1.0, 4.0, 3));
+        let half = Timed::of(&r, 1.0);
+        assert!((half.lo - 0.5).abs() < 1e-12 && (half.hi - 2.0).abs() < 1e-12);
+        assert_eq!(t.format(2), "2.00 (1.00–4.00)");
+        assert_eq!(Timed::exact(2.0).format(2), "2.00");
+        let m = Timed::mean(&[t, Timed::exact(4.0)]).unwrap();
+        assert!((m.value - 3.0).abs() < 1e-12 && (m.lo - 2.5).abs() < 1e-12 && (m.hi - 4.0).abs() < 1e-12);
+        assert_eq!(m.samples, 3, "a cap is not a measurement: the measured part's repeats count");
+        let m = Timed::mean(&[t, Timed::of(&run(Status::Ok, 4.0, None), 4.0)]).unwrap();
+        assert!(m.single_sample(), "a mean with a single-sample part is single-sample");
+        assert!(Timed::mean(&[Timed::exact(1.0)]).unwrap().single_sample());
+        assert_eq!(Timed::mean(&[]), None);
+        // A spread that does not contain the median is not trusted.
+        let bad = run(Status::Ok, 2.0, Some((2.5, 3.0, 3)));
+        assert!(Timed::time_s(&bad).unwrap().single_sample());
+    }
+
+    #[test]
+    fn fixed_budget_tables_admit_runs_that_used_the_whole_budget() {
+        let r = |status, stop| SummaryRow { status, stop_reason: stop, ..Default::default() };
+        assert!(comparable_at_budget(&r(Status::Ok, Some(StopReason::GradientTolerance))));
+        assert!(comparable_at_budget(&r(Status::NotConverged, Some(StopReason::MaxIterations))));
+        assert!(!comparable_at_budget(&r(Status::NotConverged, Some(StopReason::NonFinite("energy".into())))));
+        assert!(!comparable_at_budget(&r(Status::NotConverged, Some(StopReason::Timeout))));
+        assert!(!comparable_at_budget(&r(Status::Failed, None)));
+        assert!(!comparable_at_budget(&r(Status::Skipped, None)));
+        assert!(!comparable(&r(Status::NotConverged, Some(StopReason::MaxIterations))));
+    }
+}
