@@ -3,6 +3,8 @@
 //! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
 //! CSVs alone.
 
+pub mod batch;
+pub mod corpus;
 pub mod html;
 pub mod plots;
 pub mod tables;
@@ -11,6 +13,7 @@ use crate::plan::Task;
 use crate::run_folder::read_run;
 use crate::run_folder::{iteration_csv, run_stem, write_atomic, Status, SummaryRow};
 use anyhow::Result;
+use batch::Batch;
 use std::collections::BTreeMap;
 use std::path::Path;
 use tables::Table;
@@ -18,7 +21,8 @@ use tables::Table;
 /// Re-derive everything from `summary` rows and the per-iteration CSVs in `run_dir`.
 pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     fill_best(run_dir, summary)?;
-    let tables = tables(summary);
+    let batch = Batch::read(run_dir);
+    let tables = tables(summary, &batch);
     for (stem, table) in &tables {
         table.write(&run_dir.join("tables"), stem)?;
     }
@@ -32,18 +36,22 @@ type TableFn = fn(&[SummaryRow]) -> Option<Table>;
 /// The per-iteration rows of each run of a (dataset, energy) group, by run stem.
 type Group = Vec<(String, Vec<solvers::solver::IterationRecord>)>;
 
-/// Every table that applies to these runs, with its file stem.
-pub fn tables(summary: &[SummaryRow]) -> Vec<(String, Table)> {
-    let builders: [(&str, TableFn); 7] = [
-        ("param", tables::param_table),
+/// Every table that applies to these runs, with its file stem: the paper-shaped mean tables
+/// first, the corpus aggregates next to them, then the per-mesh and cost tables.
+pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
+    let means: [(&str, TableFn); 2] = [("param", tables::param_table), ("deform", tables::deform_table)];
+    let rest: [(&str, TableFn); 5] = [
         ("per_mesh", tables::per_mesh_table),
         ("projection", tables::projection_table),
         ("smoothness", tables::smoothness_table),
-        ("deform", tables::deform_table),
         ("authalic", tables::authalic_table),
         ("scaling", tables::scaling_table),
     ];
-    builders.iter().filter_map(|(stem, f)| f(summary).map(|t| (stem.to_string(), t))).collect()
+    let build = |(stem, f): &(&str, TableFn)| f(summary).map(|t| (stem.to_string(), t));
+    let mut out: Vec<(String, Table)> = means.iter().filter_map(build).collect();
+    out.extend(tables::aggregates_table(summary, batch).map(|t| (tables::AGGREGATES.to_string(), t)));
+    out.extend(rest.iter().filter_map(build));
+    out
 }
 
 /// Rewrite `energy_minus_best` of every run with the best energy any finished run of its

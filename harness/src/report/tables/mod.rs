@@ -1,12 +1,14 @@
 //! Paper-style tables computed from `summary.csv` rows, written as `.csv`, `.md` and `.html`:
 //! the [`Table`] type and its writers here, the builders grouped by what they compare.
 
+mod aggregates;
 mod authalic;
 mod comparison;
 mod projection;
 pub mod ranking;
 mod scaling;
 
+pub use aggregates::{aggregates_table, AGGREGATES};
 pub use authalic::authalic_table;
 pub use comparison::{deform_table, param_table, per_mesh_table};
 pub use projection::{projection_table, smoothness_table};

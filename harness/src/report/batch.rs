@@ -1,0 +1,88 @@
+//! What the report needs of a batch beyond its summary rows, read from `meta.json`: each
+//! energy's iteration limit and the config's `timeout` (the caps at which unsolved runs enter
+//! the corpus aggregates) and the machine calibration. Every field is optional: a folder
+//! without `meta.json`, or written before these keys existed, still renders.
+
+use crate::calibration::Calibration;
+use crate::run_folder::meta::read_calibration;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The batch facts the report reads from `meta.json`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Batch {
+    /// `stop_per_energy.<energy>.max_iters`.
+    pub max_iters: BTreeMap<String, usize>,
+    /// The config's `timeout`, in seconds.
+    pub timeout_s: Option<f64>,
+    /// `calibration`: the reference workload's samples.
+    pub calibration: Option<Calibration>,
+}
+
+impl Batch {
+    /// Read from `run_dir/meta.json`; missing or unreadable keys stay `None`/empty (the
+    /// tables then fall back to what the summary shows and say so).
+    pub fn read(run_dir: &Path) -> Batch {
+        let meta = std::fs::read_to_string(crate::run_folder::meta_json(run_dir))
+            .ok()
+            .and_then(|t| serde_json::from_str::<Value>(&t).ok());
+        let mut batch = meta.as_ref().map(Batch::from_meta).unwrap_or_default();
+        batch.calibration = read_calibration(run_dir);
+        batch
+    }
+
+    /// The caps of a parsed `meta.json` (not the calibration, see [`Batch::read`]).
+    pub fn from_meta(meta: &Value) -> Batch {
+        let max_iters = meta
+            .get("stop_per_energy")
+            .and_then(Value::as_object)
+            .map(|m| {
+                m.iter()
+                    .filter_map(|(e, s)| Some((e.clone(), usize::try_from(s.get("max_iters")?.as_u64()?).ok()?)))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let timeout_s =
+            meta.get("config").and_then(|c| c.get("timeout")).and_then(Value::as_str).and_then(timeout_secs);
+        Batch { max_iters, timeout_s, calibration: None }
+    }
+
+    /// The batch's median calibration time, when it has a positive one.
+    pub fn calibration_s(&self) -> Option<f64> {
+        self.calibration.as_ref().and_then(Calibration::median_s).filter(|m| *m > 0.0)
+    }
+}
+
+/// A config `timeout` string in seconds, parsed by the config's own rule.
+fn timeout_secs(text: &str) -> Option<f64> {
+    let config = serde_json::json!({ "name": "meta", "solvers": [], "timeout": text });
+    let config: crate::plan::config::Config = serde_json::from_value(config).ok()?;
+    config.timeout_secs().ok().flatten()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn caps_and_calibration_come_from_meta_json() {
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(Batch::read(dir.path()), Batch::default(), "no meta.json: nothing known");
+        let meta = serde_json::json!({
+            "config": { "name": "x", "timeout": "2m" },
+            "stop_per_energy": { "sd": { "max_iters": 1000, "grad_tol": 1e-3 }, "bconf": { "max_iters": 50 } },
+            "calibration": { "workload": "w", "samples_s": [0.5, 0.4, 0.6] },
+        });
+        std::fs::write(dir.path().join("meta.json"), meta.to_string()).unwrap();
+        let b = Batch::read(dir.path());
+        assert_eq!(b.max_iters.get("sd"), Some(&1000));
+        assert_eq!(b.max_iters.get("bconf"), Some(&50));
+        assert_eq!(b.timeout_s, Some(120.0));
+        assert_eq!(b.calibration_s(), Some(0.5));
+        assert!(b.calibration.unwrap().unsteady());
+        // A timeout the config would refuse is no cap.
+        let b = Batch::from_meta(&serde_json::json!({ "config": { "timeout": "soon" } }));
+        assert_eq!(b.timeout_s, None);
+    }
+}
