@@ -1,13 +1,15 @@
 //! The PNG plots of a run folder, read back from its files alone (`runs/*.csv`, `uv/*.obj`):
 //! per (dataset, energy) the convergence curves of every solver (energy gap vs iteration and
 //! vs time, #negative eigenvalues vs iteration, as in the complex-view paper's Figures 2-3),
-//! and per run the final map with each triangle colored by its distortion.
+//! per run the final map with each triangle colored by its distortion, and per energy the
+//! scaling plots and the Dolan–Moré performance profiles over the corpus.
 
 mod canvas;
 mod chart;
 mod colors;
 mod curves;
 mod maps;
+mod profiles;
 mod scaling;
 #[cfg(test)]
 pub(crate) mod tests;
@@ -36,6 +38,17 @@ pub enum PlotKind {
     ScalingTime,
     /// Iterations vs vertices over all datasets of an energy, log x.
     ScalingIterations,
+    /// Dolan–Moré performance profile of iterations over the datasets of an energy.
+    ProfileIterations,
+    /// Dolan–Moré performance profile of time over the datasets of an energy.
+    ProfileTime,
+}
+
+impl PlotKind {
+    /// A performance profile (shown with the corpus aggregates, not with the curves).
+    pub fn is_profile(&self) -> bool {
+        matches!(self, PlotKind::ProfileIterations | PlotKind::ProfileTime)
+    }
 }
 
 /// The `dataset` of the plots that span every dataset.
@@ -53,7 +66,8 @@ pub struct Plot {
 }
 
 /// Render every plot of a run folder into `run_dir/plots/` and return them in report order:
-/// per (dataset, energy) group the three curve plots, then the maps of its runs.
+/// per (dataset, energy) group the three curve plots, then the maps of its runs; then the
+/// scaling plots and the performance profiles of each energy.
 pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>> {
     let mut solvers: Vec<&str> = Vec::new();
     let mut groups: Vec<(&str, &str)> = Vec::new();
@@ -78,11 +92,17 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
         plots.extend(maps::render_group(run_dir, group, &runs)?);
         Ok(plots)
     };
-    let (groups, scaling) = rayon::join(
+    let (groups, (scaling, profiles)) = rayon::join(
         || groups.par_iter().map(per_group).collect::<Result<Vec<_>>>(),
-        || scaling::render_scaling(run_dir, summaries, &solvers),
+        || {
+            rayon::join(
+                || scaling::render_scaling(run_dir, summaries, &solvers),
+                || profiles::render_profiles(run_dir, summaries, &solvers),
+            )
+        },
     );
     let mut plots: Vec<Plot> = groups?.into_iter().flatten().collect();
     plots.extend(scaling?);
+    plots.extend(profiles?);
     Ok(plots)
 }

@@ -101,6 +101,8 @@ fn renders_every_group_and_map_as_png_of_the_requested_size() {
             "plots/disk__authalic__energy_time.png",
             "plots/disk__authalic__neg_eig_iter.png",
             "plots/disk__authalic__aem-cg__map.png",
+            "plots/profile__sd__iterations.png",
+            "plots/profile__sd__time.png",
         ]
     );
     for p in &plots {
