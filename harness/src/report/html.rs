@@ -1,10 +1,15 @@
 //! `index.html` of a run folder: one self-contained page (inline CSS, no script, no network,
-//! relative links only) with the run status matrix, the tables, the plots, links to every
-//! file and the provenance from `meta.json`. Readable on a phone: images scale down and
+//! relative links only) with how the batch was timed (repeats, machine calibration and a
+//! warning when the machine changed speed), the run status matrix, the tables with the corpus
+//! aggregates and performance profiles, the plots, links to every file and the provenance
+//! from `meta.json`. Readable on a phone: images scale down and
 //! wide tables scroll sideways in their own box.
 
+use crate::calibration::SPREAD_WARNING;
+use crate::report::batch::Batch;
 use crate::report::plots::{Plot, PlotKind};
-use crate::report::tables::Table;
+use crate::report::tables::ranking::Timed;
+use crate::report::tables::{Table, AGGREGATES};
 use crate::run_folder::{run_stem, write_atomic, Status, SummaryRow};
 use anyhow::{Context, Result};
 use serde_json::Value;
@@ -29,11 +34,19 @@ img{max-width:100%;height:auto}\
 figure{margin:0}figcaption{font-size:.85em;color:#444}\
 dl{display:grid;grid-template-columns:max-content 1fr;gap:2px 14px}dt{font-weight:600}dd{margin:0;word-break:break-all}\
 ul.files{columns:2 22em;font-size:.9em}code,pre{font-size:.85em}pre{overflow-x:auto;background:#f6f6f6;padding:6px}\
-.caption{color:#444;font-size:.9em}";
+.caption{color:#444;font-size:.9em}\
+.warn{background:#fde2c8;border:1px solid #d9822b;padding:6px 10px}";
 
-/// Write `run_dir/index.html` from the summary rows, the tables (file stem, table) and the
-/// plots `render_all` wrote; the rest (meta.json, file lists) is read from `run_dir`.
-pub fn write_index(run_dir: &Path, summaries: &[SummaryRow], tables: &[(String, Table)], plots: &[Plot]) -> Result<()> {
+/// Write `run_dir/index.html` from the summary rows, the tables (file stem, table), the
+/// plots `render_all` wrote and the batch's calibration; the rest (meta.json, file lists) is
+/// read from `run_dir`.
+pub fn write_index(
+    run_dir: &Path,
+    summaries: &[SummaryRow],
+    tables: &[(String, Table)],
+    plots: &[Plot],
+    batch: &Batch,
+) -> Result<()> {
     let meta = read_meta(run_dir)?;
     let cfg = meta.as_ref().and_then(|m| m.get("config"));
     let name = cfg.and_then(|c| c.get("name")).and_then(Value::as_str).unwrap_or("run");
@@ -56,8 +69,9 @@ pub fn write_index(run_dir: &Path, summaries: &[SummaryRow], tables: &[(String, 
         t = esc(&task),
         c = esc(&counts(summaries)),
     );
+    timing_section(&mut h, summaries, batch);
     status_matrix(&mut h, run_dir, summaries);
-    tables_section(&mut h, tables);
+    tables_section(&mut h, run_dir, tables, plots);
     plots_section(&mut h, run_dir, plots);
     files_section(&mut h, run_dir, tables)?;
     provenance_section(&mut h, meta.as_ref());
@@ -108,12 +122,57 @@ fn href(path: &str) -> String {
 fn counts(summaries: &[SummaryRow]) -> String {
     let n = |st: Status| summaries.iter().filter(|s| s.status == st).count();
     format!(
-        "{} runs: {} ok, {} not converged, {} failed",
+        "{} runs: {} ok, {} not converged, {} failed, {} skipped",
         summaries.len(),
         n(Status::Ok),
         n(Status::NotConverged),
-        n(Status::Failed)
+        n(Status::Failed),
+        n(Status::Skipped)
     )
+}
+
+/// How the times were taken: the repeats, the machine calibration of `meta.json` and, when
+/// its spread exceeds [`SPREAD_WARNING`], a visible warning.
+fn timing_section(h: &mut String, summaries: &[SummaryRow], batch: &Batch) {
+    let repeats = summaries.iter().filter_map(|s| s.repeats).max().unwrap_or(1);
+    let mut p = if repeats > 1 {
+        format!(
+            "Each run was repeated {repeats} times, round-robin over the plan; times are the median over \
+             the repeats, with their min–max in parentheses, and ranked times tie when these intervals overlap."
+        )
+    } else {
+        "Each run was timed once (repeat = 1): times are single samples, so rankings cannot tell \
+         differences within the machine's noise (marked † in the tables)."
+            .to_string()
+    };
+    let calibration = batch.calibration.as_ref().and_then(|c| Some((c, c.median_s()?, c.spread()?)));
+    match calibration {
+        Some((c, median, spread)) => {
+            let _ = write!(
+                p,
+                " Machine calibration ({}): median {} over {} samples, spread {:.1}% ((max − min) / median); \
+                 time_norm = time_s / {}.",
+                c.workload,
+                seconds(median),
+                c.samples_s.len(),
+                100.0 * spread,
+                seconds(median)
+            );
+        }
+        None => p += " No machine calibration in meta.json: times are not normalized (time_norm empty).",
+    }
+    let _ = writeln!(h, "<p class=\"caption\" id=\"timing\">{}</p>", esc(&p));
+    if let Some((c, _, spread)) = calibration.filter(|(c, _, _)| c.unsteady()) {
+        let _ = writeln!(
+            h,
+            "<p class=\"warn\"><b>Warning: the machine changed speed during this batch.</b> The calibration \
+             samples ({}) spread by {:.1}%, more than {:.0}%: times of runs taken at different moments \
+             differ by more than their repeats show, and time rankings are less certain.</p>",
+            esc(&c.samples_s.iter().map(|t| seconds(*t)).collect::<Vec<_>>().join(", ")),
+            100.0 * spread,
+            100.0 * SPREAD_WARNING
+        );
+    }
 }
 
 /// First-appearance order, so rows and columns follow summary.csv.
@@ -129,8 +188,22 @@ fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
 
 /// Seconds with 3 significant digits (0.0431 s, 6.59 s, 123 s).
 fn seconds(t: f64) -> String {
+    format!("{} s", significant(t))
+}
+
+/// 3 significant digits (0.0431, 6.59, 123).
+fn significant(t: f64) -> String {
     let digits = if t <= 0.0 { 3 } else { (2 - t.abs().log10().floor() as i64).clamp(0, 6) as usize };
-    format!("{t:.digits$} s")
+    format!("{t:.digits$}")
+}
+
+/// `0.0538 s`, or with a spread over repeats `0.0538 s (0.0521–0.0560)`.
+fn timed_seconds(t: &Timed) -> String {
+    if t.single_sample() {
+        seconds(t.value)
+    } else {
+        format!("{} ({}–{})", seconds(t.value), significant(t.lo), significant(t.hi))
+    }
 }
 
 /// Rows: dataset (and energy, when the run has several), columns: solver. Each cell links to
@@ -140,9 +213,13 @@ fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
     let datasets = unique(summaries.iter().map(|s| s.dataset.as_str()));
     let several_energies = unique(summaries.iter().map(|s| s.energy.as_str())).len() > 1;
     *h += "<h2 id=\"status\">Run status</h2>\n<p class=\"caption\">Each cell: status, iterations and \
-           time; click it for the run's per-iteration CSV. <span class=\"ok\">ok</span> converged; \
+           time (the median, with the min–max over the repeats in parentheses); click it for the run's \
+           per-iteration CSV. <span class=\"ok\">ok</span> converged; \
            <span class=\"nc\">yellow</span> stopped by another rule (shown); \
-           <span class=\"failed\">failed</span> with its error.</p>\n\
+           <span class=\"failed\">failed</span> with its error; <span class=\"skipped\">skipped</span>: not \
+           run, the solver is not defined for the energy (the reason shown; left out of every aggregate and \
+           ranking). “k shifted”: k iterations solved their Newton system with a Tikhonov shift above the \
+           base (regularized Newton).</p>\n\
            <div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
     if several_energies {
         *h += "<th class=\"k\">energy</th>";
@@ -177,15 +254,27 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
         *h += "<td class=\"none\">–</td>";
         return;
     };
-    let detail = match (s.iterations, s.time_s) {
-        (Some(i), Some(t)) => format!("{i} it, {}", seconds(t)),
+    let time = Timed::time_s(s);
+    let mut detail = match (s.iterations, &time) {
+        (Some(i), Some(t)) => format!("{i} it, {}", timed_seconds(t)),
         (Some(i), None) => format!("{i} it"),
         _ => String::new(),
     };
+    // What the tooltip adds: the repeats behind the time and the regularization.
+    let mut more = String::new();
+    if let Some(t) = time.filter(|t| !t.single_sample()) {
+        let _ = write!(more, "; time = median of {} repeats, min–max {}–{}", t.samples, seconds(t.lo), seconds(t.hi));
+    } else if time.is_some() {
+        more += "; time = a single sample";
+    }
+    if let Some(k) = s.shifted_iters.filter(|k| *k > 0) {
+        let _ = write!(detail, ", {k} shifted");
+        let _ = write!(more, "; {k} iterations solved with a Tikhonov shift above the base (regularized)");
+    }
     let (class, head, tip, small) = match s.status {
-        Status::Ok => ("ok", "ok".to_string(), format!("converged ({})", s.stop_column()), detail),
+        Status::Ok => ("ok", "ok".to_string(), format!("converged ({}){more}", s.stop_column()), detail),
         Status::NotConverged => {
-            ("nc", s.stop_column().to_string(), format!("not converged: {}", s.stop_column()), detail)
+            ("nc", s.stop_column().to_string(), format!("not converged: {}{more}", s.stop_column()), detail)
         }
         Status::Failed => ("failed", "failed".to_string(), "failed".to_string(), s.error.clone()),
         Status::Skipped => ("skipped", "skipped".to_string(), format!("skipped: {}", s.error), s.error.clone()),
@@ -199,11 +288,13 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
     }
 }
 
-fn tables_section(h: &mut String, tables: &[(String, Table)]) {
+/// Every table, and the performance profiles right after the corpus aggregates.
+fn tables_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)], plots: &[Plot]) {
     *h += "<h2 id=\"tables\">Tables</h2>\n";
     if tables.is_empty() {
         *h += "<p>No paper-style table applies to this run.</p>\n";
     }
+    let profiles: Vec<&Plot> = plots.iter().filter(|p| p.kind.is_profile() && run_dir.join(&p.file).exists()).collect();
     for (stem, t) in tables {
         let _ = write!(
             h,
@@ -215,14 +306,47 @@ fn tables_section(h: &mut String, tables: &[(String, Table)]) {
             href(&format!("tables/{stem}.csv")),
             href(&format!("tables/{stem}.md")),
         );
+        if stem == AGGREGATES {
+            profiles_section(h, &profiles);
+        }
     }
+    if !tables.iter().any(|(stem, _)| stem == AGGREGATES) {
+        profiles_section(h, &profiles);
+    }
+}
+
+/// The performance profiles of each energy, iterations and time side by side.
+fn profiles_section(h: &mut String, profiles: &[&Plot]) {
+    if profiles.is_empty() {
+        return;
+    }
+    *h += "<h3 id=\"profiles\">Performance profiles</h3>\n<p class=\"caption\">Dolan–Moré performance profiles \
+           per energy: for each solver, the fraction of datasets it solves (converges on) within τ times the \
+           cost of the best solver on that dataset (the best of the solvers that solved it), τ on a log2 axis. \
+           At τ = 1: how often the solver is the best; at the right end: how often it solves at all. Failed and \
+           unconverged runs are never solved. Problem set: the datasets on which every solver of the plot has a \
+           run that was not skipped (a common set; a dataset where some solver was skipped is left out for \
+           all, and a solver skipped everywhere is not drawn); datasets no solver solved stay in the \
+           denominator. Costs: iterations (at least 1), and time_norm when every finished run has it, else \
+           time_s (the median over repeats).</p>\n<div class=\"grid\">\n";
+    for p in profiles {
+        let _ = writeln!(
+            h,
+            "<figure><img src=\"{f}\" alt=\"{t}\" width=\"800\" height=\"500\" loading=\"lazy\">\
+             <figcaption>{t}</figcaption></figure>",
+            f = href(&p.file),
+            t = esc(&p.title)
+        );
+    }
+    *h += "</div>\n";
 }
 
 /// Curves in a responsive grid per (dataset, energy), then the map thumbnails linking to the
 /// full image. Plots whose file is missing are left out.
 fn plots_section(h: &mut String, run_dir: &Path, plots: &[Plot]) {
     *h += "<h2 id=\"plots\">Plots</h2>\n";
-    let present: Vec<&Plot> = plots.iter().filter(|p| run_dir.join(&p.file).exists()).collect();
+    // Profiles are shown with the aggregates table.
+    let present: Vec<&Plot> = plots.iter().filter(|p| !p.kind.is_profile() && run_dir.join(&p.file).exists()).collect();
     if present.is_empty() {
         *h += "<p>No plots (no run finished).</p>\n";
         return;
@@ -422,7 +546,7 @@ mod tests {
         let p = dir.path();
         let tables = vec![("deform".to_string(), table("Deform & friends")), ("authalic".to_string(), table("AEM"))];
         let plots = crate::report::plots::render_all(p, &rows).unwrap();
-        write_index(p, &rows, &tables, &plots).unwrap();
+        write_index(p, &rows, &tables, &plots, &Batch::read(p)).unwrap();
         let html = std::fs::read_to_string(p.join("index.html")).unwrap();
         assert!(html.contains("<title>mapbench: tiny-config</title>"));
         for t in ["Deform &amp; friends", "AEM"] {
@@ -456,6 +580,58 @@ mod tests {
     }
 
     #[test]
+    fn index_states_repeats_calibration_spreads_shifts_and_skipped_pairs() {
+        let (dir, mut rows) = tiny_run();
+        let p = dir.path();
+        for r in rows.iter_mut().filter(|r| r.status != Status::Failed) {
+            (r.repeats, r.time_s_min, r.time_s_max) = (Some(5), Some(0.24), Some(0.31));
+        }
+        rows[0].shifted_iters = Some(2);
+        rows.push(SummaryRow {
+            dataset: "tiny".into(),
+            task: crate::plan::Task::Param,
+            energy: "sd".into(),
+            solver: "akvf".into(),
+            status: Status::Skipped,
+            error: "akvf is not defined for sd here".into(),
+            ..Default::default()
+        });
+        let calibration = |samples: Vec<f64>| Batch {
+            calibration: Some(crate::calibration::Calibration { workload: "kp-newton sd".into(), samples_s: samples }),
+            ..Default::default()
+        };
+        let page = |rows: &[SummaryRow], batch: &Batch| {
+            write_index(p, rows, &crate::report::tables(rows, batch), &[], batch).unwrap();
+            std::fs::read_to_string(p.join("index.html")).unwrap()
+        };
+        let html = page(&rows, &calibration(vec![0.50, 0.51, 0.52]));
+        assert!(html.contains("Each run was repeated 5 times"), "repeats stated");
+        assert!(html.contains("median 0.510 s over 3 samples, spread 3.9%"), "calibration stated");
+        assert!(!html.contains("class=\"warn\""), "steady machine: no warning");
+        // The time spread in the cell, the repeats in its tooltip, the shifted iterations in both.
+        assert!(html.contains("3 it, 0.250 s (0.240–0.310), 2 shifted"), "spread and shifts in the cell");
+        assert!(html.contains("time = median of 5 repeats, min–max 0.240 s–0.310 s"));
+        assert!(html.contains("2 iterations solved with a Tikhonov shift above the base"));
+        // The skipped pair: grey, with its reason, counted, and in the tables as skipped.
+        assert!(html.contains("<td class=\"skipped\" title=\"skipped: akvf is not defined for sd here\">"));
+        assert!(html.contains("5 runs: 2 ok, 1 not converged, 1 failed, 1 skipped"));
+        assert!(html.contains("<td>skipped</td>"), "the per-mesh table marks the skipped pair");
+        assert!(html.contains("id=\"table-aggregates\""), "the aggregates table is on the page");
+        // An unsteady machine: a visible warning with the samples.
+        let html = page(&rows, &calibration(vec![0.50, 0.40, 0.60]));
+        assert!(html.contains("<p class=\"warn\"><b>Warning: the machine changed speed during this batch.</b>"));
+        assert!(html.contains("spread by 40.0%, more than 10%"));
+        // No calibration, single samples: said so.
+        for r in &mut rows {
+            (r.repeats, r.time_s_min, r.time_s_max) = (Some(1), r.time_s, r.time_s);
+        }
+        let html = page(&rows, &Batch::default());
+        assert!(html.contains("Each run was timed once (repeat = 1)"));
+        assert!(html.contains("No machine calibration in meta.json"));
+        assert!(html.contains("time = a single sample"));
+    }
+
+    #[test]
     fn a_plot_without_its_file_is_left_out() {
         let (dir, rows) = tiny_run();
         let mut plots = crate::report::plots::render_all(dir.path(), &rows).unwrap();
@@ -467,7 +643,7 @@ mod tests {
             energy: "sd".into(),
             kind: PlotKind::EnergyIter,
         });
-        write_index(dir.path(), &rows, &[], &plots).unwrap();
+        write_index(dir.path(), &rows, &[], &plots, &Batch::default()).unwrap();
         let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
         assert!(!html.contains(&plots[0].file) && !html.contains("never_written"));
         assert!(html.contains(&format!("<img src=\"{}\"", plots[1].file)));

@@ -27,7 +27,7 @@ pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
         table.write(&run_dir.join("tables"), stem)?;
     }
     let plots = plots::render_all(run_dir, summary)?;
-    html::write_index(run_dir, summary, &tables, &plots)
+    html::write_index(run_dir, summary, &tables, &plots, &batch)
 }
 
 /// Builds one table from the summary, `None` when it does not apply.
