@@ -56,6 +56,17 @@ fn tau_label(log2_tau: f64) -> String {
     format_linear((2f64.powf(log2_tau) * 100.0).round() / 100.0)
 }
 
+/// The label of the tick at `log2_tau` on an axis up to `x_max`: only powers of two once the
+/// axis spans two of them (plotters also ticks half steps: 1.41, 2.83, 22.63), none left of 1.
+fn tick(log2_tau: f64, x_max: f64) -> String {
+    let power_of_two = (log2_tau - log2_tau.round()).abs() < 1e-9;
+    if log2_tau < -1e-9 || (x_max >= 2.0 && !power_of_two) {
+        String::new()
+    } else {
+        tau_label(log2_tau)
+    }
+}
+
 fn render_profile(title: &str, profiles: &Profiles, solvers: &[&str]) -> Result<Vec<u8>> {
     register_font();
     let tau_max = profiles.tau_max();
@@ -84,10 +95,11 @@ fn render_profile(title: &str, profiles: &Profiles, solvers: &[&str]) -> Result<
         builder.caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(42).y_label_area_size(60);
         // Room above 1 and below 0 so the markers on the edges are not clipped.
         let mut chart = builder.build_cartesian_2d(-0.02 * x_max..x_max * 1.01, -0.03..1.05)?;
+        let x_label = |v: &f64| tick(*v, x_max);
         let mut mesh = chart.configure_mesh();
         mesh.x_desc("τ: within this factor of the best solver (log2 axis)")
             .y_desc("fraction of datasets solved")
-            .x_label_formatter(&|v| if *v < 0.0 { String::new() } else { tau_label(*v) })
+            .x_label_formatter(&x_label)
             .y_label_formatter(&|v| if (0.0..=1.0).contains(v) { format_linear(*v) } else { String::new() });
         house_style(&mut mesh).draw()?;
         draw_series(&mut chart, &curves, &points, x_max)?;
@@ -137,5 +149,9 @@ mod tests {
         assert_eq!(tau_label(0.0), "1");
         assert_eq!(tau_label(3.0), "8");
         assert_eq!(tau_label(0.5), "1.41");
+        assert_eq!(
+            (tick(0.5, 1.3), tick(0.5, 4.5), tick(4.0, 4.5), tick(-0.1, 4.5)),
+            ("1.41".into(), "".into(), "16".into(), "".into())
+        );
     }
 }
