@@ -36,6 +36,16 @@ impl RunSettings {
         }
     }
 
+    /// The base Tikhonov shift of the run's Newton systems (`[linear] tikhonov`); `None` for
+    /// the authalic task, which has none.
+    pub fn base_shift(&self) -> Option<f64> {
+        match self {
+            RunSettings::Param { settings, .. } => Some(settings.solver.linear.tikhonov),
+            RunSettings::Deform { settings, .. } => Some(settings.solver.linear.tikhonov),
+            RunSettings::Authalic(_) => None,
+        }
+    }
+
     /// Everything that determines the run's result, as JSON for its `--resume` key: every
     /// setting (floats round-trip exactly; the shared analyses are not a setting and are
     /// skipped), the energy with its parameters, the stop rule.

@@ -134,6 +134,9 @@ pub(super) fn run_one(
     summary.project_ms_median = per_iter(|r| r.t_project_s);
     summary.solve_ms_median = per_iter(|r| r.t_solve_s);
     summary.flips = Some(outcome.flips);
+    // Rows after row 0 each come from one solved system (row 0 has none, `shift` empty).
+    summary.shifted_iters =
+        run.settings.base_shift().map(|base| rows.iter().filter(|r| r.shift.is_some_and(|s| s > base)).count());
     summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),

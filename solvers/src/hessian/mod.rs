@@ -138,6 +138,14 @@ pub trait SystemBlock: Send + Sync {
     fn diagonal_shift(&self) -> f64 {
         0.0
     }
+
+    /// Whether the driver retries a failed factorization with larger Tikhonov shifts (a
+    /// safety net of the strategies whose blocks are PSD, where a failure is round-off or a
+    /// null space; the shift used is recorded per iteration). A strategy without it stops at
+    /// its first failed factorization with `linear_solve_failed`.
+    fn retries_failed_factorization(&self) -> bool {
+        true
+    }
 }
 
 #[cfg(test)]

@@ -281,6 +281,19 @@ mod tests {
         assert!(lookup("aem-cg-safe", Task::Authalic).is_ok());
     }
 
+    /// Only unprojected Newton stops at its first failed factorization; the strategies with
+    /// PSD blocks keep the retry with larger shifts as a safety net.
+    #[test]
+    fn only_newton_refuses_to_retry_a_failed_factorization() {
+        for s in SOLVERS {
+            if let Method::Newton(_) = s.method {
+                let e = EnergyKind::default_for(s.energies[0]).unwrap();
+                let spec = s.newton_spec(Task::Param, &e).unwrap();
+                assert_eq!(spec.block.retries_failed_factorization(), s.name != "newton", "{}", s.name);
+            }
+        }
+    }
+
     #[test]
     fn extra_columns_are_declared_by_the_authalic_solvers_only() {
         for s in SOLVERS {

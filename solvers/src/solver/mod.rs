@@ -37,6 +37,12 @@ pub struct IterationRecord {
     pub t_linesearch_s: f64,
     pub t_iter_s: f64,
     pub t_cum_s: f64,
+    /// The Tikhonov shift (`LinearSettings::tikhonov`, added before and after Jacobi scaling)
+    /// of the Newton system that produced this row: the base shift of the settings when its
+    /// factorization succeeded at once, the retry's larger shift otherwise. `None` in row 0
+    /// (no system has been solved yet; the driver factorizes only after reporting it) and
+    /// for the solvers without a Newton system (the authalic ones).
+    pub shift: Option<f64>,
     /// Energy evaluations of the line search.
     pub ls_evals: usize,
     /// Solver-specific columns appended after the design.md ones (same names in every row
