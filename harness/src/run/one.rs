@@ -137,6 +137,7 @@ pub(super) fn run_one(
     // Rows after row 0 each come from one solved system (row 0 has none, `shift` empty).
     summary.shifted_iters =
         run.settings.base_shift().map(|base| rows.iter().filter(|r| r.shift.is_some_and(|s| s > base)).count());
+    summary.clamped_iters = clamped_iters(&rows);
     summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
@@ -146,6 +147,14 @@ pub(super) fn run_one(
     // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
     RunResult { summary, rows, map_obj, interrupted }
+}
+
+/// Rows whose system clamped at least one SLIM weight, for a solver that writes the
+/// `clamped` column (row 0's is NaN: it has no system).
+fn clamped_iters(rows: &[IterationRecord]) -> Option<usize> {
+    let name = solvers::hessian::slim::CLAMPED_COLUMN[0];
+    let col = rows.first()?.extra.iter().position(|e| e.0 == name)?;
+    Some(rows.iter().filter(|r| r.extra.get(col).is_some_and(|e| e.1 > 0.0)).count())
 }
 
 /// What a run needs from the batch around it.

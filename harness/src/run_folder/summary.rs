@@ -12,9 +12,10 @@ use std::path::{Path, PathBuf};
 
 /// `summary.csv` columns, in design.md order; `area_ratio_sd` .. `folded` are filled by
 /// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers; then the
-/// repeat and calibration columns (`time_s` is the median over `repeats`) and the count of
-/// iterations whose system needed more than the base Tikhonov shift.
-pub const SUMMARY_COLUMNS: [&str; 31] = [
+/// repeat and calibration columns (`time_s` is the median over `repeats`), the count of
+/// iterations whose system needed more than the base Tikhonov shift, and of those whose
+/// system clamped SLIM weights.
+pub const SUMMARY_COLUMNS: [&str; 32] = [
     "dataset",
     "task",
     "energy",
@@ -46,6 +47,7 @@ pub const SUMMARY_COLUMNS: [&str; 31] = [
     "time_s_max",
     "time_norm",
     "shifted_iters",
+    "clamped_iters",
 ];
 
 /// How a run ended: the `status` column. Ordered worst to best for the gate: a pair that
@@ -164,9 +166,15 @@ pub struct SummaryRow {
     /// `time_s` over the batch's median calibration time (`meta.json`'s `calibration`).
     #[serde(default)]
     pub time_norm: Option<f64>,
-    /// Iterations whose Newton system was solved with more than the base Tikhonov shift.
+    /// Iterations whose Newton system was solved with more than the base Tikhonov shift
+    /// (the `shift` column above `[linear] tikhonov`); `None` without a Newton system.
     #[serde(default)]
     pub shifted_iters: Option<usize>,
+    /// Iterations whose system clamped at least one weight (the `clamped` column of `slim`;
+    /// above 0 only outside its energies, with `[solver.slim] clamp_weights = true`): tables
+    /// label such runs "SLIM (clamped)". `None` for solvers without the column.
+    #[serde(default)]
+    pub clamped_iters: Option<usize>,
 }
 
 impl SummaryRow {

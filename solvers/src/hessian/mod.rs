@@ -146,6 +146,18 @@ pub trait SystemBlock: Send + Sync {
     fn retries_failed_factorization(&self) -> bool {
         true
     }
+
+    /// Names of the strategy's per-iteration counters ([`SystemBlock::counters`]), which the
+    /// driver appends to each row as solver-specific columns (`IterationRecord::extra`).
+    fn counter_names(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    /// The counters of the system built from `states` (one value per
+    /// [`SystemBlock::counter_names`] entry, in order), e.g. SLIM's clamped weights.
+    fn counters(&self, _states: &[ElementState]) -> Vec<f64> {
+        Vec::new()
+    }
 }
 
 #[cfg(test)]

@@ -112,9 +112,12 @@ pub static SOLVERS: &[SolverEntry] = &[
     newton("newton", "Newton", "Newton on the unmodified Hessians (may stop on an indefinite system)", |_| {
         spec(Unprojected, false)
     }),
-    newton("slim", "SLIM", "SLIM (Rabinovich et al. 2017): the local-global proxy as system matrix", |_| {
-        spec(Slim, false)
-    }),
+    SolverEntry {
+        extra_columns: &crate::hessian::slim::CLAMPED_COLUMN,
+        ..newton("slim", "SLIM", "SLIM (Rabinovich et al. 2017): the local-global proxy as system matrix", |_| {
+            spec(Slim, false)
+        })
+    },
     newton("akvf", "AKVF", "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient", |_| spec(Akvf, false)),
     authalic("sem", "SEM", "stretch energy minimization (Yueh et al. 2019), the fixed point", Method::Sem),
     authalic(
@@ -295,10 +298,19 @@ mod tests {
     }
 
     #[test]
-    fn extra_columns_are_declared_by_the_authalic_solvers_only() {
+    fn extra_columns_are_those_the_solvers_write() {
         for s in SOLVERS {
-            let expected: &[&str] = if s.runs(Task::Authalic) { &AUTHALIC_COLUMNS } else { &[] };
+            let expected: &[&str] = match s.method {
+                Method::Sem | Method::AemCg { .. } => &AUTHALIC_COLUMNS,
+                // the Newton-type solvers write their strategy's counters
+                Method::Newton(_) => {
+                    let e = EnergyKind::default_for(s.energies[0]).unwrap();
+                    let spec = s.newton_spec(Task::Param, &e).unwrap();
+                    spec.block.counter_names()
+                }
+            };
             assert_eq!(s.extra_columns, expected, "{}", s.name);
         }
+        assert_eq!(find("slim").unwrap().extra_columns, ["clamped"]);
     }
 }

@@ -119,6 +119,8 @@ pub fn newton(
         neg_eig: ev.neg_eig,
         indefinite_elems: ev.indefinite_elems,
         flips: problem.flips(&x),
+        // No system has been built at row 0: its counters are not defined yet.
+        extra: strategy.counter_names().iter().map(|&n| (n, f64::NAN)).collect(),
         ..Default::default()
     };
     let mut halt = observer.observe(&record).stop_reason();
@@ -149,6 +151,7 @@ pub fn newton(
         let t_start = Instant::now();
 
         project_blocks(problem, &ev, strategy, &mut blocks, &mut edge_blocks);
+        let counters = strategy.counters(&ev.states);
         let t_project = t_start.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
@@ -229,7 +232,7 @@ pub fn newton(
             t_cum_s: t_cum,
             shift: Some(lin.tikhonov),
             ls_evals,
-            extra: Vec::new(),
+            extra: strategy.counter_names().iter().copied().zip(counters).collect(),
         };
         halt = observer.observe(&record).stop_reason();
     };
@@ -365,6 +368,18 @@ mod tests {
         // unprojected Newton is such a strategy
         assert!(!crate::hessian::none::Unprojected.retries_failed_factorization());
         assert!(Kp.retries_failed_factorization());
+    }
+
+    #[test]
+    fn strategy_counters_follow_the_design_columns() {
+        let (pb, x) = problem();
+        let mut rec = Recorder::default();
+        newton(&pb, x, &crate::hessian::slim::Slim, &settings(), &mut rec).unwrap();
+        assert!(rec.rows.len() > 2);
+        // row 0: no system yet; then SD's weights, which are never clamped
+        assert_eq!(rec.rows[0].extra.len(), 1);
+        assert!(rec.rows[0].extra[0].0 == "clamped" && rec.rows[0].extra[0].1.is_nan());
+        assert!(rec.rows[1..].iter().all(|r| r.extra == [("clamped", 0.0)]), "{:?}", rec.rows);
     }
 
     #[test]
