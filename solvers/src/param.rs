@@ -52,7 +52,7 @@ pub fn solve_param(
     settings: &ParamSettings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
-    let spec = checked_spec(mesh, Task::Param, &energy, solver)?;
+    let spec = checked_spec(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
     let mesh = mesh.normalized();
     let problem = map_problem(&mesh, energy, &spec, settings.smoothness)?;
     let init_err = |err| MapError::Init { source_name: mesh.source.clone(), err };

@@ -71,6 +71,16 @@ pub(super) fn run_one(
         summary.error = error;
         RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false }
     };
+    // A pair outside the solver's definition is not solved: no rows, no map, the reason.
+    if let Some(reason) = &run.skip {
+        if let Ok(m) = mesh {
+            (summary.vertices, summary.faces) = (Some(m.n_vertices()), Some(m.n_faces()));
+        }
+        summary.status = Status::Skipped;
+        summary.stop_reason = Some(StopReason::Skipped);
+        summary.error = reason.clone();
+        return RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false };
+    }
     let mesh = match mesh {
         Ok(m) => m,
         Err(e) => return fail(summary, format!("{e:#}")),

@@ -96,7 +96,8 @@ impl std::fmt::Display for Status {
     }
 }
 
-/// The `stop_reason` column: the solver's reason, or `error` for a run that failed.
+/// The `stop_reason` column: the solver's reason (`skipped` for a pair outside the solver's
+/// definition, `StopReason::Skipped`), or `error` for a run that failed.
 mod stop_column {
     use serde::{de::Error, Deserialize, Deserializer, Serializer};
     use solvers::solver::StopReason;
@@ -272,19 +273,23 @@ mod tests {
             stop_reason,
             ..Default::default()
         };
-        let rows = vec![
+        let mut skipped = row(Task::Param, Status::Skipped, Some(StopReason::Skipped));
+        skipped.error = "slim is not defined for nh: its reweighting ...".into();
+        let mut rows = vec![
             row(Task::Param, Status::Ok, Some(StopReason::GradientTolerance)),
             row(Task::Deform, Status::NotConverged, Some(StopReason::Timeout)),
             row(Task::Authalic, Status::Failed, None),
+            skipped,
         ];
+        (rows[0].shifted_iters, rows[0].clamped_iters) = (Some(2), Some(0));
         write_summary(&dir.path().join("summary.csv"), &rows).unwrap();
         let text = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
         let cells: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
         let col = |name: &str| SUMMARY_COLUMNS.iter().position(|c| *c == name).unwrap();
         let column = |name: &str| cells.iter().map(|r| r[col(name)]).collect::<Vec<_>>();
-        assert_eq!(column("task"), ["param", "deform", "authalic"]);
-        assert_eq!(column("status"), ["ok", "not_converged", "failed"]);
-        assert_eq!(column("stop_reason"), ["grad_tol", "timeout", "error"]);
+        assert_eq!(column("task"), ["param", "deform", "authalic", "param"]);
+        assert_eq!(column("status"), ["ok", "not_converged", "failed", "skipped"]);
+        assert_eq!(column("stop_reason"), ["grad_tol", "timeout", "error", "skipped"]);
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
         let bad = text.replace("timeout", "timed_out");
         std::fs::write(dir.path().join("summary.csv"), bad).unwrap();
