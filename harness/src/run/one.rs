@@ -145,8 +145,7 @@ pub(super) fn run_one(
     summary.solve_ms_median = per_iter(|r| r.t_solve_s);
     summary.flips = Some(outcome.flips);
     // Rows after row 0 each come from one solved system (row 0 has none, `shift` empty).
-    summary.shifted_iters =
-        run.settings.base_shift().map(|base| rows.iter().filter(|r| r.shift.is_some_and(|s| s > base)).count());
+    summary.shifted_iters = run.settings.base_shift().map(|base| shifted_iters(base, &rows));
     summary.clamped_iters = clamped_iters(&rows);
     summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
@@ -157,6 +156,12 @@ pub(super) fn run_one(
     // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
     RunResult { summary, rows, map_obj, interrupted }
+}
+
+/// Rows whose system was solved with more than the `base` shift (a retry after a failed
+/// factorization).
+fn shifted_iters(base: f64, rows: &[IterationRecord]) -> usize {
+    rows.iter().filter(|r| r.shift.is_some_and(|s| s > base)).count()
 }
 
 /// Rows whose system clamped at least one SLIM weight, for a solver that writes the
@@ -205,5 +210,33 @@ fn solve(
             let init = plan.dataset(run).initial_map();
             Ok((solve_deform(mesh, &handles, init.as_deref(), *energy, &run.solver, &settings, rows)?, None))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shifted_and_clamped_iterations_are_counted_from_the_rows() {
+        let row = |shift: Option<f64>, clamped: Option<f64>| IterationRecord {
+            shift,
+            extra: clamped.map(|c| vec![("clamped", c)]).unwrap_or_default(),
+            ..Default::default()
+        };
+        // row 0 has no system; then one retry at 1e-7 and one at 0.1
+        let rows = [
+            row(None, Some(f64::NAN)),
+            row(Some(1e-10), Some(0.0)),
+            row(Some(1e-7), Some(3.0)),
+            row(Some(0.1), Some(1.0)),
+        ];
+        assert_eq!((shifted_iters(1e-10, &rows), clamped_iters(&rows)), (2, Some(2)));
+        // a base shift of 0 (config) counts every shifted system
+        assert_eq!(shifted_iters(0.0, &rows), 3);
+        // no clamped column: not a solver that clamps
+        let rows = [row(None, None), row(Some(1e-10), None)];
+        assert_eq!((shifted_iters(1e-10, &rows), clamped_iters(&rows)), (0, None));
+        assert_eq!(clamped_iters(&[]), None);
     }
 }
