@@ -459,6 +459,89 @@ fn resume_reruns_nothing_that_finished_and_everything_whose_settings_changed() {
     assert_eq!(log.matches("resumed, ").count(), 0, "{log}");
 }
 
+/// Issue 18's honest labels in a batch: pairs outside a solver's definition are skipped with
+/// the reason (no rows, no map, not a failure) and `--resume` keeps them; `[solver.slim]
+/// clamp_weights = true` runs slim's, counting the clamped weights; every Newton-type row
+/// records the shift of its system.
+#[test]
+fn skipped_pairs_clamped_weights_and_shifts_in_a_batch() {
+    let tmp = tempfile::tempdir().unwrap();
+    let body = "name = \"l\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\", \"nh\", \"bconf\"]\n\
+                solvers = [\"kp-newton\", \"slim\", \"cm\"]\n[energy.bconf]\nk = 1.5\n[stop]\nmax_iters = 50\n";
+    let cfg = write_config(tmp.path(), body);
+    let out = tmp.path().join("out");
+    let run = |extra: &[&str]| {
+        let o =
+            mapbench(&[&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], extra].concat(), tmp.path());
+        assert_eq!(o.status.code(), Some(0), "skipped runs are not failures: {}", text(&o));
+        let (header, rows) = read_csv(&out.join("summary.csv"));
+        let rows: Vec<std::collections::BTreeMap<String, String>> =
+            rows.into_iter().map(|r| header.iter().cloned().zip(r).collect()).collect();
+        (text(&o), rows)
+    };
+    let stem =
+        |r: &std::collections::BTreeMap<String, String>| format!("{}__{}__{}", r["dataset"], r["energy"], r["solver"]);
+    let (log, rows) = run(&[]);
+    assert!(log.contains("9 runs: 6 ok, 0 not converged, 0 failed, 3 skipped"), "{log}");
+    let skipped: Vec<String> = rows.iter().filter(|r| r["status"] == "skipped").map(stem).collect();
+    assert_eq!(skipped, ["bumpy_1k__nh__slim", "bumpy_1k__bconf__slim", "bumpy_1k__bconf__cm"]);
+    for r in rows.iter().filter(|r| r["status"] == "skipped") {
+        let s = stem(r);
+        assert_eq!(
+            (r["stop_reason"].as_str(), r["iterations"].as_str(), r["converged"].as_str()),
+            ("skipped", "", "false")
+        );
+        assert!(
+            r["error"].contains("is not defined for") || r["error"].contains("is not convex"),
+            "{s}: {}",
+            r["error"]
+        );
+        assert_eq!(r["vertices"], rows[0]["vertices"]);
+        let (_, it) = read_csv(&out.join(format!("runs/{s}.csv")));
+        assert!(it.is_empty() && !out.join(format!("uv/{s}.obj")).exists(), "{s}");
+    }
+    assert!(log.contains("bumpy_1k nh slim: skipped: slim is not defined for nh: "), "{log}");
+    // shifts: KP's systems factorize at the base shift; row 0 has no system
+    for r in rows.iter().filter(|r| r["status"] == "ok") {
+        let s = stem(r);
+        assert_eq!(r["shifted_iters"], "0", "{s}");
+        assert_eq!(r["clamped_iters"], if r["solver"] == "slim" { "0" } else { "" }, "{s}");
+        let (header, it) = read_csv(&out.join(format!("runs/{s}.csv")));
+        let shift = header.iter().position(|h| h == "shift").unwrap();
+        assert_eq!(header[shift - 1], "t_cum_s");
+        assert_eq!(it[0][shift], "", "{s}");
+        assert!(it[1..].iter().all(|row| row[shift] == "1e-10"), "{s}: {it:?}");
+        if r["solver"] == "slim" {
+            assert_eq!(header.last().unwrap(), "clamped");
+            assert_eq!(it[0].last().unwrap(), "NaN");
+            assert!(it[1..].iter().all(|row| row.last().unwrap() == "0.0"), "{s}");
+        }
+    }
+    // resumed as they are
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let (log, _) = run(&["--resume"]);
+    assert_eq!(log.matches("resumed, ").count(), 9, "{log}");
+    assert_eq!(std::fs::read_to_string(out.join("summary.csv")).unwrap(), summary);
+    // the opt-in: slim's runs change key and run (clamping), cm's refusal stays skipped, the
+    // other solvers' runs are resumed
+    write_config(tmp.path(), &format!("{body}[solver.slim]\nclamp_weights = true\n"));
+    let (log, rows) = run(&["--resume"]);
+    assert_eq!(log.matches("resumed, ").count(), 6, "{log}");
+    let slim_nh = rows.iter().find(|r| stem(r) == "bumpy_1k__nh__slim").unwrap();
+    assert_ne!(slim_nh["status"], "skipped");
+    assert!(slim_nh["clamped_iters"].parse::<usize>().unwrap() > 0, "{slim_nh:?}");
+    let (_, it) = read_csv(&out.join("runs/bumpy_1k__nh__slim.csv"));
+    assert!(it[1].last().unwrap().parse::<f64>().unwrap() > 0.0, "{:?}", it[1]);
+    let skipped: Vec<String> = rows.iter().filter(|r| r["status"] == "skipped").map(stem).collect();
+    assert_eq!(skipped, ["bumpy_1k__bconf__cm"]);
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+    assert_eq!(
+        meta["settings_per_energy"]["nh"]["param"]["settings"]["solver"]["options"]["slim"]["clamp_weights"], true,
+        "{meta}"
+    );
+}
+
 #[test]
 fn a_smoothness_batch_writes_the_table_7_shape() {
     let tmp = tempfile::tempdir().unwrap();

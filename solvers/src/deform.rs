@@ -105,7 +105,7 @@ pub fn solve_deform(
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
     // Planarity and the rest pose's orientation included.
-    let spec = checked_spec(mesh, Task::Deform, &energy, solver)?;
+    let spec = checked_spec(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
     check_handles(mesh, handles)?;
     let source_name = mesh.source.clone();
     let n = mesh.n_vertices();

@@ -8,7 +8,7 @@ use crate::init::InitError;
 use crate::mesh::{validate_for, Mesh, MeshError, Task};
 use crate::problem::{DegenerateFace, MapProblem};
 use crate::smoothness::Projection;
-use crate::solver::catalogue::{newton_spec, SolverError, SolverSpec};
+use crate::solver::catalogue::{newton_spec, SolverError, SolverOptions, SolverSpec};
 use crate::solver::newton::SolveError;
 
 /// Why a `param` or `deform` run could not start.
@@ -36,11 +36,17 @@ pub enum MapError {
     Solve { source_name: String, err: SolveError },
 }
 
-/// The catalogue's `solver` for `task` and `energy`, once the energy's parameters and the
+/// The catalogue's `solver` for `task` and `energy` with `options`, once the energy's parameters and the
 /// mesh (validated for `task`) are known to be usable. In this order: a misspelt solver is
 /// reported before anything about the mesh.
-pub(crate) fn checked_spec(mesh: &Mesh, task: Task, energy: &EnergyKind, solver: &str) -> Result<SolverSpec, MapError> {
-    let spec = newton_spec(solver, task, energy)?;
+pub(crate) fn checked_spec(
+    mesh: &Mesh,
+    task: Task,
+    energy: &EnergyKind,
+    solver: &str,
+    options: &SolverOptions,
+) -> Result<SolverSpec, MapError> {
+    let spec = newton_spec(solver, task, energy, options)?;
     energy.check().map_err(MapError::Energy)?;
     validate_for(mesh, task).into_result()?;
     Ok(spec)

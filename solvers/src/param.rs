@@ -52,7 +52,7 @@ pub fn solve_param(
     settings: &ParamSettings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
-    let spec = checked_spec(mesh, Task::Param, &energy, solver)?;
+    let spec = checked_spec(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
     let mesh = mesh.normalized();
     let problem = map_problem(&mesh, energy, &spec, settings.smoothness)?;
     let init_err = |err| MapError::Init { source_name: mesh.source.clone(), err };
@@ -102,5 +102,43 @@ mod tests {
             let rel = (a.final_energy - b.final_energy).abs() / a.final_energy;
             assert!(rel < 1e-6, "case {k}: {} vs {}", a.final_energy, b.final_energy);
         }
+    }
+
+    /// Unprojected Newton stops at its first failed factorization (CM paper, Figure 2): on
+    /// bumpy_1k with SD the Tutte map has 1064 indefinite element Hessians and the system at
+    /// iterate 0 is not positive definite. With the retry the projected solvers keep, the
+    /// same blocks "converge" as shifted Newton, which is what `newton` used to report.
+    #[test]
+    fn newton_stops_at_its_first_failed_factorization_where_shifted_newton_would_go_on() {
+        use crate::hessian::{none::Unprojected, ElementState, SystemBlock};
+        use crate::solver::{newton::newton, StopReason};
+        let mesh = generate("bumpy_1k").unwrap();
+        let settings = ParamSettings::for_energy(&EnergyKind::Sd);
+        let mut rec = Recorder::default();
+        let out = solve_param(&mesh, EnergyKind::Sd, "newton", &settings, &mut rec).unwrap();
+        assert!(matches!(out.stop_reason, StopReason::LinearSolveFailed(_)), "{:?}", out.stop_reason);
+        let detail = out.stop_reason.detail().unwrap();
+        assert!(
+            detail.starts_with("the system at iterate 0: ") && detail.ends_with("(shift 1e-10, no retry)"),
+            "{detail}"
+        );
+        assert_eq!((out.iterations, rec.rows.len(), rec.rows[0].indefinite_elems), (0, 1, 1064));
+
+        /// The unprojected blocks with the driver's retry.
+        struct Shifted;
+        impl SystemBlock for Shifted {
+            fn block(&self, op: &crate::local::LocalOp, s: &ElementState) -> nalgebra::Matrix6<f64> {
+                Unprojected.block(op, s)
+            }
+        }
+        let normalized = mesh.normalized();
+        let problem = crate::problem::MapProblem::new(&normalized, EnergyKind::Sd).unwrap();
+        let x = tutte(&normalized, settings.tutte_boundary).unwrap();
+        let mut rec = Recorder::default();
+        let shifted = newton(&problem, x, &Shifted, &settings.solver, &mut rec).unwrap();
+        assert_eq!(shifted.stop_reason, StopReason::GradientTolerance);
+        let base = settings.solver.linear.tikhonov;
+        assert!(rec.rows[1].shift.is_some_and(|s| s > base), "{:?}", rec.rows[1].shift);
+        assert!(rec.rows[1..].iter().all(|r| r.shift.is_some()));
     }
 }

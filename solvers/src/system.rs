@@ -38,7 +38,7 @@ pub fn param_system(
     iteration: usize,
 ) -> Result<NewtonSystem, MapError> {
     let out = solve_param(mesh, energy, solver, settings, &mut StopAt(iteration))?;
-    let spec = newton_spec(solver, Task::Param, &energy)?;
+    let spec = newton_spec(solver, Task::Param, &energy, &settings.solver.options)?;
     let mesh = mesh.normalized();
     // The run's own problem, smoothness term included: the matrix it factorizes.
     let problem = map_problem(&mesh, energy, &spec, settings.smoothness)?;

@@ -167,7 +167,8 @@ pub fn compare(baseline: &Baseline, runs: &[Record]) -> Comparison {
             cmp.changes.push(Change { run: b.label(), metric, before, after, delta, regression })
         };
         if a.status != b.status {
-            // Status orders failed < not_converged < ok.
+            // Status orders skipped < failed < not_converged < ok: a pair that stops being
+            // run is a regression, one that starts an improvement (unless it fails).
             let regression = a.status < b.status || a.status == Status::Failed;
             push("status", b.status.to_string(), a.status.to_string(), String::new(), regression);
         }
@@ -324,6 +325,36 @@ mod tests {
         let c = compare(&base(vec![rec("a", big, 2.0)]), &[rec("a", 1, 2.0)]);
         assert_eq!((c.exit_code(), c.improvements()), (0, 1));
         assert_eq!(c.changes[0].delta, format!("-{}", big - 1));
+    }
+
+    /// A pair skipped in both the baseline and the run is no change; a run that becomes
+    /// skipped (it stopped being run) is a regression, and one that stops being skipped an
+    /// improvement.
+    #[test]
+    fn skipped_runs_compare_by_status_only() {
+        let skipped = |solver: &str| Record {
+            iterations: None,
+            final_energy: None,
+            flips: None,
+            status: Status::Skipped,
+            time_s: None,
+            ..rec(solver, 0, 0.0)
+        };
+        let c = compare(&base(vec![skipped("a")]), &[skipped("a")]);
+        assert_eq!((c.exit_code(), c.compared, c.changes.len()), (0, 1, 0));
+        for before in [Status::Ok, Status::NotConverged, Status::Failed] {
+            let was = Record { status: before, ..rec("a", 10, 2.0) };
+            let c = compare(&base(vec![was]), &[skipped("a")]);
+            assert_eq!(c.exit_code(), 1, "{before} -> skipped: {}", render(&c));
+            let status = c.changes.iter().find(|ch| ch.metric == "status").unwrap();
+            assert!(status.regression && status.after == "skipped", "{status:?}");
+        }
+        // skipped -> ok: the pair runs now
+        let c = compare(&base(vec![skipped("a")]), &[rec("a", 10, 2.0)]);
+        assert_eq!((c.exit_code(), c.regressions(), c.improvements()), (0, 0, 2), "{}", render(&c));
+        // skipped -> failed is a failure like any other
+        let failed = Record { status: Status::Failed, ..skipped("a") };
+        assert_eq!(compare(&base(vec![skipped("a")]), &[failed]).exit_code(), 1);
     }
 
     #[test]

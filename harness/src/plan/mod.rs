@@ -37,7 +37,12 @@ pub struct PlannedRun {
     pub solver: String,
     /// `<dataset>__<energy>__<solver>`: the run's file names.
     pub stem: String,
+    /// The energy's settings with the options of this run's solver only
+    /// ([`RunSettings::for_solver`]).
     pub settings: RunSettings,
+    /// The pair is outside the solver's definition: the run is recorded as `skipped` with
+    /// this reason and not solved ([`RunSettings::skip_reason`]).
+    pub skip: Option<String>,
 }
 
 /// A config resolved into the runs of a batch.
@@ -86,12 +91,14 @@ impl Plan {
                 for solver in &c.solvers {
                     let stem = names::run_stem(&ds.name, energy, solver);
                     if only.is_empty() || only.iter().any(|g| glob_match(g, &stem)) {
+                        let settings = settings.for_solver(solver);
                         runs.push(PlannedRun {
                             dataset: d,
                             energy: energy.clone(),
                             solver: solver.clone(),
                             stem,
-                            settings: settings.clone(),
+                            skip: settings.skip_reason(solver),
+                            settings,
                         });
                     }
                 }
@@ -193,5 +200,50 @@ mod tests {
         assert_eq!((a.runs[0].energy.as_str(), a.runs[0].settings.task()), ("authalic", Task::Authalic));
         assert_eq!(a.runs[0].settings.stop().max_iters, 9);
         assert!(a.timeout.is_none());
+    }
+
+    /// A pair outside the solver's declared energies, or with parameters its builder refuses,
+    /// is a planned run marked skipped with the reason (not a config error); the opt-in
+    /// brings slim's back.
+    #[test]
+    fn pairs_outside_a_solvers_definition_are_planned_as_skipped_with_the_reason() {
+        let text =
+            "name = \"t\"\nenergies = [\"sd\", \"nh\", \"bconf\"]\nsolvers = [\"kp-newton\", \"slim\", \"cm\"]\n\
+            [energy.bconf]\nk = 1.5\n[[dataset]]\nname = \"a\"\npath = \"a.obj\"\n";
+        let p = plan(text, &[]).unwrap();
+        let skipped: Vec<(&str, &str)> =
+            p.runs.iter().filter_map(|r| r.skip.as_deref().map(|why| (r.stem.as_str(), why))).collect();
+        assert_eq!(skipped.iter().map(|s| s.0).collect::<Vec<_>>(), ["a__nh__slim", "a__bconf__slim", "a__bconf__cm"]);
+        assert_eq!(
+            skipped[0].1,
+            "slim is not defined for nh: its reweighting assumes the per-triangle minimum is a rotation, and many of \
+             its weights would be clamped (set [solver.slim] clamp_weights = true to run it with clamped weights)"
+        );
+        assert!(skipped[2].1.starts_with("cm: bconf with k = 1.5 is not convex"), "{}", skipped[2].1);
+        // the opt-in runs slim everywhere; cm's refusal stays
+        let p = plan(&format!("{text}[solver.slim]\nclamp_weights = true\n"), &[]).unwrap();
+        let skipped: Vec<&str> = p.runs.iter().filter(|r| r.skip.is_some()).map(|r| r.stem.as_str()).collect();
+        assert_eq!(skipped, ["a__bconf__cm"]);
+        // slim's option is in slim's runs and in the energy's settings, not in the other runs
+        let options = |stem: &str| {
+            let run = p.runs.iter().find(|r| r.stem == stem).unwrap();
+            let RunSettings::Param { settings, .. } = &run.settings else { panic!() };
+            settings.solver.options.slim.clamp_weights
+        };
+        assert!(options("a__nh__slim") && !options("a__nh__kp-newton") && !options("a__nh__cm"));
+        let per_energy = energy_settings(&p.config).unwrap();
+        assert!(per_energy[1].1.key_text().contains("\"clamp_weights\":true"), "{}", per_energy[1].1.key_text());
+        let key = |stem: &str| p.runs.iter().find(|r| r.stem == stem).unwrap().settings.key_text();
+        let before = plan(text, &[]).unwrap();
+        let key_before = |stem: &str| before.runs.iter().find(|r| r.stem == stem).unwrap().settings.key_text();
+        assert_eq!(key("a__sd__kp-newton"), key_before("a__sd__kp-newton"));
+        assert_ne!(key("a__sd__slim"), key_before("a__sd__slim"));
+        // the authalic task has nothing to skip
+        let a = plan(
+            "name = \"a\"\ntask = \"authalic\"\nsolvers = [\"sem\", \"aem-cg\"]\n[[dataset]]\nname = \"m\"\npath = \"m.obj\"\n",
+            &[],
+        )
+        .unwrap();
+        assert!(a.runs.iter().all(|r| r.skip.is_none()));
     }
 }

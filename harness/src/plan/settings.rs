@@ -36,6 +36,43 @@ impl RunSettings {
         }
     }
 
+    /// The settings of a run of `solver`: the solver options reduced to that solver's own
+    /// (`SolverOptions::of`), so another solver's `[solver.<name>]` section does not change
+    /// this run's `--resume` key.
+    pub fn for_solver(&self, solver: &str) -> RunSettings {
+        let mut s = self.clone();
+        match &mut s {
+            RunSettings::Param { settings, .. } => settings.solver.options = settings.solver.options.of(solver),
+            RunSettings::Deform { settings, .. } => settings.solver.options = settings.solver.options.of(solver),
+            RunSettings::Authalic(_) => {}
+        }
+        s
+    }
+
+    /// Why a run of `solver` with these settings is outside the solver's definition (the
+    /// catalogue's `SolverEntry::skip_reason`): such a run is planned as skipped. `None`
+    /// when it runs (and for a solver the catalogue does not have for the task, which the
+    /// config check refuses).
+    pub fn skip_reason(&self, solver: &str) -> Option<String> {
+        let (energy, options) = match self {
+            RunSettings::Param { energy, settings } => (energy, &settings.solver.options),
+            RunSettings::Deform { energy, settings } => (energy, &settings.solver.options),
+            RunSettings::Authalic(_) => return None,
+        };
+        let task = self.task();
+        solvers::solver::catalogue::lookup(solver, task).ok()?.skip_reason(task, energy, options)
+    }
+
+    /// The base Tikhonov shift of the run's Newton systems (`[linear] tikhonov`); `None` for
+    /// the authalic task, which has none.
+    pub fn base_shift(&self) -> Option<f64> {
+        match self {
+            RunSettings::Param { settings, .. } => Some(settings.solver.linear.tikhonov),
+            RunSettings::Deform { settings, .. } => Some(settings.solver.linear.tikhonov),
+            RunSettings::Authalic(_) => None,
+        }
+    }
+
     /// Everything that determines the run's result, as JSON for its `--resume` key: every
     /// setting (floats round-trip exactly; the shared analyses are not a setting and are
     /// skipped), the energy with its parameters, the stop rule.

@@ -250,6 +250,8 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         rows.push(s);
     }
     crate::run_folder::write_summary(&summary_csv(out_dir), &rows)?;
+    // meta.json before the report, which states its calibration samples.
+    meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
     // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
     // CPU) must not fan the plots out to every core of the node.
@@ -258,7 +260,6 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         Ok(pool) => pool.install(|| crate::report::refresh(out_dir, &rows))?,
         Err(_) => crate::report::refresh(out_dir, &rows)?,
     }
-    meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
     Ok(report)
 }
 

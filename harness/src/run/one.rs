@@ -74,6 +74,16 @@ pub(super) fn run_one(
         summary.error = error;
         RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false }
     };
+    // A pair outside the solver's definition is not solved: no rows, no map, the reason.
+    if let Some(reason) = &run.skip {
+        if let Ok(m) = mesh {
+            (summary.vertices, summary.faces) = (Some(m.n_vertices()), Some(m.n_faces()));
+        }
+        summary.status = Status::Skipped;
+        summary.stop_reason = Some(StopReason::Skipped);
+        summary.error = reason.clone();
+        return RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false };
+    }
     let mesh = match mesh {
         Ok(m) => m,
         Err(e) => return fail(summary, format!("{e:#}")),
@@ -132,6 +142,9 @@ pub(super) fn run_one(
     (summary.repeats, summary.time_s_min, summary.time_s_max) = (Some(1), Some(elapsed), Some(elapsed));
     fill_times(&mut summary, &rows);
     summary.flips = Some(outcome.flips);
+    // Rows after row 0 each come from one solved system (row 0 has none, `shift` empty).
+    summary.shifted_iters = run.settings.base_shift().map(|base| shifted_iters(base, &rows));
+    summary.clamped_iters = clamped_iters(&rows);
     summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
@@ -154,6 +167,20 @@ pub(super) fn fill_times(summary: &mut SummaryRow, rows: &[IterationRecord]) {
     summary.iter_ms_median = per_iter(|r| r.t_iter_s);
     summary.project_ms_median = per_iter(|r| r.t_project_s);
     summary.solve_ms_median = per_iter(|r| r.t_solve_s);
+}
+
+/// Rows whose system was solved with more than the `base` shift (a retry after a failed
+/// factorization).
+fn shifted_iters(base: f64, rows: &[IterationRecord]) -> usize {
+    rows.iter().filter(|r| r.shift.is_some_and(|s| s > base)).count()
+}
+
+/// Rows whose system clamped at least one SLIM weight, for a solver that writes the
+/// `clamped` column (row 0's is NaN: it has no system).
+fn clamped_iters(rows: &[IterationRecord]) -> Option<usize> {
+    let name = solvers::hessian::slim::CLAMPED_COLUMN[0];
+    let col = rows.first()?.extra.iter().position(|e| e.0 == name)?;
+    Some(rows.iter().filter(|r| r.extra.get(col).is_some_and(|e| e.1 > 0.0)).count())
 }
 
 /// What a run needs from the batch around it.
@@ -196,5 +223,33 @@ fn solve(
             let init = plan.dataset(run).initial_map();
             Ok((solve_deform(mesh, &handles, init.as_deref(), *energy, &run.solver, &settings, rows)?, None))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shifted_and_clamped_iterations_are_counted_from_the_rows() {
+        let row = |shift: Option<f64>, clamped: Option<f64>| IterationRecord {
+            shift,
+            extra: clamped.map(|c| vec![("clamped", c)]).unwrap_or_default(),
+            ..Default::default()
+        };
+        // row 0 has no system; then one retry at 1e-7 and one at 0.1
+        let rows = [
+            row(None, Some(f64::NAN)),
+            row(Some(1e-10), Some(0.0)),
+            row(Some(1e-7), Some(3.0)),
+            row(Some(0.1), Some(1.0)),
+        ];
+        assert_eq!((shifted_iters(1e-10, &rows), clamped_iters(&rows)), (2, Some(2)));
+        // a base shift of 0 (config) counts every shifted system
+        assert_eq!(shifted_iters(0.0, &rows), 3);
+        // no clamped column: not a solver that clamps
+        let rows = [row(None, None), row(Some(1e-10), None)];
+        assert_eq!((shifted_iters(1e-10, &rows), clamped_iters(&rows)), (0, None));
+        assert_eq!(clamped_iters(&[]), None);
     }
 }

@@ -7,8 +7,9 @@ use serde::Serialize;
 use solvers::solver::IterationRecord;
 use std::path::Path;
 
-/// Per-iteration CSV columns, in design.md order; `ls_evals` follows as an extra.
-pub const ITERATION_COLUMNS: [&str; 15] = [
+/// Per-iteration CSV columns, in design.md order; `shift` (issue 18; empty when the row has
+/// no Newton system) and `ls_evals` follow as extras.
+pub const ITERATION_COLUMNS: [&str; 16] = [
     "iter",
     "energy",
     "energy_minus_best",
@@ -23,8 +24,12 @@ pub const ITERATION_COLUMNS: [&str; 15] = [
     "t_linesearch_s",
     "t_iter_s",
     "t_cum_s",
+    "shift",
     "ls_evals",
 ];
+
+/// The columns a file written before they existed may lack (read as empty).
+const OPTIONAL_COLUMNS: [&str; 1] = ["shift"];
 
 #[derive(Clone, Debug, Serialize)]
 struct IterationRow {
@@ -42,6 +47,7 @@ struct IterationRow {
     t_linesearch_s: f64,
     t_iter_s: f64,
     t_cum_s: f64,
+    shift: Option<f64>,
     ls_evals: usize,
 }
 
@@ -83,6 +89,7 @@ pub fn iteration_csv(rows: &[IterationRecord], best: f64) -> Result<Vec<u8>> {
             t_linesearch_s: r.t_linesearch_s,
             t_iter_s: r.t_iter_s,
             t_cum_s: r.t_cum_s,
+            shift: r.shift,
             ls_evals: r.ls_evals,
         })?);
         if !r.extra.is_empty() {
@@ -121,13 +128,13 @@ pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<It
     let mut r = csv::Reader::from_reader(bytes.as_slice());
     let header = r.headers().map_err(|e| csv_error(path, None, None, &e))?.clone();
     let at_line = |line: u64, what: String| FolderError::Line { path: path.to_path_buf(), line, what };
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| at_line(1, format!("no column `{name}`: not a mapbench iteration CSV")))
+    // `None`: an optional column the file does not have.
+    let col = |name: &str| match header.iter().position(|h| h == name) {
+        Some(j) => Ok(Some(j)),
+        None if OPTIONAL_COLUMNS.contains(&name) => Ok(None),
+        None => Err(at_line(1, format!("no column `{name}`: not a mapbench iteration CSV"))),
     };
-    let cols: Vec<usize> = ITERATION_COLUMNS.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
+    let cols: Vec<Option<usize>> = ITERATION_COLUMNS.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
     // The columns after the design ones are a solver's extras; `fill_best` rewrites the file
     // from the records, so a column they cannot hold is refused rather than dropped.
     let mut extra_cols: Vec<(&'static str, usize)> = Vec::new();
@@ -140,9 +147,10 @@ pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<It
     for rec in r.records() {
         let rec = rec.map_err(|e| csv_error(path, Some(&header), None, &e))?;
         let line = rec.position().map_or(0, |p| p.line());
-        let cell = |k: usize| {
-            let j = cols[k];
-            (j, rec.get(j).unwrap_or(""))
+        // A missing optional column reads as empty cells (only `opt` accepts those).
+        let cell = |k: usize| match cols[k] {
+            Some(j) => (j, rec.get(j).unwrap_or("")),
+            None => (usize::MAX, ""),
         };
         let bad = |j: usize, text: &str, what: &str| {
             at_line(line, format!("column {} `{}`: `{text}` is not {what}", j + 1, &header[j]))
@@ -154,6 +162,12 @@ pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<It
         let u = |k: usize| -> Result<usize, FolderError> {
             let (j, text) = cell(k);
             text.parse().map_err(|_| bad(j, text, "a count"))
+        };
+        let opt = |k: usize| -> Result<Option<f64>, FolderError> {
+            match cell(k) {
+                (_, "") => Ok(None),
+                (j, text) => text.parse().map(Some).map_err(|_| bad(j, text, "a number or empty")),
+            }
         };
         let mut extra = Vec::with_capacity(extra_cols.len());
         for &(name, j) in &extra_cols {
@@ -175,7 +189,8 @@ pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<It
             t_linesearch_s: f(11)?,
             t_iter_s: f(12)?,
             t_cum_s: f(13)?,
-            ls_evals: u(14)?,
+            shift: opt(14)?,
+            ls_evals: u(15)?,
             extra,
         });
     }
@@ -241,6 +256,7 @@ mod tests {
                 step: 1e-20,
                 neg_eig: 7,
                 t_cum_s: 0.125,
+                shift: Some(1.0000000000000001e-7),
                 extra: vec![("ascent", 1.0), ("wolfe", 1.0)],
                 ..Default::default()
             },
@@ -255,6 +271,49 @@ mod tests {
         assert!(back[0].extra[1].1.is_nan());
         std::fs::write(&p, "a,b\n1,2\n").unwrap();
         assert!(read_iterations(&p, &[]).is_err());
+    }
+
+    /// `shift` sits right after `t_cum_s`, empty when the row has no Newton system (row 0,
+    /// authalic runs); files written before it existed still read, with no shift.
+    #[test]
+    fn the_shift_column_is_written_after_t_cum_s_and_optional_on_read() {
+        let rows = vec![
+            IterationRecord { iter: 0, energy: 3.0, ..Default::default() },
+            IterationRecord {
+                iter: 1,
+                energy: 2.5,
+                t_cum_s: 0.5,
+                shift: Some(1e-10),
+                ls_evals: 2,
+                ..Default::default()
+            },
+        ];
+        let text = String::from_utf8(iteration_csv(&rows, 2.5).unwrap()).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert!(lines[0].ends_with(",t_iter_s,t_cum_s,shift,ls_evals"), "{}", lines[0]);
+        assert!(lines[1].ends_with(",0.0,0.0,,0"), "{}", lines[1]);
+        assert!(lines[2].ends_with(",0.0,0.5,1e-10,2"), "{}", lines[2]);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("r.csv");
+        std::fs::write(&p, &text).unwrap();
+        assert_eq!(read_iterations(&p, &[]).unwrap().rows, rows);
+        // an older file: no shift column
+        let old: String = text
+            .lines()
+            .map(|l| l.replace(",shift,", ",").replace(",,0", ",0").replace(",1e-10,", ",") + "\n")
+            .collect();
+        assert!(
+            !old.contains("shift") && old.lines().all(|l| l.split(',').count() == ITERATION_COLUMNS.len() - 1),
+            "{old}"
+        );
+        std::fs::write(&p, &old).unwrap();
+        let back = read_iterations(&p, &[]).unwrap().rows;
+        assert_eq!(back.iter().map(|r| r.shift).collect::<Vec<_>>(), [None, None]);
+        assert_eq!((back[1].t_cum_s, back[1].ls_evals), (0.5, 2));
+        // a cell that is neither a number nor empty names its column
+        std::fs::write(&p, text.replace(",1e-10,", ",big,")).unwrap();
+        let e = format!("{:#}", read_iterations(&p, &[]).unwrap_err());
+        assert!(e.contains("line 3: column 15 `shift`: `big` is not a number or empty"), "{e}");
     }
 
     #[test]

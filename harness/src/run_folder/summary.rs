@@ -12,9 +12,10 @@ use std::path::{Path, PathBuf};
 
 /// `summary.csv` columns, in design.md order; `area_ratio_sd` .. `folded` are filled by
 /// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers; then the
-/// repeat and calibration columns (`time_s` is the median over `repeats`) and the count of
-/// iterations whose system needed more than the base Tikhonov shift.
-pub const SUMMARY_COLUMNS: [&str; 31] = [
+/// repeat and calibration columns (`time_s` is the median over `repeats`), the count of
+/// iterations whose system needed more than the base Tikhonov shift, and of those whose
+/// system clamped SLIM weights.
+pub const SUMMARY_COLUMNS: [&str; 32] = [
     "dataset",
     "task",
     "energy",
@@ -46,6 +47,7 @@ pub const SUMMARY_COLUMNS: [&str; 31] = [
     "time_s_max",
     "time_norm",
     "shifted_iters",
+    "clamped_iters",
 ];
 
 /// How a run ended: the `status` column. Ordered worst to best for the gate: a pair that
@@ -94,7 +96,8 @@ impl std::fmt::Display for Status {
     }
 }
 
-/// The `stop_reason` column: the solver's reason, or `error` for a run that failed.
+/// The `stop_reason` column: the solver's reason (`skipped` for a pair outside the solver's
+/// definition, `StopReason::Skipped`), or `error` for a run that failed.
 mod stop_column {
     use serde::{de::Error, Deserialize, Deserializer, Serializer};
     use solvers::solver::StopReason;
@@ -164,9 +167,15 @@ pub struct SummaryRow {
     /// `time_s` over the batch's median calibration time (`meta.json`'s `calibration`).
     #[serde(default)]
     pub time_norm: Option<f64>,
-    /// Iterations whose Newton system was solved with more than the base Tikhonov shift.
+    /// Iterations whose Newton system was solved with more than the base Tikhonov shift
+    /// (the `shift` column above `[linear] tikhonov`); `None` without a Newton system.
     #[serde(default)]
     pub shifted_iters: Option<usize>,
+    /// Iterations whose system clamped at least one weight (the `clamped` column of `slim`;
+    /// above 0 only outside its energies, with `[solver.slim] clamp_weights = true`): tables
+    /// label such runs "SLIM (clamped)". `None` for solvers without the column.
+    #[serde(default)]
+    pub clamped_iters: Option<usize>,
 }
 
 impl SummaryRow {
@@ -264,19 +273,23 @@ mod tests {
             stop_reason,
             ..Default::default()
         };
-        let rows = vec![
+        let mut skipped = row(Task::Param, Status::Skipped, Some(StopReason::Skipped));
+        skipped.error = "slim is not defined for nh: its reweighting ...".into();
+        let mut rows = vec![
             row(Task::Param, Status::Ok, Some(StopReason::GradientTolerance)),
             row(Task::Deform, Status::NotConverged, Some(StopReason::Timeout)),
             row(Task::Authalic, Status::Failed, None),
+            skipped,
         ];
+        (rows[0].shifted_iters, rows[0].clamped_iters) = (Some(2), Some(0));
         write_summary(&dir.path().join("summary.csv"), &rows).unwrap();
         let text = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
         let cells: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
         let col = |name: &str| SUMMARY_COLUMNS.iter().position(|c| *c == name).unwrap();
         let column = |name: &str| cells.iter().map(|r| r[col(name)]).collect::<Vec<_>>();
-        assert_eq!(column("task"), ["param", "deform", "authalic"]);
-        assert_eq!(column("status"), ["ok", "not_converged", "failed"]);
-        assert_eq!(column("stop_reason"), ["grad_tol", "timeout", "error"]);
+        assert_eq!(column("task"), ["param", "deform", "authalic", "param"]);
+        assert_eq!(column("status"), ["ok", "not_converged", "failed", "skipped"]);
+        assert_eq!(column("stop_reason"), ["grad_tol", "timeout", "error", "skipped"]);
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
         let bad = text.replace("timeout", "timed_out");
         std::fs::write(dir.path().join("summary.csv"), bad).unwrap();

@@ -521,6 +521,8 @@ impl Reporter<'_> {
             t_linesearch_s: tm.linesearch,
             t_iter_s: tm.iter,
             t_cum_s: self.t_cum,
+            // No Newton system, no Tikhonov shift.
+            shift: None,
             ls_evals: ex.ls_evals,
             // In AUTHALIC_COLUMNS order.
             extra: AUTHALIC_COLUMNS

@@ -138,6 +138,26 @@ pub trait SystemBlock: Send + Sync {
     fn diagonal_shift(&self) -> f64 {
         0.0
     }
+
+    /// Whether the driver retries a failed factorization with larger Tikhonov shifts (a
+    /// safety net of the strategies whose blocks are PSD, where a failure is round-off or a
+    /// null space; the shift used is recorded per iteration). A strategy without it stops at
+    /// its first failed factorization with `linear_solve_failed`.
+    fn retries_failed_factorization(&self) -> bool {
+        true
+    }
+
+    /// Names of the strategy's per-iteration counters ([`SystemBlock::counters`]), which the
+    /// driver appends to each row as solver-specific columns (`IterationRecord::extra`).
+    fn counter_names(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    /// The counters of the system built from `states` (one value per
+    /// [`SystemBlock::counter_names`] entry, in order), e.g. SLIM's clamped weights.
+    fn counters(&self, _states: &[ElementState]) -> Vec<f64> {
+        Vec::new()
+    }
 }
 
 #[cfg(test)]

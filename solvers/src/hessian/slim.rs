@@ -13,6 +13,7 @@
 use super::{triple_product, ElementState, SystemBlock};
 use crate::local::LocalOp;
 use nalgebra::{Matrix2, Matrix4, Matrix6, Vector2};
+use rayon::prelude::*;
 
 /// Proximal weight of libigl's SLIM.
 pub const PROXIMAL: f64 = 1e-4;
@@ -60,15 +61,22 @@ fn p_matrix() -> Matrix4<f64> {
 /// `dpsi/dsigma2 = a1 |f_z| - a2 |f_zbar|`). Where `|sigma - 1| < 1e-8` the limit
 /// `d2psi/dsigma^2 / 2` is used.
 pub fn weights_sq(s: &ElementState) -> [f64; 2] {
+    raw_weights_sq(s).map(|raw| if raw.is_finite() { raw.max(MIN_WEIGHT_SQ) } else { MIN_WEIGHT_SQ })
+}
+
+/// The squared weights before clamping (possibly non-positive or non-finite).
+fn raw_weights_sq(s: &ElementState) -> [f64; 2] {
     let (a, b) = (s.x().sqrt(), s.y().sqrt());
     let sig = [a + b, a - b];
     let (d2, d1) = sigma_derivatives(s);
-    let mut w = [0.0; 2];
-    for k in 0..2 {
-        let raw = if (sig[k] - 1.0).abs() < 1e-8 { 0.5 * d2[k] } else { d1[k] / (2.0 * (sig[k] - 1.0)) };
-        w[k] = if raw.is_finite() { raw.max(MIN_WEIGHT_SQ) } else { MIN_WEIGHT_SQ };
-    }
-    w
+    std::array::from_fn(|k| if (sig[k] - 1.0).abs() < 1e-8 { 0.5 * d2[k] } else { d1[k] / (2.0 * (sig[k] - 1.0)) })
+}
+
+/// How many of the element's two weights [`weights_sq`] clamps to [`MIN_WEIGHT_SQ`]: where
+/// `dpsi/dsigma_k` does not have the sign of `sigma_k - 1` (or is not finite) the reweighting
+/// has no positive weight, and the proxy's gradient is no longer the energy's.
+pub fn clamped_weights(s: &ElementState) -> usize {
+    raw_weights_sq(s).iter().filter(|raw| !(raw.is_finite() && **raw >= MIN_WEIGHT_SQ)).count()
 }
 
 /// `(d2psi/dsigma_k^2, dpsi/dsigma_k)` from the modifiers by the chain rule through
@@ -115,7 +123,19 @@ impl SystemBlock for Slim {
     fn diagonal_shift(&self) -> f64 {
         PROXIMAL
     }
+
+    fn counter_names(&self) -> &'static [&'static str] {
+        &CLAMPED_COLUMN
+    }
+
+    /// The weights clamped in the system, of two per element.
+    fn counters(&self, states: &[ElementState]) -> Vec<f64> {
+        vec![states.par_iter().map(clamped_weights).sum::<usize>() as f64]
+    }
 }
+
+/// SLIM's per-iteration column: the weights clamped in the system that produced the row.
+pub const CLAMPED_COLUMN: [&str; 1] = ["clamped"];
 
 #[cfg(test)]
 mod tests {
@@ -203,6 +223,25 @@ mod tests {
                     assert!((d2[k] - fd[k]).abs() < 1e-4 * fd[k].abs().max(1.0), "{e:?} {k}: {} vs {}", d2[k], fd[k]);
                 }
             }
+        }
+    }
+
+    /// SD, exp-SD and SARAP are sums of per-singular-value terms falling towards `sigma = 1`:
+    /// their weights are never clamped. NH, BARAP and BCONF couple the singular values through
+    /// `det J`, and many weights are (the catalogue leaves them out of SLIM's energies).
+    #[test]
+    fn weights_are_clamped_only_for_the_energies_without_rotation_minima_per_singular_value() {
+        let mut rng = Lcg(91);
+        for e in all_energies() {
+            let states: Vec<ElementState> = (0..2000).map(|_| random_element(&mut rng, &e).2).collect();
+            let clamped = Slim.counters(&states);
+            let separable = matches!(e, EnergyKind::Sd | EnergyKind::ExpSd { .. } | EnergyKind::Sarap);
+            assert_eq!(clamped.len(), 1);
+            assert_eq!(clamped[0] == 0.0, separable, "{e:?}: {} of 4000 clamped", clamped[0]);
+            // the count is of the weights `weights_sq` clamps
+            let at_floor: usize =
+                states.iter().map(|s| weights_sq(s).iter().filter(|&&w| w == MIN_WEIGHT_SQ).count()).sum();
+            assert_eq!(clamped[0], at_floor as f64, "{e:?}");
         }
     }
 

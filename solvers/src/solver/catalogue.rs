@@ -30,6 +30,32 @@ pub enum Method {
     AemCg { safe: bool },
 }
 
+/// Options of individual solvers (`[solver.<name>]` in a config), one field per solver that
+/// has any; the defaults are the solvers as published.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SolverOptions {
+    pub slim: SlimOptions,
+}
+
+/// `[solver.slim]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SlimOptions {
+    /// Run on every energy, also those whose SLIM weights are not defined everywhere
+    /// (`w_k^2 <= 0`); such weights are clamped to `MIN_WEIGHT_SQ` and counted per
+    /// iteration (the `clamped` column).
+    pub clamp_weights: bool,
+}
+
+impl SolverOptions {
+    /// The options that concern the solver `name` (the others at their defaults): what a run
+    /// of that solver depends on.
+    pub fn of(&self, name: &str) -> SolverOptions {
+        SolverOptions { slim: if name == "slim" { self.slim } else { SlimOptions::default() } }
+    }
+}
+
 /// One solver of the catalogue.
 pub struct SolverEntry {
     /// The name in configs, file names and CSVs.
@@ -37,7 +63,16 @@ pub struct SolverEntry {
     pub tasks: &'static [Task],
     /// Names of the energies it is defined for (`ENERGY_NAMES`, or the authalic energy).
     /// Some combinations are refused for some parameters, with the reason, when built.
+    /// Outside them a run is skipped, unless [`SolverEntry::opt_in`] says the options ask
+    /// for it anyway.
     pub energies: &'static [&'static str],
+    /// Why the energies outside `energies` are outside its definition (empty when it has
+    /// none outside).
+    pub outside_reason: &'static str,
+    /// Whether the options ask to run it outside `energies` anyway.
+    pub opt_in: fn(&SolverOptions) -> bool,
+    /// The keys of its `[solver.<name>]` table (the fields of its [`SolverOptions`] part).
+    pub options: &'static [&'static str],
     /// The solver-specific columns after the design.md ones in its iteration CSVs, in order
     /// (`IterationRecord::extra`).
     pub extra_columns: &'static [&'static str],
@@ -66,6 +101,9 @@ const fn newton(
         name,
         tasks: NEWTON_TASKS,
         energies: &ENERGY_NAMES,
+        outside_reason: "",
+        opt_in: never,
+        options: &[],
         extra_columns: &[],
         label,
         description,
@@ -73,11 +111,29 @@ const fn newton(
     }
 }
 
+/// No option runs the solver outside its energies.
+fn never(_: &SolverOptions) -> bool {
+    false
+}
+
+/// The energies whose SLIM weights `w_k^2 = (dpsi/dsigma_k) / (2 (sigma_k - 1))` are positive
+/// at every orientation-preserving map: those that are sums of per-singular-value terms each
+/// falling towards its minimum at `sigma_k = 1`, so the per-triangle minimum is a rotation
+/// and the local step's target `R` is right. On the others (NH, BARAP, BCONF) the barrier or
+/// volume term couples the singular values, `dpsi/dsigma_k` often has the other sign, and the
+/// weight is clamped: at the Tutte map of `bumpy_1k` 0 of the weights are clamped for SD,
+/// exp-SD and SARAP, and 24.2% (NH), 3.0% (BARAP) and 6.9% (BCONF) are (test
+/// `slim_weights_are_clamped_outside_its_energies_only`).
+pub const SLIM_ENERGIES: [&str; 3] = ["sd", "exp-sd", "sarap"];
+
 const fn authalic(name: &'static str, label: &'static str, description: &'static str, method: Method) -> SolverEntry {
     SolverEntry {
         name,
         tasks: AUTHALIC_TASKS,
         energies: &[AUTHALIC_ENERGY],
+        outside_reason: "",
+        opt_in: never,
+        options: &[],
         extra_columns: &AUTHALIC_COLUMNS,
         label,
         description,
@@ -112,9 +168,18 @@ pub static SOLVERS: &[SolverEntry] = &[
     newton("newton", "Newton", "Newton on the unmodified Hessians (may stop on an indefinite system)", |_| {
         spec(Unprojected, false)
     }),
-    newton("slim", "SLIM", "SLIM (Rabinovich et al. 2017): the local-global proxy as system matrix", |_| {
-        spec(Slim, false)
-    }),
+    SolverEntry {
+        energies: &SLIM_ENERGIES,
+        outside_reason: "its reweighting assumes the per-triangle minimum is a rotation, and many of its \
+                         weights would be clamped (set [solver.slim] clamp_weights = true to run it with \
+                         clamped weights)",
+        opt_in: |o| o.slim.clamp_weights,
+        options: &["clamp_weights"],
+        extra_columns: &crate::hessian::slim::CLAMPED_COLUMN,
+        ..newton("slim", "SLIM", "SLIM (Rabinovich et al. 2017): the local-global proxy as system matrix", |_| {
+            spec(Slim, false)
+        })
+    },
     newton("akvf", "AKVF", "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient", |_| spec(Akvf, false)),
     authalic("sem", "SEM", "stretch energy minimization (Yueh et al. 2019), the fixed point", Method::Sem),
     authalic(
@@ -183,9 +248,14 @@ pub fn names_for(task: Task) -> Vec<&'static str> {
     SOLVERS.iter().filter(|s| s.runs(task)).map(|s| s.name).collect()
 }
 
-/// The Newton-type solver `name` of `task` built for `energy`.
-pub fn newton_spec(name: &str, task: Task, energy: &EnergyKind) -> Result<SolverSpec, SolverError> {
-    lookup(name, task)?.newton_spec(task, energy)
+/// The Newton-type solver `name` of `task` built for `energy` with `options`.
+pub fn newton_spec(
+    name: &str,
+    task: Task,
+    energy: &EnergyKind,
+    options: &SolverOptions,
+) -> Result<SolverSpec, SolverError> {
+    lookup(name, task)?.newton_spec(task, energy, options)
 }
 
 impl SolverEntry {
@@ -198,21 +268,48 @@ impl SolverEntry {
         self.energies.contains(&energy)
     }
 
+    /// Whether it runs the energy called `energy` with `options`: an energy it is defined
+    /// for, or any energy when the options opt in.
+    pub fn runs_energy(&self, energy: &str, options: &SolverOptions) -> bool {
+        self.is_defined_for(energy) || (self.opt_in)(options)
+    }
+
     /// The error for a run of `task` with this solver.
     pub fn wrong_task(&self, task: Task) -> SolverError {
         SolverError::WrongTask { name: self.name, runs: self.tasks, task }
     }
 
-    /// Its Newton-type solver for `energy`, for a run of `task`.
-    pub fn newton_spec(&self, task: Task, energy: &EnergyKind) -> Result<SolverSpec, SolverError> {
+    /// Its Newton-type solver for `energy` with `options`, for a run of `task`; outside its
+    /// energies (unless the options opt in), or for parameters its builder refuses, the
+    /// reason as [`SolverError::Unsupported`].
+    pub fn newton_spec(
+        &self,
+        task: Task,
+        energy: &EnergyKind,
+        options: &SolverOptions,
+    ) -> Result<SolverSpec, SolverError> {
         match self.method {
-            Method::Newton(build) if self.is_defined_for(energy.name()) => {
+            Method::Newton(build) if self.runs_energy(energy.name(), options) => {
                 build(energy).map_err(SolverError::Unsupported)
             }
-            Method::Newton(_) => {
-                Err(SolverError::Unsupported(format!("{}: not defined for energy {}", self.name, energy.name())))
-            }
+            Method::Newton(_) => Err(SolverError::Unsupported(format!(
+                "{} is not defined for {}: {}",
+                self.name,
+                energy.name(),
+                self.outside_reason
+            ))),
             Method::Sem | Method::AemCg { .. } => Err(self.wrong_task(task)),
+        }
+    }
+
+    /// Why a run of `task` with `energy` and `options` is outside this solver's definition
+    /// (the harness records such a run as skipped), `None` when it runs: an energy outside
+    /// its energies without an opt-in, or parameters its builder refuses (CM for BCONF with
+    /// k > 1). Only the Newton-type solvers have energies to choose from.
+    pub fn skip_reason(&self, task: Task, energy: &EnergyKind, options: &SolverOptions) -> Option<String> {
+        match self.newton_spec(task, energy, options) {
+            Err(SolverError::Unsupported(why)) => Some(why),
+            Ok(_) | Err(_) => None,
         }
     }
 }
@@ -242,28 +339,90 @@ mod tests {
 
     #[test]
     fn every_entry_builds_for_the_energies_it_lists_and_refuses_the_others_with_a_reason() {
+        let none = SolverOptions::default();
         for s in SOLVERS {
             for task in Task::ALL {
                 for e in energies() {
-                    let built = s.newton_spec(task, &e);
+                    let built = s.newton_spec(task, &e, &none);
                     match (s.method, s.is_defined_for(e.name())) {
-                        (Method::Newton(_), true) => assert!(built.is_ok(), "{} {e:?}", s.name),
+                        (Method::Newton(_), true) => {
+                            assert!(built.is_ok(), "{} {e:?}", s.name);
+                            assert_eq!(s.skip_reason(task, &e, &none), None);
+                        }
                         (Method::Newton(_), false) => {
                             let err = built.err().unwrap().to_string();
-                            assert!(err.contains("not defined for energy"), "{}: {err}", s.name)
+                            let want = format!("{} is not defined for {}: ", s.name, e.name());
+                            assert!(err.starts_with(&want) && err.len() > want.len() + 10, "{}: {err}", s.name);
+                            assert_eq!(s.skip_reason(task, &e, &none), Some(err));
                         }
                         (Method::Sem | Method::AemCg { .. }, _) => {
                             assert!(!s.is_defined_for(e.name()), "{}", s.name);
                             let err = built.err().unwrap().to_string();
                             assert!(err.starts_with(&format!("'{}' is an authalic solver: task {task}", s.name)));
+                            // a wrong task is a config error, not a skipped run
+                            assert_eq!(s.skip_reason(task, &e, &none), None);
                         }
                     }
                 }
             }
         }
-        // parameters outside a solver's domain: refused with the reason
-        let err = newton_spec("cm", Task::Param, &EnergyKind::Bconf { k: 1.5 }).err().unwrap().to_string();
+        // parameters outside a solver's domain: refused with the builder's reason, a skip
+        let cm = find("cm").unwrap();
+        let err = newton_spec("cm", Task::Param, &EnergyKind::Bconf { k: 1.5 }, &none).err().unwrap().to_string();
         assert!(err.contains("not convex"), "{err}");
+        assert_eq!(cm.skip_reason(Task::Param, &EnergyKind::Bconf { k: 1.5 }, &none), Some(err));
+        assert_eq!(cm.skip_reason(Task::Deform, &EnergyKind::Bconf { k: 0.5 }, &none), None);
+    }
+
+    #[test]
+    fn slim_runs_outside_its_energies_only_when_the_options_opt_in() {
+        let slim = find("slim").unwrap();
+        assert_eq!(slim.energies, SLIM_ENERGIES);
+        let clamp = SolverOptions { slim: SlimOptions { clamp_weights: true } };
+        let nh = EnergyKind::default_for("nh").unwrap();
+        let why = slim.skip_reason(Task::Param, &nh, &SolverOptions::default()).unwrap();
+        assert!(
+            why.starts_with(
+                "slim is not defined for nh: its reweighting assumes the per-triangle minimum is a rotation"
+            ) && why.ends_with("(set [solver.slim] clamp_weights = true to run it with clamped weights)"),
+            "{why}"
+        );
+        for e in energies() {
+            assert!(slim.newton_spec(Task::Param, &e, &clamp).is_ok(), "{e:?}");
+            assert_eq!(slim.skip_reason(Task::Deform, &e, &clamp), None);
+        }
+        // the option is slim's: no other solver runs outside its energies with it
+        for s in SOLVERS.iter().filter(|s| s.name != "slim") {
+            assert!(!(s.opt_in)(&clamp) && s.options.is_empty(), "{}", s.name);
+            assert_eq!(clamp.of(s.name), SolverOptions::default());
+        }
+        assert_eq!(clamp.of("slim"), clamp);
+        assert_eq!(slim.options, ["clamp_weights"]);
+    }
+
+    /// The energies SLIM is declared for are exactly those where its weights need no clamping:
+    /// counted at the Tutte map of a generated mesh (the numbers in `SLIM_ENERGIES`' doc).
+    #[test]
+    fn slim_weights_are_clamped_outside_its_energies_only() {
+        use crate::hessian::slim::clamped_weights;
+        use crate::init::{tutte, TutteBoundary};
+        use crate::problem::{Evaluation, MapProblem};
+        let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
+        let x = tutte(&mesh, TutteBoundary::Uniform).unwrap();
+        let mut shares = Vec::new();
+        for e in energies() {
+            let problem = MapProblem::new(&mesh, e).unwrap();
+            let mut ev = Evaluation::default();
+            problem.evaluate(&x, &mut ev).unwrap();
+            let clamped: usize = ev.states.iter().map(clamped_weights).sum();
+            let share = clamped as f64 / (2 * ev.states.len()) as f64;
+            shares.push((e.name(), (1000.0 * share).round() / 10.0));
+            assert_eq!(clamped == 0, SLIM_ENERGIES.contains(&e.name()), "{e:?}: {clamped} clamped");
+        }
+        assert_eq!(
+            shares,
+            [("sd", 0.0), ("exp-sd", 0.0), ("sarap", 0.0), ("nh", 24.2), ("barap", 3.0), ("bconf", 6.9)]
+        );
     }
 
     #[test]
@@ -282,10 +441,32 @@ mod tests {
     }
 
     #[test]
-    fn extra_columns_are_declared_by_the_authalic_solvers_only() {
+    fn extra_columns_are_those_the_solvers_write() {
         for s in SOLVERS {
-            let expected: &[&str] = if s.runs(Task::Authalic) { &AUTHALIC_COLUMNS } else { &[] };
+            let expected: &[&str] = match s.method {
+                Method::Sem | Method::AemCg { .. } => &AUTHALIC_COLUMNS,
+                // the Newton-type solvers write their strategy's counters
+                Method::Newton(_) => {
+                    let e = EnergyKind::default_for(s.energies[0]).unwrap();
+                    let spec = s.newton_spec(Task::Param, &e, &SolverOptions::default()).unwrap();
+                    spec.block.counter_names()
+                }
+            };
             assert_eq!(s.extra_columns, expected, "{}", s.name);
+        }
+        assert_eq!(find("slim").unwrap().extra_columns, ["clamped"]);
+    }
+
+    /// Only unprojected Newton stops at its first failed factorization; the strategies with
+    /// PSD blocks keep the retry with larger shifts as a safety net.
+    #[test]
+    fn only_newton_refuses_to_retry_a_failed_factorization() {
+        for s in SOLVERS {
+            if let Method::Newton(_) = s.method {
+                let e = EnergyKind::default_for(s.energies[0]).unwrap();
+                let spec = s.newton_spec(Task::Param, &e, &SolverOptions::default()).unwrap();
+                assert_eq!(spec.block.retries_failed_factorization(), s.name != "newton", "{}", s.name);
+            }
         }
     }
 }

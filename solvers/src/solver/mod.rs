@@ -7,7 +7,7 @@ pub mod catalogue;
 pub mod newton;
 
 pub use crate::line_search::LineSearchSettings;
-pub use catalogue::{SolverEntry, SolverError, SolverSpec, SOLVERS};
+pub use catalogue::{SlimOptions, SolverEntry, SolverError, SolverOptions, SolverSpec, SOLVERS};
 pub use newton::{newton, NewtonSettings};
 
 use crate::linear::{AnalysisCache, LinearSettings};
@@ -37,6 +37,12 @@ pub struct IterationRecord {
     pub t_linesearch_s: f64,
     pub t_iter_s: f64,
     pub t_cum_s: f64,
+    /// The Tikhonov shift (`LinearSettings::tikhonov`, added before and after Jacobi scaling)
+    /// of the Newton system that produced this row: the base shift of the settings when its
+    /// factorization succeeded at once, the retry's larger shift otherwise. `None` in row 0
+    /// (no system has been solved yet; the driver factorizes only after reporting it) and
+    /// for the solvers without a Newton system (the authalic ones).
+    pub shift: Option<f64>,
     /// Energy evaluations of the line search.
     pub ls_evals: usize,
     /// Solver-specific columns appended after the design.md ones (same names in every row
@@ -152,6 +158,10 @@ pub enum StopReason {
     Interrupted,
     /// The observer stopped the run at its deadline.
     Timeout,
+    /// Never started: the solver is not defined for the energy (or its parameters). No
+    /// solver returns it; the harness records such pairs as skipped, the reason in `error`
+    /// (`SolverEntry::skip_reason`).
+    Skipped,
 }
 
 /// A `stop_reason` string that names no [`StopReason`].
@@ -161,7 +171,7 @@ pub struct UnknownStopReason(pub String);
 
 impl StopReason {
     /// Every reason, payloads empty (parsing, listings).
-    pub const ALL: [StopReason; 10] = [
+    pub const ALL: [StopReason; 11] = [
         StopReason::GradientTolerance,
         StopReason::EnergyDecrease,
         StopReason::MaxIterations,
@@ -172,6 +182,7 @@ impl StopReason {
         StopReason::EnergyIncreased,
         StopReason::Interrupted,
         StopReason::Timeout,
+        StopReason::Skipped,
     ];
 
     pub fn as_str(&self) -> &'static str {
@@ -186,6 +197,7 @@ impl StopReason {
             StopReason::EnergyIncreased => "energy_increased",
             StopReason::Interrupted => "interrupted",
             StopReason::Timeout => "timeout",
+            StopReason::Skipped => "skipped",
         }
     }
 
@@ -279,6 +291,8 @@ pub struct Settings {
     pub stop: StopSettings,
     pub line_search: LineSearchSettings,
     pub linear: LinearSettings,
+    /// The options of individual solvers (`[solver.<name>]`), e.g. SLIM's weight clamping.
+    pub options: SolverOptions,
     /// Symbolic analyses shared with the other runs on the same mesh (`None`: analyse
     /// privately). Sharing never changes results, only the setup time.
     #[serde(skip)]
@@ -333,6 +347,7 @@ mod tests {
         assert!(err.starts_with("unknown stop reason 'converged' (known: grad_tol, "), "{err}");
         assert_eq!(StopReason::Timeout.as_str(), "timeout");
         assert!(!StopReason::Timeout.is_converged());
+        assert_eq!(("skipped".parse(), StopReason::Skipped.is_converged()), (Ok(StopReason::Skipped), false));
     }
 
     #[test]

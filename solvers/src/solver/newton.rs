@@ -27,8 +27,15 @@ pub enum SolveError {
 /// Alias kept for readability at call sites.
 pub type NewtonSettings = Settings;
 
-/// How many times the Tikhonov shift is increased (x1000 each) after a failed factorization.
-const MAX_REGULARIZATION_RETRIES: usize = 3;
+/// How many times the Tikhonov shift is increased after a failed factorization (by the
+/// strategies that retry, [`SystemBlock::retries_failed_factorization`]).
+pub const MAX_REGULARIZATION_RETRIES: usize = 3;
+
+/// The shift of the retry after a failed factorization with shift `tau`: x1000, at least
+/// 1e-8 (from the default 1e-10: 1e-7, 1e-4, 0.1).
+pub fn next_shift(tau: f64) -> f64 {
+    (tau * 1e3).max(1e-8)
+}
 
 /// The Newton system's pattern for `problem`: faces, plus edge pairs with a smoothness term.
 pub fn system_pattern(problem: &MapProblem) -> Pattern {
@@ -112,6 +119,8 @@ pub fn newton(
         neg_eig: ev.neg_eig,
         indefinite_elems: ev.indefinite_elems,
         flips: problem.flips(&x),
+        // No system has been built at row 0: its counters are not defined yet.
+        extra: strategy.counter_names().iter().map(|&n| (n, f64::NAN)).collect(),
         ..Default::default()
     };
     let mut halt = observer.observe(&record).stop_reason();
@@ -142,6 +151,7 @@ pub fn newton(
         let t_start = Instant::now();
 
         project_blocks(problem, &ev, strategy, &mut blocks, &mut edge_blocks);
+        let counters = strategy.counters(&ev.states);
         let t_project = t_start.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
@@ -162,16 +172,22 @@ pub fn newton(
         rhs.extend(ev.grad.iter().map(|g| -g));
         let mut lin = LinearSettings { ..settings.linear };
         let mut solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
-        for _ in 0..MAX_REGULARIZATION_RETRIES {
+        let retries = if strategy.retries_failed_factorization() { MAX_REGULARIZATION_RETRIES } else { 0 };
+        for _ in 0..retries {
             if solved.is_ok() {
                 break;
             }
-            lin.tikhonov = (lin.tikhonov * 1e3).max(1e-8);
+            lin.tikhonov = next_shift(lin.tikhonov);
             solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
         }
         let t_solve = t0.elapsed().as_secs_f64();
         if let Err(e) = solved {
-            break StopReason::LinearSolveFailed(e.to_string());
+            let tried = if retries == 0 {
+                format!("shift {:e}, no retry", settings.linear.tikhonov)
+            } else {
+                format!("shifts {:e} to {:e}", settings.linear.tikhonov, lin.tikhonov)
+            };
+            break StopReason::LinearSolveFailed(format!("the system at iterate {iter}: {e} ({tried})"));
         }
 
         let t0 = Instant::now();
@@ -214,8 +230,9 @@ pub fn newton(
             t_linesearch_s: t_ls,
             t_iter_s: t_iter,
             t_cum_s: t_cum,
+            shift: Some(lin.tikhonov),
             ls_evals,
-            extra: Vec::new(),
+            extra: strategy.counter_names().iter().copied().zip(counters).collect(),
         };
         halt = observer.observe(&record).stop_reason();
     };
@@ -287,6 +304,82 @@ mod tests {
         assert_eq!(out.iterations, 0);
         assert_eq!(out.x, x);
         assert_eq!(rec.rows.len(), 1);
+    }
+
+    /// KP's blocks minus `delta` times their diagonal. The assembled matrix is `K - delta
+    /// diag(K)`, so after Jacobi scaling it is `S K S - delta/(1 - delta) I`: KP's (PSD, with
+    /// the translations in its kernel) pushed below zero by about `delta`. A shift of 0.1 on
+    /// the scaled diagonal makes it definite again, the smaller ones do not.
+    struct Dented {
+        delta: f64,
+        retry: bool,
+    }
+    impl SystemBlock for Dented {
+        fn block(&self, op: &LocalOp, s: &crate::hessian::ElementState) -> Matrix6<f64> {
+            let b = Kp.block(op, s);
+            b - Matrix6::from_diagonal(&b.diagonal()) * self.delta
+        }
+        fn retries_failed_factorization(&self) -> bool {
+            self.retry
+        }
+    }
+
+    #[test]
+    fn each_row_records_the_shift_of_its_system() {
+        let (pb, x) = problem();
+        let base = settings().linear.tikhonov;
+        let mut rec = Recorder::default();
+        let out = newton(&pb, x.clone(), &Kp, &settings(), &mut rec).unwrap();
+        assert!(out.iterations > 2);
+        // row 0 has no system; KP's systems factorize at the base shift
+        assert_eq!(rec.rows[0].shift, None);
+        assert!(rec.rows[1..].iter().all(|r| r.shift == Some(base)), "{:?}", rec.rows);
+
+        // a system that fails until the third retry: each row records that retry's shift
+        let third = next_shift(next_shift(next_shift(base)));
+        assert!((third - 0.1).abs() < 1e-12, "{third}");
+        let mut rec = Recorder::default();
+        let out = newton(&pb, x.clone(), &Dented { delta: 0.01, retry: true }, &settings(), &mut rec).unwrap();
+        assert!(out.iterations >= 1, "{:?}", out.stop_reason);
+        assert_eq!(rec.rows[0].shift, None);
+        assert!(rec.rows[1..].iter().all(|r| r.shift == Some(third)), "{:?}", rec.rows);
+
+        // beyond the last retry: the run stops, saying which shifts it tried
+        let mut rec = Recorder::default();
+        let out = newton(&pb, x, &Dented { delta: 0.5, retry: true }, &settings(), &mut rec).unwrap();
+        let detail = out.stop_reason.detail().unwrap().to_string();
+        assert_eq!((out.stop_reason.as_str(), out.iterations, rec.rows.len()), ("linear_solve_failed", 0, 1));
+        assert!(
+            detail.starts_with("the system at iterate 0: ")
+                && detail.ends_with(&format!("(shifts 1e-10 to {third:e})")),
+            "{detail}"
+        );
+    }
+
+    #[test]
+    fn a_strategy_without_retry_stops_at_its_first_failed_factorization() {
+        let (pb, x) = problem();
+        let mut rec = Recorder::default();
+        let out = newton(&pb, x.clone(), &Dented { delta: 0.01, retry: false }, &settings(), &mut rec).unwrap();
+        assert_eq!(out.stop_reason.as_str(), "linear_solve_failed");
+        assert_eq!(out.stop_reason.detail().map(|d| d.ends_with("(shift 1e-10, no retry)")), Some(true));
+        assert_eq!((out.iterations, rec.rows.len()), (0, 1));
+        assert_eq!(out.x, x);
+        // unprojected Newton is such a strategy
+        assert!(!crate::hessian::none::Unprojected.retries_failed_factorization());
+        assert!(Kp.retries_failed_factorization());
+    }
+
+    #[test]
+    fn strategy_counters_follow_the_design_columns() {
+        let (pb, x) = problem();
+        let mut rec = Recorder::default();
+        newton(&pb, x, &crate::hessian::slim::Slim, &settings(), &mut rec).unwrap();
+        assert!(rec.rows.len() > 2);
+        // row 0: no system yet; then SD's weights, which are never clamped
+        assert_eq!(rec.rows[0].extra.len(), 1);
+        assert!(rec.rows[0].extra[0].0 == "clamped" && rec.rows[0].extra[0].1.is_nan());
+        assert!(rec.rows[1..].iter().all(|r| r.extra == [("clamped", 0.0)]), "{:?}", rec.rows);
     }
 
     #[test]

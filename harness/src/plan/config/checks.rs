@@ -1,7 +1,7 @@
 //! What serde cannot check in a config: names, the solvers of the task (the catalogue),
 //! parameters that do not belong to an energy or a task, out-of-range values.
 
-use super::{available_cores, check_repeat, check_threads_per_run, Config, InitConfig, Task};
+use super::{available_cores, check_repeat, check_threads_per_run, Config, InitConfig, SolverParams, Task};
 use anyhow::{bail, Context, Result};
 use solvers::energy::{AUTHALIC_ENERGY, ENERGY_NAMES};
 use solvers::solver::catalogue::{self, names_for, SolverError};
@@ -16,6 +16,7 @@ impl Config {
             check_repeat(r)?;
         }
         self.check_names()?;
+        self.check_solver_options()?;
         if self.task != Task::Deform && self.deform.is_some() {
             bail!("[deform] applies only to task = \"deform\"");
         }
@@ -137,6 +138,26 @@ impl Config {
                     bail!("{e}; it runs in a config with task = {}", tasks.join(" or "))
                 }
                 Err(e) => bail!("{e}"),
+            }
+        }
+        Ok(())
+    }
+
+    /// Every `[solver.<name>]` names a solver of this config's task, and sets only options
+    /// that solver has.
+    fn check_solver_options(&self) -> Result<()> {
+        for (name, params) in &self.solver {
+            let entry = catalogue::lookup(name, self.task).map_err(|e| anyhow::anyhow!("[solver.{name}]: {e}"))?;
+            let SolverParams { clamp_weights } = params;
+            for (key, set) in [("clamp_weights", clamp_weights.is_some())] {
+                if set && !entry.options.contains(&key) {
+                    let has = if entry.options.is_empty() {
+                        format!("{name} has no options")
+                    } else {
+                        format!("its options: {}", entry.options.join(", "))
+                    };
+                    bail!("[solver.{name}] has no option '{key}' ({has})");
+                }
             }
         }
         Ok(())

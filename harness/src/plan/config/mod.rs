@@ -68,6 +68,16 @@ pub struct EnergyParams {
     pub smoothness_projection: Option<Projection>,
 }
 
+/// Options of one solver (`[solver.<name>]`); which keys apply depends on the solver (its
+/// catalogue entry's `options`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverParams {
+    /// slim: also run the energies outside its definition (NH, BARAP, BCONF), clamping the
+    /// weights that come out non-positive; default false (such runs are skipped).
+    pub clamp_weights: Option<bool>,
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
@@ -101,6 +111,9 @@ pub struct Config {
     pub init: InitConfig,
     #[serde(default)]
     pub energy: BTreeMap<String, EnergyParams>,
+    /// `[solver.<name>]`: options of individual solvers (a solver of the config's task).
+    #[serde(default)]
+    pub solver: BTreeMap<String, SolverParams>,
     /// `[authalic]`, straight into `AuthalicSettings` (the paper's protocol for the keys not
     /// given; its stop rule comes from `[stop]`).
     pub authalic: Option<AuthalicSettings>,

@@ -9,7 +9,7 @@ use solvers::deform::DeformSettings;
 use solvers::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
 use solvers::param::ParamSettings;
 use solvers::smoothness::Projection;
-use solvers::solver::Settings;
+use solvers::solver::{Settings, SolverOptions};
 
 impl Config {
     /// The energies of the runs: the configured ones, or the authalic task's one energy.
@@ -129,10 +129,22 @@ impl Config {
         s
     }
 
-    /// `[stop]` over the default stop rule, and the `[line_search]` and `[linear]` sections.
+    /// `[stop]` over the default stop rule, the `[line_search]` and `[linear]` sections, and
+    /// the `[solver.<name>]` options.
     fn solver_overrides(&self, s: &mut Settings) {
         s.stop = self.stop.over(s.stop);
         s.line_search = self.line_search.unwrap_or(s.line_search);
         s.linear = self.linear.unwrap_or(s.linear);
+        s.options = self.solver_options();
+    }
+
+    /// The `[solver.<name>]` sections as the solvers' options (their defaults for the keys not
+    /// given).
+    pub(super) fn solver_options(&self) -> SolverOptions {
+        let mut o = SolverOptions::default();
+        if let Some(c) = self.solver.get("slim").and_then(|p| p.clamp_weights) {
+            o.slim.clamp_weights = c;
+        }
+        o
     }
 }

@@ -196,3 +196,35 @@ fn bad_configs_name_what_is_wrong() {
     assert!(err(&format!("{MIN}[authalic]\nalpha0 = 1.0\n")).contains("only to task = \"authalic\""));
     assert!(err(&format!("{MIN}[stop]\ngrad_tol = \"x\"\n")).contains("invalid type"));
 }
+
+#[test]
+fn solver_sections_set_the_options_of_their_solver_only() {
+    let c = parse(&format!("{MIN}[solver.slim]\nclamp_weights = true\n")).unwrap();
+    let s = c.param_settings(&EnergyKind::Sd);
+    assert!(s.solver.options.slim.clamp_weights);
+    assert!(c.deform_settings().solver.options.slim.clamp_weights);
+    // absent or false: the solvers as published
+    assert_eq!(parse(MIN).unwrap().param_settings(&EnergyKind::Sd).solver.options, Default::default());
+    let off = parse(&format!("{MIN}[solver.slim]\nclamp_weights = false\n")).unwrap();
+    assert!(!off.param_settings(&EnergyKind::Sd).solver.options.slim.clamp_weights);
+    // an empty section is allowed, for a solver the config does not run too
+    assert!(parse(&format!("{MIN}[solver.cm]\n")).is_ok());
+}
+
+#[test]
+fn a_solver_section_for_an_unknown_solver_or_option_is_an_error_naming_it() {
+    let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+    let e = err(&format!("{MIN}[solver.slimm]\nclamp_weights = true\n"));
+    assert!(e.contains("[solver.slimm]: unknown solver 'slimm' (known: kp-newton, "), "{e}");
+    let e = err(&format!("{MIN}[solver.cm]\nclamp_weights = true\n"));
+    assert!(e.contains("[solver.cm] has no option 'clamp_weights' (cm has no options)"), "{e}");
+    let e = err(&format!("{MIN}[solver.slim]\nclamp = true\n"));
+    assert!(e.contains("unknown field `clamp`") && e.contains("clamp_weights"), "{e}");
+    let e = err(&format!("{MIN}[solver.slim]\nclamp_weights = 1\n"));
+    assert!(e.contains("invalid type"), "{e}");
+    // a solver of the other task
+    let e = err(&format!("{AUTH}[solver.slim]\nclamp_weights = true\n"));
+    assert!(e.contains("[solver.slim]: 'slim' is a param/deform solver"), "{e}");
+    let e = err(&format!("{AUTH}[solver.sem]\nclamp_weights = true\n"));
+    assert!(e.contains("[solver.sem] has no option 'clamp_weights' (sem has no options)"), "{e}");
+}
