@@ -28,7 +28,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];
@@ -43,7 +43,7 @@ path = "quad.obj"
     let (h, it) = read_csv(&out.join("runs/bumpy_1k__sd__kp-newton.csv"));
     assert_eq!(
         h.join(","),
-        "iter,energy,energy_minus_best,grad_norm,step,neg_eig,indefinite_elems,flips,t_assemble_s,t_project_s,t_solve_s,t_linesearch_s,t_iter_s,t_cum_s,ls_evals"
+        "iter,energy,energy_minus_best,grad_norm,step,neg_eig,indefinite_elems,flips,t_assemble_s,t_project_s,t_solve_s,t_linesearch_s,t_iter_s,t_cum_s,shift,ls_evals"
     );
     assert_eq!(it.len() - 1, good[col("iterations")].parse::<usize>().unwrap());
     assert_eq!(it.last().unwrap()[2].parse::<f64>().unwrap(), 0.0);
@@ -115,7 +115,7 @@ path = "two.obj"
     let (h, it) = read_csv(&out.join("runs/bumpy_1k__authalic__aem-cg-safe.csv"));
     assert_eq!(
         h[14..].join(","),
-        "ls_evals,image_area,stretch_energy,ascent,wolfe,backtracks,restarted,fold_rejects,quad_fallback"
+        "shift,ls_evals,image_area,stretch_energy,ascent,wolfe,backtracks,restarted,fold_rejects,quad_fallback"
     );
     assert_eq!(it.len(), 21);
     let table = std::fs::read_to_string(out.join("tables/authalic.md")).unwrap();

@@ -22,7 +22,10 @@ fn every_solver_writes_exactly_the_extra_columns_it_declares() {
             settings.solver.stop.max_iters = 2;
             solve_param(&disk, EnergyKind::Sd, entry.name, &settings, &mut rec).unwrap();
         }
-        assert!(rec.rows.len() >= 2, "{}", entry.name);
+        // Unprojected newton may stop at its first failed factorization (row 0 only); every
+        // solver that declares extra columns must show them on an iteration row too.
+        let least = if entry.extra_columns.is_empty() { 1 } else { 2 };
+        assert!(rec.rows.len() >= least, "{}", entry.name);
         for r in &rec.rows {
             let names: Vec<&str> = r.extra.iter().map(|e| e.0).collect();
             assert_eq!(names, entry.extra_columns, "{} row {}", entry.name, r.iter);
