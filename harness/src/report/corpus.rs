@@ -21,7 +21,7 @@
 
 use super::batch::Batch;
 use super::tables::ranking::Timed;
-use super::{finished, skipped};
+use super::{finished, skipped, unique};
 use crate::run_folder::{Status, SummaryRow};
 use crate::stats::shifted_geometric_mean;
 
@@ -160,17 +160,6 @@ pub struct EnergyAggregate {
     pub iteration_cap: Option<Cap>,
     pub time_cap: Option<Cap>,
     pub solvers: Vec<SolverAggregate>,
-}
-
-/// First-appearance order.
-fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
-    let mut out: Vec<&str> = Vec::new();
-    for i in items {
-        if !out.contains(&i) {
-            out.push(i);
-        }
-    }
-    out
 }
 
 /// The iteration cap of `energy`: its `max_iters`, else the most iterations of a run in `runs`.

@@ -10,6 +10,7 @@ use crate::report::batch::Batch;
 use crate::report::plots::{Plot, PlotKind};
 use crate::report::tables::ranking::Timed;
 use crate::report::tables::{Table, AGGREGATES};
+use crate::report::unique;
 use crate::run_folder::{run_stem, write_atomic, Status, SummaryRow};
 use anyhow::{Context, Result};
 use serde_json::Value;
@@ -173,17 +174,6 @@ fn timing_section(h: &mut String, summaries: &[SummaryRow], batch: &Batch) {
             100.0 * SPREAD_WARNING
         );
     }
-}
-
-/// First-appearance order, so rows and columns follow summary.csv.
-fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
-    let mut out: Vec<&str> = Vec::new();
-    for i in items {
-        if !out.contains(&i) {
-            out.push(i);
-        }
-    }
-    out
 }
 
 /// Seconds with 3 significant digits (0.0431 s, 6.59 s, 123 s).
