@@ -10,7 +10,7 @@ use crate::report::batch::Batch;
 use crate::report::plots::{Plot, PlotKind};
 use crate::report::tables::ranking::Timed;
 use crate::report::tables::{Table, AGGREGATES};
-use crate::report::unique;
+use crate::report::{clamped_label, unique};
 use crate::run_folder::{run_stem, write_atomic, Status, SummaryRow};
 use anyhow::{Context, Result};
 use serde_json::Value;
@@ -209,7 +209,8 @@ fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
            <span class=\"failed\">failed</span> with its error; <span class=\"skipped\">skipped</span>: not \
            run, the solver is not defined for the energy (the reason shown; left out of every aggregate and \
            ranking). “k shifted”: k iterations solved their Newton system with a Tikhonov shift above the \
-           base (regularized Newton).</p>\n\
+           base (regularized Newton); “k clamped”: k iterations clamped SLIM weights (the solver run \
+           outside the energies it is defined for; tables and profiles name it “slim (clamped)”).</p>\n\
            <div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
     if several_energies {
         *h += "<th class=\"k\">energy</th>";
@@ -260,6 +261,11 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
     if let Some(k) = s.shifted_iters.filter(|k| *k > 0) {
         let _ = write!(detail, ", {k} shifted");
         let _ = write!(more, "; {k} iterations solved with a Tikhonov shift above the base (regularized)");
+    }
+    if let Some(k) = s.clamped_iters.filter(|k| *k > 0) {
+        let _ = write!(detail, ", {k} clamped");
+        let _ =
+            write!(more, "; {k} iterations clamped SLIM weights (tables name the run {})", clamped_label(&s.solver));
     }
     let (class, head, tip, small) = match s.status {
         Status::Ok => ("ok", "ok".to_string(), format!("converged ({}){more}", s.stop_column()), detail),

@@ -22,7 +22,7 @@ use tables::Table;
 pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     fill_best(run_dir, summary)?;
     let batch = Batch::read(run_dir);
-    let tables = tables(summary, &batch);
+    let tables = tables(&labelled(summary), &batch);
     for (stem, table) in &tables {
         table.write(&run_dir.join("tables"), stem)?;
     }
@@ -52,6 +52,25 @@ pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
     out.extend(tables::aggregates_table(summary, batch).map(|t| (tables::AGGREGATES.to_string(), t)));
     out.extend(rest.iter().filter_map(build));
     out
+}
+
+/// The rows as tables and profiles name them: a run that clamped SLIM weights (issue 18:
+/// SLIM outside the energies it is defined for, opted in with `[solver.slim] clamp_weights`)
+/// is another method than SLIM, so it is its own solver, `"<solver> (clamped)"`, there; its
+/// files keep the plain name.
+pub fn labelled(summary: &[SummaryRow]) -> Vec<SummaryRow> {
+    summary
+        .iter()
+        .map(|r| match r.clamped_iters {
+            Some(k) if k > 0 => SummaryRow { solver: clamped_label(&r.solver), ..r.clone() },
+            _ => r.clone(),
+        })
+        .collect()
+}
+
+/// The label of a solver's runs that clamped weights.
+pub fn clamped_label(solver: &str) -> String {
+    format!("{solver} (clamped)")
 }
 
 /// Rewrite `energy_minus_best` of every run with the best energy any finished run of its
@@ -128,4 +147,53 @@ pub(crate) fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run_folder::SummaryRow;
+
+    fn param(d: &str, e: &str, s: &str, clamped: Option<usize>) -> SummaryRow {
+        SummaryRow {
+            dataset: d.into(),
+            task: Task::Param,
+            energy: e.into(),
+            solver: s.into(),
+            vertices: Some(100),
+            iterations: Some(20),
+            time_s: Some(0.5),
+            clamped_iters: clamped,
+            status: Status::Ok,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn tables_name_slim_runs_that_clamped_weights_slim_clamped() {
+        let rows = vec![
+            param("a", "sd", "slim", Some(0)),
+            param("a", "barap", "slim", Some(7)),
+            param("a", "sd", "kp-newton", None),
+            param("a", "barap", "kp-newton", None),
+        ];
+        let tables = tables(&labelled(&rows), &Batch::default());
+        let (_, t) = tables.iter().find(|(stem, _)| stem == "param").expect("a param table");
+        let names: Vec<&str> = t.rows.iter().map(|r| r[0].as_str()).collect();
+        assert_eq!(names, ["slim", "slim (clamped)", "kp-newton"]);
+        // plain slim has only its sd run; the clamped one only barap.
+        let col = |e: &str| t.columns.iter().position(|c| c == e).unwrap();
+        assert_eq!((t.rows[0][col("barap")].as_str(), t.rows[1][col("sd")].as_str()), ("", ""));
+        assert!(!t.rows[1][col("barap")].is_empty());
+        // Per-mesh and aggregates tables name it the same way.
+        let stems: Vec<&str> = tables.iter().map(|(s, _)| s.as_str()).collect();
+        assert!(stems.contains(&"per_mesh") && stems.contains(&tables::AGGREGATES), "{stems:?}");
+        for (stem, t) in tables.iter().filter(|(s, _)| ["param", "per_mesh", tables::AGGREGATES].contains(&s.as_str()))
+        {
+            let text = t.to_markdown();
+            assert!(text.contains("slim (clamped)"), "{stem}: {text}");
+        }
+        // The rows keep their files' names.
+        assert_eq!(rows[1].solver, "slim");
+    }
 }

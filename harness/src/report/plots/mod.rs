@@ -79,6 +79,9 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
             groups.push((&s.dataset, &s.energy));
         }
     }
+    // Profiles compare methods: clamped SLIM runs are their own solver there (as in the tables).
+    let labelled = super::labelled(summaries);
+    let profile_solvers = super::unique(labelled.iter().map(|s| s.solver.as_str()));
     // Groups, and the plots inside a group, render in parallel (the caller's rayon pool);
     // indexed collects keep the plots in the groups' order.
     let per_group = |&group: &(&str, &str)| -> Result<Vec<Plot>> {
@@ -97,7 +100,7 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
         || {
             rayon::join(
                 || scaling::render_scaling(run_dir, summaries, &solvers),
-                || profiles::render_profiles(run_dir, summaries, &solvers),
+                || profiles::render_profiles(run_dir, &labelled, &profile_solvers),
             )
         },
     );
