@@ -361,6 +361,17 @@ fn repeats_run_round_robin_reproduce_the_iterates_and_report_median_min_max() {
     assert!(!log.contains("repeat 1/3"), "resumed runs are not repeated: {log}");
     let again = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     assert_eq!(again, before);
+    // a resumed run without a normalized time (a folder of an older version, or whose
+    // calibration failed) keeps none: this batch's calibration did not see its machine
+    let sidecar = out.join("runs/bumpy_1k__sd__cm.json");
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&sidecar).unwrap()).unwrap();
+    json["summary"]["time_norm"] = serde_json::Value::Null;
+    std::fs::write(&sidecar, serde_json::to_string(&json).unwrap()).unwrap();
+    let log = run(&["--resume"]);
+    assert_eq!(log.matches("resumed, ").count(), 4, "{log}");
+    let (_, rows) = read_csv(&out.join("summary.csv"));
+    let cm = rows.iter().find(|r| r[col("solver")] == "cm" && r[col("dataset")] == "bumpy_1k").unwrap();
+    assert_eq!((cm[col("repeats")].as_str(), cm[col("time_norm")].as_str()), ("3", ""), "{cm:?}");
     // another repeat count is another measurement: nothing is resumed
     let log = run(&["--resume", "--repeat", "2"]);
     assert_eq!(log.matches("resumed, ").count(), 0, "{log}");

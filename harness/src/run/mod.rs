@@ -98,8 +98,8 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     }
     progress.start(total * plan.repeat, jobs);
     let mut slots: Vec<Option<Slot>> = (0..total).map(|_| None).collect();
-    // Each finished run, with the key of the sidecar this batch wrote for it.
-    let mut finished: Vec<(usize, SummaryRow, Option<String>)> = Vec::new();
+    // Each finished run, whether it was resumed, and the key of the sidecar this batch wrote.
+    let mut finished: Vec<(usize, SummaryRow, bool, Option<String>)> = Vec::new();
     let mut finish = |i: usize, worker: usize, slot: Slot, complete: bool, report: &mut BatchReport| -> Result<()> {
         let Slot { mut first, resumed, key, repeats } = slot;
         if let Some(r) = repeats {
@@ -148,7 +148,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         }
         report.runs += 1;
         summary.append(s)?;
-        finished.push((i, first.summary, wrote));
+        finished.push((i, first.summary, resumed, wrote));
         Ok(())
     };
     for round in 0..plan.repeat {
@@ -180,6 +180,10 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
                     let repeats =
                         (!resumed && plan.repeat > 1 && Repeats::wanted(&result)).then(|| Repeats::new(&result));
                     let slot = Slot { first: result, resumed, key, repeats };
+                    if !last && slot.repeats.is_none() {
+                        // Failed, skipped and resumed runs are not repeated: fewer solves to go.
+                        progress.fewer_solves(plan.repeat - 1);
+                    }
                     if last || slot.repeats.is_none() {
                         finish(i, worker, slot, true, &mut report)?;
                     } else {
@@ -237,11 +241,12 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         ));
     }
     // summary.csv in canonical order, whatever order the workers finished in, with the runs
-    // measured here normalized by this batch's calibration (a resumed run keeps its own).
-    finished.sort_by_key(|(i, _, _)| *i);
+    // measured here normalized by this batch's calibration (a resumed run keeps its own, or
+    // none: it was timed in another batch, on a machine this calibration did not see).
+    finished.sort_by_key(|(i, ..)| *i);
     let mut rows: Vec<SummaryRow> = Vec::with_capacity(finished.len());
-    for (i, mut s, wrote) in finished {
-        if s.time_norm.is_none() {
+    for (i, mut s, resumed, wrote) in finished {
+        if !resumed && s.time_norm.is_none() {
             s.time_norm = s.time_s.and_then(|t| calibration.normalize(t));
             if let Some(key) = wrote {
                 sidecar::write(out_dir, &mine[i].stem, &key, &s)?;

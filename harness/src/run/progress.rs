@@ -16,6 +16,9 @@ pub trait Progress: Sync {
     fn iteration(&self, worker: usize, iter: usize, energy: f64);
     /// A run ended; `line` says how (one line, no newline).
     fn run_finished(&self, worker: usize, line: &str);
+    /// `n` of the announced solves will not run (a run that is not repeated: failed,
+    /// skipped or resumed).
+    fn fewer_solves(&self, n: usize);
     /// Anything else worth a line (skipped datasets, interrupts).
     fn notice(&self, line: &str);
     /// The batch is over: clear any live display.
@@ -43,6 +46,7 @@ impl Progress for Lines {
     fn run_finished(&self, _: usize, line: &str) {
         eprintln!("{line}");
     }
+    fn fewer_solves(&self, _: usize) {}
     fn notice(&self, line: &str) {
         eprintln!("{line}");
     }
@@ -58,8 +62,12 @@ pub struct Bars {
 
 impl Bars {
     fn new() -> Bars {
+        Bars::to(ProgressDrawTarget::stderr())
+    }
+
+    fn to(target: ProgressDrawTarget) -> Bars {
         Bars {
-            multi: MultiProgress::with_draw_target(ProgressDrawTarget::stderr()),
+            multi: MultiProgress::with_draw_target(target),
             overall: Mutex::new(None),
             workers: Mutex::new(Vec::new()),
         }
@@ -106,6 +114,12 @@ impl Progress for Bars {
         }
     }
 
+    fn fewer_solves(&self, n: usize) {
+        if let Some(bar) = self.overall.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            bar.set_length(bar.length().unwrap_or(0).saturating_sub(n as u64));
+        }
+    }
+
     fn notice(&self, line: &str) {
         let _ = self.multi.println(line);
     }
@@ -117,5 +131,21 @@ impl Progress for Bars {
         if let Some(bar) = self.overall.lock().unwrap_or_else(|e| e.into_inner()).take() {
             bar.finish_and_clear();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_that_are_not_repeated_shorten_the_overall_bar() {
+        let bars = Bars::to(ProgressDrawTarget::hidden());
+        bars.start(3 * 4, 2);
+        bars.run_finished(0, "a failed run");
+        bars.fewer_solves(2);
+        let overall = bars.overall.lock().unwrap();
+        let bar = overall.as_ref().unwrap();
+        assert_eq!((bar.position(), bar.length()), (1, Some(10)));
     }
 }
