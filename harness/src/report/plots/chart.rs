@@ -1,6 +1,7 @@
 //! What the curve charts share: the size and legend column, one [`Series`] per solver with
 //! its color and marker, the axes' house style and the tick label formats.
 
+use super::canvas::{encode_png, register_font};
 use super::colors::PALETTE;
 use super::curves::Curve;
 use anyhow::Result;
@@ -158,4 +159,28 @@ where
         area.draw(&Text::new("dashed: not converged", (left + 2, top + height + 6), note))?;
     }
     Ok(())
+}
+
+/// A curve chart's PNG: `draw` fills the chart area on the left, the legend of `curves` takes
+/// the column on the right.
+pub(super) fn render_framed(
+    curves: &[Series],
+    draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
+) -> Result<Vec<u8>> {
+    register_font();
+    let mut buf = vec![255u8; (CURVE_SIZE.0 * CURVE_SIZE.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, CURVE_SIZE).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (chart_area, legend_area) = root.split_horizontally(CURVE_SIZE.0 - LEGEND_WIDTH);
+        draw(&chart_area)?;
+        draw_legend(&legend_area, curves)?;
+        root.present()?;
+    }
+    encode_png(&buf, CURVE_SIZE)
+}
+
+/// Each series' `(iter, gap)` points: the x and y of the charts that are not per-run curves.
+pub(super) fn iter_gap_points(curves: &[Series]) -> Vec<Vec<(f64, f64)>> {
+    curves.iter().map(|s| s.curve.iter.iter().copied().zip(s.curve.gap.iter().copied()).collect()).collect()
 }

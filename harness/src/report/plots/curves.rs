@@ -1,10 +1,7 @@
 //! Convergence curves of one (dataset, energy) group: energy gap vs iteration and vs time,
 //! #negative eigenvalues vs iteration (the complex-view paper's Figures 2-3).
 
-use super::canvas::{encode_png, register_font};
-use super::chart::{
-    self, draw_legend, draw_series, format_count, format_linear, house_style, Series, CURVE_SIZE, LEGEND_WIDTH,
-};
+use super::chart::{self, draw_series, format_count, format_linear, house_style, render_framed, Series};
 use super::{Plot, PlotKind};
 use crate::report::converged;
 use crate::run_folder::{write_atomic, SummaryRow};
@@ -89,12 +86,7 @@ fn gap_floor(curves: &[Series]) -> f64 {
 }
 
 fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<u8>> {
-    register_font();
-    let mut buf = vec![255u8; (CURVE_SIZE.0 * CURVE_SIZE.1 * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, CURVE_SIZE).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (chart_area, legend_area) = root.split_horizontally(CURVE_SIZE.0 - LEGEND_WIDTH);
+    render_framed(curves, |chart_area| {
         let floor = gap_floor(curves);
         let points: Vec<Vec<(f64, f64)>> = curves
             .iter()
@@ -113,7 +105,7 @@ fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<
         let x_max = if x_max > 0.0 { x_max * 1.02 } else { 1.0 };
         let y_max = all.map(|p| p.1).fold(0.0, f64::max);
         let x_desc = if *kind == PlotKind::EnergyTime { "time (s)" } else { "iteration" };
-        let mut builder = ChartBuilder::on(&chart_area);
+        let mut builder = ChartBuilder::on(chart_area);
         builder.caption(title, ("sans-serif", 20)).margin(12).x_label_area_size(42).y_label_area_size(70);
         match kind {
             PlotKind::NegEigIter => {
@@ -140,10 +132,8 @@ fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<
                 draw_series(&mut chart, curves, &points, x_max)?;
             }
         }
-        draw_legend(&legend_area, curves)?;
-        root.present()?;
-    }
-    encode_png(&buf, CURVE_SIZE)
+        Ok(())
+    })
 }
 
 #[cfg(test)]

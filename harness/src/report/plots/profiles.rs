@@ -2,8 +2,7 @@
 //! `__time.png`): the step functions of [`crate::report::corpus::performance_profiles`]
 //! drawn on a log2 τ axis, one line per solver in its usual color and marker.
 
-use super::canvas::{encode_png, register_font};
-use super::chart::{self, draw_legend, draw_series, format_linear, house_style, Series, CURVE_SIZE, LEGEND_WIDTH};
+use super::chart::{self, draw_series, format_linear, house_style, iter_gap_points, render_framed, Series};
 use super::curves::Curve;
 use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::corpus::{performance_profiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME};
@@ -68,7 +67,6 @@ fn tick(log2_tau: f64, x_max: f64) -> String {
 }
 
 fn render_profile(title: &str, profiles: &Profiles, solvers: &[&str]) -> Result<Vec<u8>> {
-    register_font();
     let tau_max = profiles.tau_max();
     let x_max = tau_max.log2();
     let curves: Vec<Series> = profiles
@@ -84,14 +82,9 @@ fn render_profile(title: &str, profiles: &Profiles, solvers: &[&str]) -> Result<
             Series { solver: &p.solver, style: chart::style(solvers, &p.solver), converged: true, curve }
         })
         .collect();
-    let mut buf = vec![255u8; (CURVE_SIZE.0 * CURVE_SIZE.1 * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, CURVE_SIZE).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (chart_area, legend_area) = root.split_horizontally(CURVE_SIZE.0 - LEGEND_WIDTH);
-        let points: Vec<Vec<(f64, f64)>> =
-            curves.iter().map(|s| s.curve.iter.iter().copied().zip(s.curve.gap.iter().copied()).collect()).collect();
-        let mut builder = ChartBuilder::on(&chart_area);
+    render_framed(&curves, |chart_area| {
+        let points = iter_gap_points(&curves);
+        let mut builder = ChartBuilder::on(chart_area);
         builder.caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(42).y_label_area_size(60);
         // Room above 1 and below 0 so the markers on the edges are not clipped.
         let mut chart = builder.build_cartesian_2d(-0.02 * x_max..x_max * 1.01, -0.03..1.05)?;
@@ -103,16 +96,15 @@ fn render_profile(title: &str, profiles: &Profiles, solvers: &[&str]) -> Result<
             .y_label_formatter(&|v| if (0.0..=1.0).contains(v) { format_linear(*v) } else { String::new() });
         house_style(&mut mesh).draw()?;
         draw_series(&mut chart, &curves, &points, x_max)?;
-        draw_legend(&legend_area, &curves)?;
-        root.present()?;
-    }
-    encode_png(&buf, CURVE_SIZE)
+        Ok(())
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::plan::Task;
+    use crate::report::plots::chart::CURVE_SIZE;
     use crate::report::plots::tests::png_size;
     use crate::run_folder::Status;
 

@@ -1,10 +1,7 @@
 //! Scaling plots over every dataset of an energy: time per iteration and iterations against
 //! the vertex count (the composite-majorization paper's Figure 6 shape).
 
-use super::canvas::{encode_png, register_font};
-use super::chart::{
-    draw_legend, draw_series, format_count, format_linear, house_style, Series, CURVE_SIZE, LEGEND_WIDTH,
-};
+use super::chart::{draw_series, format_count, format_linear, house_style, iter_gap_points, render_framed, Series};
 use super::curves::Curve;
 use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::{converged, finished, is_authalic};
@@ -82,19 +79,13 @@ pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: 
 /// A plot of `curve.iter` (x, log axis: vertices) against `curve.gap` (y, log axis when
 /// `log_y`) with a marker at every point.
 fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> Result<Vec<u8>> {
-    register_font();
-    let mut buf = vec![255u8; (CURVE_SIZE.0 * CURVE_SIZE.1 * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, CURVE_SIZE).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (chart_area, legend_area) = root.split_horizontally(CURVE_SIZE.0 - LEGEND_WIDTH);
-        let points: Vec<Vec<(f64, f64)>> =
-            curves.iter().map(|s| s.curve.iter.iter().copied().zip(s.curve.gap.iter().copied()).collect()).collect();
+    render_framed(curves, |chart_area| {
+        let points = iter_gap_points(curves);
         let all = || points.iter().flatten();
         let (x_min, x_max) = (all().map(|p| p.0).fold(f64::INFINITY, f64::min), all().map(|p| p.0).fold(0.0, f64::max));
         let (y_min, y_max) = (all().map(|p| p.1).fold(f64::INFINITY, f64::min), all().map(|p| p.1).fold(0.0, f64::max));
         let xr = (x_min / 1.3)..(x_max * 1.3);
-        let mut builder = ChartBuilder::on(&chart_area);
+        let mut builder = ChartBuilder::on(chart_area);
         builder.caption(title, ("sans-serif", 20)).margin(12).x_label_area_size(42).y_label_area_size(70);
         // Markers at every point: a marker slot far smaller than any gap between sizes.
         let every_point = x_min * 1e-9;
@@ -117,16 +108,15 @@ fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> R
             house_style(&mut mesh).draw()?;
             draw_series(&mut chart, curves, &points, every_point)?;
         }
-        draw_legend(&legend_area, curves)?;
-        root.present()?;
-    }
-    encode_png(&buf, CURVE_SIZE)
+        Ok(())
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::plan::Task;
+    use crate::report::plots::chart::CURVE_SIZE;
     use crate::report::plots::tests::png_size;
     use crate::run_folder::Status;
 
