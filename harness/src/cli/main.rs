@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use config::LoadedConfig;
 mod signals;
 
-use mapbench::gate::check;
+use mapbench::gate::{check, compare};
 use mapbench::plan::select::Shard;
 use mapbench::plan::Plan;
 use mapbench::plan::{config, registry};
@@ -91,6 +91,27 @@ enum Command {
         run_dir: PathBuf,
         #[arg(long)]
         baseline: PathBuf,
+    },
+    /// What changed from run folder A (before) to B (after): per run iterations, status,
+    /// final energy and time, as Markdown on stdout. Exit 1 on a regression (the rules of
+    /// `check`), 2 when the folders share no run; times are labelled, never gated unless
+    /// --time-regressions.
+    Compare {
+        run_a: PathBuf,
+        run_b: PathBuf,
+        /// Also write the comparison as a self-contained HTML page.
+        #[arg(long)]
+        html: Option<PathBuf>,
+        /// Relative tolerance on the final energy.
+        #[arg(long, default_value_t = mapbench::gate::rules::DEFAULT_ENERGY_RTOL)]
+        energy_rtol: f64,
+        /// Allowed increase of a run's iterations before it is a regression.
+        #[arg(long, default_value_t = 0)]
+        iterations_tolerance: usize,
+        /// Count a time flagged slower (beyond the spreads, or the single-sample factor) as a
+        /// regression (exit 1).
+        #[arg(long)]
+        time_regressions: bool,
     },
     /// Write a baseline (JSON) from a run folder's summary.csv.
     Baseline {
@@ -232,6 +253,16 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let base = check::Baseline::load(&baseline)?;
             let cmp = check::compare(&base, &check::read_summary(&run_dir)?);
             print!("{}", check::render(&cmp));
+            Ok(ExitCode::from(cmp.exit_code()))
+        }
+        Command::Compare { run_a, run_b, html, energy_rtol, iterations_tolerance, time_regressions } => {
+            let options = compare::Options { energy_rtol, iterations_tolerance, time_regressions };
+            let cmp = compare::compare_folders(&run_a, &run_b, options)?;
+            print!("{}", compare::to_markdown(&cmp));
+            if let Some(path) = html {
+                run_folder::write_atomic(&path, compare::to_html(&cmp).as_bytes())?;
+                eprintln!("wrote {}", path.display());
+            }
             Ok(ExitCode::from(cmp.exit_code()))
         }
         Command::Baseline { run_dir, write } => {

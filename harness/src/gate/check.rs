@@ -1,42 +1,13 @@
 //! The regression gate: a JSON baseline of iteration counts and final energies per run, and
-//! the comparison of a run folder against it (`baseline`, `check`).
+//! the comparison of a run folder against it (`baseline`, `check`), by the rules of
+//! [`super::rules`].
 
-use crate::plan::Task;
-use crate::run_folder::Status;
+use super::rules;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Default relative tolerance on the final energy.
-pub const DEFAULT_ENERGY_RTOL: f64 = 1e-6;
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Record {
-    pub dataset: String,
-    pub task: Task,
-    pub energy: String,
-    pub solver: String,
-    pub iterations: Option<usize>,
-    pub final_energy: Option<f64>,
-    pub status: Status,
-    pub flips: Option<usize>,
-    /// Allowed increase of `iterations` before it counts as a regression (default 0).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub iterations_tolerance: Option<usize>,
-    /// Wall time of the run when the baseline was written; shown, never gated.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub time_s: Option<f64>,
-}
-
-impl Record {
-    fn key(&self) -> (&str, Task, &str, &str) {
-        (&self.dataset, self.task, &self.energy, &self.solver)
-    }
-    fn label(&self) -> String {
-        format!("{} {} {} {}", self.dataset, self.task.as_str(), self.energy, self.solver)
-    }
-}
+pub use super::rules::{Change, Record, DEFAULT_ENERGY_RTOL};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -67,9 +38,7 @@ impl Baseline {
     /// baseline would pass every batch), and each run once (two records of one run could
     /// disagree, and the gate would pick one silently).
     pub fn check(&self) -> Result<()> {
-        if !(self.energy_rtol >= 0.0 && self.energy_rtol.is_finite()) {
-            bail!("energy_rtol = {} must be non-negative and finite", self.energy_rtol);
-        }
+        rules::check_energy_rtol(self.energy_rtol)?;
         if self.runs.is_empty() {
             bail!("'runs' is empty: a baseline with no run would pass every batch");
         }
@@ -89,21 +58,7 @@ fn default_rtol() -> f64 {
 
 /// Read the records of a run folder's `summary.csv`.
 pub fn read_summary(run_dir: &Path) -> Result<Vec<Record>> {
-    Ok(crate::run_folder::read_summary(run_dir)?
-        .into_iter()
-        .map(|row| Record {
-            dataset: row.dataset,
-            task: row.task,
-            energy: row.energy,
-            solver: row.solver,
-            iterations: row.iterations,
-            final_energy: row.final_energy,
-            status: row.status,
-            flips: row.flips,
-            iterations_tolerance: None,
-            time_s: row.time_s,
-        })
-        .collect())
+    Ok(crate::run_folder::read_summary(run_dir)?.iter().map(Record::from).collect())
 }
 
 /// A baseline from a run folder.
@@ -111,17 +66,6 @@ pub fn make_baseline(run_dir: &Path) -> Result<Baseline> {
     let base = Baseline { energy_rtol: DEFAULT_ENERGY_RTOL, runs: read_summary(run_dir)? };
     base.check().with_context(|| format!("{}: no baseline can be made", run_dir.display()))?;
     Ok(base)
-}
-
-/// One metric that moved.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Change {
-    pub run: String,
-    pub metric: &'static str,
-    pub before: String,
-    pub after: String,
-    pub delta: String,
-    pub regression: bool,
 }
 
 /// The outcome of a comparison.
@@ -156,50 +100,13 @@ impl Comparison {
 /// Compare the runs of a folder with a baseline.
 pub fn compare(baseline: &Baseline, runs: &[Record]) -> Comparison {
     let mut cmp = Comparison::default();
-    let fmt_opt = |v: Option<usize>| v.map_or("-".to_string(), |x| x.to_string());
     for b in &baseline.runs {
         let Some(a) = runs.iter().find(|r| r.key() == b.key()) else {
             cmp.missing.push(b.label());
             continue;
         };
         cmp.compared += 1;
-        let mut push = |metric, before: String, after: String, delta: String, regression| {
-            cmp.changes.push(Change { run: b.label(), metric, before, after, delta, regression })
-        };
-        if a.status != b.status {
-            // Status orders skipped < failed < not_converged < ok: a pair that stops being
-            // run is a regression, one that starts an improvement (unless it fails).
-            let regression = a.status < b.status || a.status == Status::Failed;
-            push("status", b.status.to_string(), a.status.to_string(), String::new(), regression);
-        }
-        match (b.iterations, a.iterations) {
-            (Some(bi), Some(ai)) if ai != bi => {
-                let tol = b.iterations_tolerance.unwrap_or(0);
-                // Counts and tolerances come from the files: no overflow on huge ones.
-                let delta = format!("{:+}", ai as i128 - bi as i128);
-                if ai > bi.saturating_add(tol) {
-                    push("iterations", bi.to_string(), ai.to_string(), delta, true);
-                } else if ai < bi {
-                    push("iterations", bi.to_string(), ai.to_string(), delta, false);
-                }
-            }
-            (bi, ai) if bi.is_some() != ai.is_some() => {
-                push("iterations", fmt_opt(bi), fmt_opt(ai), String::new(), ai.is_none());
-            }
-            _ => {}
-        }
-        if let (Some(be), Some(ae)) = (b.final_energy, a.final_energy) {
-            let rel = (ae - be) / be.abs().max(1e-300);
-            // NaN counts as moved, and as a regression.
-            let within = rel.abs() <= baseline.energy_rtol;
-            if !within {
-                let lower = ae < be;
-                push("final_energy", format!("{be:.10}"), format!("{ae:.10}"), format!("{rel:+.2e} rel"), !lower);
-            }
-        }
-        if b.flips == Some(0) && a.flips.unwrap_or(0) > 0 {
-            push("flips", "0".into(), fmt_opt(a.flips), String::new(), true);
-        }
+        cmp.changes.extend(rules::changes(b, a, baseline.energy_rtol));
         if let (Some(bt), Some(at)) = (b.time_s, a.time_s) {
             cmp.timings.push((b.label(), bt, at));
         }
@@ -255,6 +162,8 @@ pub fn render(cmp: &Comparison) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plan::Task;
+    use crate::run_folder::Status;
 
     fn rec(solver: &str, it: usize, e: f64) -> Record {
         Record {

@@ -1,0 +1,286 @@
+//! The regression rules shared by `check` (a run folder against a baseline) and `compare`
+//! (two run folders): what counts as a regression of one run, and when a time moved.
+//!
+//! - Iteration counts are deterministic: more iterations than before plus the tolerance is a
+//!   regression, fewer an improvement.
+//! - Status orders `skipped < failed < not_converged < ok` ([`Status`]'s `Ord`): a worse status
+//!   is a regression, and so is any run that becomes `failed`.
+//! - The final energy may move by `energy_rtol` (relative); higher beyond it is a regression.
+//! - Flips where there were none are a regression.
+//! - Times are never a regression here: [`time_change`] only labels a time as slower or faster,
+//!   when the spreads over the repeats are disjoint (the overlap rule of the report's rankings,
+//!   [`Timed::overlaps`]) or, with a single sample, when the ratio exceeds [`SINGLE_SAMPLE_FACTOR`].
+
+use crate::plan::Task;
+use crate::report::tables::ranking::Timed;
+use crate::run_folder::{Status, SummaryRow};
+use anyhow::{bail, Result};
+use serde::{Deserialize, Serialize};
+
+/// Default relative tolerance on the final energy.
+pub const DEFAULT_ENERGY_RTOL: f64 = 1e-6;
+
+/// With a single sample on either side there is no spread to compare: a time is flagged when
+/// after / before exceeds this factor (or falls below its inverse). `asv compare`'s default
+/// `--factor` (see `../shared/notes/benchmark-methodology.md`, "asv").
+pub const SINGLE_SAMPLE_FACTOR: f64 = 1.1;
+
+/// What the rules compare of one run: the `summary.csv` columns that are gated (and, in a
+/// baseline, its JSON record).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Record {
+    pub dataset: String,
+    pub task: Task,
+    pub energy: String,
+    pub solver: String,
+    pub iterations: Option<usize>,
+    pub final_energy: Option<f64>,
+    pub status: Status,
+    pub flips: Option<usize>,
+    /// Allowed increase of `iterations` before it counts as a regression (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iterations_tolerance: Option<usize>,
+    /// Wall time of the run when the baseline was written; shown, never gated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_s: Option<f64>,
+}
+
+impl Record {
+    pub(crate) fn key(&self) -> (&str, Task, &str, &str) {
+        (&self.dataset, self.task, &self.energy, &self.solver)
+    }
+
+    /// `dataset task energy solver`, how reports name a run.
+    pub fn label(&self) -> String {
+        format!("{} {} {} {}", self.dataset, self.task.as_str(), self.energy, self.solver)
+    }
+}
+
+impl From<&SummaryRow> for Record {
+    fn from(row: &SummaryRow) -> Record {
+        Record {
+            dataset: row.dataset.clone(),
+            task: row.task,
+            energy: row.energy.clone(),
+            solver: row.solver.clone(),
+            iterations: row.iterations,
+            final_energy: row.final_energy,
+            status: row.status,
+            flips: row.flips,
+            iterations_tolerance: None,
+            time_s: row.time_s,
+        }
+    }
+}
+
+/// One metric that moved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Change {
+    pub run: String,
+    pub metric: &'static str,
+    pub before: String,
+    pub after: String,
+    pub delta: String,
+    pub regression: bool,
+}
+
+/// A tolerance on the final energy the gate can use: non-negative and finite.
+pub fn check_energy_rtol(energy_rtol: f64) -> Result<()> {
+    if !(energy_rtol >= 0.0 && energy_rtol.is_finite()) {
+        bail!("energy_rtol = {energy_rtol} must be non-negative and finite");
+    }
+    Ok(())
+}
+
+/// What moved from `before` to `after` (the same run), in the order status, iterations,
+/// final energy, flips; `before.iterations_tolerance` (default 0) is the allowed increase of
+/// iterations. Unchanged metrics give no entry.
+pub fn changes(before: &Record, after: &Record, energy_rtol: f64) -> Vec<Change> {
+    let (b, a) = (before, after);
+    let mut out = Vec::new();
+    let fmt_opt = |v: Option<usize>| v.map_or("-".to_string(), |x| x.to_string());
+    let mut push = |metric, before: String, after: String, delta: String, regression| {
+        out.push(Change { run: b.label(), metric, before, after, delta, regression })
+    };
+    if a.status != b.status {
+        // Status orders skipped < failed < not_converged < ok: a pair that stops being
+        // run is a regression, one that starts an improvement (unless it fails).
+        let regression = a.status < b.status || a.status == Status::Failed;
+        push("status", b.status.to_string(), a.status.to_string(), String::new(), regression);
+    }
+    match (b.iterations, a.iterations) {
+        (Some(bi), Some(ai)) if ai != bi => {
+            let tol = b.iterations_tolerance.unwrap_or(0);
+            // Counts and tolerances come from the files: no overflow on huge ones.
+            let delta = format!("{:+}", ai as i128 - bi as i128);
+            if ai > bi.saturating_add(tol) {
+                push("iterations", bi.to_string(), ai.to_string(), delta, true);
+            } else if ai < bi {
+                push("iterations", bi.to_string(), ai.to_string(), delta, false);
+            }
+        }
+        (bi, ai) if bi.is_some() != ai.is_some() => {
+            push("iterations", fmt_opt(bi), fmt_opt(ai), String::new(), ai.is_none());
+        }
+        _ => {}
+    }
+    if let (Some(be), Some(ae)) = (b.final_energy, a.final_energy) {
+        let rel = (ae - be) / be.abs().max(1e-300);
+        // NaN counts as moved, and as a regression.
+        let within = rel.abs() <= energy_rtol;
+        if !within {
+            let lower = ae < be;
+            push("final_energy", format!("{be:.10}"), format!("{ae:.10}"), format!("{rel:+.2e} rel"), !lower);
+        }
+    }
+    if b.flips == Some(0) && a.flips.unwrap_or(0) > 0 {
+        push("flips", "0".into(), fmt_opt(a.flips), String::new(), true);
+    }
+    out
+}
+
+/// A time that moved beyond the noise.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeChange {
+    Slower,
+    Faster,
+}
+
+impl TimeChange {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            TimeChange::Slower => "slower",
+            TimeChange::Faster => "faster",
+        }
+    }
+}
+
+/// Whether a run's time moved beyond its noise from `before` to `after` (each a median with
+/// its min–max over the repeats). With spreads on both sides: only when the intervals do not
+/// overlap (touching intervals share a point and do not count). With a single sample on
+/// either side: when the ratio exceeds [`SINGLE_SAMPLE_FACTOR`] either way. Non-finite or
+/// non-positive times never count.
+pub fn time_change(before: &Timed, after: &Timed) -> Option<TimeChange> {
+    let (b, a) = (before.value, after.value);
+    if !(b.is_finite() && a.is_finite() && b > 0.0 && a > 0.0) {
+        return None;
+    }
+    let moved = if before.single_sample() || after.single_sample() {
+        let ratio = a / b;
+        !(1.0 / SINGLE_SAMPLE_FACTOR..=SINGLE_SAMPLE_FACTOR).contains(&ratio)
+    } else {
+        !before.overlaps(after)
+    };
+    match moved {
+        false => None,
+        true if a > b => Some(TimeChange::Slower),
+        true => Some(TimeChange::Faster),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(it: usize, e: f64) -> Record {
+        Record {
+            dataset: "d".into(),
+            task: Task::Param,
+            energy: "sd".into(),
+            solver: "kp-newton".into(),
+            iterations: Some(it),
+            final_energy: Some(e),
+            status: Status::Ok,
+            flips: Some(0),
+            iterations_tolerance: None,
+            time_s: Some(1.0),
+        }
+    }
+
+    fn metrics(c: &[Change]) -> Vec<(&str, bool)> {
+        c.iter().map(|c| (c.metric, c.regression)).collect()
+    }
+
+    #[test]
+    fn each_rule_in_its_order() {
+        assert!(changes(&rec(10, 2.0), &rec(10, 2.0), 1e-6).is_empty());
+        // All four at once, in the order status, iterations, energy, flips.
+        let worse = Record { status: Status::NotConverged, flips: Some(2), ..rec(12, 2.1) };
+        let c = changes(&rec(10, 2.0), &worse, 1e-6);
+        assert_eq!(metrics(&c), [("status", true), ("iterations", true), ("final_energy", true), ("flips", true)]);
+        assert_eq!((c[1].before.as_str(), c[1].after.as_str(), c[1].delta.as_str()), ("10", "12", "+2"));
+        assert_eq!(c[0].run, "d param sd kp-newton");
+        // Improvements are changes, not regressions.
+        let c = changes(&rec(10, 2.0), &rec(8, 1.9), 1e-6);
+        assert_eq!(metrics(&c), [("iterations", false), ("final_energy", false)]);
+    }
+
+    #[test]
+    fn tolerances_bound_what_counts() {
+        let tolerant = Record { iterations_tolerance: Some(2), ..rec(10, 2.0) };
+        assert!(changes(&tolerant, &rec(12, 2.0), 1e-6).is_empty());
+        assert_eq!(metrics(&changes(&tolerant, &rec(13, 2.0), 1e-6)), [("iterations", true)]);
+        // energy: relative, both ways
+        assert!(changes(&rec(10, 2.0), &rec(10, 2.0 * (1.0 + 0.9e-3)), 1e-3).is_empty());
+        assert_eq!(metrics(&changes(&rec(10, 2.0), &rec(10, 2.0 * (1.0 + 1.1e-3)), 1e-3)), [("final_energy", true)]);
+        assert_eq!(metrics(&changes(&rec(10, 2.0), &rec(10, f64::NAN), 1.0)), [("final_energy", true)]);
+    }
+
+    #[test]
+    fn status_order_and_new_failures() {
+        let with = |s| Record { status: s, ..rec(10, 2.0) };
+        for (b, a, regression) in [
+            (Status::Ok, Status::NotConverged, true),
+            (Status::NotConverged, Status::Ok, false),
+            (Status::NotConverged, Status::Failed, true),
+            (Status::Skipped, Status::Failed, true),
+            (Status::Skipped, Status::Ok, false),
+            (Status::Ok, Status::Skipped, true),
+        ] {
+            assert_eq!(metrics(&changes(&with(b), &with(a), 1e-6)), [("status", regression)], "{b} -> {a}");
+        }
+    }
+
+    #[test]
+    fn energy_rtol_must_be_usable() {
+        assert!(check_energy_rtol(0.0).is_ok() && check_energy_rtol(1e-6).is_ok());
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let e = check_energy_rtol(bad).unwrap_err().to_string();
+            assert!(e.contains("must be non-negative and finite"), "{e}");
+        }
+    }
+
+    fn spread(value: f64, lo: f64, hi: f64) -> Timed {
+        Timed { value, lo, hi, samples: 3 }
+    }
+
+    fn single(value: f64) -> Timed {
+        Timed { value, lo: value, hi: value, samples: 1 }
+    }
+
+    #[test]
+    fn times_move_only_outside_their_spreads() {
+        let before = spread(1.0, 0.9, 1.1);
+        // 1.5x slower but the spreads overlap: noise, not a change.
+        assert_eq!(time_change(&before, &spread(1.5, 1.1, 2.0)), None);
+        assert_eq!(time_change(&before, &spread(1.15, 1.11, 1.3)), Some(TimeChange::Slower));
+        assert_eq!(time_change(&before, &spread(0.8, 0.7, 0.85)), Some(TimeChange::Faster));
+        // Disjoint spreads count even when the ratio is under asv's factor.
+        assert_eq!(time_change(&spread(1.0, 0.99, 1.01), &spread(1.05, 1.04, 1.06)), Some(TimeChange::Slower));
+    }
+
+    #[test]
+    fn single_samples_move_beyond_asvs_factor() {
+        assert_eq!(time_change(&single(1.0), &single(1.09)), None);
+        assert_eq!(time_change(&single(1.0), &single(1.11)), Some(TimeChange::Slower));
+        assert_eq!(time_change(&single(1.0), &single(1.0 / 1.09)), None);
+        assert_eq!(time_change(&single(1.0), &single(1.0 / 1.11)), Some(TimeChange::Faster));
+        // One side single: the factor rule, whatever the other's spread says.
+        assert_eq!(time_change(&spread(1.0, 0.99, 1.01), &single(1.05)), None);
+        assert_eq!(time_change(&single(1.0), &spread(1.2, 1.0, 1.3)), Some(TimeChange::Slower));
+        // Not measurements: never flagged.
+        assert_eq!(time_change(&single(0.0), &single(1.0)), None);
+        assert_eq!(time_change(&single(1.0), &single(f64::NAN)), None);
+    }
+}
