@@ -64,8 +64,10 @@ fn two_batches_of_one_config_make_two_nights_on_the_trend_page() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert!(text(&o).contains("trend page of 2 batches (2 plots)"), "{}", text(&o));
     let page = std::fs::read_to_string(tmp.path().join("trend/index.html")).unwrap();
-    for needle in [&revisions[0], &revisions[1], "h: 2 batches", "What changed: batch 2", "../night1/index.html"] {
-        assert!(page.contains(needle.as_str()), "{needle} not in the trend page:\n{page}");
+    for needle in
+        [revisions[0].as_str(), revisions[1].as_str(), "h: 2 batches", "What changed: batch 2", "../night1/index.html"]
+    {
+        assert!(page.contains(needle), "{needle} not in the trend page:\n{page}");
     }
     for png in ["h__sd__iterations.png", "h__sd__time.png"] {
         let bytes = std::fs::read(tmp.path().join("trend/plots").join(png)).unwrap();

@@ -55,14 +55,17 @@ pub fn render_trend(
         let mut chart = ChartBuilder::on(&chart_area)
             .caption(title, ("sans-serif", 20))
             .margin(12)
-            .x_label_area_size(78)
+            .x_label_area_size(92)
             .y_label_area_size(70)
             .build_cartesian_2d(-0.5..(n as f64 - 0.5), 0.0..y_max)?;
         // A tick per batch, labelled with its revision (rotated: 30 of them fit).
         let label = |v: &f64| {
             let i = v.round();
             if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < n {
-                labels[i as usize].clone()
+                // plotters centres the rotated label on the tick: leading spaces (about half a
+                // digit wide each) move it below the axis.
+                let l = &labels[i as usize];
+                format!("{}{l}", " ".repeat(2 * l.chars().count() + 2))
             } else {
                 String::new()
             }
