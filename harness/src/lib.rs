@@ -5,12 +5,14 @@
 //! batch, `run` executes them, `run_folder` owns every file of a run folder, `report` renders
 //! tables, plots and the HTML page from a run folder, `gate` compares a run folder with a
 //! baseline, `export` writes the Newton systems of a plan, `calibration` times the machine's
-//! reference workload.
+//! reference workload, `history` keeps every batch in an SQLite database and renders
+//! its trend page.
 
 pub mod calibration;
 pub mod export;
 pub mod fuzzing;
 pub mod gate;
+pub mod history;
 pub mod plan;
 pub mod report;
 pub mod run;

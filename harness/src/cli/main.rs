@@ -7,6 +7,7 @@ use config::LoadedConfig;
 mod signals;
 
 use mapbench::gate::{check, compare};
+use mapbench::history::{self, HistoryChoice};
 use mapbench::plan::select::Shard;
 use mapbench::plan::Plan;
 use mapbench::plan::{config, registry};
@@ -52,6 +53,8 @@ enum Command {
         /// `time_s` is the median, `time_s_min`/`time_s_max` the spread.
         #[arg(long)]
         repeat: Option<usize>,
+        #[command(flatten)]
+        history: HistoryArgs,
     },
     /// Re-render the tables, plots and index.html of a run folder from its CSVs alone.
     Report { run_dir: PathBuf },
@@ -62,6 +65,24 @@ enum Command {
         /// Output folder (default: reports/<name> of the shards' config).
         #[arg(long)]
         out: Option<PathBuf>,
+        #[command(flatten)]
+        history: HistoryArgs,
+    },
+    /// Render the trend page of the history database: per config, energy and solver the mean
+    /// iterations and time of each batch, and what changed since the previous batch.
+    History {
+        /// The database (default: reports/history.sqlite).
+        #[arg(long, default_value = mapbench::history::DEFAULT_PATH)]
+        db: PathBuf,
+        /// Only this config's batches (default: every config, one section each).
+        #[arg(long)]
+        config: Option<String>,
+        /// Only the last N batches of each config.
+        #[arg(long)]
+        last: Option<usize>,
+        /// Folder for index.html and plots/.
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Write the Newton system (Matrix Market) of each selected `param` run of a config at an
     /// iteration, for timing other sparse solvers on it (scripts/bench_linear_solvers.py).
@@ -138,6 +159,45 @@ enum Command {
     },
 }
 
+/// Where `run` and `merge` append the batch (issue 19's history database).
+#[derive(clap::Args)]
+struct HistoryArgs {
+    /// The history database (default: the config's `history`, else reports/history.sqlite).
+    #[arg(long, value_name = "PATH")]
+    history: Option<PathBuf>,
+    /// Do not append this batch to any history database.
+    #[arg(long, conflicts_with = "history")]
+    no_history: bool,
+}
+
+impl HistoryArgs {
+    fn choice(self) -> HistoryChoice {
+        HistoryChoice::from_flags(self.history, self.no_history)
+    }
+}
+
+/// Append a finished run folder to the history and render its config's trend page. A failure
+/// is a warning (the run folder is complete either way) and makes the command exit 2.
+fn append_history(db: &std::path::Path, run_dir: &std::path::Path) -> bool {
+    match history::record(db, run_dir) {
+        Ok(r) => {
+            eprintln!(
+                "history: batch {} ({} runs of {}) appended to {}; trend page {}",
+                r.batch_id,
+                r.runs,
+                r.config,
+                db.display(),
+                r.trend.display()
+            );
+            true
+        }
+        Err(e) => {
+            eprintln!("warning: history not updated: {e} (the run folder {} is complete)", run_dir.display());
+            false
+        }
+    }
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum OrderingArg {
     Metis,
@@ -171,7 +231,7 @@ fn main() -> ExitCode {
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Run { config, out, only, resume, jobs, shard, repeat } => {
+        Command::Run { config, out, only, resume, jobs, shard, repeat, history } => {
             if jobs == Some(0) {
                 anyhow::bail!("--jobs must be at least 1");
             }
@@ -179,6 +239,11 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             if let Some(r) = repeat {
                 mapbench::plan::config::check_repeat(r).context("--repeat")?;
                 plan.repeat = r;
+            }
+            let choice = history.choice();
+            plan.history = plan.history.take().and_then(|p| choice.apply(p));
+            if shard.is_some() && plan.history.take().is_some() {
+                eprintln!("note: a --shard batch is not appended to the history; `merge` appends the whole batch");
             }
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
             let interrupt = Arc::new(AtomicBool::new(false));
@@ -200,9 +265,21 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 },
                 report.out_dir.display()
             );
-            Ok(if opts.interrupt.load(Ordering::SeqCst) {
+            let interrupted = opts.interrupt.load(Ordering::SeqCst);
+            // An interrupted batch is partial: its means would read as a change of the code.
+            let appended = match &plan.history {
+                Some(db) if !interrupted => append_history(db, &report.out_dir),
+                Some(_) => {
+                    eprintln!("note: the interrupted batch is not appended to the history");
+                    true
+                }
+                None => true,
+            };
+            Ok(if interrupted {
                 // The shell's convention: 128 + the signal (130 Ctrl-C, 143 SIGTERM).
                 ExitCode::from(128 + signal.load(Ordering::SeqCst).clamp(1, 127) as u8)
+            } else if !appended {
+                ExitCode::from(2)
             } else if report.failed > 0 {
                 ExitCode::from(1)
             } else {
@@ -237,8 +314,8 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             eprintln!("report of {} runs in {}", rows.len(), run_dir.display());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Merge { shards, out } => {
-            let m = merge::merge(&shards, out.as_deref())?;
+        Command::Merge { shards, out, history } => {
+            let m = merge::merge(&shards, out.as_deref(), &history.choice())?;
             if !m.missing.is_empty() {
                 eprintln!(
                     "warning: {} planned runs are in no shard (first: {}); the report covers the rest",
@@ -247,7 +324,17 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 );
             }
             eprintln!("merged {} runs from {} shards into {}", m.runs, shards.len(), m.out_dir.display());
-            Ok(if m.missing.is_empty() { ExitCode::SUCCESS } else { ExitCode::from(2) })
+            let appended = m.history.as_deref().is_none_or(|db| append_history(db, &m.out_dir));
+            Ok(if m.missing.is_empty() && appended { ExitCode::SUCCESS } else { ExitCode::from(2) })
+        }
+        Command::History { db, config, last, out } => {
+            if last == Some(0) {
+                anyhow::bail!("--last must be at least 1");
+            }
+            let h = history::HistoryDb::open_existing(&db)?;
+            let page = history::trend::render(&h, config.as_deref(), last, &out)?;
+            eprintln!("trend page of {} batches ({} plots): {}", page.batches, page.plots.len(), page.index.display());
+            Ok(ExitCode::SUCCESS)
         }
         Command::Check { run_dir, baseline } => {
             let base = check::Baseline::load(&baseline)?;

@@ -65,6 +65,9 @@ pub struct Plan {
     pub threads_per_run: Option<usize>,
     /// Times each run is repeated (`repeat`, or `--repeat`), at least 1.
     pub repeat: usize,
+    /// The history database the batch is appended to (`history`, `--history`); `None` with
+    /// `--no-history`.
+    pub history: Option<std::path::PathBuf>,
 }
 
 impl Plan {
@@ -111,8 +114,10 @@ impl Plan {
         let timeout = c.timeout_secs().with_context(invalid)?.map(Duration::from_secs_f64);
         let repeat = c.repeat.unwrap_or(1);
         config::check_repeat(repeat).with_context(invalid)?;
+        let history = Some(crate::history::resolve_path(c.history.as_deref(), &cfg.dir));
         Ok(Plan {
             repeat,
+            history,
             task: c.task,
             threads_per_run: c.threads_per_run,
             config: cfg,

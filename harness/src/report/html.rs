@@ -17,7 +17,7 @@ use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::Path;
 
-const STYLE: &str = "\
+pub(crate) const STYLE: &str = "\
 body{font-family:system-ui,sans-serif;margin:0 auto;padding:0 12px 40px;max-width:1200px;line-height:1.4;color:#222}\
 h1{font-size:1.5em;margin:.6em 0 .2em}h2{border-bottom:1px solid #ccc;margin-top:1.6em}h3{margin:1.2em 0 .4em}\
 nav a{margin-right:1em}\
@@ -70,6 +70,7 @@ pub fn write_index(
         t = esc(&task),
         c = esc(&counts(summaries)),
     );
+    history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
     status_matrix(&mut h, run_dir, summaries);
     tables_section(&mut h, run_dir, tables, plots);
@@ -78,6 +79,21 @@ pub fn write_index(
     provenance_section(&mut h, meta.as_ref());
     h += "</body>\n</html>\n";
     write_atomic(&run_dir.join("index.html"), h.as_bytes())
+}
+
+/// The link to the trend page of this config's history, when the batch was appended to one
+/// (`meta.json`'s `history`): `run` and `merge` render it into `history::trend_dir` right
+/// after the append, so the link is relative and made before the page exists.
+fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Value>, name: &str) {
+    let Some(db) = meta.and_then(|m| m.get("history")).and_then(Value::as_str) else { return };
+    let page = crate::history::trend_dir(Path::new(db), name).join("index.html");
+    let _ = writeln!(
+        h,
+        "<p>History: <a href=\"{}\">trend of {} over its batches</a> (database <code>{}</code>)</p>",
+        href(&crate::history::relative_link(run_dir, &page)),
+        esc(name),
+        esc(db)
+    );
 }
 
 /// `meta.json`, or `None` when the folder has none (e.g. written by an older version).
@@ -108,7 +124,7 @@ pub fn esc(t: &str) -> String {
 }
 
 /// A relative link target: percent-encode all but unreserved characters and `/`, then escape.
-fn href(path: &str) -> String {
+pub(crate) fn href(path: &str) -> String {
     let mut s = String::new();
     for b in path.bytes() {
         if b.is_ascii_alphanumeric() || b"-._~/".contains(&b) {
@@ -445,7 +461,7 @@ fn files_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)]) -> 
 }
 
 /// Unix seconds as `YYYY-MM-DD hh:mm:ss UTC` (civil-from-days, no date crate needed).
-fn utc(secs: u64) -> String {
+pub(crate) fn utc(secs: u64) -> String {
     let days = (secs / 86_400) as i64;
     let rem = secs % 86_400;
     let z = days + 719_468;

@@ -2,6 +2,7 @@
 //! one run folder, as if the batch had run unsharded, and render its report.
 
 use crate::calibration::Calibration;
+use crate::history::HistoryChoice;
 use crate::run_folder::{
     iterations_csv, map_obj, meta_json, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary,
     SummaryRow,
@@ -18,6 +19,8 @@ pub struct Merged {
     pub runs: usize,
     /// Planned runs no shard has (a shard missing or interrupted).
     pub missing: Vec<String>,
+    /// The history database the merged batch is to be appended to (`meta.json`'s `history`).
+    pub history: Option<PathBuf>,
 }
 
 fn read_meta(dir: &Path) -> Result<Value> {
@@ -26,8 +29,10 @@ fn read_meta(dir: &Path) -> Result<Value> {
     serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))
 }
 
-/// Merge `shards` into `out` (default: `reports/<config name>`).
-pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
+/// Merge `shards` into `out` (default: `reports/<config name>`). `history` picks the database
+/// recorded in the merged `meta.json` (the config's `history` key, resolved against the
+/// shards' config file, unless overridden); the caller appends to it.
+pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice) -> Result<Merged> {
     let Some(first) = shards.first() else { bail!("merge needs at least one shard folder") };
     let metas: Vec<Value> = shards.iter().map(|d| read_meta(d)).collect::<Result<_>>()?;
     let (config, plan) = (&metas[0]["config"], &metas[0]["plan"]);
@@ -88,6 +93,11 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
     write_summary(&summary_csv(&out_dir), &rows)?;
     let mut meta = metas[0].clone();
     meta["shard"] = Value::Null;
+    // The shards were not appended (each is part of a batch); the merged batch is.
+    let config_dir = metas[0]["config_path"].as_str().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
+    let key = config["history"].as_str().map(Path::new);
+    let history = history.apply(crate::history::resolve_path(key, config_dir));
+    meta["history"] = history.as_ref().map(|p| crate::history::absolute(p).display().to_string()).into();
     meta["merged_from"] = Value::Array(
         shards
             .iter()
@@ -122,7 +132,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>) -> Result<Merged> {
     meta["calibration_spread"] = calibration.spread().into();
     write_atomic(&meta_json(&out_dir), serde_json::to_string_pretty(&meta)?.as_bytes())?;
     crate::report::refresh(&out_dir, &rows)?;
-    Ok(Merged { out_dir, runs: rows.len(), missing: missing.into_iter().map(|(_, s)| s).collect() })
+    Ok(Merged { out_dir, runs: rows.len(), missing: missing.into_iter().map(|(_, s)| s).collect(), history })
 }
 
 fn same_dir(a: &Path, b: &Path) -> bool {

@@ -11,15 +11,16 @@ use anyhow::{Context, Result};
 use solvers::solver::IterationRecord;
 use std::path::Path;
 
-/// 64-bit FNV-1a: stable across builds and platforms (unlike `DefaultHasher`).
-struct Fnv(u64);
+/// 64-bit FNV-1a: stable across builds and platforms (unlike `DefaultHasher`); the history's
+/// config hash uses it too.
+pub(crate) struct Fnv(pub(crate) u64);
 
 impl Fnv {
-    fn new() -> Fnv {
+    pub(crate) fn new() -> Fnv {
         Fnv(0xcbf29ce484222325)
     }
 
-    fn bytes(&mut self, b: &[u8]) -> &mut Fnv {
+    pub(crate) fn bytes(&mut self, b: &[u8]) -> &mut Fnv {
         for &x in b {
             self.0 = (self.0 ^ u64::from(x)).wrapping_mul(0x100000001b3);
         }

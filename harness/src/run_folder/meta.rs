@@ -72,6 +72,9 @@ impl Meta<'_> {
             "ended_unix": ended.map(secs),
             "interrupted": interrupted,
             "repeat": self.plan.repeat,
+            // The history database this batch is appended to (null: none); the report links
+            // to its trend page.
+            "history": self.plan.history.as_ref().map(|p| crate::history::absolute(p).display().to_string()),
             // The reference workload's samples; `time_norm` divides by their median.
             "calibration": calibration,
             "calibration_median_s": calibration.median_s(),

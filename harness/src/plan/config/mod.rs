@@ -129,6 +129,10 @@ pub struct Config {
     /// again), so that a slow phase of the machine hits every solver alike; `time_s` is the
     /// median. Default 1; `--repeat N` overrides.
     pub repeat: Option<usize>,
+    /// The history database every batch is appended to, relative to the config's folder;
+    /// default `reports/history.sqlite` relative to the current directory (`--history`,
+    /// `--no-history` override).
+    pub history: Option<PathBuf>,
 }
 
 /// The most repeats a batch may ask for (a typo like 10000 would run the plan that often).

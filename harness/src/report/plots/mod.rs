@@ -13,6 +13,7 @@ mod profiles;
 mod scaling;
 #[cfg(test)]
 pub(crate) mod tests;
+pub mod trend;
 
 pub use scaling::SCALING_MIN_SIZES;
 

@@ -1,0 +1,472 @@
+//! The history database: its schema, the migrations from older versions, appending one batch
+//! (one transaction) and the queries of the trend page.
+//!
+//! The schema version is SQLite's `PRAGMA user_version`. Opening a database of an older
+//! version runs the missing [`MIGRATIONS`] in one transaction; a newer one is refused
+//! ([`HistoryError::Newer`]), since this build would not know what its columns mean.
+
+use super::HistoryError;
+use crate::plan::Task;
+use crate::run_folder::{Status, SummaryRow};
+use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
+use solvers::solver::StopReason;
+use std::path::{Path, PathBuf};
+
+/// The schema this build writes. README "History database" documents it.
+pub const SCHEMA_VERSION: i64 = 2;
+
+/// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).
+pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
+    // v1: one row per batch, one per run of a batch.
+    "CREATE TABLE batches (
+        id INTEGER PRIMARY KEY,
+        config_name TEXT NOT NULL,
+        config_hash TEXT NOT NULL,
+        started_unix INTEGER,
+        ended_unix INTEGER,
+        git_revision TEXT,
+        git_dirty INTEGER,
+        host TEXT,
+        cores INTEGER,
+        jobs INTEGER,
+        threads_per_run INTEGER,
+        repeats INTEGER,
+        calibration_median_s REAL,
+        calibration_spread REAL,
+        run_dir TEXT NOT NULL,
+        recorded_unix INTEGER NOT NULL
+    );
+    CREATE TABLE runs (
+        batch_id INTEGER NOT NULL REFERENCES batches(id) ON DELETE CASCADE,
+        dataset TEXT NOT NULL,
+        task TEXT NOT NULL,
+        energy TEXT NOT NULL,
+        solver TEXT NOT NULL,
+        vertices INTEGER,
+        iterations INTEGER,
+        status TEXT NOT NULL,
+        stop_reason TEXT NOT NULL,
+        final_energy REAL,
+        grad_norm REAL,
+        flips INTEGER,
+        time_s REAL,
+        time_s_min REAL,
+        time_s_max REAL,
+        time_norm REAL,
+        repeats INTEGER,
+        shifted_iters INTEGER,
+        clamped_iters INTEGER,
+        PRIMARY KEY (batch_id, dataset, task, energy, solver)
+    );",
+    // v2: whether the batch came from `run` or `merge`, and the trend page's lookup of a
+    // config's batches in time order.
+    "ALTER TABLE batches ADD COLUMN source TEXT NOT NULL DEFAULT 'run';
+    CREATE INDEX batches_by_config ON batches(config_name, started_unix, id);",
+];
+
+/// Where a batch came from (`batches.source`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Source {
+    #[default]
+    Run,
+    Merge,
+}
+
+impl Source {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Source::Run => "run",
+            Source::Merge => "merge",
+        }
+    }
+}
+
+impl std::str::FromStr for Source {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Source, String> {
+        [Source::Run, Source::Merge]
+            .into_iter()
+            .find(|x| x.as_str() == s)
+            .ok_or_else(|| format!("unknown batch source '{s}' (known: run, merge)"))
+    }
+}
+
+/// One row of `batches`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BatchRow {
+    /// Assigned by the database on insert.
+    pub id: i64,
+    pub config_name: String,
+    /// 16 hex digits of the resolved config and plan (`super::config_hash`).
+    pub config_hash: String,
+    pub started_unix: Option<i64>,
+    pub ended_unix: Option<i64>,
+    pub git_revision: Option<String>,
+    pub git_dirty: Option<bool>,
+    pub host: Option<String>,
+    pub cores: Option<i64>,
+    pub jobs: Option<i64>,
+    pub threads_per_run: Option<i64>,
+    pub repeats: Option<i64>,
+    pub calibration_median_s: Option<f64>,
+    pub calibration_spread: Option<f64>,
+    pub run_dir: String,
+    pub recorded_unix: i64,
+    pub source: Source,
+}
+
+impl BatchRow {
+    /// The revision's first 7 hex digits, `+` when the tree was dirty, `?` when unknown.
+    pub fn short_revision(&self) -> String {
+        let rev = self.git_revision.as_deref().map_or("?", |r| &r[..r.len().min(7)]);
+        format!("{rev}{}", if self.git_dirty == Some(true) { "+" } else { "" })
+    }
+}
+
+/// One row of `runs` (the summary row's columns the history keeps).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunRow {
+    pub batch_id: i64,
+    pub dataset: String,
+    pub task: Task,
+    pub energy: String,
+    pub solver: String,
+    pub vertices: Option<i64>,
+    pub iterations: Option<i64>,
+    pub status: Status,
+    /// `None` for a failed run (the column says `error`, as in `summary.csv`).
+    pub stop_reason: Option<StopReason>,
+    pub final_energy: Option<f64>,
+    pub grad_norm: Option<f64>,
+    pub flips: Option<i64>,
+    pub time_s: Option<f64>,
+    pub time_s_min: Option<f64>,
+    pub time_s_max: Option<f64>,
+    pub time_norm: Option<f64>,
+    pub repeats: Option<i64>,
+    pub shifted_iters: Option<i64>,
+    pub clamped_iters: Option<i64>,
+}
+
+impl RunRow {
+    /// The history's row of a summary row.
+    pub fn from_summary(s: &SummaryRow) -> RunRow {
+        let int = |v: Option<usize>| v.and_then(|x| i64::try_from(x).ok());
+        RunRow {
+            batch_id: 0,
+            dataset: s.dataset.clone(),
+            task: s.task,
+            energy: s.energy.clone(),
+            solver: s.solver.clone(),
+            vertices: int(s.vertices),
+            iterations: int(s.iterations),
+            status: s.status,
+            stop_reason: s.stop_reason.clone(),
+            final_energy: s.final_energy,
+            grad_norm: s.grad_norm,
+            flips: int(s.flips),
+            time_s: s.time_s,
+            time_s_min: s.time_s_min,
+            time_s_max: s.time_s_max,
+            time_norm: s.time_norm,
+            repeats: int(s.repeats),
+            shifted_iters: int(s.shifted_iters),
+            clamped_iters: int(s.clamped_iters),
+        }
+    }
+}
+
+/// An open history database at the current schema version.
+pub struct HistoryDb {
+    conn: Connection,
+    path: PathBuf,
+}
+
+impl HistoryDb {
+    /// Open (creating it and its folder when absent) and migrate to [`SCHEMA_VERSION`].
+    pub fn open_or_create(path: &Path) -> Result<HistoryDb, HistoryError> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|err| HistoryError::Io {
+                path: dir.to_path_buf(),
+                what: "cannot create folder",
+                err,
+            })?;
+        }
+        Self::open_with(path, OpenFlags::SQLITE_OPEN_READ_WRITE | OpenFlags::SQLITE_OPEN_CREATE)
+    }
+
+    /// Open an existing database (an error when there is none) and migrate it.
+    pub fn open_existing(path: &Path) -> Result<HistoryDb, HistoryError> {
+        if !path.is_file() {
+            return Err(HistoryError::Missing { path: path.to_path_buf() });
+        }
+        Self::open_with(path, OpenFlags::SQLITE_OPEN_READ_WRITE)
+    }
+
+    fn open_with(path: &Path, flags: OpenFlags) -> Result<HistoryDb, HistoryError> {
+        let sql = sql_error(path);
+        let conn = Connection::open_with_flags(path, flags).map_err(&sql)?;
+        // Another process appending at the same moment waits instead of failing.
+        conn.busy_timeout(std::time::Duration::from_secs(10)).map_err(&sql)?;
+        conn.pragma_update(None, "foreign_keys", true).map_err(&sql)?;
+        let mut db = HistoryDb { conn, path: path.to_path_buf() };
+        db.migrate()?;
+        Ok(db)
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The database's `user_version`.
+    pub fn version(&self) -> Result<i64, HistoryError> {
+        user_version(&self.conn).map_err(sql_error(&self.path))
+    }
+
+    /// Bring the schema to [`SCHEMA_VERSION`] in one transaction: a migration that fails
+    /// leaves the database at its old version.
+    fn migrate(&mut self) -> Result<(), HistoryError> {
+        let path = self.path.clone();
+        let sql = sql_error(&path);
+        let found = user_version(&self.conn).map_err(&sql)?;
+        if found > SCHEMA_VERSION {
+            return Err(HistoryError::Newer { path: path.clone(), found, supported: SCHEMA_VERSION });
+        }
+        if found == SCHEMA_VERSION {
+            return Ok(());
+        }
+        let tx = self.conn.transaction().map_err(&sql)?;
+        if found == 0 {
+            // Version 0 is a new, empty file; a database with tables of its own and no
+            // version is someone else's.
+            let tables: i64 = tx
+                .query_row("SELECT count(*) FROM sqlite_master WHERE type = 'table'", [], |r| r.get(0))
+                .map_err(&sql)?;
+            if tables > 0 {
+                return Err(HistoryError::Foreign { path: path.clone() });
+            }
+        }
+        for step in &MIGRATIONS[found as usize..] {
+            tx.execute_batch(step).map_err(&sql)?;
+        }
+        tx.pragma_update(None, "user_version", SCHEMA_VERSION).map_err(&sql)?;
+        tx.commit().map_err(&sql)
+    }
+
+    /// Append one batch and its runs in one transaction; returns the batch's id. On any
+    /// error nothing of the batch is left.
+    pub fn insert_batch(&mut self, batch: &BatchRow, runs: &[RunRow]) -> Result<i64, HistoryError> {
+        let path = self.path.clone();
+        let sql = sql_error(&path);
+        let tx = self.conn.transaction().map_err(&sql)?;
+        let id = insert_in(&tx, batch, runs).map_err(|e| match e {
+            InsertError::Sql(e) => sql(e),
+            InsertError::Run { run, source } => HistoryError::Run { path: path.clone(), run, err: source },
+        })?;
+        tx.commit().map_err(&sql)?;
+        Ok(id)
+    }
+
+    /// The batches of `config` (every config when `None`), oldest first; the last `last`
+    /// of each config when given.
+    pub fn batches(&self, config: Option<&str>, last: Option<usize>) -> Result<Vec<BatchRow>, HistoryError> {
+        let sql = sql_error(&self.path);
+        let mut stmt = self
+            .conn
+            .prepare(
+                "SELECT id, config_name, config_hash, started_unix, ended_unix, git_revision, git_dirty, host, \
+                 cores, jobs, threads_per_run, repeats, calibration_median_s, calibration_spread, run_dir, \
+                 recorded_unix, source FROM batches WHERE ?1 IS NULL OR config_name = ?1 \
+                 ORDER BY config_name, started_unix, id",
+            )
+            .map_err(&sql)?;
+        let rows = stmt
+            .query_map([config], |r| {
+                Ok(BatchRow {
+                    id: r.get(0)?,
+                    config_name: r.get(1)?,
+                    config_hash: r.get(2)?,
+                    started_unix: r.get(3)?,
+                    ended_unix: r.get(4)?,
+                    git_revision: r.get(5)?,
+                    git_dirty: r.get(6)?,
+                    host: r.get(7)?,
+                    cores: r.get(8)?,
+                    jobs: r.get(9)?,
+                    threads_per_run: r.get(10)?,
+                    repeats: r.get(11)?,
+                    calibration_median_s: r.get(12)?,
+                    calibration_spread: r.get(13)?,
+                    run_dir: r.get(14)?,
+                    recorded_unix: r.get(15)?,
+                    source: parse_text(r, 16, |t| t.parse::<Source>())?,
+                })
+            })
+            .map_err(&sql)?
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(&sql)?;
+        let Some(n) = last else { return Ok(rows) };
+        // Keep the last n of each config (rows are grouped by config, in time order).
+        let mut kept = Vec::with_capacity(rows.len());
+        for (i, b) in rows.iter().enumerate() {
+            let later_of_same = rows[i + 1..].iter().filter(|o| o.config_name == b.config_name).count();
+            if later_of_same < n {
+                kept.push(b.clone());
+            }
+        }
+        Ok(kept)
+    }
+
+    /// The runs of a batch, in the order they were inserted (the summary's order).
+    pub fn runs(&self, batch_id: i64) -> Result<Vec<RunRow>, HistoryError> {
+        let path = &self.path;
+        let sql = sql_error(path);
+        let mut stmt = self
+            .conn
+            .prepare(
+                "SELECT batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
+                 final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, \
+                 shifted_iters, clamped_iters FROM runs WHERE batch_id = ?1 ORDER BY rowid",
+            )
+            .map_err(&sql)?;
+        let rows = stmt
+            .query_map([batch_id], |r| {
+                let status = parse_text(r, 7, |t| t.parse::<Status>())?;
+                let stop_reason =
+                    parse_text(r, 8, |t| if t == FAILED { Ok(None) } else { t.parse::<StopReason>().map(Some) })?;
+                Ok(RunRow {
+                    batch_id: r.get(0)?,
+                    dataset: r.get(1)?,
+                    task: parse_text(r, 2, |t| t.parse::<Task>())?,
+                    energy: r.get(3)?,
+                    solver: r.get(4)?,
+                    vertices: r.get(5)?,
+                    iterations: r.get(6)?,
+                    status,
+                    stop_reason,
+                    final_energy: r.get(9)?,
+                    grad_norm: r.get(10)?,
+                    flips: r.get(11)?,
+                    time_s: r.get(12)?,
+                    time_s_min: r.get(13)?,
+                    time_s_max: r.get(14)?,
+                    time_norm: r.get(15)?,
+                    repeats: r.get(16)?,
+                    shifted_iters: r.get(17)?,
+                    clamped_iters: r.get(18)?,
+                })
+            })
+            .map_err(&sql)?
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(&sql)?;
+        Ok(rows)
+    }
+
+    /// The number of batches in the database.
+    pub fn batch_count(&self) -> Result<i64, HistoryError> {
+        self.conn.query_row("SELECT count(*) FROM batches", [], |r| r.get(0)).map_err(sql_error(&self.path))
+    }
+
+    /// The id of the batch recorded from `run_dir` most recently, if any.
+    pub fn last_batch_of(&self, run_dir: &str) -> Result<Option<i64>, HistoryError> {
+        self.conn
+            .query_row("SELECT max(id) FROM batches WHERE run_dir = ?1", [run_dir], |r| r.get(0))
+            .optional()
+            .map(Option::flatten)
+            .map_err(sql_error(&self.path))
+    }
+}
+
+enum InsertError {
+    Sql(rusqlite::Error),
+    Run { run: String, source: rusqlite::Error },
+}
+
+impl From<rusqlite::Error> for InsertError {
+    fn from(e: rusqlite::Error) -> Self {
+        InsertError::Sql(e)
+    }
+}
+
+fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, InsertError> {
+    tx.execute(
+        "INSERT INTO batches (config_name, config_hash, started_unix, ended_unix, git_revision, git_dirty, host, \
+         cores, jobs, threads_per_run, repeats, calibration_median_s, calibration_spread, run_dir, recorded_unix, \
+         source) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16)",
+        params![
+            b.config_name,
+            b.config_hash,
+            b.started_unix,
+            b.ended_unix,
+            b.git_revision,
+            b.git_dirty,
+            b.host,
+            b.cores,
+            b.jobs,
+            b.threads_per_run,
+            b.repeats,
+            b.calibration_median_s,
+            b.calibration_spread,
+            b.run_dir,
+            b.recorded_unix,
+            b.source.as_str(),
+        ],
+    )?;
+    let id = tx.last_insert_rowid();
+    let mut stmt = tx.prepare(
+        "INSERT INTO runs (batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
+         final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
+         clamped_iters) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)",
+    )?;
+    for r in runs {
+        stmt.execute(params![
+            id,
+            r.dataset,
+            r.task.as_str(),
+            r.energy,
+            r.solver,
+            r.vertices,
+            r.iterations,
+            r.status.as_str(),
+            r.stop_reason.as_ref().map_or(FAILED, StopReason::as_str),
+            r.final_energy,
+            r.grad_norm,
+            r.flips,
+            r.time_s,
+            r.time_s_min,
+            r.time_s_max,
+            r.time_norm,
+            r.repeats,
+            r.shifted_iters,
+            r.clamped_iters,
+        ])
+        .map_err(|source| InsertError::Run {
+            run: crate::run_folder::run_stem(&r.dataset, &r.energy, &r.solver),
+            source,
+        })?;
+    }
+    Ok(id)
+}
+
+/// `stop_reason` of a failed run, as in `summary.csv`.
+const FAILED: &str = "error";
+
+/// Column `i` of `row` as text, parsed into its type (an unknown value is a conversion error
+/// naming the column).
+fn parse_text<T, E: std::fmt::Display>(
+    row: &rusqlite::Row,
+    i: usize,
+    parse: impl Fn(&str) -> Result<T, E>,
+) -> rusqlite::Result<T> {
+    let text: String = row.get(i)?;
+    parse(&text)
+        .map_err(|e| rusqlite::Error::FromSqlConversionFailure(i, rusqlite::types::Type::Text, e.to_string().into()))
+}
+
+fn user_version(conn: &Connection) -> rusqlite::Result<i64> {
+    conn.pragma_query_value(None, "user_version", |r| r.get(0))
+}
+
+fn sql_error(path: &Path) -> impl Fn(rusqlite::Error) -> HistoryError + '_ {
+    move |err| HistoryError::Sql { path: path.to_path_buf(), err }
+}

@@ -1,0 +1,204 @@
+//! The history of batches (issue 19): after every `run` and `merge` the batch is appended to
+//! an SQLite database (`db`), read back from the finished run folder's `meta.json` and
+//! `summary.csv` so that both verbs share one path; `trend` renders the trend page of a
+//! config's batches (`mapbench history`, and after each append into [`trend_dir`]).
+
+pub mod db;
+pub mod trend;
+
+pub use db::{BatchRow, HistoryDb, RunRow, Source, SCHEMA_VERSION};
+
+use crate::run_folder::{meta_json, read_summary, FolderError};
+use serde_json::Value;
+use std::path::{Component, Path, PathBuf};
+use thiserror::Error;
+
+/// The database when neither the config (`history = "PATH"`) nor `--history` names one:
+/// relative to the current directory, like the default run folder `reports/<name>`.
+pub const DEFAULT_PATH: &str = "reports/history.sqlite";
+
+/// What can go wrong with the history; every error names the database or the file. The
+/// underlying error is part of the message (not a `source`), so it is printed once.
+#[derive(Debug, Error)]
+pub enum HistoryError {
+    #[error("{}: {err}", path.display())]
+    Sql { path: PathBuf, err: rusqlite::Error },
+    #[error("{}: run {run}: {err}", path.display())]
+    Run { path: PathBuf, run: String, err: rusqlite::Error },
+    #[error(
+        "{}: history schema version {found} is newer than this mapbench's ({supported}); \
+         use a newer mapbench or another --history file",
+        path.display()
+    )]
+    Newer { path: PathBuf, found: i64, supported: i64 },
+    #[error("{}: an SQLite database with tables but no mapbench schema version: not a mapbench history", path.display())]
+    Foreign { path: PathBuf },
+    #[error("{}: no history database (a `run` or `merge` creates it)", path.display())]
+    Missing { path: PathBuf },
+    #[error("{}: {what}: {err}", path.display())]
+    Io { path: PathBuf, what: &'static str, err: std::io::Error },
+    #[error("{}: {what}", path.display())]
+    Meta { path: PathBuf, what: String },
+    #[error(transparent)]
+    Folder(#[from] FolderError),
+    #[error("trend page {}: {err:#}", path.display())]
+    Render { path: PathBuf, err: anyhow::Error },
+}
+
+/// `--history PATH` / `--no-history`, applied over what the config resolved to.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum HistoryChoice {
+    /// The config's `history` key, else [`DEFAULT_PATH`].
+    #[default]
+    FromConfig,
+    Path(PathBuf),
+    Off,
+}
+
+impl HistoryChoice {
+    pub fn from_flags(path: Option<PathBuf>, off: bool) -> HistoryChoice {
+        match (path, off) {
+            (_, true) => HistoryChoice::Off,
+            (Some(p), false) => HistoryChoice::Path(p),
+            (None, false) => HistoryChoice::FromConfig,
+        }
+    }
+
+    /// The database to append to, given what the config resolves to.
+    pub fn apply(&self, from_config: PathBuf) -> Option<PathBuf> {
+        match self {
+            HistoryChoice::FromConfig => Some(from_config),
+            HistoryChoice::Path(p) => Some(p.clone()),
+            HistoryChoice::Off => None,
+        }
+    }
+}
+
+/// The database a config names: its `history` key relative to the config's folder (as every
+/// path of a config), else [`DEFAULT_PATH`] relative to the current directory.
+pub fn resolve_path(key: Option<&Path>, config_dir: &Path) -> PathBuf {
+    match key {
+        Some(p) => config_dir.join(p),
+        None => PathBuf::from(DEFAULT_PATH),
+    }
+}
+
+/// Where `run` and `merge` render the trend page of `config` after appending to `db`:
+/// `<db folder>/<db stem>-trend/<config>/` (`reports/history-trend/param/` by default).
+pub fn trend_dir(db: &Path, config: &str) -> PathBuf {
+    let stem = db.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "history".into());
+    db.parent().unwrap_or(Path::new("")).join(format!("{stem}-trend")).join(config)
+}
+
+/// The hash of what a batch ran (16 hex digits of FNV-1a): the config as read without its
+/// `history` key, each energy's resolved settings, the planned runs and the repeat count,
+/// all from `meta.json` (serde_json keeps object keys sorted, so the text is canonical).
+pub fn config_hash(meta: &Value) -> String {
+    let mut config = meta.get("config").cloned().unwrap_or(Value::Null);
+    if let Some(c) = config.as_object_mut() {
+        c.remove("history");
+    }
+    let mut h = crate::run::resume::Fnv::new();
+    for part in [&config, &meta["settings_per_energy"], &meta["plan"], &meta["only"], &meta["repeat"]] {
+        h.bytes(part.to_string().as_bytes());
+    }
+    format!("{:016x}", h.0)
+}
+
+/// The `batches` row of a run folder, from its `meta.json`.
+pub fn batch_row(run_dir: &Path, meta: &Value) -> Result<BatchRow, HistoryError> {
+    let path = meta_json(run_dir);
+    let config_name = meta["config"]["name"]
+        .as_str()
+        .ok_or_else(|| HistoryError::Meta { path: path.clone(), what: "no config.name".into() })?
+        .to_string();
+    let int = |k: &str| meta.get(k).and_then(Value::as_i64);
+    let real = |k: &str| meta.get(k).and_then(Value::as_f64);
+    let text = |k: &str| meta.get(k).and_then(Value::as_str).map(str::to_string);
+    let source = if meta.get("merged_from").is_some_and(Value::is_array) { Source::Merge } else { Source::Run };
+    let recorded =
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs() as i64).unwrap_or(0);
+    Ok(BatchRow {
+        id: 0,
+        config_hash: config_hash(meta),
+        config_name,
+        started_unix: int("started_unix"),
+        ended_unix: int("ended_unix"),
+        git_revision: text("git_revision"),
+        git_dirty: meta.get("git_dirty").and_then(Value::as_bool),
+        host: text("host"),
+        cores: int("cores"),
+        jobs: int("jobs"),
+        threads_per_run: int("threads_per_run"),
+        repeats: int("repeat"),
+        calibration_median_s: real("calibration_median_s"),
+        calibration_spread: real("calibration_spread"),
+        run_dir: absolute(run_dir).display().to_string(),
+        recorded_unix: recorded,
+        source,
+    })
+}
+
+/// A run folder's `meta.json`.
+pub fn read_meta(run_dir: &Path) -> Result<Value, HistoryError> {
+    let path = meta_json(run_dir);
+    let text = std::fs::read_to_string(&path).map_err(|err| HistoryError::Io {
+        path: path.clone(),
+        what: "cannot read",
+        err,
+    })?;
+    serde_json::from_str(&text).map_err(|e| HistoryError::Meta { path, what: format!("invalid JSON: {e}") })
+}
+
+/// What [`record`] did.
+#[derive(Debug)]
+pub struct Recorded {
+    pub batch_id: i64,
+    pub runs: usize,
+    pub config: String,
+    /// The trend page rendered after the append.
+    pub trend: PathBuf,
+}
+
+/// Append the finished run folder `run_dir` to the database at `db` (created when absent)
+/// in one transaction, then render the trend page of its config into [`trend_dir`].
+pub fn record(db: &Path, run_dir: &Path) -> Result<Recorded, HistoryError> {
+    let meta = read_meta(run_dir)?;
+    let batch = batch_row(run_dir, &meta)?;
+    let runs: Vec<RunRow> = read_summary(run_dir)?.iter().map(RunRow::from_summary).collect();
+    let mut history = HistoryDb::open_or_create(db)?;
+    let batch_id = history.insert_batch(&batch, &runs)?;
+    let trend = trend_dir(db, &batch.config_name);
+    trend::render(&history, Some(&batch.config_name), None, &trend)?;
+    Ok(Recorded { batch_id, runs: runs.len(), config: batch.config_name, trend: trend.join("index.html") })
+}
+
+/// `path` made absolute against the current directory, `.` and `..` resolved lexically (the
+/// paths compared may not exist yet).
+pub fn absolute(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut out = PathBuf::new();
+    for c in abs.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// The relative link from the folder `from` to the file `to` (both made [`absolute`]).
+pub fn relative_link(from: &Path, to: &Path) -> String {
+    let (from, to) = (absolute(from), absolute(to));
+    let (a, b): (Vec<Component>, Vec<Component>) = (from.components().collect(), to.components().collect());
+    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut parts: Vec<String> = vec!["..".to_string(); a.len() - common];
+    parts.extend(b[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()));
+    parts.join("/")
+}
+
+#[cfg(test)]
+mod tests;

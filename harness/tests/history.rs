@@ -1,0 +1,200 @@
+//! The history database end to end (issue 19): `run` and `merge` append their batch, the
+//! `history` verb renders the trend page, `--no-history` writes nothing, a database this
+//! build cannot use costs the batch nothing but the exit code, and `sqlite3` reads the file.
+
+mod common;
+
+use common::{mapbench, text, write_config};
+use mapbench::history::HistoryDb;
+use std::path::Path;
+use std::process::Command;
+
+const CONFIG: &str =
+    "name = \"h\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n";
+
+/// `git` in `dir` with a fixed identity (the batches' revisions come from the config's folder).
+fn git(dir: &Path, args: &[&str]) {
+    let o = Command::new("git")
+        .args(["-c", "user.name=t", "-c", "user.email=t@example.org", "-c", "commit.gpgsign=false"])
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("git runs");
+    assert!(o.status.success(), "git {args:?}: {}", text(&o));
+}
+
+fn head(dir: &Path) -> String {
+    let o = Command::new("git").args(["rev-parse", "HEAD"]).current_dir(dir).output().unwrap();
+    String::from_utf8_lossy(&o.stdout).trim().to_string()
+}
+
+#[test]
+fn two_batches_of_one_config_make_two_nights_on_the_trend_page() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), CONFIG);
+    git(tmp.path(), &["init", "-q"]);
+    let mut revisions = Vec::new();
+    for night in 1..=2 {
+        std::fs::write(tmp.path().join("notes.txt"), format!("night {night}\n")).unwrap();
+        git(tmp.path(), &["add", "."]);
+        git(tmp.path(), &["commit", "-q", "-m", &format!("night {night}")]);
+        revisions.push(head(tmp.path())[..7].to_string());
+        let out = tmp.path().join(format!("night{night}"));
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        assert!(
+            text(&o).contains(&format!("history: batch {night} (2 runs of h) appended to reports/history.sqlite")),
+            "{}",
+            text(&o)
+        );
+        // The run's report links to the trend page `run` rendered next to the database.
+        let index = std::fs::read_to_string(out.join("index.html")).unwrap();
+        assert!(index.contains("href=\"../reports/history-trend/h/index.html\""), "{index}");
+        assert!(tmp.path().join("reports/history-trend/h/index.html").is_file());
+    }
+    let db = tmp.path().join("reports/history.sqlite");
+    let h = HistoryDb::open_existing(&db).unwrap();
+    let batches = h.batches(Some("h"), None).unwrap();
+    assert_eq!(batches.len(), 2);
+    assert_eq!(batches.iter().map(|b| b.short_revision()).collect::<Vec<_>>(), revisions);
+    assert_eq!(batches[0].config_hash, batches[1].config_hash, "same config, same hash");
+    assert_eq!(h.runs(batches[1].id).unwrap().len(), 2);
+
+    let o = mapbench(&["history", "--out", "trend", "--last", "5"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("trend page of 2 batches (2 plots)"), "{}", text(&o));
+    let page = std::fs::read_to_string(tmp.path().join("trend/index.html")).unwrap();
+    for needle in
+        [revisions[0].as_str(), revisions[1].as_str(), "h: 2 batches", "What changed: batch 2", "../night1/index.html"]
+    {
+        assert!(page.contains(needle), "{needle} not in the trend page:\n{page}");
+    }
+    for png in ["h__sd__iterations.png", "h__sd__time.png"] {
+        let bytes = std::fs::read(tmp.path().join("trend/plots").join(png)).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{png}");
+    }
+    // the same iterations twice: nothing changed but (maybe) the times, which are not listed
+    assert!(page.contains("No change in iterations, status or final energy"), "{page}");
+    let o = mapbench(&["history", "--config", "nope", "--out", "t2"], tmp.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("no batch of config \"nope\""), "{}", text(&o));
+
+    // the sqlite3 CLI reads the file (skipped, saying so, where it is not installed)
+    match Command::new("sqlite3").arg("-version").output() {
+        Ok(v) if v.status.success() => {
+            let q =
+                "SELECT b.git_revision, count(*), sum(r.iterations) FROM runs r JOIN batches b ON b.id = r.batch_id \
+                     GROUP BY b.id ORDER BY b.id";
+            let o = Command::new("sqlite3").arg(&db).arg(q).output().unwrap();
+            assert!(o.status.success(), "{}", text(&o));
+            let out = String::from_utf8_lossy(&o.stdout);
+            let lines: Vec<&str> = out.lines().collect();
+            assert_eq!(lines.len(), 2, "{out}");
+            assert!(lines[0].starts_with(&revisions[0]) && lines[0].contains("|2|"), "{out}");
+            let v = Command::new("sqlite3").arg(&db).arg("PRAGMA user_version").output().unwrap();
+            assert_eq!(String::from_utf8_lossy(&v.stdout).trim(), mapbench::history::SCHEMA_VERSION.to_string());
+        }
+        _ => eprintln!("skipped the sqlite3 check: no sqlite3 binary on PATH"),
+    }
+}
+
+#[test]
+fn no_history_writes_nothing_and_shards_leave_the_append_to_merge() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), CONFIG);
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-history"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(!tmp.path().join("reports").exists(), "--no-history wrote reports/");
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+    assert!(meta["history"].is_null(), "{meta}");
+    assert!(!std::fs::read_to_string(out.join("index.html")).unwrap().contains("History:"));
+
+    let shards: Vec<String> = (1..=2)
+        .map(|i| {
+            let s = tmp.path().join(format!("s{i}"));
+            let args = ["run", cfg.to_str().unwrap(), "--out", s.to_str().unwrap(), "--shard", &format!("{i}/2")];
+            let o = mapbench(&args, tmp.path());
+            assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+            assert!(text(&o).contains("a --shard batch is not appended"), "{}", text(&o));
+            s.display().to_string()
+        })
+        .collect();
+    assert!(!tmp.path().join("reports").exists(), "a shard wrote the history");
+    let db = tmp.path().join("nightly.sqlite");
+    let o =
+        mapbench(&["merge", &shards[0], &shards[1], "--out", "merged", "--history", db.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let h = HistoryDb::open_existing(&db).unwrap();
+    let b = h.batches(None, None).unwrap();
+    assert_eq!((b.len(), b[0].source), (1, mapbench::history::Source::Merge));
+    assert_eq!(h.runs(b[0].id).unwrap().len(), 2);
+    assert!(tmp.path().join("nightly-trend/h/index.html").is_file());
+    let index = std::fs::read_to_string(tmp.path().join("merged/index.html")).unwrap();
+    assert!(index.contains("href=\"../nightly-trend/h/index.html\""), "{index}");
+}
+
+/// A history this build cannot use (a newer schema) is a warning and exit 2; the run folder
+/// is complete. The config's `history` key resolves against the config's folder.
+#[test]
+fn a_history_that_cannot_be_written_keeps_the_run_folder_and_exits_2() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::create_dir(tmp.path().join("cfg")).unwrap();
+    let cfg = write_config(&tmp.path().join("cfg"), &format!("history = \"db/h.sqlite\"\n{CONFIG}"));
+    let db = tmp.path().join("cfg/db/h.sqlite");
+    std::fs::create_dir_all(db.parent().unwrap()).unwrap();
+    rusqlite::Connection::open(&db).unwrap().execute_batch("PRAGMA user_version = 7").unwrap();
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("warning: history not updated:") && text(&o).contains("schema version 7 is newer"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(common::read_csv(&out.join("summary.csv")).1.len(), 2);
+    assert!(out.join("index.html").is_file());
+    assert!(!tmp.path().join("reports").exists());
+}
+
+/// The README's benchmark: 30 nights of one run folder (`MAPBENCH_BENCH_RUN`, e.g. a
+/// `configs/param.toml` run) appended with distinct revisions and start times into
+/// `MAPBENCH_BENCH_DB`; prints the database size and how long the trend page took. Run with
+/// `cargo test -p mapbench --test history -- --ignored --nocapture thirty`.
+#[test]
+#[ignore = "a benchmark: needs MAPBENCH_BENCH_RUN (a run folder) and MAPBENCH_BENCH_DB"]
+fn thirty_simulated_batches() {
+    use mapbench::history::{batch_row, read_meta, trend, RunRow};
+    let (Some(run), Some(db)) = (std::env::var_os("MAPBENCH_BENCH_RUN"), std::env::var_os("MAPBENCH_BENCH_DB")) else {
+        eprintln!("skipped: set MAPBENCH_BENCH_RUN and MAPBENCH_BENCH_DB");
+        return;
+    };
+    let (run, db) = (Path::new(&run), Path::new(&db));
+    assert!(!db.exists(), "{}: exists; give a new file", db.display());
+    let meta = read_meta(run).unwrap();
+    let rows: Vec<RunRow> = mapbench::run_folder::read_summary(run).unwrap().iter().map(RunRow::from_summary).collect();
+    let mut h = HistoryDb::open_or_create(db).unwrap();
+    let t0 = std::time::Instant::now();
+    for night in 0..30i64 {
+        let mut b = batch_row(run, &meta).unwrap();
+        b.git_revision = Some(format!("{:07x}{}", 0x1000000 + night * 7919, "0".repeat(33)));
+        b.started_unix = b.started_unix.map(|s| s + night * 86_400);
+        h.insert_batch(&b, &rows).unwrap();
+    }
+    let insert = t0.elapsed().as_secs_f64();
+    let size = std::fs::metadata(db).unwrap().len();
+    let out = db.with_extension("trend");
+    let t1 = std::time::Instant::now();
+    let page = trend::render(&h, None, None, &out).unwrap();
+    eprintln!(
+        "30 batches x {} runs: {} bytes ({:.1} KiB per batch); 30 inserts {:.3} s; trend page ({} plots) {:.2} s",
+        rows.len(),
+        size,
+        size as f64 / 30.0 / 1024.0,
+        insert,
+        page.plots.len(),
+        t1.elapsed().as_secs_f64()
+    );
+    assert_eq!(page.batches, 30);
+}
