@@ -210,6 +210,8 @@ fn shared_deform_batch(extra: &str) -> Option<(Vec<String>, Vec<Vec<String>>)> {
     let out = tmp.path().join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
         .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        // In the temporary folder: the default history database is reports/ of the cwd.
+        .current_dir(tmp.path())
         .env("MAPBENCH_MESHES", meshes)
         .output()
         .unwrap();

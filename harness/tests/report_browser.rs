@@ -60,6 +60,8 @@ fn the_report_page_loads_every_image_and_shows_the_tables() {
     let out = tmp.path().join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
         .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        // In the temporary folder: the default history database is reports/ of the cwd.
+        .current_dir(tmp.path())
         .env_remove("MAPBENCH_MESHES")
         .output()
         .unwrap();
