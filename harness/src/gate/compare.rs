@@ -318,7 +318,9 @@ fn provenance(a: Option<&Value>, b: Option<&Value>) -> Vec<(String, String, Stri
         let m = m?;
         let rev = m.get("git_revision")?.as_str()?;
         let dirty = m.get("git_dirty").and_then(Value::as_bool) == Some(true);
-        Some(format!("{}{}", &rev[..rev.len().min(12)], if dirty { " (dirty)" } else { "" }))
+        // By characters: a hand-edited meta.json need not be ASCII.
+        let short: String = rev.chars().take(12).collect();
+        Some(format!("{short}{}", if dirty { " (dirty)" } else { "" }))
     };
     let field = |m: Option<&Value>, k: &str| match m?.get(k)? {
         Value::Null => None,
@@ -809,5 +811,13 @@ mod tests {
         let bad = Options { energy_rtol: -1.0, ..Options::default() };
         let e = format!("{:#}", compare_folders(dir.path(), dir.path(), bad).unwrap_err());
         assert!(e.contains("--energy-rtol") && e.contains("non-negative"), "{e}");
+    }
+
+    /// Found by review: the revision was cut at byte 12, a panic inside a multi-byte character.
+    #[test]
+    fn a_non_ascii_revision_is_shortened_by_characters() {
+        let m = json!({"git_revision": "ééééééééééééééé"});
+        let p = provenance(Some(&m), None);
+        assert_eq!(p[0], ("git revision".to_string(), "éééééééééééé".to_string(), "-".to_string()));
     }
 }
