@@ -9,6 +9,8 @@
 //! The planar shapes of the `deform` task (`planar_*`, z = 0) are unions of grid cells with
 //! their handles given by rule ([`generated_handles`]).
 
+mod hard;
+
 use crate::handle::Handle;
 use crate::mesh::Mesh;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -25,6 +27,26 @@ pub const GENERATED: &[(&str, &str)] = &[
     ("cap_2k", "spherical cap of polar angle 0.45 pi (hemisphere-like), ~2k vertices"),
     ("strip_thin", "long thin gently bent strip, 50:1 aspect ratio, ~1.3k vertices"),
     ("short_boundary_3k", "unit sphere minus a small polar cap (very short boundary), ~3k vertices"),
+    (
+        "hilbert_3k",
+        "planar domain along a Hilbert curve of order 4 (CM paper's hilbert), corridors 2 cells wide, ~3k vertices",
+    ),
+    ("hilbert_10k", "planar domain along a Hilbert curve of order 4, corridors 4 cells wide, ~10k vertices"),
+    (
+        "torus_cut_4k",
+        "bumpy torus cut along a meridian and a longitude into a disk (complex-view Fig. 2), ~4k vertices",
+    ),
+    ("finger_1k", "long closed tube (a glove finger) rising from a flat brim, ~1k vertices"),
+    ("finger_thin_1k", "thinner glove finger, 12:1 length to radius, on a flat brim, ~1k vertices"),
+    (
+        "finger_slivers_2k",
+        "finger_1k with a sliver inserted in every other face (angles down to ~0.002 degrees), ~2k vertices",
+    ),
+    (
+        "slivers_2k",
+        "bumpy disk patch with a sliver inserted in every 10th face (angles down to ~0.002 degrees), ~2k vertices",
+    ),
+    ("sack_1k", "unit sphere minus a tiny polar cap of 0.08 rad (a deep, near-closed sack), ~1k vertices"),
     ("planar_bar_2k", "deform: 10 x 1 bar, ~2k vertices; left end held, right end bent a quarter turn"),
     (
         "planar_bar_release_2k",
@@ -57,6 +79,17 @@ pub fn generate(name: &str) -> Result<Mesh, UnknownGenerated> {
         "cap_2k" => ring_disk(26, &sphere(0.45 * PI)),
         "short_boundary_3k" => ring_disk(42, &sphere(PI - 0.55)),
         "strip_thin" => strip(250, 5, 10.0, 0.2),
+        "hilbert_3k" => hard::hilbert(4, 2),
+        "hilbert_10k" => hard::hilbert(4, 4),
+        "torus_cut_4k" => hard::bumpy_torus_cut(96, 40, 0.42, 0.22, 0.12),
+        "finger_1k" => hard::finger(FINGER.0, FINGER.1, FINGER.2, FINGER.3, FINGER.4),
+        "finger_thin_1k" => hard::finger(37, 0.1, 1.2, 0.08, 1.0),
+        "finger_slivers_2k" => {
+            let base = hard::finger(FINGER.0, FINGER.1, FINGER.2, FINGER.3, FINGER.4);
+            hard::with_slivers(base, 2, 5e-5, 1e-2, 19)
+        }
+        "slivers_2k" => hard::with_slivers(ring_disk(24, &plane(bumps)), 10, 5e-5, 1e-2, 19),
+        "sack_1k" => ring_disk(28, &sphere(PI - 0.08)),
         "planar_bar_2k" | "planar_bar_release_2k" => cells_2d(BAR.0, BAR.1, BAR.2, |_, _| true),
         "planar_limbs_2k" => cells_2d(LIMBS.0, LIMBS.0, LIMBS.2, limbs_mask),
         "planar_limbs_8k" => cells_2d(2 * LIMBS.0, 2 * LIMBS.0, 0.5 * LIMBS.2, |i, j| limbs_mask(i / 2, j / 2)),
@@ -152,6 +185,9 @@ fn zip_rings(inner: (usize, usize, f64), outer: (usize, usize, f64), faces: &mut
         }
     }
 }
+
+/// Rings, tube radius, tube length, fillet radius, brim radius of `finger_1k`.
+const FINGER: (usize, f64, f64, f64, f64) = (36, 0.15, 1.2, 0.1, 1.0);
 
 /// Cells along, cells across, cell size of `planar_bar_2k` (a 10 x 1 bar).
 const BAR: (usize, usize, f64) = (160, 12, 1.0 / 16.0);
@@ -378,7 +414,7 @@ mod tests {
     #[test]
     fn triangles_are_well_shaped() {
         // ring sizes follow the circumference, so no sliver: minimum angle above 15 degrees
-        for name in ["flat_disk_1k", "cap_2k", "short_boundary_3k", "bumpy_10k"] {
+        for name in ["flat_disk_1k", "cap_2k", "short_boundary_3k", "bumpy_10k", "hilbert_3k", "torus_cut_4k"] {
             let mesh = generate(name).unwrap();
             let mut min_angle = f64::INFINITY;
             for f in &mesh.faces {
@@ -395,5 +431,32 @@ mod tests {
             }
             assert!(min_angle > 15.0, "{name}: min angle {min_angle}");
         }
+    }
+
+    #[test]
+    fn the_hard_shapes_have_their_sizes_and_the_sliver_meshes_the_scans_angles() {
+        // pinned: tag:default's iteration counts (README) belong to exactly these meshes
+        for (name, vertices, faces) in [
+            ("hilbert_3k", 3069, 4088),
+            ("hilbert_10k", 10225, 16352),
+            ("torus_cut_4k", 3977, 7680),
+            ("finger_1k", 1079, 2059),
+            ("finger_thin_1k", 1072, 2041),
+            ("finger_slivers_2k", 2121, 4143),
+            ("slivers_2k", 2250, 4347),
+            ("sack_1k", 1054, 2100),
+        ] {
+            let mesh = generate(name).unwrap();
+            assert_eq!((mesh.n_vertices(), mesh.n_faces()), (vertices, faces), "{name}");
+        }
+        for name in ["slivers_2k", "finger_slivers_2k"] {
+            let mesh = generate(name).unwrap();
+            let min = hard::min_angle_deg(&mesh.positions, &mesh.faces);
+            // held-out scans go down to 0.005 degrees
+            assert!(min > 0.001 && min < 0.005, "{name}: min angle {min} degrees");
+        }
+        // the base meshes have none: the slivers are what was inserted
+        let base = generate("finger_1k").unwrap();
+        assert!(hard::min_angle_deg(&base.positions, &base.faces) > 10.0);
     }
 }
