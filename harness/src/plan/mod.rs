@@ -65,6 +65,8 @@ pub struct Plan {
     pub threads_per_run: Option<usize>,
     /// Times each run is repeated (`repeat`, or `--repeat`), at least 1.
     pub repeat: usize,
+    /// Which final maps the run folder keeps.
+    pub maps: config::Maps,
 }
 
 impl Plan {
@@ -113,6 +115,7 @@ impl Plan {
         config::check_repeat(repeat).with_context(invalid)?;
         Ok(Plan {
             repeat,
+            maps: c.maps.unwrap_or_default(),
             task: c.task,
             threads_per_run: c.threads_per_run,
             config: cfg,

@@ -72,6 +72,8 @@ impl Meta<'_> {
             "ended_unix": ended.map(secs),
             "interrupted": interrupted,
             "repeat": self.plan.repeat,
+            // Which final maps the folder keeps (`maps`); merge prunes by it.
+            "maps": self.plan.maps.as_str(),
             // The reference workload's samples; `time_norm` divides by their median.
             "calibration": calibration,
             "calibration_median_s": calibration.median_s(),
