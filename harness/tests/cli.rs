@@ -48,27 +48,40 @@ path = "quad.obj"
     assert_eq!(it.len() - 1, good[col("iterations")].parse::<usize>().unwrap());
     assert_eq!(it.last().unwrap()[2].parse::<f64>().unwrap(), 0.0);
     assert!(out.join("runs/broken__sd__kp-newton.csv").is_file());
-    // the final map as OBJ: same vertices and faces, no flipped triangle; none for a failed run
-    let obj = std::fs::read_to_string(out.join("uv/bumpy_1k__sd__kp-newton.obj")).unwrap();
+    // the final map, exported as a classic OBJ that tobj reads: the source mesh's vertices and
+    // faces, the stored UVs bit for bit, no flipped triangle; none for a failed run
+    let stored = mapbench::run_folder::map::read(&out, "bumpy_1k", "bumpy_1k__sd__kp-newton").unwrap().unwrap();
+    let obj_path = tmp.path().join("exported.obj");
+    let o = mapbench(
+        &["map", out.to_str().unwrap(), "bumpy_1k__sd__kp-newton", "--obj", obj_path.to_str().unwrap()],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (models, _) =
+        tobj::load_obj(&obj_path, &tobj::LoadOptions { single_index: true, ..Default::default() }).unwrap();
+    assert_eq!(models.len(), 1);
+    let m = &models[0].mesh;
     let src = solvers::generate::generate("bumpy_1k").unwrap();
-    let lines = |tag: &str| -> Vec<Vec<f64>> {
-        obj.lines()
-            .filter_map(|l| l.strip_prefix(tag))
-            .map(|l| l.split_whitespace().map(|t| t.split('/').next().unwrap().parse().unwrap()).collect())
-            .collect()
-    };
-    let v = lines("v ");
-    assert_eq!(v, src.positions.iter().map(|p| p.to_vec()).collect::<Vec<_>>());
-    let uv = lines("vt ");
-    let faces: Vec<Vec<f64>> = lines("f ");
-    assert_eq!((uv.len(), faces.len()), (src.n_vertices(), src.n_faces()));
-    for (f, g) in faces.iter().zip(&src.faces) {
-        assert_eq!(f.iter().map(|&i| i as usize - 1).collect::<Vec<_>>(), g.to_vec());
-        let p = g.map(|i| &uv[i]);
+    assert_eq!((m.positions.len() / 3, m.indices.len() / 3), (src.n_vertices(), src.n_faces()));
+    // single_index keeps the order here: every corner is `i/i`, so vertex i is position i.
+    let pos: Vec<[f64; 3]> = m.positions.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    assert_eq!(pos, src.positions);
+    let uv: Vec<[f64; 2]> = m.texcoords.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    assert!(uv.iter().flatten().zip(stored.uv.iter().flatten()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert_eq!(uv.len(), stored.uv.len());
+    let faces: Vec<[usize; 3]> =
+        m.indices.chunks_exact(3).map(|f| [f[0] as usize, f[1] as usize, f[2] as usize]).collect();
+    assert_eq!(faces, src.faces);
+    for g in &faces {
+        let p = g.map(|i| uv[i]);
         let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
         assert!(cross > 0.0);
     }
-    assert!(!out.join("uv/broken__sd__kp-newton.obj").exists());
+    assert!(!out.join("uv/broken__sd__kp-newton.uv.gz").exists());
+    // the failed run has no map: the export says so (exit 2)
+    let o = mapbench(&["map", out.to_str().unwrap(), "--out", tmp.path().join("all").to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "a failed run has no map to miss: {}", text(&o));
+    assert!(tmp.path().join("all/bumpy_1k__sd__kp-newton.obj").is_file());
     let meta: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
     assert_eq!(meta["config"]["name"], "t");
@@ -511,7 +524,7 @@ fn skipped_pairs_clamped_weights_and_shifts_in_a_batch() {
         );
         assert_eq!(r["vertices"], rows[0]["vertices"]);
         let (_, it) = read_csv(&out.join(format!("runs/{s}.csv")));
-        assert!(it.is_empty() && !out.join(format!("uv/{s}.obj")).exists(), "{s}");
+        assert!(it.is_empty() && !out.join(format!("uv/{s}.uv.gz")).exists(), "{s}");
     }
     assert!(log.contains("bumpy_1k nh slim: skipped: slim is not defined for nh: "), "{log}");
     // shifts: KP's systems factorize at the base shift; row 0 has no system
@@ -650,6 +663,20 @@ fn jobs_shards_merge_and_report_do_not_change_results() {
     let o = mapbench(&args.iter().map(String::as_str).collect::<Vec<_>>(), tmp.path());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert_eq!(results(&merged), one);
+    // and the same maps: each shard kept its own best of its part of a group, merge the batch's
+    let maps = |dir: &Path| {
+        let mut v: Vec<(String, Vec<u8>)> = ["uv", "meshes"]
+            .iter()
+            .flat_map(|sub| std::fs::read_dir(dir.join(sub)).unwrap())
+            .map(|e| e.unwrap().path())
+            .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+            .collect();
+        v.sort();
+        v
+    };
+    let kept = maps(&one_dir);
+    assert_eq!(kept.len(), 4 + 2, "one map per dataset and energy, one mesh per dataset");
+    assert_eq!(maps(&merged), kept);
     let meta: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(merged.join("meta.json")).unwrap()).unwrap();
     assert_eq!(meta["merged_from"].as_array().unwrap().len(), 3);

@@ -90,9 +90,13 @@ fn report_names_the_file_and_line_of_a_corrupt_iteration_csv_or_summary() {
 #[test]
 fn resume_reruns_a_finished_run_whose_map_was_deleted() {
     let tmp = tempfile::tempdir().unwrap();
-    let (cfg, out) = two_runs(tmp.path());
-    let map = out.join("uv/bumpy_1k__sd__cm.obj");
-    let obj = std::fs::read_to_string(&map).unwrap();
+    // Every map kept: each finished run must have its own.
+    let cfg = write_config(tmp.path(), &format!("{TWO_RUNS}maps = \"all\"\n"));
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let map = out.join("uv/bumpy_1k__sd__cm.uv.gz");
+    let obj = std::fs::read(&map).unwrap();
     std::fs::remove_file(&map).unwrap();
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resume"], tmp.path());
     let log = text(&o);
@@ -101,7 +105,7 @@ fn resume_reruns_a_finished_run_whose_map_was_deleted() {
     assert!(log.contains("bumpy_1k sd kp-newton: resumed, ok"), "{log}");
     assert!(log.contains("bumpy_1k sd cm: ok"), "{log}");
     // the map is back, and the same (the solvers are deterministic)
-    assert_eq!(std::fs::read_to_string(&map).unwrap(), obj);
+    assert_eq!(std::fs::read(&map).unwrap(), obj);
     assert!(out.join("plots/bumpy_1k__sd__cm__map.png").is_file());
 }
 
@@ -133,7 +137,7 @@ fn a_run_whose_files_cannot_be_written_fails_alone() {
         .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(".tmp"))
         .count();
     assert_eq!(tmp_files, 0);
-    assert!(!out.join("uv/bumpy_1k__sd__kp-newton.obj").exists());
+    assert!(!out.join("uv/bumpy_1k__sd__kp-newton.uv.gz").exists());
     // once the folder is gone, --resume runs the failed run again and reuses the other
     std::fs::remove_dir(&blocked).unwrap();
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--resume"], tmp.path());

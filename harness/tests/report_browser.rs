@@ -79,9 +79,10 @@ fn the_report_page_loads_every_image_and_shows_the_tables() {
     let start = dom.find(marker).expect("the check script ran") + marker.len();
     let json = &dom[start..start + dom[start..].find("</pre>").unwrap()];
     let report: serde_json::Value = serde_json::from_str(&json.replace("&quot;", "\"").replace("&amp;", "&")).unwrap();
-    // 2 datasets x 2 energies: 3 curve plots each, plus one map per finished run (10: slim
-    // is skipped for bconf)
-    assert!(report["images"].as_u64().unwrap() >= 22, "{report}");
+    // 2 datasets x 2 energies: 3 curve plots each, plus the group's map (maps = "best": one
+    // per dataset and energy), plus the performance profiles
+    assert!(report["images"].as_u64().unwrap() >= 16, "{report}");
+    assert!(page.matches("__map.png\"").count() >= 4, "every group's map is shown");
     assert_eq!(report["broken"], serde_json::json!([]), "{report}");
     assert!(report["tables"].as_u64().unwrap() >= 3, "status matrix and paper tables: {report}");
     let titles = report["titles"].to_string();

@@ -97,6 +97,19 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         iteration: usize,
     },
+    /// Write the classic OBJ (source mesh as v, map as vt) of stored final maps of a run
+    /// folder, for any OBJ viewer; exit 2 when a selected run's map was not kept.
+    Map {
+        run_dir: PathBuf,
+        /// Runs as `<dataset>__<energy>__<solver>` or globs (`*`, `?`); default: every run.
+        runs: Vec<String>,
+        /// Write the one selected run's OBJ to this file.
+        #[arg(long, conflicts_with = "out", required_unless_present = "out")]
+        obj: Option<PathBuf>,
+        /// Write `<run>.obj` of every selected run into this folder.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Time mapbench's sparse Cholesky (analyse once; factorize + solve, median of --repeat)
     /// on a Matrix Market file written by export-system; prints one JSON line.
     TimeSystem {
@@ -306,6 +319,22 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let sys = export::read_matrix_market(&matrix)?;
             let t = export::time_system(&sys, ordering, repeat).with_context(|| matrix.display().to_string())?;
             println!("{}", serde_json::to_string(&t)?);
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Map { run_dir, runs, obj, out } => {
+            let dest = match (&obj, &out) {
+                (Some(f), _) => export::maps::Dest::File(f),
+                (None, Some(d)) => export::maps::Dest::Folder(d),
+                (None, None) => anyhow::bail!("give --obj FILE or --out DIR"),
+            };
+            let done = export::maps::export_maps(&run_dir, &runs, dest)?;
+            for p in &done.written {
+                eprintln!("{}", p.display());
+            }
+            if !done.missing.is_empty() {
+                eprintln!("no stored map for {}: {}", done.missing.join(", "), export::maps::missing_hint(&run_dir));
+                return Ok(ExitCode::from(2));
+            }
             Ok(ExitCode::SUCCESS)
         }
         Command::Report { run_dir } => {

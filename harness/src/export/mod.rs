@@ -2,6 +2,8 @@
 //! iteration, as Matrix Market files, so other sparse solvers can be timed on exactly the
 //! matrices mapbench factorizes (`scripts/bench_linear_solvers.py`).
 
+pub mod maps;
+
 use crate::plan::config::LoadedConfig;
 use crate::plan::{Plan, RunSettings, Task};
 use crate::run_folder::write_atomic;

@@ -68,6 +68,8 @@ pub struct Plan {
     /// The history database the batch is appended to (`history`, `--history`); `None` with
     /// `--no-history`.
     pub history: Option<std::path::PathBuf>,
+    /// Which final maps the run folder keeps.
+    pub maps: config::Maps,
 }
 
 impl Plan {
@@ -118,6 +120,7 @@ impl Plan {
         Ok(Plan {
             repeat,
             history,
+            maps: c.maps.unwrap_or_default(),
             task: c.task,
             threads_per_run: c.threads_per_run,
             config: cfg,

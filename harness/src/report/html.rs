@@ -445,10 +445,20 @@ fn files_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)]) -> 
         }
     }
     *h += "</ul>\n";
-    for (title, sub, ext) in
-        [("Per-iteration CSVs", "runs", "csv"), ("Final maps (OBJ: source mesh as v, map as vt)", "uv", "obj")]
-    {
+    for (title, sub, ext) in [
+        ("Per-iteration CSVs", "runs", "csv"),
+        (
+            "Final maps (UVs only: mapbench map RUN_DIR RUN --obj FILE joins one with its mesh into an OBJ)",
+            "uv",
+            "uv.gz",
+        ),
+        ("Meshes of the maps (gzip OBJ)", "meshes", "obj.gz"),
+        ("Final maps of an older folder (OBJ: source mesh as v, map as vt)", "uv", "obj"),
+    ] {
         let files = list_files(run_dir, sub, ext)?;
+        if files.is_empty() && sub != "runs" {
+            continue;
+        }
         // Collapsed: hundreds of links; the status matrix already links each run's CSV.
         let _ = writeln!(h, "<details><summary>{} ({})</summary>", esc(title), files.len());
         *h += "<ul class=\"files\">\n";
@@ -578,9 +588,11 @@ mod tests {
         for stem in ["tiny__sd__kp-newton", "tiny__sd__slim", "tiny__sd__cm", "disk__authalic__aem-cg"] {
             assert!(html.contains(&format!("href=\"runs/{stem}.csv\"")), "{stem}");
         }
-        for stem in ["tiny__sd__kp-newton", "tiny__sd__slim", "disk__authalic__aem-cg"] {
-            assert!(html.contains(&format!("href=\"uv/{stem}.obj\"")), "{stem}");
+        for file in ["uv/tiny__sd__kp-newton.uv.gz", "uv/tiny__sd__slim.uv.gz", "meshes/tiny.obj.gz"] {
+            assert!(html.contains(&format!("href=\"{file}\"")), "{file}");
         }
+        // tiny_run leaves disk's map in the format of older folders.
+        assert!(html.contains("href=\"uv/disk__authalic__aem-cg.obj\""));
         assert!(html.contains("factorization failed: pivot &lt; 0 &amp; NaN in &lt;K&gt;"));
         assert!(!html.contains("<K>"));
         assert!(html.contains("0123456789abcdef0123456789abcdef01234567 (dirty"));

@@ -3,9 +3,10 @@
 
 use crate::calibration::Calibration;
 use crate::history::HistoryChoice;
+use crate::run_folder::keep::{self, Maps};
+use crate::run_folder::map::{legacy_obj_path, mesh_path, uv_path};
 use crate::run_folder::{
-    iterations_csv, map_obj, meta_json, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary,
-    SummaryRow,
+    iterations_csv, meta_json, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary, SummaryRow,
 };
 use anyhow::{bail, Context, Result};
 use serde_json::Value;
@@ -66,6 +67,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice) ->
     }
     let mut rows: Vec<(usize, SummaryRow)> = Vec::new();
     let mut from: HashMap<String, &Path> = HashMap::new();
+    let mut meshes_copied: std::collections::HashSet<String> = Default::default();
     for dir in shards {
         for row in read_summary(dir)? {
             let stem = run_stem(&row.dataset, &row.energy, &row.solver);
@@ -75,11 +77,15 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice) ->
             if let Some(other) = from.insert(stem.clone(), dir) {
                 bail!("run {stem} is in both {} and {}", other.display(), dir.display());
             }
-            for file in [iterations_csv, sidecar::path, map_obj] {
-                let src = file(dir, &stem);
+            // The dataset's mesh copy is the same in every shard (the runs' keys hash the mesh).
+            let files =
+                [iterations_csv, sidecar::path, uv_path, legacy_obj_path].map(|f| (f(dir, &stem), f(&out_dir, &stem)));
+            let mesh = (mesh_path(dir, &row.dataset), mesh_path(&out_dir, &row.dataset));
+            let new_mesh = mesh.0.is_file() && meshes_copied.insert(row.dataset.clone());
+            for (src, dst) in files.into_iter().chain(new_mesh.then_some(mesh)) {
                 if src.is_file() {
                     let bytes = std::fs::read(&src).with_context(|| format!("{}: cannot read", src.display()))?;
-                    write_atomic(&file(&out_dir, &stem), &bytes)?;
+                    write_atomic(&dst, &bytes)?;
                 }
             }
             rows.push((i, row));
@@ -91,6 +97,8 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice) ->
         order.iter().filter(|(s, _)| !from.contains_key(*s)).map(|(s, &i)| (i, s.clone())).collect();
     missing.sort();
     write_summary(&summary_csv(&out_dir), &rows)?;
+    // Each shard kept its own best per group; the merged folder keeps the batch's.
+    keep::prune(&out_dir, Maps::of_meta(&metas[0]), &rows);
     let mut meta = metas[0].clone();
     meta["shard"] = Value::Null;
     // The shards were not appended (each is part of a batch); the merged batch is.

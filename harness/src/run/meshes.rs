@@ -5,12 +5,22 @@ use anyhow::Result;
 use solvers::linear::AnalysisCache;
 use solvers::mesh::Mesh;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// A dataset's mesh and what its runs share: the symbolic analyses of their systems.
 pub(super) struct Loaded {
     pub mesh: Result<Mesh>,
     pub analyses: Arc<AnalysisCache>,
+    /// `meshes/<dataset>.obj.gz`'s bytes, encoded by the first run that keeps a map.
+    mesh_file: OnceLock<Arc<Vec<u8>>>,
+}
+
+impl Loaded {
+    /// The mesh's file for the run folder (`None` when it did not load).
+    pub fn mesh_file(&self) -> Option<Arc<Vec<u8>>> {
+        let mesh = self.mesh.as_ref().ok()?;
+        Some(self.mesh_file.get_or_init(|| Arc::new(crate::run_folder::map::encode_mesh(mesh))).clone())
+    }
 }
 
 /// Meshes shared by the workers: loaded by the first run that needs one, dropped (with their
@@ -32,7 +42,10 @@ impl MeshCache {
 
     pub fn get(&self, d: usize, ds: &Dataset) -> Arc<Loaded> {
         let mut slot = self.slots[d].lock().unwrap_or_else(|e| e.into_inner());
-        slot.get_or_insert_with(|| Arc::new(Loaded { mesh: ds.load(), analyses: Default::default() })).clone()
+        slot.get_or_insert_with(|| {
+            Arc::new(Loaded { mesh: ds.load(), analyses: Default::default(), mesh_file: OnceLock::new() })
+        })
+        .clone()
     }
 
     pub fn done(&self, d: usize) {

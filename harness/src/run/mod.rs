@@ -11,10 +11,11 @@ mod one;
 mod repeats;
 
 use crate::calibration::Calibration;
+use crate::plan::config::Maps;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::meta::{code_id, Meta};
-use crate::run_folder::{sidecar, summary_csv, write_run, RunFiles, Status, SummaryRow, SummaryWriter};
+use crate::run_folder::{sidecar, summary_csv, write_run, MapBytes, RunFiles, Status, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
 use meshes::MeshCache;
 use one::{run_one, RunContext, RunResult};
@@ -100,6 +101,8 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     let mut slots: Vec<Option<Slot>> = (0..total).map(|_| None).collect();
     // Each finished run, whether it was resumed, and the key of the sidecar this batch wrote.
     let mut finished: Vec<(usize, SummaryRow, bool, Option<String>)> = Vec::new();
+    // Datasets whose mesh copy this batch has written (once each, with its first map).
+    let mut meshes_written: Vec<usize> = Vec::new();
     let mut finish = |i: usize, worker: usize, slot: Slot, complete: bool, report: &mut BatchReport| -> Result<()> {
         let Slot { mut first, resumed, key, repeats } = slot;
         if let Some(r) = repeats {
@@ -114,10 +117,17 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
             stem: &p.stem,
             summary: &first.summary,
             rows: &first.rows,
-            map_obj: first.map_obj.as_deref(),
+            map: first.map_uv.as_deref().map(|uv| MapBytes {
+                dataset: &first.summary.dataset,
+                uv,
+                mesh: first.mesh_file.as_deref().filter(|_| !meshes_written.contains(&p.dataset)).map(|m| m.as_slice()),
+            }),
             key: sidecar_key,
         };
         let written = write_run(out_dir, &files);
+        if written.is_ok() && files.map.as_ref().is_some_and(|m| m.mesh.is_some()) {
+            meshes_written.push(p.dataset);
+        }
         let wrote = sidecar_key.filter(|_| written.is_ok()).map(str::to_string);
         if sidecar_key.is_none() && !resumed {
             // A previous batch's sidecar must not vouch for these files.
@@ -255,6 +265,18 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         rows.push(s);
     }
     crate::run_folder::write_summary(&summary_csv(out_dir), &rows)?;
+    // Every map was written as its run finished; now that the groups are complete, drop those
+    // `maps` does not keep (`best`: all but one per dataset and energy).
+    let missing = crate::run_folder::keep::prune(out_dir, plan.maps, &rows);
+    if !missing.is_empty() {
+        progress.notice(&format!(
+            "maps = \"{}\" keeps the maps of {} runs whose map this folder does not have (resumed from a batch \
+             that did not keep it): {}",
+            plan.maps.as_str(),
+            missing.len(),
+            missing.join(", ")
+        ));
+    }
     // meta.json before the report, which states its calibration samples.
     meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
@@ -318,12 +340,14 @@ fn run_round(
                     // An unreadable mesh file has no key; its run fails below as usual.
                     let key = resume::run_key(plan, p, code).ok();
                     let previous = match (&key, opts.resume && round == 0) {
-                        (Some(k), true) => resume::previous(out_dir, &p.stem, k),
+                        (Some(k), true) => resume::previous(out_dir, &p.stem, k, plan.maps),
                         _ => None,
                     };
                     let resumed = previous.is_some();
                     let result = match previous {
-                        Some((summary, rows)) => RunResult { summary, rows, map_obj: None, interrupted: false },
+                        Some((summary, rows)) => {
+                            RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false }
+                        }
                         None => {
                             let loaded = meshes.get(p.dataset, ds);
                             let ctx = RunContext {
@@ -332,8 +356,13 @@ fn run_round(
                                 worker,
                                 analyses: loaded.analyses.clone(),
                                 stop_at,
+                                keep_map: round == 0 && plan.maps != Maps::None,
                             };
-                            run_one(plan, p, loaded.mesh.as_ref(), &ctx)
+                            let mut result = run_one(plan, p, loaded.mesh.as_ref(), &ctx);
+                            if result.map_uv.is_some() {
+                                result.mesh_file = loaded.mesh_file();
+                            }
+                            result
                         }
                     };
                     meshes.done(p.dataset);

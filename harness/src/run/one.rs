@@ -49,8 +49,10 @@ impl Observer for Rows<'_> {
 pub(super) struct RunResult {
     pub summary: SummaryRow,
     pub rows: Vec<IterationRecord>,
-    /// The final map as OBJ text (`uv/<run>.obj`), taken when written.
-    pub map_obj: Option<Vec<u8>>,
+    /// The final map's `uv/<run>.uv.gz` bytes, when the folder keeps maps; taken when written.
+    pub map_uv: Option<Vec<u8>>,
+    /// Its mesh's `meshes/<dataset>.obj.gz` bytes, shared by the runs on the mesh.
+    pub mesh_file: Option<Arc<Vec<u8>>>,
     /// Stopped by an interrupt of the batch: not a result, nothing is written.
     pub interrupted: bool,
 }
@@ -72,7 +74,7 @@ pub(super) fn run_one(
     let fail = |mut summary: SummaryRow, error: String| {
         summary.status = Status::Failed;
         summary.error = error;
-        RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false }
+        RunResult { summary, rows: Vec::new(), map_uv: None, mesh_file: None, interrupted: false }
     };
     // A pair outside the solver's definition is not solved: no rows, no map, the reason.
     if let Some(reason) = &run.skip {
@@ -82,7 +84,7 @@ pub(super) fn run_one(
         summary.status = Status::Skipped;
         summary.stop_reason = Some(StopReason::Skipped);
         summary.error = reason.clone();
-        return RunResult { summary, rows: Vec::new(), map_obj: None, interrupted: false };
+        return RunResult { summary, rows: Vec::new(), map_uv: None, mesh_file: None, interrupted: false };
     }
     let mesh = match mesh {
         Ok(m) => m,
@@ -150,10 +152,10 @@ pub(super) fn run_one(
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
         _ => String::new(),
     };
-    let map_obj = Some(crate::run_folder::map::to_obj(mesh, &outcome.x));
+    let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &outcome.x));
     // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
-    RunResult { summary, rows, map_obj, interrupted }
+    RunResult { summary, rows, map_uv, mesh_file: None, interrupted }
 }
 
 /// The statistics of a run's times: `ms_per_vertex` from `time_s`, and the medians over
@@ -192,6 +194,9 @@ pub(super) struct RunContext<'a> {
     pub analyses: Arc<AnalysisCache>,
     /// Stop after this iteration (with `stop_reason = timeout`) instead of at the deadline.
     pub stop_at: Option<usize>,
+    /// Encode the final map (the folder keeps maps, and this is the run's first repeat, whose
+    /// files are written).
+    pub keep_map: bool,
 }
 
 /// One solve with the run's settings; `authalic` runs also return their area metrics.

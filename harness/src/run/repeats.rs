@@ -141,7 +141,7 @@ mod tests {
             time_s: Some(time),
             ..Default::default()
         };
-        RunResult { summary, rows, map_obj: None, interrupted: false }
+        RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false }
     }
 
     #[test]

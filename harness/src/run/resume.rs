@@ -3,10 +3,11 @@
 //! the solver, and the mesh and handle files' contents). A resumed batch reuses a run whose
 //! key matches and whose files (per-iteration CSV, map) are intact, and runs the others.
 
+use crate::plan::config::Maps;
 use crate::plan::handles::HandleSource;
 use crate::plan::registry::MeshSource;
 use crate::plan::{Plan, PlannedRun};
-use crate::run_folder::{map_obj, read_run, sidecar, SummaryRow};
+use crate::run_folder::{map, read_run, sidecar, SummaryRow};
 use anyhow::{Context, Result};
 use solvers::solver::IterationRecord;
 use std::path::Path;
@@ -65,9 +66,11 @@ pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
 }
 
 /// The finished run `stem` if its sidecar has `key` and all its files are intact: the CSV
-/// reads back completely and, for a run that produced a map (every run with iterations,
-/// see `run::one::run_one`), `uv/<stem>.obj` reads back too. Otherwise the run runs again.
-pub fn previous(out_dir: &Path, stem: &str, key: &str) -> Option<(SummaryRow, Vec<IterationRecord>)> {
+/// reads back completely and its map, where the folder has one, reads back too. With
+/// `maps = "all"` a run that produced a map (every run with iterations, see
+/// `run::one::run_one`) must have it; otherwise the batch's end decides which maps stay
+/// (`run_folder::keep`). Otherwise the run runs again.
+pub fn previous(out_dir: &Path, stem: &str, key: &str, maps: Maps) -> Option<(SummaryRow, Vec<IterationRecord>)> {
     let side = sidecar::read(out_dir, stem)?;
     if side.key != key {
         return None;
@@ -79,7 +82,10 @@ pub fn previous(out_dir: &Path, stem: &str, key: &str) -> Option<(SummaryRow, Ve
         return None;
     }
     if side.summary.iterations.is_some() {
-        crate::run_folder::map::read(&map_obj(out_dir, stem)).ok()?;
+        let map = map::read(out_dir, &side.summary.dataset, stem).ok()?;
+        if map.is_none() && maps == Maps::All {
+            return None;
+        }
     }
     Some((side.summary, rows))
 }

@@ -75,6 +75,8 @@ impl Meta<'_> {
             // The history database this batch is appended to (null: none); the report links
             // to its trend page.
             "history": self.plan.history.as_ref().map(|p| crate::history::absolute(p).display().to_string()),
+            // Which final maps the folder keeps (`maps`); merge prunes by it.
+            "maps": self.plan.maps.as_str(),
             // The reference workload's samples; `time_norm` divides by their median.
             "calibration": calibration,
             "calibration_median_s": calibration.median_s(),

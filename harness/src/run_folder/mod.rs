@@ -1,11 +1,14 @@
 //! The run folder and every file in it (design.md "Output of a run"): `summary.csv`,
 //! `meta.json`, `runs/<run>.csv` (per iteration) and `runs/<run>.json` (the resume sidecar),
-//! `uv/<run>.obj` (the final map). This module owns their names and formats; files are
+//! `uv/<run>.uv.gz` (the final map's UVs) with `meshes/<dataset>.obj.gz` (the mesh they map, once
+//! per dataset; `map.rs`), the maps that `maps` keeps (`keep.rs`). This module owns their names
+//! and formats; files are
 //! written atomically (temporary file + rename), so an interrupted batch never leaves a
 //! half-written run.
 
 mod error;
 pub mod iterations;
+pub mod keep;
 pub mod map;
 pub mod meta;
 pub mod sidecar;
@@ -40,9 +43,13 @@ pub fn iterations_csv(dir: &Path, stem: &str) -> PathBuf {
     runs_dir(dir).join(format!("{stem}.csv"))
 }
 
-/// `uv/<run>.obj`, the final map of a run.
-pub fn map_obj(dir: &Path, stem: &str) -> PathBuf {
-    dir.join("uv").join(format!("{stem}.obj"))
+/// The final map of a finished run, encoded for its files.
+pub struct MapBytes<'a> {
+    pub dataset: &'a str,
+    /// `uv/<run>.uv.gz`.
+    pub uv: &'a [u8],
+    /// `meshes/<dataset>.obj.gz`, when this batch has not written it yet.
+    pub mesh: Option<&'a [u8]>,
 }
 
 /// The files of a finished run, as the batch writes them.
@@ -50,8 +57,8 @@ pub struct RunFiles<'a> {
     pub stem: &'a str,
     pub summary: &'a SummaryRow,
     pub rows: &'a [IterationRecord],
-    /// The final map as OBJ text, when the run has one.
-    pub map_obj: Option<&'a [u8]>,
+    /// The final map, when the run has one and the folder keeps maps.
+    pub map: Option<MapBytes<'a>>,
     /// The run's `--resume` key: given, the sidecar is written last.
     pub key: Option<&'a str>,
 }
@@ -60,10 +67,15 @@ pub struct RunFiles<'a> {
 /// key, the sidecar that marks it finished, written last. On an error nothing of this run is
 /// left that `--resume` or the report would take for a result.
 pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
-    let map = map_obj(dir, run.stem);
+    let map = map::uv_path(dir, run.stem);
     let written = (|| {
-        if let Some(obj) = run.map_obj {
-            write_atomic(&map, obj)?;
+        if let Some(m) = &run.map {
+            if let Some(mesh) = m.mesh {
+                write_atomic(&map::mesh_path(dir, m.dataset), mesh)?;
+            }
+            write_atomic(&map, m.uv)?;
+            // A previous batch's map of this run in the old format is stale now.
+            let _ = std::fs::remove_file(map::legacy_obj_path(dir, run.stem));
         }
         // With this run's own best; `report::refresh` fills in the group's best at the end.
         let own_best = run.rows.iter().map(|x| x.energy).fold(f64::INFINITY, f64::min);
@@ -74,7 +86,7 @@ pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
         Ok(())
     })();
     if written.is_err() {
-        if run.map_obj.is_some() {
+        if run.map.is_some() {
             let _ = std::fs::remove_file(&map);
         }
         // A previous batch's sidecar would vouch for files that are now a mix.

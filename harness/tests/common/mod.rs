@@ -50,7 +50,7 @@ pub fn interrupted_batch_is_kept_and_resumed(signal: &str, code: i32) {
     let cfg = write_config(
         tmp.path(),
         "name = \"i\"\ndatasets = [\"bumpy_1k\", \"cap_2k\"]\nenergies = [\"sd\", \"bconf\"]\n\
-         solvers = [\"kp-newton\", \"cm\", \"slim\"]\n",
+         solvers = [\"kp-newton\", \"cm\", \"slim\"]\nmaps = \"all\"\n",
     );
     let out = tmp.path().join("out");
     let mut child = Command::new(env!("CARGO_BIN_EXE_mapbench"))
@@ -82,11 +82,11 @@ pub fn interrupted_batch_is_kept_and_resumed(signal: &str, code: i32) {
         let (_, it) = read_csv(&out.join(format!("runs/{stem}.csv")));
         // slim is not defined for bconf: skipped, with no rows and no map
         if r[status] == "skipped" {
-            assert!(it.is_empty() && !out.join(format!("uv/{stem}.obj")).exists(), "{stem}");
+            assert!(it.is_empty() && !out.join(format!("uv/{stem}.uv.gz")).exists(), "{stem}");
             continue;
         }
         assert_eq!(it.len() - 1, r[6].parse::<usize>().unwrap(), "{stem}");
-        assert!(out.join(format!("uv/{stem}.obj")).is_file(), "{stem}");
+        assert!(out.join(format!("uv/{stem}.uv.gz")).is_file(), "{stem}");
     }
     let leftovers = |d: &str| {
         std::fs::read_dir(out.join(d))

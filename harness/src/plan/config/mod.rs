@@ -14,6 +14,9 @@ use std::path::{Path, PathBuf};
 /// The task of a config: the solvers' own enum (one definition from the config to the CSV).
 pub use solvers::mesh::Task;
 
+/// The `maps` key's values: the run folder owns the maps.
+pub use crate::run_folder::keep::Maps;
+
 /// A dataset given inline in the config (`[[dataset]]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -133,6 +136,9 @@ pub struct Config {
     /// default `reports/history.sqlite` relative to the current directory (`--history`,
     /// `--no-history` override).
     pub history: Option<PathBuf>,
+    /// Which final maps the run folder keeps: `all`, `best` (default: per dataset and energy
+    /// the best run's) or `none`.
+    pub maps: Option<Maps>,
 }
 
 /// The most repeats a batch may ask for (a typo like 10000 would run the plan that often).

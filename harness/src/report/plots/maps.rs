@@ -22,21 +22,24 @@ pub(super) const MAP_SIZE: (u32, u32) = (500, 540);
 const MAX_FACES_WITH_EDGES: usize = 3000;
 const MIN_PIXELS_PER_FACE_WITH_EDGES: f64 = 40.0;
 
-/// The map plots of a group's finished `runs` that left a map in `uv/`.
+/// The map plots of a group's finished `runs` that left a map in `uv/` (either format).
 pub(super) fn render_group(run_dir: &Path, (dataset, energy): (&str, &str), runs: &[&SummaryRow]) -> Result<Vec<Plot>> {
+    // The dataset's mesh copy, read once for the group's compact maps (and only if one exists).
+    let mesh = std::sync::OnceLock::new();
+    let mesh_path = mapfile::mesh_path(run_dir, dataset);
+    let read_mesh = || match mesh.get_or_init(|| mapfile::read_mesh(&mesh_path).map_err(|e| format!("{e:#}"))) {
+        Ok(m) => Ok(m.clone()),
+        Err(e) => Err(anyhow::anyhow!("{e}")),
+    };
     // Read every map of the group first: they share one color scale.
     let maps = runs
         .par_iter()
         .map(|r| {
             let stem = run_stem(dataset, energy, &r.solver);
-            let obj = run_dir.join("uv").join(format!("{stem}.obj"));
-            if !obj.exists() {
-                return Ok(None);
-            }
-            let map = mapfile::read(&obj)?;
+            let Some(map) = mapfile::read_with(run_dir, &stem, read_mesh)? else { return Ok(None) };
             let measure = if is_authalic(r) { Measure::AreaRatio } else { Measure::Distortion };
             let values = shades(measure, &map);
-            Ok(Some((r.solver.as_str(), obj, map, values, measure)))
+            Ok(Some((r.solver.as_str(), stem, map, values, measure)))
         })
         .collect::<Result<Vec<_>>>()?
         .into_iter()
@@ -45,11 +48,10 @@ pub(super) fn render_group(run_dir: &Path, (dataset, energy): (&str, &str), runs
     let Some(measure) = maps.first().map(|m| m.4) else { return Ok(Vec::new()) };
     let scale = ColorScale::fit(measure, &maps.iter().map(|m| m.3.as_slice()).collect::<Vec<_>>());
     maps.par_iter()
-        .map(|(solver, obj, map, values, _)| {
-            let stem = run_stem(dataset, energy, solver);
+        .map(|(solver, stem, map, values, _)| {
             let title = format!("{dataset}, {energy}, {solver}: final map");
             let png =
-                render_map(&title, map, values, &scale).with_context(|| format!("{}: cannot render", obj.display()))?;
+                render_map(&title, map, values, &scale).with_context(|| format!("map of {stem}: cannot render"))?;
             let file = format!("plots/{stem}__map.png");
             write_atomic(&run_dir.join(&file), &png)?;
             Ok(Plot {

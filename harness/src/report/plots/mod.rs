@@ -1,4 +1,4 @@
-//! The PNG plots of a run folder, read back from its files alone (`runs/*.csv`, `uv/*.obj`):
+//! The PNG plots of a run folder, read back from its files alone (`runs/*.csv`, the maps in `uv/`):
 //! per (dataset, energy) the convergence curves of every solver (energy gap vs iteration and
 //! vs time, #negative eigenvalues vs iteration, as in the complex-view paper's Figures 2-3),
 //! per run the final map with each triangle colored by its distortion, and per energy the

@@ -69,12 +69,18 @@ pub(crate) fn tiny_run() -> (tempfile::TempDir, Vec<SummaryRow>) {
     let mesh = solvers::generate::generate("flat_disk_1k").unwrap();
     let identity: Vec<f64> = mesh.positions.iter().flat_map(|q| [q[0], q[1]]).collect();
     let shear: Vec<f64> = mesh.positions.iter().flat_map(|q| [q[0] + 0.5 * q[1], q[1]]).collect();
-    let obj = |stem: &str, x: &[f64]| {
-        write_atomic(&p.join("uv").join(format!("{stem}.obj")), &mapfile::to_obj(&mesh, x)).unwrap()
+    // `tiny`'s maps in the compact format (UVs beside one mesh copy), `disk`'s as a folder
+    // from before it left them (one OBJ per map): the report reads both.
+    write_atomic(&mapfile::mesh_path(p, "tiny"), &mapfile::encode_mesh(&mesh)).unwrap();
+    let uv = |stem: &str, x: &[f64]| write_atomic(&mapfile::uv_path(p, stem), &mapfile::encode_uv(&mesh, x)).unwrap();
+    uv("tiny__sd__kp-newton", &identity);
+    uv("tiny__sd__slim", &shear);
+    let legacy = mapfile::MapFile {
+        source: mesh.positions.clone(),
+        uv: shear.chunks_exact(2).map(|q| [q[0], q[1]]).collect(),
+        faces: mesh.faces.clone(),
     };
-    obj("tiny__sd__kp-newton", &identity);
-    obj("tiny__sd__slim", &shear);
-    obj("disk__authalic__aem-cg", &shear);
+    write_atomic(&mapfile::legacy_obj_path(p, "disk__authalic__aem-cg"), &mapfile::to_obj(&legacy)).unwrap();
     let meta = serde_json::json!({
         "config": {"name": "tiny-config", "task": "param"},
         "git_revision": "0123456789abcdef0123456789abcdef01234567", "git_dirty": true,

@@ -1,0 +1,221 @@
+//! Which final maps a run folder keeps (`maps` in the config). Every map is a run's exact
+//! result, but a nightly of 288 runs at 16 bytes per vertex and map would be most of the
+//! folder; by default one map per (dataset, energy) is kept, the one the report shows.
+
+use super::map::{legacy_obj_path, mesh_path, uv_path};
+use super::{run_stem, Status, SummaryRow};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The `maps` config key.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Maps {
+    /// Every finished run's map.
+    All,
+    /// Per (dataset, energy) the map of the best run ([`best_of_group`]).
+    #[default]
+    Best,
+    /// No maps (and no mesh copies): the report has no map plots.
+    None,
+}
+
+impl Maps {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Maps::All => "all",
+            Maps::Best => "best",
+            Maps::None => "none",
+        }
+    }
+
+    /// The policy a run folder was written with (`meta.json`'s `maps`); folders written
+    /// before the key kept every map.
+    pub fn of_meta(meta: &serde_json::Value) -> Maps {
+        meta.get("maps").and_then(|v| serde_json::from_value(v.clone()).ok()).unwrap_or(Maps::All)
+    }
+}
+
+/// The run of a (dataset, energy) group whose map `best` keeps: of the finished runs (`ok` or
+/// `not_converged`, the runs with a map), converged before not converged, then the lowest
+/// final energy, then the first in the plan's order. `None` when no run finished.
+pub fn best_of_group(runs: &[&SummaryRow]) -> Option<usize> {
+    let rank = |r: &SummaryRow| (r.status != Status::Ok, r.final_energy.filter(|e| e.is_finite()));
+    let mut best: Option<usize> = None;
+    for (i, r) in runs.iter().enumerate() {
+        if !matches!(r.status, Status::Ok | Status::NotConverged) {
+            continue;
+        }
+        let better = match best {
+            None => true,
+            Some(b) => {
+                let ((c1, e1), (c0, e0)) = (rank(r), rank(runs[b]));
+                match (c1.cmp(&c0), e1, e0) {
+                    (std::cmp::Ordering::Less, _, _) => true,
+                    (std::cmp::Ordering::Greater, _, _) => false,
+                    (_, Some(a), Some(b)) => a < b,
+                    (_, Some(_), None) => true,
+                    _ => false,
+                }
+            }
+        };
+        if better {
+            best = Some(i);
+        }
+    }
+    best
+}
+
+/// For each of `rows`, whether `maps` keeps its map.
+pub fn kept(maps: Maps, rows: &[SummaryRow]) -> Vec<bool> {
+    match maps {
+        Maps::All => rows.iter().map(|r| matches!(r.status, Status::Ok | Status::NotConverged)).collect(),
+        Maps::None => vec![false; rows.len()],
+        Maps::Best => {
+            let mut keep = vec![false; rows.len()];
+            let mut groups: Vec<(&str, &str)> = Vec::new();
+            for r in rows {
+                if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
+                    groups.push((&r.dataset, &r.energy));
+                }
+            }
+            for (d, e) in groups {
+                let members: Vec<usize> =
+                    (0..rows.len()).filter(|&i| rows[i].dataset == d && rows[i].energy == e).collect();
+                let runs: Vec<&SummaryRow> = members.iter().map(|&i| &rows[i]).collect();
+                if let Some(b) = best_of_group(&runs) {
+                    keep[members[b]] = true;
+                }
+            }
+            keep
+        }
+    }
+}
+
+/// Remove the maps of `rows` that `maps` does not keep (either format), and the mesh copies
+/// of datasets none of whose kept maps is left. Returns the runs whose map is kept but
+/// absent (a resumed run of an earlier batch that did not keep it).
+pub fn prune(dir: &Path, maps: Maps, rows: &[SummaryRow]) -> Vec<String> {
+    let keep = kept(maps, rows);
+    let mut missing = Vec::new();
+    let mut meshes_used: Vec<&str> = Vec::new();
+    let mut datasets: Vec<&str> = Vec::new();
+    for (r, &k) in rows.iter().zip(&keep) {
+        let stem = run_stem(&r.dataset, &r.energy, &r.solver);
+        if !datasets.contains(&r.dataset.as_str()) {
+            datasets.push(&r.dataset);
+        }
+        if k {
+            if uv_path(dir, &stem).exists() {
+                meshes_used.push(&r.dataset);
+            } else if !legacy_obj_path(dir, &stem).exists() {
+                missing.push(stem);
+            }
+        } else {
+            // Absent files are fine: most runs never had one.
+            let _ = std::fs::remove_file(uv_path(dir, &stem));
+            let _ = std::fs::remove_file(legacy_obj_path(dir, &stem));
+        }
+    }
+    for d in datasets {
+        if !meshes_used.contains(&d) {
+            let _ = std::fs::remove_file(mesh_path(dir, d));
+        }
+    }
+    for sub in ["uv", "meshes"] {
+        // Only removed when empty (remove_dir refuses otherwise).
+        let _ = std::fs::remove_dir(dir.join(sub));
+    }
+    missing
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(dataset: &str, energy: &str, solver: &str, status: Status, e: Option<f64>) -> SummaryRow {
+        SummaryRow {
+            dataset: dataset.into(),
+            energy: energy.into(),
+            solver: solver.into(),
+            status,
+            final_energy: e,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn best_is_converged_first_then_lowest_energy_then_first() {
+        use Status::*;
+        let rows = [
+            row("a", "sd", "newton", Failed, None),
+            row("a", "sd", "slim", NotConverged, Some(1.0)),
+            row("a", "sd", "kp", Ok, Some(2.5)),
+            row("a", "sd", "cm", Ok, Some(2.0)),
+            row("a", "sd", "fp4", Ok, Some(2.0)),
+            row("a", "sd", "akvf", Skipped, None),
+        ];
+        let refs: Vec<&SummaryRow> = rows.iter().collect();
+        assert_eq!(best_of_group(&refs), Some(3));
+        // Nothing converged: the lowest energy of the finished ones.
+        let rows2 = [row("a", "sd", "x", NotConverged, Some(3.0)), row("a", "sd", "y", NotConverged, Some(2.0))];
+        assert_eq!(best_of_group(&rows2.iter().collect::<Vec<_>>()), Some(1));
+        // A NaN energy loses to a number.
+        let rows3 = [row("a", "sd", "x", Ok, Some(f64::NAN)), row("a", "sd", "y", Ok, Some(9.0))];
+        assert_eq!(best_of_group(&rows3.iter().collect::<Vec<_>>()), Some(1));
+        assert_eq!(best_of_group(&[&rows[0], &rows[5]]), None);
+    }
+
+    #[test]
+    fn kept_per_policy() {
+        use Status::*;
+        let rows = vec![
+            row("a", "sd", "kp", Ok, Some(2.0)),
+            row("a", "sd", "cm", Ok, Some(1.5)),
+            row("a", "bconf", "kp", Ok, Some(4.0)),
+            row("b", "sd", "kp", NotConverged, Some(3.0)),
+            row("b", "sd", "cm", Failed, None),
+        ];
+        assert_eq!(kept(Maps::Best, &rows), [false, true, true, true, false]);
+        assert_eq!(kept(Maps::All, &rows), [true, true, true, true, false]);
+        assert_eq!(kept(Maps::None, &rows), [false; 5]);
+    }
+
+    #[test]
+    fn the_policy_of_a_folder_comes_from_meta_json() {
+        assert_eq!(Maps::of_meta(&serde_json::json!({"maps": "none"})), Maps::None);
+        assert_eq!(Maps::of_meta(&serde_json::json!({"maps": "best"})), Maps::Best);
+        // Before the key: every map was kept.
+        assert_eq!(Maps::of_meta(&serde_json::json!({"config": {}})), Maps::All);
+    }
+
+    #[test]
+    fn prune_removes_what_is_not_kept_and_unused_meshes() {
+        use Status::*;
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let rows = vec![
+            row("a", "sd", "kp", Ok, Some(2.0)),
+            row("a", "sd", "cm", Ok, Some(1.5)),
+            row("b", "sd", "kp", Ok, Some(1.0)),
+        ];
+        for p in [uv_path(d, "a__sd__kp"), uv_path(d, "a__sd__cm"), legacy_obj_path(d, "b__sd__kp")] {
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, b"x").unwrap();
+        }
+        for m in ["a", "b"] {
+            std::fs::create_dir_all(d.join("meshes")).unwrap();
+            std::fs::write(mesh_path(d, m), b"x").unwrap();
+        }
+        assert!(prune(d, Maps::Best, &rows).is_empty());
+        assert!(!uv_path(d, "a__sd__kp").exists() && uv_path(d, "a__sd__cm").exists());
+        // b's kept map is a legacy OBJ (self-contained): its mesh copy is not needed.
+        assert!(mesh_path(d, "a").exists() && !mesh_path(d, "b").exists());
+        assert!(legacy_obj_path(d, "b__sd__kp").exists());
+        // none: everything goes, folders too.
+        assert!(prune(d, Maps::None, &rows).is_empty());
+        assert!(!d.join("uv").exists() && !d.join("meshes").exists());
+        // all, with nothing left: every finished run's map is reported missing.
+        assert_eq!(prune(d, Maps::All, &rows).len(), 3);
+    }
+}
