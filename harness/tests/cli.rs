@@ -788,6 +788,24 @@ fn list_shows_registry_solvers_and_energies() {
 }
 
 #[test]
+fn a_reader_that_closes_the_pipe_ends_the_output_quietly() {
+    // `mapbench list solvers | head -1`, made deterministic: the read end is closed before
+    // the binary writes its first line, so every write meets a broken pipe.
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    for args in [&["list", "solvers"][..], &["validate", "generated:bumpy_1k"][..]] {
+        let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
+            .args(args)
+            .current_dir(repo_root())
+            .stdout(writer.try_clone().expect("the write end"))
+            .output()
+            .expect("the binary runs");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success() && !err.contains("panicked"), "{args:?}: {:?} {err}", o.status);
+    }
+}
+
+#[test]
 fn the_gate_passes_on_its_own_baseline_and_catches_regressions() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(

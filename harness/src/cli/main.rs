@@ -235,11 +235,27 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match dispatch(cli) {
         Ok(code) => code,
+        // `mapbench list datasets | head`: the reader has what it wanted.
+        Err(e) if is_closed_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
         }
     }
+}
+
+/// Writes to stdout; unlike `print!`, a reader that closed the pipe is an error the caller
+/// sees (and `main` ends quietly on), not a panic.
+fn out(text: std::fmt::Arguments) -> Result<()> {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    stdout.write_fmt(text)?;
+    stdout.flush()?;
+    Ok(())
+}
+
+fn is_closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
 }
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
@@ -318,7 +334,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             };
             let sys = export::read_matrix_market(&matrix)?;
             let t = export::time_system(&sys, ordering, repeat).with_context(|| matrix.display().to_string())?;
-            println!("{}", serde_json::to_string(&t)?);
+            out(format_args!("{}\n", serde_json::to_string(&t)?))?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Map { run_dir, runs, obj, out } => {
@@ -368,13 +384,13 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Check { run_dir, baseline } => {
             let base = check::Baseline::load(&baseline)?;
             let cmp = check::compare(&base, &check::read_summary(&run_dir)?);
-            print!("{}", check::render(&cmp));
+            out(format_args!("{}", check::render(&cmp)))?;
             Ok(ExitCode::from(cmp.exit_code()))
         }
         Command::Compare { run_a, run_b, html, energy_rtol, iterations_tolerance, time_regressions } => {
             let options = compare::Options { energy_rtol, iterations_tolerance, time_regressions };
             let cmp = compare::compare_folders(&run_a, &run_b, options)?;
-            print!("{}", compare::to_markdown(&cmp));
+            out(format_args!("{}", compare::to_markdown(&cmp)))?;
             if let Some(path) = html {
                 run_folder::write_atomic(&path, compare::to_html(&cmp).as_bytes())?;
                 eprintln!("wrote {}", path.display());
@@ -395,7 +411,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             };
             // The check the run of that task makes, so the two cannot disagree.
             let report = solvers::mesh::validate_for(&mesh, task);
-            println!("{report}");
+            out(format_args!("{report}\n"))?;
             Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
         }
         Command::List { what, registry } => {
@@ -404,11 +420,15 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 ListWhat::Solvers => {
                     for s in solvers::solver::catalogue::SOLVERS {
                         let tasks: Vec<&str> = s.tasks.iter().map(|t| t.as_str()).collect();
-                        println!("{:<20} tasks={:<14} energies={}", s.name, tasks.join(","), s.energies.join(","));
-                        println!("{:<20} {}", "", s.description);
+                        out(format_args!("{:<20} tasks={:<14} energies={}\n", s.name, tasks.join(","), s.energies.join(",")))?;
+                        out(format_args!("{:<20} {}\n", "", s.description))?;
                     }
                 }
-                ListWhat::Energies => solvers::energy::ENERGY_NAMES.iter().for_each(|s| println!("{s}")),
+                ListWhat::Energies => {
+                    for s in solvers::energy::ENERGY_NAMES {
+                        out(format_args!("{s}\n"))?;
+                    }
+                }
                 ListWhat::Datasets => {
                     let reg = registry::Registry::load(&registry)
                         .with_context(|| "run from the repository root or pass --registry FILE")?;
@@ -416,7 +436,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                         let src = e.generator.as_ref().map(|g| format!("generated:{g}")).unwrap_or_else(|| {
                             format!("${}/{}", registry::MESHES_ENV, e.file.as_deref().unwrap_or_default())
                         });
-                        println!("{:<20} {:<36} tasks={} tags={}", e.name, src, e.tasks.join(","), e.tags.join(","));
+                        out(format_args!("{:<20} {:<36} tasks={} tags={}\n", e.name, src, e.tasks.join(","), e.tags.join(",")))?;
                     }
                 }
             }
