@@ -420,7 +420,12 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 ListWhat::Solvers => {
                     for s in solvers::solver::catalogue::SOLVERS {
                         let tasks: Vec<&str> = s.tasks.iter().map(|t| t.as_str()).collect();
-                        out(format_args!("{:<20} tasks={:<14} energies={}\n", s.name, tasks.join(","), s.energies.join(",")))?;
+                        out(format_args!(
+                            "{:<20} tasks={:<14} energies={}\n",
+                            s.name,
+                            tasks.join(","),
+                            s.energies.join(",")
+                        ))?;
                         out(format_args!("{:<20} {}\n", "", s.description))?;
                     }
                 }
@@ -436,7 +441,13 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                         let src = e.generator.as_ref().map(|g| format!("generated:{g}")).unwrap_or_else(|| {
                             format!("${}/{}", registry::MESHES_ENV, e.file.as_deref().unwrap_or_default())
                         });
-                        out(format_args!("{:<20} {:<36} tasks={} tags={}\n", e.name, src, e.tasks.join(","), e.tags.join(",")))?;
+                        out(format_args!(
+                            "{:<20} {:<36} tasks={} tags={}\n",
+                            e.name,
+                            src,
+                            e.tasks.join(","),
+                            e.tags.join(",")
+                        ))?;
                     }
                 }
             }
