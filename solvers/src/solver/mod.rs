@@ -4,6 +4,7 @@
 //! iteration (row 0 is the initial state) and returns a [`Outcome`]. The harness owns I/O.
 
 pub mod catalogue;
+pub mod lbfgs;
 pub mod newton;
 
 pub use crate::line_search::LineSearchSettings;
@@ -255,6 +256,23 @@ pub struct StopSettings {
     /// Stop when `E_old - E_new < energy_decrease_tol`; 0 disables the rule.
     pub energy_decrease_tol: f64,
     pub max_iters: usize,
+}
+
+impl StopSettings {
+    /// The stop rules every planar-map driver checks before an iteration, in this order:
+    /// `|grad| <= grad_tol`, then the last accepted step's decrease `< energy_decrease_tol`
+    /// (`last_decrease` is infinite before the first step), then `iter >= max_iters`.
+    pub fn reached(&self, grad_norm: f64, last_decrease: f64, iter: usize) -> Option<StopReason> {
+        if grad_norm <= self.grad_tol {
+            Some(StopReason::GradientTolerance)
+        } else if last_decrease < self.energy_decrease_tol {
+            Some(StopReason::EnergyDecrease)
+        } else if iter >= self.max_iters {
+            Some(StopReason::MaxIterations)
+        } else {
+            None
+        }
+    }
 }
 
 impl Default for StopSettings {
