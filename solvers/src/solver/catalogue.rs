@@ -408,6 +408,13 @@ mod tests {
                             // a wrong task is a config error, not a skipped run
                             assert_eq!(s.skip_reason(task, &e, &none), None);
                         }
+                        // every energy, no Newton system to build (export-system refuses it)
+                        (Method::Lbfgs { .. }, defined) => {
+                            assert!(defined, "{} {e:?}", s.name);
+                            let err = built.err().unwrap().to_string();
+                            assert!(err.contains("has no Newton system") || task == Task::Authalic, "{err}");
+                            assert_eq!(s.skip_reason(task, &e, &none), None);
+                        }
                     }
                 }
             }
@@ -491,6 +498,7 @@ mod tests {
         for s in SOLVERS {
             let expected: &[&str] = match s.method {
                 Method::Sem | Method::AemCg { .. } => &AUTHALIC_COLUMNS,
+                Method::Lbfgs { .. } => &LBFGS_COLUMNS,
                 // the Newton-type solvers write their strategy's counters
                 Method::Newton(_) => {
                     let e = EnergyKind::default_for(s.energies[0]).unwrap();

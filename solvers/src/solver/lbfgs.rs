@@ -413,3 +413,150 @@ pub fn lbfgs(
         analysis,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::EnergyKind;
+    use crate::solver::{Recorder, StopSettings};
+    use nalgebra::{DMatrix, DVector};
+
+    /// A dense SPD matrix with a spread of eigenvalues (deterministic).
+    fn spd(n: usize, seed: u64) -> DMatrix<f64> {
+        let mut s = seed;
+        let b = DMatrix::from_fn(n, n, |_, _| {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        });
+        &b * b.transpose() + DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| 0.1 + i as f64))
+    }
+
+    /// Dense BFGS inverse update `H+ = (I - rho s y^T) H (I - rho y s^T) + rho s s^T`.
+    fn bfgs_update(h: &DMatrix<f64>, s: &DVector<f64>, y: &DVector<f64>) -> DMatrix<f64> {
+        let rho = 1.0 / s.dot(y);
+        let i = DMatrix::identity(s.len(), s.len());
+        let a = &i - s * y.transpose() * rho;
+        &a * h * a.transpose() + s * s.transpose() * rho
+    }
+
+    /// On `f = x^T Q x / 2 - b^T x` with inexact line searches, the two-loop recursion gives
+    /// dense BFGS's directions to round-off while it holds every pair (the first `m` steps),
+    /// for a fixed `H0` (the Laplacian variant) and for `gamma I` rebuilt from the newest
+    /// pair (the scaled variant); once pairs are dropped it does not.
+    #[test]
+    fn two_loop_matches_dense_bfgs_for_the_first_m_steps() {
+        let n = 12;
+        let q = spd(n, 3);
+        let b = DVector::from_fn(n, |i, _| (i as f64 * 0.7).sin());
+        let h0_fixed = spd(n, 11).try_inverse().unwrap();
+        for fixed in [true, false] {
+            let m = 4;
+            let mut hist = History::new(m);
+            let mut x = DVector::zeros(n);
+            let (mut pairs, mut differed) = (Vec::new(), false);
+            for k in 0..8 {
+                let g = &q * &x - &b;
+                let mut d = Vec::new();
+                let gamma = hist.gamma();
+                hist.direction(
+                    g.as_slice(),
+                    |v: &mut Vec<f64>| -> Result<(), ()> {
+                        let w = if fixed {
+                            &h0_fixed * DVector::from_column_slice(v)
+                        } else {
+                            DVector::from_column_slice(v) * gamma
+                        };
+                        v.copy_from_slice(w.as_slice());
+                        Ok(())
+                    },
+                    &mut d,
+                )
+                .unwrap();
+                let d = DVector::from_vec(d);
+                // dense BFGS over every pair so far
+                let mut h = if fixed { h0_fixed.clone() } else { DMatrix::identity(n, n) * gamma };
+                for (s, y) in &pairs {
+                    h = bfgs_update(&h, s, y);
+                }
+                let dense = -(&h * &g);
+                let rel = (&d - &dense).norm() / dense.norm();
+                if k <= m {
+                    assert!(rel < 1e-10, "fixed {fixed}, step {k}: {rel}");
+                } else {
+                    differed |= rel > 1e-6;
+                }
+                assert!(g.dot(&d) < 0.0, "descent at step {k}");
+                // inexact (0.7 of the exact step): with exact steps on a quadratic dropped pairs
+                // would not matter (the directions are conjugate), and the test would not see them
+                let t = 0.7 * -g.dot(&d) / d.dot(&(&q * &d));
+                let s = &d * t;
+                x += &s;
+                let y = &q * &s;
+                assert!(hist.push(s.as_slice().to_vec(), y.as_slice().to_vec()));
+                pairs.push((s, y));
+                assert_eq!(hist.len(), (k + 1).min(m));
+            }
+            assert!(differed, "fixed {fixed}: dropping pairs should change the directions");
+        }
+    }
+
+    #[test]
+    fn pairs_without_curvature_are_skipped() {
+        let mut h = History::new(2);
+        assert!(!h.push(vec![1.0, 0.0], vec![-1.0, 0.0]), "negative curvature");
+        assert!(!h.push(vec![1.0, 0.0], vec![0.0, 1.0]), "orthogonal");
+        assert!(h.is_empty() && h.gamma() == 1.0);
+        assert!(h.push(vec![1.0, 0.0], vec![2.0, 0.0]));
+        assert_eq!(h.gamma(), 0.5);
+    }
+
+    #[test]
+    fn the_proxy_is_the_hessian_of_the_dirichlet_energy_and_pins_vertex_0() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
+        let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let pattern = system_pattern(&pb);
+        let a = laplacian_proxy(&pb, &pattern, None);
+        // x^T A x / 2 = sum_t a_t |J_t|^2 / sum a for any map x (the energy is quadratic)
+        let x: Vec<f64> = (0..pb.n_dofs()).map(|i| ((i * 37 % 101) as f64 / 101.0).sin()).collect();
+        let quad: f64 = dot(&x, &pattern.sym_mul(&a, &x)) / 2.0;
+        let dirichlet: f64 = (0..pb.n_faces())
+            .map(|t| {
+                let w = pb.ops[t].wirtinger(pb.target(&x, t));
+                pb.ops[t].area * 2.0 * (w.x() + w.y())
+            })
+            .sum::<f64>()
+            / pb.total_area;
+        assert!((quad - dirichlet).abs() < 1e-10 * dirichlet, "{quad} vs {dirichlet}");
+        // translations are in its kernel; pinned, vertex 0's dofs are the identity's
+        let ones: Vec<f64> = (0..pb.n_dofs()).map(|i| (i % 2) as f64).collect();
+        assert!(norm(&pattern.sym_mul(&a, &ones)) < 1e-9);
+        let p = laplacian_proxy(&pb, &pattern, Some(0));
+        let e0: Vec<f64> = (0..pb.n_dofs()).map(|i| f64::from(u8::from(i == 1))).collect();
+        assert_eq!(pattern.sym_mul(&p, &e0), e0);
+    }
+
+    /// Both variants descend without flips to KP's minimum on a generated mesh (the shared
+    /// meshes: `harness/tests`).
+    #[test]
+    fn both_variants_reach_kp_on_a_generated_mesh() {
+        use crate::param::{solve_param, ParamSettings};
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+        settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters: 5000 };
+        let kp = solve_param(&mesh, EnergyKind::Sd, "kp-newton", &settings, &mut Recorder::default()).unwrap();
+        for (solver, max_iters) in [("lbfgs", 1000), ("lbfgs-laplacian", 200)] {
+            let mut rec = Recorder::default();
+            let out = solve_param(&mesh, EnergyKind::Sd, solver, &settings, &mut rec).unwrap();
+            assert_eq!(out.stop_reason, StopReason::GradientTolerance, "{solver}");
+            assert!(out.iterations < max_iters, "{solver}: {}", out.iterations);
+            assert!(rec.rows.windows(2).all(|w| w[1].energy <= w[0].energy), "{solver}");
+            assert!(rec.rows.iter().all(|r| r.flips == 0), "{solver}");
+            assert!(rec.rows[1..].iter().all(|r| r.ls_evals >= 1), "{solver}");
+            let rel = (out.final_energy - kp.final_energy).abs() / kp.final_energy;
+            assert!(rel < 1e-6, "{solver}: {} vs KP {}", out.final_energy, kp.final_energy);
+            let cols: Vec<_> = rec.rows[1].extra.iter().map(|e| e.0).collect();
+            assert_eq!(cols, LBFGS_COLUMNS);
+            assert_eq!(rec.rows[0].shift, None);
+        }
+    }
+}

@@ -369,6 +369,17 @@ mod tests {
     }
 
     #[test]
+    fn stop_rules_apply_in_order() {
+        let s = StopSettings { grad_tol: 1e-3, energy_decrease_tol: 1e-6, max_iters: 10 };
+        assert_eq!(s.reached(1e-4, 0.0, 99), Some(StopReason::GradientTolerance));
+        assert_eq!(s.reached(1.0, 1e-7, 99), Some(StopReason::EnergyDecrease));
+        assert_eq!(s.reached(1.0, f64::INFINITY, 10), Some(StopReason::MaxIterations));
+        assert_eq!(s.reached(1.0, 1e-5, 9), None);
+        // before the first step nothing has decreased: the decrease rule waits
+        assert_eq!(StopSettings { energy_decrease_tol: 1e300, ..s }.reached(1.0, f64::INFINITY, 0), None);
+    }
+
+    #[test]
     fn flows_map_to_their_stop_reasons() {
         assert_eq!(Flow::Continue.stop_reason(), None);
         assert_eq!(Flow::Stop.stop_reason(), Some(StopReason::Interrupted));
