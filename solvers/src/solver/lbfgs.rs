@@ -168,10 +168,10 @@ pub fn laplacian_proxy(problem: &MapProblem, pattern: &crate::assembly::Pattern,
     if let Some(v) = pinned {
         let pin = |i: usize| i / 2 == v;
         for c in 0..pattern.n {
-            for p in pattern.col_ptr[c]..pattern.col_ptr[c + 1] {
-                let r = pattern.row_idx[p];
+            let range = pattern.col_ptr[c]..pattern.col_ptr[c + 1];
+            for (value, &r) in values[range.clone()].iter_mut().zip(&pattern.row_idx[range]) {
                 if pin(r) || pin(c) {
-                    values[p] = if r == c { 1.0 } else { 0.0 };
+                    *value = if r == c { 1.0 } else { 0.0 };
                 }
             }
         }
