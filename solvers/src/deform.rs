@@ -9,11 +9,11 @@
 use crate::energy::EnergyKind;
 pub use crate::handle::Handle;
 pub use crate::map_task::MapError;
-use crate::map_task::{check_handles, checked_spec, map_problem};
+use crate::map_task::{check_handles, checked_driver, map_problem};
 use crate::mesh::{Mesh, Task};
 use crate::problem::Penalty;
 use crate::smoothness::Projection;
-use crate::solver::{newton, Observer, Outcome, Settings, StopSettings};
+use crate::solver::{Observer, Outcome, Settings, StopSettings};
 
 /// Settings of a `deform` run.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -105,7 +105,7 @@ pub fn solve_deform(
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
     // Planarity and the rest pose's orientation included.
-    let spec = checked_spec(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
+    let driver = checked_driver(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
     check_handles(mesh, handles)?;
     let source_name = mesh.source.clone();
     let n = mesh.n_vertices();
@@ -122,13 +122,12 @@ pub fn solve_deform(
             None => p.iter().flat_map(|q| [(q[0] - mid[0]) * s, (q[1] - mid[1]) * s]).collect(),
         },
     };
-    let mut problem = map_problem(&rest, energy, &spec, settings.smoothness)?;
+    let mut problem = map_problem(&rest, energy, driver.smoothness_projection(), settings.smoothness)?;
     problem.penalty = Some(Penalty {
         lambda: settings.lambda,
         handles: handles.iter().map(|h| (h.vertex, [(h.target[0] - mid[0]) * s, (h.target[1] - mid[1]) * s])).collect(),
     });
-    newton(&problem, x, spec.block.as_ref(), &settings.solver, observer)
-        .map_err(|err| MapError::Solve { source_name, err })
+    driver.solve(&problem, x, &settings.solver, observer).map_err(|err| MapError::Solve { source_name, err })
 }
 
 #[cfg(test)]

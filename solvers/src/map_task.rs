@@ -8,8 +8,10 @@ use crate::init::InitError;
 use crate::mesh::{validate_for, Mesh, MeshError, Task};
 use crate::problem::{DegenerateFace, MapProblem};
 use crate::smoothness::Projection;
-use crate::solver::catalogue::{newton_spec, SolverError, SolverOptions, SolverSpec};
-use crate::solver::newton::SolveError;
+use crate::solver::catalogue::{lookup, newton_spec, Method, SolverError, SolverOptions, SolverSpec};
+use crate::solver::lbfgs::{lbfgs, Variant};
+use crate::solver::newton::{newton, SolveError};
+use crate::solver::{Observer, Outcome, Settings};
 
 /// Why a `param` or `deform` run could not start.
 #[derive(Debug, thiserror::Error)]
@@ -52,17 +54,74 @@ pub(crate) fn checked_spec(
     Ok(spec)
 }
 
+/// How a `param`/`deform` run solves: the shared Newton driver with a system strategy, or
+/// a driver of its own.
+pub(crate) enum Driver {
+    Newton(SolverSpec),
+    Lbfgs(Variant),
+}
+
+impl Driver {
+    /// Whether the `param` initialization gets the global scaling (Section 4.2).
+    pub(crate) fn global_scaling(&self) -> bool {
+        match self {
+            Driver::Newton(spec) => spec.global_scaling,
+            Driver::Lbfgs(_) => false,
+        }
+    }
+
+    /// The solver's own projection of the smoothness term's blocks, if it has one.
+    pub(crate) fn smoothness_projection(&self) -> Option<Projection> {
+        match self {
+            Driver::Newton(spec) => spec.smoothness_projection,
+            Driver::Lbfgs(_) => None,
+        }
+    }
+
+    /// Run from `x0`.
+    pub(crate) fn solve(
+        &self,
+        problem: &MapProblem,
+        x0: Vec<f64>,
+        settings: &Settings,
+        observer: &mut dyn Observer,
+    ) -> Result<Outcome, SolveError> {
+        match self {
+            Driver::Newton(spec) => newton(problem, x0, spec.block.as_ref(), settings, observer),
+            Driver::Lbfgs(variant) => lbfgs(problem, x0, *variant, settings, observer),
+        }
+    }
+}
+
+/// [`checked_spec`] for any `param`/`deform` solver: its driver.
+pub(crate) fn checked_driver(
+    mesh: &Mesh,
+    task: Task,
+    energy: &EnergyKind,
+    solver: &str,
+    options: &SolverOptions,
+) -> Result<Driver, MapError> {
+    match lookup(solver, task)?.method {
+        Method::Lbfgs { laplacian } => {
+            energy.check().map_err(MapError::Energy)?;
+            validate_for(mesh, task).into_result()?;
+            Ok(Driver::Lbfgs(Variant::new(laplacian)))
+        }
+        _ => checked_spec(mesh, task, energy, solver, options).map(Driver::Newton),
+    }
+}
+
 /// The problem on the normalized mesh `rest`, with the smoothness term projected as the
-/// solver says (`kp-newton-eig8`) or as configured.
+/// solver says (`own_projection`, `kp-newton-eig8`'s) or as configured.
 pub(crate) fn map_problem(
     rest: &Mesh,
     energy: EnergyKind,
-    spec: &SolverSpec,
+    own_projection: Option<Projection>,
     smoothness: Option<(f64, Projection)>,
 ) -> Result<MapProblem, MapError> {
     let mut problem = MapProblem::new(rest, energy)?;
     if let Some((w, proj)) = smoothness {
-        problem = problem.with_smoothness(rest, w, spec.smoothness_projection.unwrap_or(proj));
+        problem = problem.with_smoothness(rest, w, own_projection.unwrap_or(proj));
     }
     Ok(problem)
 }

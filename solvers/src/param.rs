@@ -4,10 +4,10 @@
 use crate::energy::EnergyKind;
 use crate::init::{global_scale, tutte, TutteBoundary};
 pub use crate::map_task::MapError;
-use crate::map_task::{checked_spec, map_problem};
+use crate::map_task::{checked_driver, map_problem};
 use crate::mesh::{Mesh, Task};
 use crate::smoothness::Projection;
-use crate::solver::{newton, Observer, Outcome, Settings, StopSettings};
+use crate::solver::{Observer, Outcome, Settings, StopSettings};
 
 /// Settings of a `param` run.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -52,17 +52,18 @@ pub fn solve_param(
     settings: &ParamSettings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
-    let spec = checked_spec(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
+    let driver = checked_driver(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
     let mesh = mesh.normalized();
-    let problem = map_problem(&mesh, energy, &spec, settings.smoothness)?;
+    let problem = map_problem(&mesh, energy, driver.smoothness_projection(), settings.smoothness)?;
     let init_err = |err| MapError::Init { source_name: mesh.source.clone(), err };
     let mut x = tutte(&mesh, settings.tutte_boundary).map_err(init_err)?;
-    if spec.global_scaling {
+    if driver.global_scaling() {
         if let Some(s) = global_scale(&problem, &x, settings.scaling_jump) {
             x.iter_mut().for_each(|v| *v *= s);
         }
     }
-    newton(&problem, x, spec.block.as_ref(), &settings.solver, observer)
+    driver
+        .solve(&problem, x, &settings.solver, observer)
         .map_err(|err| MapError::Solve { source_name: mesh.source.clone(), err })
 }
 

@@ -41,7 +41,7 @@ pub fn param_system(
     let spec = newton_spec(solver, Task::Param, &energy, &settings.solver.options)?;
     let mesh = mesh.normalized();
     // The run's own problem, smoothness term included: the matrix it factorizes.
-    let problem = map_problem(&mesh, energy, &spec, settings.smoothness)?;
+    let problem = map_problem(&mesh, energy, spec.smoothness_projection, settings.smoothness)?;
     let mut ev = Evaluation::default();
     problem
         .evaluate(&out.x, &mut ev)

@@ -7,6 +7,7 @@ use crate::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
 use crate::hessian::{akvf::Akvf, cm::Cm, fp::Fp4, fp::Fp6, kp::Kp, none::Unprojected, slim::Slim, SystemBlock};
 use crate::mesh::Task;
 use crate::smoothness::Projection;
+use crate::solver::lbfgs::LBFGS_COLUMNS;
 
 /// A Newton-type solver built for one energy: its system-matrix strategy and options.
 pub struct SolverSpec {
@@ -28,6 +29,9 @@ pub enum Method {
     Sem,
     /// AEM's preconditioned nonlinear CG, faithful or with the safeguards (`authalic`).
     AemCg { safe: bool },
+    /// L-BFGS with the scaled identity or the Laplacian proxy as initial Hessian (`param`,
+    /// `deform`; `solver::lbfgs`). It needs no Newton system.
+    Lbfgs { laplacian: bool },
 }
 
 /// Options of individual solvers (`[solver.<name>]` in a config), one field per solver that
@@ -111,6 +115,29 @@ const fn newton(
     }
 }
 
+/// A `param`/`deform` solver that is not a Newton-type strategy (every energy: only the
+/// gradient is needed).
+const fn planar(
+    name: &'static str,
+    label: &'static str,
+    description: &'static str,
+    extra_columns: &'static [&'static str],
+    method: Method,
+) -> SolverEntry {
+    SolverEntry {
+        name,
+        tasks: NEWTON_TASKS,
+        energies: &ENERGY_NAMES,
+        outside_reason: "",
+        opt_in: never,
+        options: &[],
+        extra_columns,
+        label,
+        description,
+        method,
+    }
+}
+
 /// No option runs the solver outside its energies.
 fn never(_: &SolverOptions) -> bool {
     false
@@ -181,6 +208,20 @@ pub static SOLVERS: &[SolverEntry] = &[
         })
     },
     newton("akvf", "AKVF", "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient", |_| spec(Akvf, false)),
+    planar(
+        "lbfgs",
+        "L-BFGS",
+        "L-BFGS (Liu and Nocedal 1989), 10 pairs, H0 = s^T y / y^T y",
+        &LBFGS_COLUMNS,
+        Method::Lbfgs { laplacian: false },
+    ),
+    planar(
+        "lbfgs-laplacian",
+        "L-BFGS-Lap",
+        "L-BFGS, 5 pairs, H0 = the constant Laplacian proxy factored once (as in BCQN's code)",
+        &LBFGS_COLUMNS,
+        Method::Lbfgs { laplacian: true },
+    ),
     authalic("sem", "SEM", "stretch energy minimization (Yueh et al. 2019), the fixed point", Method::Sem),
     authalic(
         "aem-cg",
@@ -210,6 +251,9 @@ pub enum SolverError {
     /// The solver is not defined for this energy (or these parameters), with the reason.
     #[error("{0}")]
     Unsupported(String),
+    /// The solver runs the task without a Newton system (nothing to build or export).
+    #[error("'{name}' has no Newton system ({description})")]
+    NoSystem { name: &'static str, description: &'static str },
 }
 
 /// "authalic " in "unknown authalic solver": the Newton-type solvers are the unqualified ones.
@@ -299,6 +343,8 @@ impl SolverEntry {
                 self.outside_reason
             ))),
             Method::Sem | Method::AemCg { .. } => Err(self.wrong_task(task)),
+            Method::Lbfgs { .. } if !self.runs(task) => Err(self.wrong_task(task)),
+            Method::Lbfgs { .. } => Err(SolverError::NoSystem { name: self.name, description: self.description }),
         }
     }
 
@@ -360,6 +406,13 @@ mod tests {
                             let err = built.err().unwrap().to_string();
                             assert!(err.starts_with(&format!("'{}' is an authalic solver: task {task}", s.name)));
                             // a wrong task is a config error, not a skipped run
+                            assert_eq!(s.skip_reason(task, &e, &none), None);
+                        }
+                        // every energy, no Newton system to build (export-system refuses it)
+                        (Method::Lbfgs { .. }, defined) => {
+                            assert!(defined, "{} {e:?}", s.name);
+                            let err = built.err().unwrap().to_string();
+                            assert!(err.contains("has no Newton system") || task == Task::Authalic, "{err}");
                             assert_eq!(s.skip_reason(task, &e, &none), None);
                         }
                     }
@@ -445,6 +498,7 @@ mod tests {
         for s in SOLVERS {
             let expected: &[&str] = match s.method {
                 Method::Sem | Method::AemCg { .. } => &AUTHALIC_COLUMNS,
+                Method::Lbfgs { .. } => &LBFGS_COLUMNS,
                 // the Newton-type solvers write their strategy's counters
                 Method::Newton(_) => {
                     let e = EnergyKind::default_for(s.energies[0]).unwrap();

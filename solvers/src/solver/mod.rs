@@ -4,6 +4,7 @@
 //! iteration (row 0 is the initial state) and returns a [`Outcome`]. The harness owns I/O.
 
 pub mod catalogue;
+pub mod lbfgs;
 pub mod newton;
 
 pub use crate::line_search::LineSearchSettings;
@@ -257,6 +258,23 @@ pub struct StopSettings {
     pub max_iters: usize,
 }
 
+impl StopSettings {
+    /// The stop rules every planar-map driver checks before an iteration, in this order:
+    /// `|grad| <= grad_tol`, then the last accepted step's decrease `< energy_decrease_tol`
+    /// (`last_decrease` is infinite before the first step), then `iter >= max_iters`.
+    pub fn reached(&self, grad_norm: f64, last_decrease: f64, iter: usize) -> Option<StopReason> {
+        if grad_norm <= self.grad_tol {
+            Some(StopReason::GradientTolerance)
+        } else if last_decrease < self.energy_decrease_tol {
+            Some(StopReason::EnergyDecrease)
+        } else if iter >= self.max_iters {
+            Some(StopReason::MaxIterations)
+        } else {
+            None
+        }
+    }
+}
+
 impl Default for StopSettings {
     /// `|grad| <= 1e-3`, no energy-decrease rule, 1000 iterations.
     fn default() -> Self {
@@ -348,6 +366,17 @@ mod tests {
         assert_eq!(StopReason::Timeout.as_str(), "timeout");
         assert!(!StopReason::Timeout.is_converged());
         assert_eq!(("skipped".parse(), StopReason::Skipped.is_converged()), (Ok(StopReason::Skipped), false));
+    }
+
+    #[test]
+    fn stop_rules_apply_in_order() {
+        let s = StopSettings { grad_tol: 1e-3, energy_decrease_tol: 1e-6, max_iters: 10 };
+        assert_eq!(s.reached(1e-4, 0.0, 99), Some(StopReason::GradientTolerance));
+        assert_eq!(s.reached(1.0, 1e-7, 99), Some(StopReason::EnergyDecrease));
+        assert_eq!(s.reached(1.0, f64::INFINITY, 10), Some(StopReason::MaxIterations));
+        assert_eq!(s.reached(1.0, 1e-5, 9), None);
+        // before the first step nothing has decreased: the decrease rule waits
+        assert_eq!(StopSettings { energy_decrease_tol: 1e300, ..s }.reached(1.0, f64::INFINITY, 0), None);
     }
 
     #[test]

@@ -139,14 +139,8 @@ pub fn newton(
         if let Some(reason) = halt.take() {
             break reason;
         }
-        if record.grad_norm <= settings.stop.grad_tol {
-            break StopReason::GradientTolerance;
-        }
-        if last_decrease < settings.stop.energy_decrease_tol {
-            break StopReason::EnergyDecrease;
-        }
-        if iter >= settings.stop.max_iters {
-            break StopReason::MaxIterations;
+        if let Some(reason) = settings.stop.reached(record.grad_norm, last_decrease, iter) {
+            break reason;
         }
         let t_start = Instant::now();
 

@@ -1,0 +1,562 @@
+//! L-BFGS on planar maps (Liu and Nocedal 1989; the quasi-Newton baseline of Smith and
+//! Schaefer 2015 and of the SLIM and CM comparisons): the two-loop recursion over the last
+//! `m` curvature pairs, the shared injective line search and the shared stop rules. Only the
+//! energy and its gradient are needed.
+//!
+//! Two initial Hessians `H0`:
+//! - [`InitialHessian::Scaled`]: `gamma I` with `gamma = s^T y / y^T y` of the newest pair
+//!   (1 before the first), `m = 10` (the SLIM repository's baseline);
+//! - [`InitialHessian::Laplacian`]: the solve with the constant proxy `A = Hessian of
+//!   sum_t a_t |J_t|^2 / sum_t a_t` (the cotan Laplacian, twice, on both coordinates) plus the
+//!   soft handles' `2 lambda`, factored once through our sparse Cholesky, `m = 5` (BCQN's
+//!   code, `mlbfgs_solver.m`, blend `b = 0`). Without handles (`param`, free boundary) `A`
+//!   has the translations in its kernel: vertex 0 is pinned (its rows and columns replaced by
+//!   the identity, its components of `H0 q` set to 0), so the directions never move it, which
+//!   changes no energy (they are translation invariant).
+//!
+//! Safeguards: a pair with `s^T y <= CURVATURE_EPS |s| |y|` is not stored (it would make `H`
+//! indefinite); a direction that is not a descent direction, or along which the line search
+//! finds no step, is replaced by `-H0 g` with the history cleared (once per iteration).
+
+use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason};
+use crate::line_search::{armijo, max_injective_step};
+use crate::linear::{LinearSettings, SpdSolver};
+use crate::problem::{norm, EnergyScratch, Evaluation, MapProblem};
+use crate::smoothness::Matrix8;
+use crate::solver::newton::{next_shift, system_pattern, SolveError, MAX_REGULARIZATION_RETRIES};
+use nalgebra::Matrix6;
+use std::collections::VecDeque;
+use std::time::Instant;
+
+/// History of the plain variant (the SLIM repository's L-BFGS baseline).
+pub const SCALED_MEMORY: usize = 10;
+/// History of the Laplacian-preconditioned variant (BCQN's code).
+pub const LAPLACIAN_MEMORY: usize = 5;
+/// A pair is stored only when `s^T y > CURVATURE_EPS |s| |y|` (the cosine of the angle
+/// between step and gradient change): BFGS keeps `H` positive definite exactly when every
+/// stored pair has `s^T y > 0`, and a nearly orthogonal pair is noise.
+pub const CURVATURE_EPS: f64 = 1e-8;
+
+/// The extra CSV columns of both variants: the pairs the direction was built from, whether
+/// this step's pair was rejected by the curvature test (1/0), and whether the direction was
+/// reset to `-H0 g` (1/0). NaN in row 0 (no direction yet).
+pub const LBFGS_COLUMNS: [&str; 3] = ["pairs", "pair_skipped", "reset"];
+
+/// The initial Hessian of the two-loop recursion.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InitialHessian {
+    /// `gamma I`, `gamma = s^T y / y^T y` of the newest stored pair.
+    Scaled,
+    /// The solve with the constant Laplacian proxy.
+    Laplacian,
+}
+
+/// One L-BFGS variant: its initial Hessian and history length.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Variant {
+    pub h0: InitialHessian,
+    pub memory: usize,
+}
+
+impl Variant {
+    /// `lbfgs` (`laplacian = false`) or `lbfgs-laplacian`.
+    pub fn new(laplacian: bool) -> Variant {
+        if laplacian {
+            Variant { h0: InitialHessian::Laplacian, memory: LAPLACIAN_MEMORY }
+        } else {
+            Variant { h0: InitialHessian::Scaled, memory: SCALED_MEMORY }
+        }
+    }
+}
+
+/// The last `m` curvature pairs `(s_i, y_i, 1 / s_i^T y_i)`, oldest first.
+#[derive(Clone, Debug)]
+pub struct History {
+    m: usize,
+    pairs: VecDeque<(Vec<f64>, Vec<f64>, f64)>,
+    /// The two-loop's coefficients `alpha_i`, kept between calls.
+    alpha: Vec<f64>,
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+impl History {
+    pub fn new(m: usize) -> History {
+        History { m, pairs: VecDeque::with_capacity(m), alpha: Vec::with_capacity(m) }
+    }
+
+    pub fn len(&self) -> usize {
+        self.pairs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pairs.is_empty()
+    }
+
+    pub fn clear(&mut self) {
+        self.pairs.clear();
+    }
+
+    /// Store the pair `(s, y)` unless it fails the curvature test (then `false`); the oldest
+    /// pair goes when `m` are stored.
+    pub fn push(&mut self, s: Vec<f64>, y: Vec<f64>) -> bool {
+        let sy = dot(&s, &y);
+        if !(sy > CURVATURE_EPS * norm(&s) * norm(&y)) || self.m == 0 {
+            return false;
+        }
+        if self.pairs.len() == self.m {
+            self.pairs.pop_front();
+        }
+        self.pairs.push_back((s, y, 1.0 / sy));
+        true
+    }
+
+    /// `s^T y / y^T y` of the newest pair, 1 without pairs.
+    pub fn gamma(&self) -> f64 {
+        self.pairs.back().map_or(1.0, |(s, y, _)| dot(s, y) / dot(y, y))
+    }
+
+    /// `d = -H g` by the two-loop recursion (Nocedal and Wright, Algorithm 7.4), with `h0`
+    /// applying the initial Hessian in place.
+    pub fn direction<E>(
+        &mut self,
+        g: &[f64],
+        h0: impl FnOnce(&mut Vec<f64>) -> Result<(), E>,
+        d: &mut Vec<f64>,
+    ) -> Result<(), E> {
+        d.clear();
+        d.extend_from_slice(g);
+        self.alpha.clear();
+        for (s, y, rho) in self.pairs.iter().rev() {
+            let a = rho * dot(s, d);
+            d.iter_mut().zip(y).for_each(|(q, yi)| *q -= a * yi);
+            self.alpha.push(a);
+        }
+        h0(d)?;
+        for ((s, y, rho), a) in self.pairs.iter().zip(self.alpha.iter().rev()) {
+            let b = rho * dot(y, d);
+            d.iter_mut().zip(s).for_each(|(r, si)| *r += (a - b) * si);
+        }
+        d.iter_mut().for_each(|v| *v = -*v);
+        Ok(())
+    }
+}
+
+/// The lower triangle of the Laplacian proxy on `pattern` (the Newton pattern of `problem`):
+/// per face `4 a_t / sum a M^T M` (`|J|_F^2 = 2 (|f_z|^2 + |f_zbar|^2) = 2 |M y|^2`), the
+/// handles' `2 lambda`, and the dofs of `pinned` replaced by the identity.
+pub fn laplacian_proxy(problem: &MapProblem, pattern: &crate::assembly::Pattern, pinned: Option<usize>) -> Vec<f64> {
+    let w = 4.0 * problem.weight();
+    let blocks: Vec<Matrix6<f64>> = problem
+        .ops
+        .iter()
+        .map(|op| {
+            let m = op.m();
+            m.transpose() * m * (w * op.area)
+        })
+        .collect();
+    let edge_blocks = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
+    let mut values = Vec::new();
+    pattern.assemble_with_edges(&blocks, &edge_blocks, &mut values);
+    if let Some(pen) = &problem.penalty {
+        for (dof, h) in pen.diagonal() {
+            values[pattern.diag[dof]] += h;
+        }
+    }
+    if let Some(v) = pinned {
+        let pin = |i: usize| i / 2 == v;
+        for c in 0..pattern.n {
+            let range = pattern.col_ptr[c]..pattern.col_ptr[c + 1];
+            for (value, &r) in values[range.clone()].iter_mut().zip(&pattern.row_idx[range]) {
+                if pin(r) || pin(c) {
+                    *value = if r == c { 1.0 } else { 0.0 };
+                }
+            }
+        }
+    }
+    values
+}
+
+/// The factored Laplacian proxy and its pinned vertex.
+struct Proxy {
+    solver: SpdSolver,
+    pinned: Option<usize>,
+    shift: f64,
+    analysis: AnalysisReport,
+    rhs: Vec<f64>,
+    out: Vec<f64>,
+}
+
+impl Proxy {
+    /// Factor the proxy of `problem` once, with the Newton driver's retries on failure;
+    /// `Err` carries the stop reason of a factorization that failed at every shift.
+    fn new(problem: &MapProblem, linear: &LinearSettings, settings: &Settings) -> Result<Proxy, ProxyError> {
+        let pattern = system_pattern(problem);
+        let mut solver = SpdSolver::shared(&pattern, linear.ordering, settings.analyses.as_deref())
+            .map_err(|e| ProxyError::Setup(e.into()))?;
+        let analysis = AnalysisReport {
+            seconds: solver.analysis().seconds(),
+            setup_seconds: solver.setup_seconds(),
+            reused: solver.analysis_reused(),
+        };
+        let has_handles = problem.penalty.as_ref().is_some_and(|p| !p.handles.is_empty());
+        let pinned = if has_handles { None } else { Some(0) };
+        let values = laplacian_proxy(problem, &pattern, pinned);
+        let mut lin = *linear;
+        let mut result = solver.factorize(&values, &lin);
+        for _ in 0..MAX_REGULARIZATION_RETRIES {
+            if result.is_ok() {
+                break;
+            }
+            lin.tikhonov = next_shift(lin.tikhonov);
+            result = solver.factorize(&values, &lin);
+        }
+        if let Err(e) = result {
+            return Err(ProxyError::Failed(StopReason::LinearSolveFailed(format!(
+                "the Laplacian proxy: {e} (shifts {:e} to {:e})",
+                linear.tikhonov, lin.tikhonov
+            ))));
+        }
+        Ok(Proxy { solver, pinned, shift: lin.tikhonov, analysis, rhs: Vec::new(), out: Vec::new() })
+    }
+
+    /// `q <- P A^-1 P q`, `P` zeroing the pinned dofs.
+    fn apply(&mut self, q: &mut Vec<f64>) -> Result<(), crate::linear::LinearError> {
+        self.rhs.clone_from(q);
+        if let Some(v) = self.pinned {
+            self.rhs[2 * v..2 * v + 2].fill(0.0);
+        }
+        self.solver.solve_factored_into(&self.rhs, &mut self.out)?;
+        if let Some(v) = self.pinned {
+            self.out[2 * v..2 * v + 2].fill(0.0);
+        }
+        q.clone_from(&self.out);
+        Ok(())
+    }
+}
+
+enum ProxyError {
+    Setup(SolveError),
+    Failed(StopReason),
+}
+
+/// The initial Hessian as the driver applies it.
+enum H0 {
+    Scaled,
+    Laplacian(Box<Proxy>),
+}
+
+impl H0 {
+    /// `q <- H0 q`; `gamma` is the scaled variant's factor.
+    fn apply(&mut self, gamma: f64, q: &mut Vec<f64>) -> Result<(), crate::linear::LinearError> {
+        match self {
+            H0::Scaled => {
+                q.iter_mut().for_each(|v| *v *= gamma);
+                Ok(())
+            }
+            H0::Laplacian(p) => p.apply(q),
+        }
+    }
+}
+
+/// L-BFGS from `x0` (orientation preserving) with `variant`, the shared line search
+/// (`settings.line_search`) and stop rules (`settings.stop`).
+pub fn lbfgs(
+    problem: &MapProblem,
+    x0: Vec<f64>,
+    variant: Variant,
+    settings: &Settings,
+    observer: &mut dyn Observer,
+) -> Result<Outcome, SolveError> {
+    let t_setup = Instant::now();
+    let (mut h0, mut setup_stop, analysis, shift) = match variant.h0 {
+        InitialHessian::Scaled => (H0::Scaled, None, None, None),
+        InitialHessian::Laplacian => match Proxy::new(problem, &settings.linear, settings) {
+            Ok(p) => {
+                let (a, s) = (p.analysis, p.shift);
+                (H0::Laplacian(Box::new(p)), None, Some(a), Some(s))
+            }
+            Err(ProxyError::Setup(e)) => return Err(e),
+            Err(ProxyError::Failed(reason)) => (H0::Scaled, Some(reason), None, None),
+        },
+    };
+    // The numeric factorization is part of the method's cost: it goes into iteration 1.
+    let t_factor = t_setup.elapsed().as_secs_f64() - analysis.map_or(0.0, |a: AnalysisReport| a.setup_seconds);
+    let mut t_factor = t_factor.max(0.0);
+
+    let mut x = x0;
+    let mut ev = Evaluation::default();
+    problem.evaluate(&x, &mut ev)?;
+    let init_energy = ev.energy;
+    let nan_extra = || LBFGS_COLUMNS.iter().map(|&n| (n, f64::NAN)).collect();
+    let mut record = IterationRecord {
+        iter: 0,
+        energy: ev.energy,
+        grad_norm: norm(&ev.grad),
+        neg_eig: ev.neg_eig,
+        indefinite_elems: ev.indefinite_elems,
+        flips: problem.flips(&x),
+        extra: nan_extra(),
+        ..Default::default()
+    };
+    let mut halt = observer.observe(&record).stop_reason().or(setup_stop.take());
+
+    let mut history = History::new(variant.memory);
+    let (mut d, mut x_new, mut g_old) = (Vec::new(), Vec::new(), Vec::new());
+    let mut scratch = EnergyScratch::default();
+    let mut last_decrease = f64::INFINITY;
+    let mut t_cum = 0.0;
+    let mut iter = 0usize;
+    let stop = 'run: loop {
+        if let Some(reason) = halt.take() {
+            break reason;
+        }
+        if let Some(reason) = settings.stop.reached(record.grad_norm, last_decrease, iter) {
+            break reason;
+        }
+        let t_start = Instant::now();
+        let (mut t_solve, mut t_ls, mut ls_evals) = (0.0, 0.0, 0);
+        let pairs = history.len();
+        let mut reset = false;
+        let accepted = loop {
+            let t0 = Instant::now();
+            let gamma = history.gamma();
+            let solved = history.direction(&ev.grad, |q| h0.apply(gamma, q), &mut d);
+            t_solve += t0.elapsed().as_secs_f64();
+            if let Err(e) = solved {
+                break 'run StopReason::LinearSolveFailed(format!("the Laplacian proxy at iterate {iter}: {e}"));
+            }
+            let t0 = Instant::now();
+            let g_dot_d = dot(&ev.grad, &d);
+            let found = if g_dot_d < 0.0 {
+                let t_max = max_injective_step(problem, &x, &d);
+                let t_init = (settings.line_search.max_step_fraction * t_max).min(1.0);
+                let (acc, evals) = armijo(
+                    problem,
+                    &x,
+                    &d,
+                    ev.energy,
+                    g_dot_d,
+                    t_init,
+                    &settings.line_search,
+                    &mut x_new,
+                    &mut scratch,
+                );
+                ls_evals += evals;
+                acc
+            } else {
+                None
+            };
+            t_ls += t0.elapsed().as_secs_f64();
+            match found {
+                Some(acc) => break acc,
+                // The pairs made a bad direction: start over from -H0 g.
+                None if !history.is_empty() => {
+                    history.clear();
+                    reset = true;
+                }
+                None if g_dot_d < 0.0 => break 'run StopReason::LineSearchFailed,
+                None => break 'run StopReason::NotDescent,
+            }
+        };
+        std::mem::swap(&mut x, &mut x_new);
+        last_decrease = ev.energy - accepted.energy;
+
+        let t0 = Instant::now();
+        g_old.clone_from(&ev.grad);
+        if let Err(e) = problem.evaluate(&x, &mut ev) {
+            break StopReason::NonFinite(e.to_string());
+        }
+        let t_eval = t0.elapsed().as_secs_f64();
+        let s: Vec<f64> = x.iter().zip(&x_new).map(|(a, b)| a - b).collect();
+        let y: Vec<f64> = ev.grad.iter().zip(&g_old).map(|(a, b)| a - b).collect();
+        let skipped = !history.push(s, y);
+        let flips = problem.flips(&x);
+        let t_iter = t_start.elapsed().as_secs_f64() + t_factor;
+        t_solve += std::mem::take(&mut t_factor);
+        t_cum += t_iter;
+        iter += 1;
+        record = IterationRecord {
+            iter,
+            energy: ev.energy,
+            grad_norm: norm(&ev.grad),
+            step: accepted.t,
+            neg_eig: ev.neg_eig,
+            indefinite_elems: ev.indefinite_elems,
+            flips,
+            t_assemble_s: t_eval,
+            t_project_s: 0.0,
+            t_solve_s: t_solve,
+            t_linesearch_s: t_ls,
+            t_iter_s: t_iter,
+            t_cum_s: t_cum,
+            shift,
+            ls_evals,
+            extra: LBFGS_COLUMNS
+                .iter()
+                .copied()
+                .zip([if reset { 0 } else { pairs } as f64, f64::from(u8::from(skipped)), f64::from(u8::from(reset))])
+                .collect(),
+        };
+        halt = observer.observe(&record).stop_reason();
+    };
+    Ok(Outcome {
+        iterations: iter,
+        stop_reason: stop,
+        init_energy,
+        final_energy: record.energy,
+        grad_norm: record.grad_norm,
+        flips: record.flips,
+        x,
+        analysis,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::EnergyKind;
+    use crate::solver::{Recorder, StopSettings};
+    use nalgebra::{DMatrix, DVector};
+
+    /// A dense SPD matrix with a spread of eigenvalues (deterministic).
+    fn spd(n: usize, seed: u64) -> DMatrix<f64> {
+        let mut s = seed;
+        let b = DMatrix::from_fn(n, n, |_, _| {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        });
+        &b * b.transpose() + DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| 0.1 + i as f64))
+    }
+
+    /// Dense BFGS inverse update `H+ = (I - rho s y^T) H (I - rho y s^T) + rho s s^T`.
+    fn bfgs_update(h: &DMatrix<f64>, s: &DVector<f64>, y: &DVector<f64>) -> DMatrix<f64> {
+        let rho = 1.0 / s.dot(y);
+        let i = DMatrix::identity(s.len(), s.len());
+        let a = &i - s * y.transpose() * rho;
+        &a * h * a.transpose() + s * s.transpose() * rho
+    }
+
+    /// On `f = x^T Q x / 2 - b^T x` with inexact line searches, the two-loop recursion gives
+    /// dense BFGS's directions to round-off while it holds every pair (the first `m` steps),
+    /// for a fixed `H0` (the Laplacian variant) and for `gamma I` rebuilt from the newest
+    /// pair (the scaled variant); once pairs are dropped it does not.
+    #[test]
+    fn two_loop_matches_dense_bfgs_for_the_first_m_steps() {
+        let n = 12;
+        let q = spd(n, 3);
+        let b = DVector::from_fn(n, |i, _| (i as f64 * 0.7).sin());
+        let h0_fixed = spd(n, 11).try_inverse().unwrap();
+        for fixed in [true, false] {
+            let m = 4;
+            let mut hist = History::new(m);
+            let mut x = DVector::zeros(n);
+            let (mut pairs, mut differed) = (Vec::new(), false);
+            for k in 0..8 {
+                let g = &q * &x - &b;
+                let mut d = Vec::new();
+                let gamma = hist.gamma();
+                hist.direction(
+                    g.as_slice(),
+                    |v: &mut Vec<f64>| -> Result<(), ()> {
+                        let w = if fixed {
+                            &h0_fixed * DVector::from_column_slice(v)
+                        } else {
+                            DVector::from_column_slice(v) * gamma
+                        };
+                        v.copy_from_slice(w.as_slice());
+                        Ok(())
+                    },
+                    &mut d,
+                )
+                .unwrap();
+                let d = DVector::from_vec(d);
+                // dense BFGS over every pair so far
+                let mut h = if fixed { h0_fixed.clone() } else { DMatrix::identity(n, n) * gamma };
+                for (s, y) in &pairs {
+                    h = bfgs_update(&h, s, y);
+                }
+                let dense = -(&h * &g);
+                let rel = (&d - &dense).norm() / dense.norm();
+                if k <= m {
+                    assert!(rel < 1e-10, "fixed {fixed}, step {k}: {rel}");
+                } else {
+                    differed |= rel > 1e-6;
+                }
+                assert!(g.dot(&d) < 0.0, "descent at step {k}");
+                // inexact (0.7 of the exact step): with exact steps on a quadratic dropped pairs
+                // would not matter (the directions are conjugate), and the test would not see them
+                let t = 0.7 * -g.dot(&d) / d.dot(&(&q * &d));
+                let s = &d * t;
+                x += &s;
+                let y = &q * &s;
+                assert!(hist.push(s.as_slice().to_vec(), y.as_slice().to_vec()));
+                pairs.push((s, y));
+                assert_eq!(hist.len(), (k + 1).min(m));
+            }
+            assert!(differed, "fixed {fixed}: dropping pairs should change the directions");
+        }
+    }
+
+    #[test]
+    fn pairs_without_curvature_are_skipped() {
+        let mut h = History::new(2);
+        assert!(!h.push(vec![1.0, 0.0], vec![-1.0, 0.0]), "negative curvature");
+        assert!(!h.push(vec![1.0, 0.0], vec![0.0, 1.0]), "orthogonal");
+        assert!(h.is_empty() && h.gamma() == 1.0);
+        assert!(h.push(vec![1.0, 0.0], vec![2.0, 0.0]));
+        assert_eq!(h.gamma(), 0.5);
+    }
+
+    #[test]
+    fn the_proxy_is_the_hessian_of_the_dirichlet_energy_and_pins_vertex_0() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
+        let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let pattern = system_pattern(&pb);
+        let a = laplacian_proxy(&pb, &pattern, None);
+        // x^T A x / 2 = sum_t a_t |J_t|^2 / sum a for any map x (the energy is quadratic)
+        let x: Vec<f64> = (0..pb.n_dofs()).map(|i| ((i * 37 % 101) as f64 / 101.0).sin()).collect();
+        let quad: f64 = dot(&x, &pattern.sym_mul(&a, &x)) / 2.0;
+        let dirichlet: f64 = (0..pb.n_faces())
+            .map(|t| {
+                let w = pb.ops[t].wirtinger(pb.target(&x, t));
+                pb.ops[t].area * 2.0 * (w.x() + w.y())
+            })
+            .sum::<f64>()
+            / pb.total_area;
+        assert!((quad - dirichlet).abs() < 1e-10 * dirichlet, "{quad} vs {dirichlet}");
+        // translations are in its kernel; pinned, vertex 0's dofs are the identity's
+        let ones: Vec<f64> = (0..pb.n_dofs()).map(|i| (i % 2) as f64).collect();
+        assert!(norm(&pattern.sym_mul(&a, &ones)) < 1e-9);
+        let p = laplacian_proxy(&pb, &pattern, Some(0));
+        let e0: Vec<f64> = (0..pb.n_dofs()).map(|i| f64::from(u8::from(i == 1))).collect();
+        assert_eq!(pattern.sym_mul(&p, &e0), e0);
+    }
+
+    /// Both variants descend without flips to KP's minimum on a generated mesh (the shared
+    /// meshes: `harness/tests`).
+    #[test]
+    fn both_variants_reach_kp_on_a_generated_mesh() {
+        use crate::param::{solve_param, ParamSettings};
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+        settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters: 5000 };
+        let kp = solve_param(&mesh, EnergyKind::Sd, "kp-newton", &settings, &mut Recorder::default()).unwrap();
+        for (solver, max_iters) in [("lbfgs", 1000), ("lbfgs-laplacian", 200)] {
+            let mut rec = Recorder::default();
+            let out = solve_param(&mesh, EnergyKind::Sd, solver, &settings, &mut rec).unwrap();
+            assert_eq!(out.stop_reason, StopReason::GradientTolerance, "{solver}");
+            assert!(out.iterations < max_iters, "{solver}: {}", out.iterations);
+            assert!(rec.rows.windows(2).all(|w| w[1].energy <= w[0].energy), "{solver}");
+            assert!(rec.rows.iter().all(|r| r.flips == 0), "{solver}");
+            assert!(rec.rows[1..].iter().all(|r| r.ls_evals >= 1), "{solver}");
+            let rel = (out.final_energy - kp.final_energy).abs() / kp.final_energy;
+            assert!(rel < 1e-6, "{solver}: {} vs KP {}", out.final_energy, kp.final_energy);
+            let cols: Vec<_> = rec.rows[1].extra.iter().map(|e| e.0).collect();
+            assert_eq!(cols, LBFGS_COLUMNS);
+            assert_eq!(rec.rows[0].shift, None);
+        }
+    }
+}
