@@ -5,7 +5,7 @@
 //! Maps are stored as interleaved `[u0, v0, u1, v1, ...]`.
 
 use crate::energy::EnergyKind;
-use crate::hessian::{count_negative, element_gradient, ElementState};
+use crate::hessian::{count_negative, element_gradient, element_hessian, ElementState};
 use crate::local::{local_ops, signed_area, LocalOp};
 use crate::mesh::Mesh;
 use crate::smoothness::{self, Projection, Smoothness, Vector8};
@@ -268,6 +268,59 @@ impl MapProblem {
         Ok(())
     }
 
+    /// `s^T H s` with `H` the unmodified Hessian of the energy at the iterate `ev` was
+    /// evaluated at: the element Hessians, the smoothness term's exact 8x8 blocks and the
+    /// handles' `2 lambda` (the trust-region model of `pn-trust-region`). Sums in fixed chunks
+    /// and in order, so the same bits for any thread count.
+    pub fn hessian_form(&self, ev: &Evaluation, s: &[f64]) -> f64 {
+        let local = |verts: &[usize], out: &mut [f64]| {
+            for (k, &v) in verts.iter().enumerate() {
+                out[2 * k] = s[2 * v];
+                out[2 * k + 1] = s[2 * v + 1];
+            }
+        };
+        let faces: Vec<f64> = (0..self.n_faces())
+            .into_par_iter()
+            .fold_chunks(
+                CHUNK,
+                || 0.0,
+                |acc, t| {
+                    let mut d = nalgebra::Vector6::zeros();
+                    local(&self.faces[t], d.as_mut_slice());
+                    acc + d.dot(&(element_hessian(&self.ops[t], &ev.states[t]) * d))
+                },
+            )
+            .collect();
+        let mut form = faces.iter().sum::<f64>() / self.total_area;
+        if let Some(sm) = &self.smoothness {
+            let edges: Vec<f64> = (0..sm.pairs.len())
+                .into_par_iter()
+                .fold_chunks(
+                    CHUNK,
+                    || 0.0,
+                    |acc, k| {
+                        let [i, j] = sm.pairs[k].faces;
+                        let b = smoothness::block(
+                            sm.coefficient(k),
+                            &ev.states[i],
+                            &ev.states[j],
+                            &sm.ops[k],
+                            Projection::Exact,
+                        );
+                        let mut d = Vector8::zeros();
+                        local(&sm.pairs[k].verts, d.as_mut_slice());
+                        acc + d.dot(&(b * d))
+                    },
+                )
+                .collect();
+            form += edges.iter().sum::<f64>();
+        }
+        if let Some(p) = &self.penalty {
+            form += p.diagonal().map(|(dof, h)| h * s[dof] * s[dof]).sum::<f64>();
+        }
+        form
+    }
+
     /// Area weight of element `t` in the normalized energy.
     #[inline]
     pub fn weight(&self) -> f64 {
@@ -332,6 +385,40 @@ mod tests {
                     "{e:?} {i}"
                 );
             }
+        }
+    }
+
+    /// `s^T H s` against central differences of the gradient along `s`, for every energy, with
+    /// the smoothness term and soft handles (every part of the Hessian the model needs).
+    #[test]
+    fn hessian_form_matches_differences_of_the_gradient() {
+        let mesh = grid(4);
+        let mut rng = Lcg(37);
+        for e in all_energies() {
+            let mut pb = MapProblem::new(&mesh, e).unwrap().with_smoothness(&mesh, 0.3, Projection::Analytic);
+            pb.penalty = Some(Penalty { lambda: 2.0, handles: vec![(0, [0.1, -0.2]), (12, [0.5, 0.5])] });
+            let x: Vec<f64> = mesh
+                .positions
+                .iter()
+                .flat_map(|p| [1.1 * p[0] + 0.2 * p[1] * p[1], 0.9 * p[1] + 0.1 * p[0]])
+                .map(|v| v + 0.003 * rng.range(-1.0, 1.0))
+                .collect();
+            let s: Vec<f64> = x.iter().map(|_| rng.range(-1.0, 1.0)).collect();
+            let (mut ev, mut ep, mut em) = (Evaluation::default(), Evaluation::default(), Evaluation::default());
+            pb.evaluate(&x, &mut ev).unwrap();
+            let h = 1e-6;
+            let shifted = |t: f64| x.iter().zip(&s).map(|(a, b)| a + t * b).collect::<Vec<f64>>();
+            pb.evaluate(&shifted(h), &mut ep).unwrap();
+            pb.evaluate(&shifted(-h), &mut em).unwrap();
+            let fd: f64 = ep.grad.iter().zip(&em.grad).zip(&s).map(|((p, m), si)| (p - m) / (2.0 * h) * si).sum();
+            let form = pb.hessian_form(&ev, &s);
+            assert!((fd - form).abs() <= 1e-6 * form.abs().max(1.0), "{e:?}: {fd} vs {form}");
+            // the handles alone: 2 lambda per constrained dof
+            let mut only = MapProblem::new(&mesh, e).unwrap();
+            let no_handles = only.hessian_form(&ev, &s);
+            only.penalty = pb.penalty.clone();
+            let want = 4.0 * (s[0] * s[0] + s[1] * s[1] + s[24] * s[24] + s[25] * s[25]);
+            assert!((only.hessian_form(&ev, &s) - no_handles - want).abs() <= 1e-12 * want.max(1.0), "{e:?}");
         }
     }
 

@@ -6,23 +6,32 @@
 //!   orthonormal rows): `H = Q^T (R^T K R) Q`, so clamping the 4x4 `R^T K R` projects `H`
 //!   exactly. The rows of `D` and `conj(D)` are already orthogonal with equal norm, so
 //!   only the last two rows of `R` differ from a scaled identity ("only two rows change").
+//! * [`Fp6Abs`] replaces the 6x6 `H`'s eigenvalues by their absolute values instead (the abs
+//!   filter of Chen et al. 2024 as they apply it, to the element Hessian; see `pn`).
 
 use super::{element_hessian, k_matrix, ElementState, SystemBlock};
 use crate::local::LocalOp;
 use nalgebra::{Matrix4, Matrix4x6, Matrix6};
 
-/// Clamp the eigenvalues of a symmetric matrix at 0 (no epsilon floor, as the reference).
-macro_rules! clamp_psd {
-    ($m:expr) => {{
+/// Filter the eigenvalues of a symmetric matrix by `$f` when any is negative.
+macro_rules! filter_psd {
+    ($m:expr, $f:expr) => {{
         let m = $m;
         let se = m.symmetric_eigen();
         if se.eigenvalues.iter().all(|&v| v >= 0.0) {
             m
         } else {
-            let lambda = se.eigenvalues.map(|v| v.max(0.0));
+            let lambda = se.eigenvalues.map($f);
             &se.eigenvectors * nalgebra::Matrix::from_diagonal(&lambda) * se.eigenvectors.transpose()
         }
     }};
+}
+
+/// Clamp the eigenvalues of a symmetric matrix at 0 (no epsilon floor, as the reference).
+macro_rules! clamp_psd {
+    ($m:expr) => {
+        filter_psd!($m, |v: f64| v.max(0.0))
+    };
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -31,6 +40,16 @@ pub struct Fp6;
 impl SystemBlock for Fp6 {
     fn block(&self, op: &LocalOp, s: &ElementState) -> Matrix6<f64> {
         clamp_psd!(element_hessian(op, s))
+    }
+}
+
+/// `pn-abs`'s check: the abs filter on the 6x6 element Hessian, numerically.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Fp6Abs;
+
+impl SystemBlock for Fp6Abs {
+    fn block(&self, op: &LocalOp, s: &ElementState) -> Matrix6<f64> {
+        filter_psd!(element_hessian(op, s), f64::abs)
     }
 }
 
@@ -104,6 +123,42 @@ mod tests {
                 let ev = a.symmetric_eigenvalues();
                 assert!(ev.min() >= -1e-10 * ev.amax(), "{e:?}");
             }
+        }
+    }
+
+    /// The abs filter through the reduced 4x4 matrix (`|H| = Q^T |L^T K L| Q`, as FP4 clamps)
+    /// equals the 6x6 one; it is PSD, keeps a PSD `H`, and keeps `|H|`'s eigenvalue magnitudes.
+    #[test]
+    fn fp_abs_through_the_reduced_matrix_equals_the_6x6_filter() {
+        let mut rng = Lcg(59);
+        for e in all_energies() {
+            let mut flipped = 0;
+            for _ in 0..300 {
+                let (op, _, s) = random_element(&mut rng, &e);
+                let m = op.m();
+                let l = rq_factor(&m).unwrap();
+                let q = l.solve_lower_triangular(&m).unwrap();
+                let p = filter_psd!(l.transpose() * k_matrix(&s) * l, f64::abs);
+                let reduced = (q.transpose() * p * q) * op.area;
+                let b = Fp6Abs.block(&op, &s);
+                assert!((reduced - b).norm() <= 1e-10 * b.norm(), "{e:?}: {}", (reduced - b).norm() / b.norm());
+                let h = element_hessian(&op, &s);
+                let (eh, eb) = (h.symmetric_eigenvalues(), b.symmetric_eigenvalues());
+                assert!(eb.min() >= -1e-10 * eb.amax(), "{e:?}");
+                let mut abs_h: Vec<f64> = eh.iter().map(|v| v.abs()).collect();
+                let mut sorted: Vec<f64> = eb.iter().copied().collect();
+                abs_h.sort_by(f64::total_cmp);
+                sorted.sort_by(f64::total_cmp);
+                for (a, b) in abs_h.iter().zip(&sorted) {
+                    assert!((a - b).abs() <= 1e-9 * eh.amax(), "{e:?}");
+                }
+                if eh.min() < -1e-9 * eh.amax() {
+                    flipped += 1;
+                } else {
+                    assert!((b - h).norm() <= 1e-9 * h.norm(), "{e:?}");
+                }
+            }
+            assert!(flipped > 10, "{e:?}: {flipped} indefinite samples");
         }
     }
 

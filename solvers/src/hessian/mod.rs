@@ -12,6 +12,7 @@ pub mod cm;
 pub mod fp;
 pub mod kp;
 pub mod none;
+pub mod pn;
 pub mod slim;
 
 use crate::energy::Modifiers;
@@ -157,6 +158,13 @@ pub trait SystemBlock: Send + Sync {
     /// [`SystemBlock::counter_names`] entry, in order), e.g. SLIM's clamped weights.
     fn counters(&self, _states: &[ElementState]) -> Vec<f64> {
         Vec::new()
+    }
+
+    /// The trust-region rule of an adaptive filter (`pn-trust-region`): the driver then builds
+    /// each system with [`pn::Filtered`] in the mode the rule chose from the last step's model
+    /// fit, and writes the mode and the fit as the strategy's counters.
+    fn trust_region(&self) -> Option<pn::TrustRegion> {
+        None
     }
 }
 

@@ -4,7 +4,10 @@
 //! strategy file plus one entry here.
 
 use crate::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
-use crate::hessian::{akvf::Akvf, cm::Cm, fp::Fp4, fp::Fp6, kp::Kp, none::Unprojected, slim::Slim, SystemBlock};
+use crate::hessian::pn::{Filter, Filtered, TrustRegion, TRUST_REGION_COLUMNS};
+use crate::hessian::{
+    akvf::Akvf, cm::Cm, fp::Fp4, fp::Fp6, fp::Fp6Abs, kp::Kp, none::Unprojected, slim::Slim, SystemBlock,
+};
 use crate::mesh::Task;
 use crate::smoothness::Projection;
 use crate::solver::lbfgs::LBFGS_COLUMNS;
@@ -23,8 +26,8 @@ pub struct SolverSpec {
 #[derive(Clone, Copy)]
 pub enum Method {
     /// A system-matrix strategy of the shared Newton driver (`param`, `deform`): builds it for
-    /// an energy, or says why the combination is not defined.
-    Newton(fn(&EnergyKind) -> Result<SolverSpec, String>),
+    /// an energy with the solver options, or says why the combination is not defined.
+    Newton(Build),
     /// The SEM fixed point (`authalic`).
     Sem,
     /// AEM's preconditioned nonlinear CG, faithful or with the safeguards (`authalic`).
@@ -34,12 +37,32 @@ pub enum Method {
     Lbfgs { laplacian: bool },
 }
 
+/// How a Newton-type entry builds its strategy.
+pub type Build = fn(&EnergyKind, &SolverOptions) -> Result<SolverSpec, String>;
+
 /// Options of individual solvers (`[solver.<name>]` in a config), one field per solver that
 /// has any; the defaults are the solvers as published.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SolverOptions {
     pub slim: SlimOptions,
+    #[serde(rename = "pn-trust-region")]
+    pub trust_region: TrustRegionOptions,
+}
+
+/// `[solver.pn-trust-region]`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrustRegionOptions {
+    /// Clamp when the last step's model fit has `|rho - 1| < tau`, else abs (the authors'
+    /// `--tr`, default 0.01).
+    pub tau: f64,
+}
+
+impl Default for TrustRegionOptions {
+    fn default() -> Self {
+        TrustRegionOptions { tau: crate::hessian::pn::DEFAULT_TAU }
+    }
 }
 
 /// `[solver.slim]`.
@@ -56,7 +79,11 @@ impl SolverOptions {
     /// The options that concern the solver `name` (the others at their defaults): what a run
     /// of that solver depends on.
     pub fn of(&self, name: &str) -> SolverOptions {
-        SolverOptions { slim: if name == "slim" { self.slim } else { SlimOptions::default() } }
+        let d = SolverOptions::default();
+        SolverOptions {
+            slim: if name == "slim" { self.slim } else { d.slim },
+            trust_region: if name == "pn-trust-region" { self.trust_region } else { d.trust_region },
+        }
     }
 }
 
@@ -95,12 +122,7 @@ const AUTHALIC_TASKS: &[Task] = &[Task::Authalic];
 pub const AUTHALIC_COLUMNS: [&str; 8] =
     ["image_area", "stretch_energy", "ascent", "wolfe", "backtracks", "restarted", "fold_rejects", "quad_fallback"];
 
-const fn newton(
-    name: &'static str,
-    label: &'static str,
-    description: &'static str,
-    build: fn(&EnergyKind) -> Result<SolverSpec, String>,
-) -> SolverEntry {
+const fn newton(name: &'static str, label: &'static str, description: &'static str, build: Build) -> SolverEntry {
     SolverEntry {
         name,
         tasks: NEWTON_TASKS,
@@ -175,24 +197,30 @@ fn spec(block: impl SystemBlock + 'static, global_scaling: bool) -> Result<Solve
 /// Every solver, `param`/`deform` first (the order of `list solvers` and of the known-names
 /// lists in messages).
 pub static SOLVERS: &[SolverEntry] = &[
-    newton("kp-newton", "KP", "Newton, K of each element Hessian projected analytically (complex view, Eq. 4)", |_| {
-        spec(Kp, true)
-    }),
-    newton("kp-newton-noscale", "KP-noscale", "kp-newton without the global scaling of the initial map", |_| {
+    newton(
+        "kp-newton",
+        "KP",
+        "Newton, K of each element Hessian projected analytically (complex view, Eq. 4)",
+        |_, _| spec(Kp, true),
+    ),
+    newton("kp-newton-noscale", "KP-noscale", "kp-newton without the global scaling of the initial map", |_, _| {
         spec(Kp, false)
     }),
     // Table 7's numeric column; the same as kp-newton without a smoothness term.
-    newton("kp-newton-eig8", "KP-eig8", "kp-newton with the smoothness term's 8x8 blocks eigen-projected", |_| {
+    newton("kp-newton-eig8", "KP-eig8", "kp-newton with the smoothness term's 8x8 blocks eigen-projected", |_, _| {
         spec(Kp, true).map(|s| SolverSpec { smoothness_projection: Some(Projection::Numeric), ..s })
     }),
-    newton("fp-newton-4x4", "FP4", "Newton, element Hessians projected numerically via the reduced 4x4 matrix", |_| {
-        spec(Fp4, false)
-    }),
-    newton("fp-newton-6x6", "FP6", "Newton, 6x6 element Hessians eigen-projected numerically", |_| spec(Fp6, false)),
-    newton("cm", "CM", "composite majorization (Shtengel et al. 2017), a convex-concave split", |e| {
+    newton(
+        "fp-newton-4x4",
+        "FP4",
+        "Newton, element Hessians projected numerically via the reduced 4x4 matrix",
+        |_, _| spec(Fp4, false),
+    ),
+    newton("fp-newton-6x6", "FP6", "Newton, 6x6 element Hessians eigen-projected numerically", |_, _| spec(Fp6, false)),
+    newton("cm", "CM", "composite majorization (Shtengel et al. 2017), a convex-concave split", |e, _| {
         spec(Cm::for_energy(e)?, false)
     }),
-    newton("newton", "Newton", "Newton on the unmodified Hessians (may stop on an indefinite system)", |_| {
+    newton("newton", "Newton", "Newton on the unmodified Hessians (may stop on an indefinite system)", |_, _| {
         spec(Unprojected, false)
     }),
     SolverEntry {
@@ -203,11 +231,35 @@ pub static SOLVERS: &[SolverEntry] = &[
         opt_in: |o| o.slim.clamp_weights,
         options: &["clamp_weights"],
         extra_columns: &crate::hessian::slim::CLAMPED_COLUMN,
-        ..newton("slim", "SLIM", "SLIM (Rabinovich et al. 2017): the local-global proxy as system matrix", |_| {
+        ..newton("slim", "SLIM", "SLIM (Rabinovich et al. 2017): the local-global proxy as system matrix", |_, _| {
             spec(Slim, false)
         })
     },
-    newton("akvf", "AKVF", "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient", |_| spec(Akvf, false)),
+    newton("akvf", "AKVF", "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient", |_, _| {
+        spec(Akvf, false)
+    }),
+    newton(
+        "pn-abs",
+        "PN-abs",
+        "projected Newton with K's eigenvalues made absolute (Chen et al. 2024), otherwise kp-newton",
+        |_, _| spec(Filtered(Filter::Abs), true),
+    ),
+    newton(
+        "fp-abs-6x6",
+        "FP6-abs",
+        "6x6 element Hessians with their eigenvalues made absolute numerically (Chen et al. 2024)",
+        |_, _| spec(Fp6Abs, false),
+    ),
+    SolverEntry {
+        options: &["tau"],
+        extra_columns: &TRUST_REGION_COLUMNS,
+        ..newton(
+            "pn-trust-region",
+            "PN-TR",
+            "trust-region eigenvalue filtering (Chen et al. 2024): abs or clamp per iteration from the model fit",
+            |_, o| spec(TrustRegion { tau: o.trust_region.tau }, true),
+        )
+    },
     planar(
         "lbfgs",
         "L-BFGS",
@@ -334,7 +386,7 @@ impl SolverEntry {
     ) -> Result<SolverSpec, SolverError> {
         match self.method {
             Method::Newton(build) if self.runs_energy(energy.name(), options) => {
-                build(energy).map_err(SolverError::Unsupported)
+                build(energy, options).map_err(SolverError::Unsupported)
             }
             Method::Newton(_) => Err(SolverError::Unsupported(format!(
                 "{} is not defined for {}: {}",
@@ -431,7 +483,7 @@ mod tests {
     fn slim_runs_outside_its_energies_only_when_the_options_opt_in() {
         let slim = find("slim").unwrap();
         assert_eq!(slim.energies, SLIM_ENERGIES);
-        let clamp = SolverOptions { slim: SlimOptions { clamp_weights: true } };
+        let clamp = SolverOptions { slim: SlimOptions { clamp_weights: true }, ..SolverOptions::default() };
         let nh = EnergyKind::default_for("nh").unwrap();
         let why = slim.skip_reason(Task::Param, &nh, &SolverOptions::default()).unwrap();
         assert!(
@@ -446,11 +498,35 @@ mod tests {
         }
         // the option is slim's: no other solver runs outside its energies with it
         for s in SOLVERS.iter().filter(|s| s.name != "slim") {
-            assert!(!(s.opt_in)(&clamp) && s.options.is_empty(), "{}", s.name);
+            assert!(!(s.opt_in)(&clamp) && !s.options.contains(&"clamp_weights"), "{}", s.name);
             assert_eq!(clamp.of(s.name), SolverOptions::default());
         }
         assert_eq!(clamp.of("slim"), clamp);
         assert_eq!(slim.options, ["clamp_weights"]);
+    }
+
+    /// `[solver.pn-trust-region] tau` reaches its strategy and no other solver's options.
+    #[test]
+    fn the_trust_region_threshold_is_pn_trust_region_s_option() {
+        let tr = find("pn-trust-region").unwrap();
+        assert_eq!(tr.options, ["tau"]);
+        assert_eq!(SolverOptions::default().trust_region.tau, 0.01);
+        let loose = SolverOptions { trust_region: TrustRegionOptions { tau: 0.5 }, ..SolverOptions::default() };
+        assert_eq!(loose.of("pn-trust-region"), loose);
+        assert_eq!(loose.of("kp-newton"), SolverOptions::default());
+        for (o, tau) in [(SolverOptions::default(), 0.01), (loose, 0.5)] {
+            let spec = tr.newton_spec(Task::Param, &EnergyKind::Sd, &o).unwrap();
+            assert_eq!(spec.block.trust_region(), Some(TrustRegion { tau }));
+            assert!(spec.global_scaling);
+        }
+        // only it adapts its filter
+        for s in SOLVERS.iter().filter(|s| s.name != "pn-trust-region") {
+            if let Ok(spec) = s.newton_spec(Task::Param, &EnergyKind::Sd, &loose) {
+                assert_eq!(spec.block.trust_region(), None, "{}", s.name);
+            }
+        }
+        let abs = find("pn-abs").unwrap().newton_spec(Task::Deform, &EnergyKind::Sd, &loose).unwrap();
+        assert!(abs.global_scaling && abs.block.counter_names().is_empty());
     }
 
     /// The energies SLIM is declared for are exactly those where its weights need no clamping:

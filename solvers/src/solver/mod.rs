@@ -3,6 +3,8 @@
 //! A solver never prints and never touches files: it calls [`Observer::observe`] once per
 //! iteration (row 0 is the initial state) and returns a [`Outcome`]. The harness owns I/O.
 
+#[cfg(test)]
+mod after_papers_tests;
 pub mod catalogue;
 pub mod lbfgs;
 pub mod newton;

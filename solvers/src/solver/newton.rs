@@ -5,6 +5,7 @@
 
 use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason, SystemView};
 use crate::assembly::Pattern;
+use crate::hessian::pn::{Filtered, TrustRegion};
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
@@ -133,6 +134,9 @@ pub fn newton(
     let (mut rhs, mut d) = (Vec::with_capacity(x.len()), Vec::with_capacity(x.len()));
     let mut scratch = EnergyScratch::default();
     let mut last_decrease = f64::INFINITY;
+    // An adaptive filter's state: the filter of the next system and the last step's model fit.
+    let trust_region = strategy.trust_region();
+    let mut filter = TrustRegion::FIRST;
     let mut t_cum = 0.0;
     let mut iter = 0usize;
     let stop = loop {
@@ -144,12 +148,14 @@ pub fn newton(
         }
         let t_start = Instant::now();
 
-        project_blocks(problem, &ev, strategy, &mut blocks, &mut edge_blocks);
-        let counters = strategy.counters(&ev.states);
-        let t_project = t_start.elapsed().as_secs_f64();
+        let filtered = Filtered(filter);
+        let system: &dyn SystemBlock = if trust_region.is_some() { &filtered } else { strategy };
+        project_blocks(problem, &ev, system, &mut blocks, &mut edge_blocks);
+        let mut counters = system.counters(&ev.states);
+        let mut t_project = t_start.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
-        scatter(problem, &pattern, strategy, &blocks, &edge_blocks, &mut values);
+        scatter(problem, &pattern, system, &blocks, &edge_blocks, &mut values);
         let t_scatter = t0.elapsed().as_secs_f64();
 
         observer.system(&SystemView {
@@ -199,6 +205,16 @@ pub fn newton(
         };
         std::mem::swap(&mut x, &mut x_new);
         last_decrease = ev.energy - acc.energy;
+        if let Some(tr) = &trust_region {
+            // The model fit of the step actually taken, s = t d, with the unfiltered Hessian
+            // at the old iterate (`ev` still holds it).
+            let t0 = Instant::now();
+            let predicted = -(acc.t * g_dot_d + 0.5 * acc.t * acc.t * problem.hessian_form(&ev, &d));
+            let fit = TrustRegion::fit(last_decrease, predicted, ev.energy);
+            counters = vec![filter.code(), fit];
+            filter = tr.next(fit);
+            t_project += t0.elapsed().as_secs_f64();
+        }
 
         let t0 = Instant::now();
         if let Err(e) = problem.evaluate(&x, &mut ev) {

@@ -148,8 +148,8 @@ impl Config {
     fn check_solver_options(&self) -> Result<()> {
         for (name, params) in &self.solver {
             let entry = catalogue::lookup(name, self.task).map_err(|e| anyhow::anyhow!("[solver.{name}]: {e}"))?;
-            let SolverParams { clamp_weights } = params;
-            for (key, set) in [("clamp_weights", clamp_weights.is_some())] {
+            let SolverParams { clamp_weights, tau } = params;
+            for (key, set) in [("clamp_weights", clamp_weights.is_some()), ("tau", tau.is_some())] {
                 if set && !entry.options.contains(&key) {
                     let has = if entry.options.is_empty() {
                         format!("{name} has no options")
@@ -158,6 +158,9 @@ impl Config {
                     };
                     bail!("[solver.{name}] has no option '{key}' ({has})");
                 }
+            }
+            if let Some(t) = tau.filter(|t| !(t.is_finite() && *t > 0.0)) {
+                bail!("[solver.{name}] tau = {t}: it must be a positive number (default 0.01)");
             }
         }
         Ok(())

@@ -79,6 +79,9 @@ pub struct SolverParams {
     /// slim: also run the energies outside its definition (NH, BARAP, BCONF), clamping the
     /// weights that come out non-positive; default false (such runs are skipped).
     pub clamp_weights: Option<bool>,
+    /// pn-trust-region: clamp when the last step's model fit has `|rho - 1| < tau`, else
+    /// abs; default 0.01 (the authors'), a positive number.
+    pub tau: Option<f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

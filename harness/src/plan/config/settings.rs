@@ -145,6 +145,9 @@ impl Config {
         if let Some(c) = self.solver.get("slim").and_then(|p| p.clamp_weights) {
             o.slim.clamp_weights = c;
         }
+        if let Some(t) = self.solver.get("pn-trust-region").and_then(|p| p.tau) {
+            o.trust_region.tau = t;
+        }
         o
     }
 }

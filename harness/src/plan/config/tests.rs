@@ -212,6 +212,23 @@ fn solver_sections_set_the_options_of_their_solver_only() {
 }
 
 #[test]
+fn the_trust_region_threshold_is_read_checked_and_reaches_its_solver() {
+    let c = parse(&format!("{MIN}[solver.pn-trust-region]\ntau = 0.05\n")).unwrap();
+    assert_eq!(c.param_settings(&EnergyKind::Sd).solver.options.trust_region.tau, 0.05);
+    assert_eq!(c.deform_settings().solver.options.trust_region.tau, 0.05);
+    assert_eq!(parse(MIN).unwrap().deform_settings().solver.options.trust_region.tau, 0.01);
+    let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+    for bad in ["0.0", "-1.0", "nan", "inf"] {
+        let e = err(&format!("{MIN}[solver.pn-trust-region]\ntau = {bad}\n"));
+        assert!(e.contains("[solver.pn-trust-region] tau = ") && e.contains("must be a positive number"), "{e}");
+    }
+    let e = err(&format!("{MIN}[solver.kp-newton]\ntau = 0.05\n"));
+    assert!(e.contains("[solver.kp-newton] has no option 'tau' (kp-newton has no options)"), "{e}");
+    let e = err(&format!("{MIN}[solver.slim]\ntau = 0.05\n"));
+    assert!(e.contains("[solver.slim] has no option 'tau' (its options: clamp_weights)"), "{e}");
+}
+
+#[test]
 fn a_solver_section_for_an_unknown_solver_or_option_is_an_error_naming_it() {
     let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
     let e = err(&format!("{MIN}[solver.slimm]\nclamp_weights = true\n"));
