@@ -319,21 +319,7 @@ fn strip(nx: usize, ny: usize, length: f64, width: f64) -> (Vec<[f64; 3]>, Vec<[
             positions.push([x, width * (t - 0.5), 0.8 * (FRAC_PI_2 * 2.0 * s).sin()]);
         }
     }
-    let id = |i: usize, j: usize| j * nx + i;
-    let mut faces = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
-    for j in 0..ny - 1 {
-        for i in 0..nx - 1 {
-            let (p, q, r, s) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 0 {
-                faces.push([p, q, r]);
-                faces.push([p, r, s]);
-            } else {
-                faces.push([p, q, s]);
-                faces.push([q, r, s]);
-            }
-        }
-    }
-    (positions, faces)
+    (positions, hard::grid_faces(nx, ny))
 }
 
 #[cfg(test)]

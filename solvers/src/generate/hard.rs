@@ -82,7 +82,7 @@ pub(super) fn bumpy_torus_cut(nu: usize, nv: usize, r0: f64, b1: f64, b2: f64) -
 
 /// Counter-clockwise (in the `(i, j)` plane) triangles of an `nx x ny` vertex grid, indexed
 /// `j * nx + i`, with alternating diagonals.
-fn grid_faces(nx: usize, ny: usize) -> Vec<[usize; 3]> {
+pub(super) fn grid_faces(nx: usize, ny: usize) -> Vec<[usize; 3]> {
     let id = |i: usize, j: usize| j * nx + i;
     let mut faces = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
     for j in 0..ny - 1 {
