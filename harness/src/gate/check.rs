@@ -162,23 +162,8 @@ pub fn render(cmp: &Comparison) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::Task;
+    use crate::gate::rules::tests::record as rec;
     use crate::run_folder::Status;
-
-    fn rec(solver: &str, it: usize, e: f64) -> Record {
-        Record {
-            dataset: "d".into(),
-            task: Task::Param,
-            energy: "sd".into(),
-            solver: solver.into(),
-            iterations: Some(it),
-            final_energy: Some(e),
-            status: Status::Ok,
-            flips: Some(0),
-            iterations_tolerance: None,
-            time_s: Some(1.0),
-        }
-    }
 
     fn base(runs: Vec<Record>) -> Baseline {
         Baseline { energy_rtol: 1e-6, runs }

@@ -180,15 +180,20 @@ pub fn time_change(before: &Timed, after: &Timed) -> Option<TimeChange> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn rec(it: usize, e: f64) -> Record {
+        record("kp-newton", it, e)
+    }
+
+    /// A converged `param` SD run of `solver` on dataset `d` (the gate's tests' fixture).
+    pub(crate) fn record(solver: &str, it: usize, e: f64) -> Record {
         Record {
             dataset: "d".into(),
             task: Task::Param,
             energy: "sd".into(),
-            solver: "kp-newton".into(),
+            solver: solver.into(),
             iterations: Some(it),
             final_energy: Some(e),
             status: Status::Ok,
