@@ -3,6 +3,7 @@
 //! A solver never prints and never touches files: it calls [`Observer::observe`] once per
 //! iteration (row 0 is the initial state) and returns a [`Outcome`]. The harness owns I/O.
 
+pub mod aqp;
 pub mod catalogue;
 pub mod lbfgs;
 pub mod newton;
