@@ -219,3 +219,144 @@ pub fn aqp(
     Ok(outcome(iter, stop, &record, x))
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deform::{solve_deform, DeformSettings};
+    use crate::energy::EnergyKind;
+    use crate::generate::{generate, generated_handles};
+    use crate::mesh::{load_obj, Mesh};
+    use crate::param::{solve_param, ParamSettings};
+    use crate::solver::{Recorder, StopSettings};
+
+    #[test]
+    fn theta_follows_from_kappa() {
+        assert!((theta(KAPPA) - 0.9387).abs() < 5e-5, "{}", theta(KAPPA));
+        // the value commented out in BCQN's AQP baseline
+        assert!((theta(100.0) - 0.8182).abs() < 5e-5);
+        assert_eq!(theta(1.0), 0.0);
+    }
+
+    /// A mesh of the shared corpus, `None` (the test part skipped) without `MAPBENCH_MESHES`.
+    fn shared(name: &str) -> Option<Mesh> {
+        let Ok(dir) = std::env::var("MAPBENCH_MESHES") else {
+            eprintln!("MAPBENCH_MESHES not set: shared mesh {name} skipped");
+            return None;
+        };
+        Some(load_obj(&std::path::Path::new(&dir).join(format!("{name}.obj"))).unwrap())
+    }
+
+    fn value(r: &IterationRecord, column: &str) -> f64 {
+        r.extra.iter().find(|e| e.0 == column).unwrap().1
+    }
+
+    /// The rows' invariants: no flips, row 0's extras NaN, iteration 1 without momentum (so
+    /// `y` is the initial map), every new `x` below its `f(y)` (Armijo), steps below the
+    /// memory's bound. Returns the number of iterations in which `f(x)` rose.
+    fn check_rows(label: &str, rows: &[IterationRecord]) -> usize {
+        assert!(rows.iter().all(|r| r.flips == 0), "{label}: flips");
+        let cols: Vec<_> = rows[0].extra.iter().map(|e| e.0).collect();
+        assert_eq!(cols, AQP_COLUMNS, "{label}");
+        assert!(rows[0].extra.iter().all(|e| e.1.is_nan()) && rows[0].shift.is_none(), "{label}");
+        assert_eq!(value(&rows[1], "momentum"), 0.0, "{label}");
+        assert_eq!(value(&rows[1], "energy_y"), rows[0].energy, "{label}");
+        for r in &rows[1..] {
+            let (eta, e_y, t_init) = (value(r, "momentum"), value(r, "energy_y"), value(r, "t_init"));
+            assert!((0.0..=theta(KAPPA)).contains(&eta), "{label} {}: momentum {eta}", r.iter);
+            assert!(r.energy <= e_y, "{label} {}: f(x) {} above f(y) {e_y}", r.iter, r.energy);
+            assert!(r.step <= t_init && t_init <= 1.0 && r.ls_evals >= 1, "{label} {}", r.iter);
+            assert!(r.shift.is_some(), "{label}");
+        }
+        rows.windows(2).filter(|w| w[1].energy > w[0].energy).count()
+    }
+
+    /// `param` SD to `|grad| <= 1e-5` (as the L-BFGS test, so that the minimum is resolved to
+    /// 1e-6): AQP reaches KP's final energy within 1e-6 relative without flips.
+    fn reaches_kp_on(mesh: &Mesh, max_iters: usize) -> (usize, usize, usize) {
+        let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+        settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters };
+        let kp = solve_param(mesh, EnergyKind::Sd, "kp-newton", &settings, &mut Recorder::default()).unwrap();
+        let mut rec = Recorder::default();
+        let out = solve_param(mesh, EnergyKind::Sd, "aqp", &settings, &mut rec).unwrap();
+        let label = &mesh.source;
+        assert_eq!(out.stop_reason, StopReason::GradientTolerance, "{label} after {}", out.iterations);
+        let rel = (out.final_energy - kp.final_energy).abs() / kp.final_energy;
+        assert!(rel < 1e-6, "{label}: {} vs KP {}", out.final_energy, kp.final_energy);
+        let rises = check_rows(label, &rec.rows);
+        eprintln!("{label}: aqp {} iterations ({rises} rises), kp {}, rel {rel:.1e}", out.iterations, kp.iterations);
+        (out.iterations, rises, kp.iterations)
+    }
+
+    #[test]
+    fn reaches_kp_on_a_generated_mesh() {
+        let (iters, _, _) = reaches_kp_on(&generate("bumpy_1k").unwrap(), 1000);
+        assert!(iters < 1000);
+    }
+
+    #[test]
+    fn reaches_kp_on_two_shared_meshes() {
+        // not hand_smpl: from its Tutte map (energy 7e5) AQP ends in a 2-cycle 4.5e-6 above
+        // KP's energy with |grad| 0.45 (README); nor goathead, where it converges to another
+        // local minimum, 2.9e-5 above KP's
+        for name in ["cow", "bunnyhead"] {
+            if let Some(mesh) = shared(name) {
+                reaches_kp_on(&mesh, 1000);
+            }
+        }
+    }
+
+    /// `deform` SD on the bent bar with the default handles' penalty and stop rules (energy
+    /// decrease below 1e-6 in an iteration without a rise): converged, no flips, near KP.
+    #[test]
+    fn bends_the_bar_to_kp_s_minimum() {
+        let mesh = generate("planar_bar_2k").unwrap();
+        let handles = generated_handles("planar_bar_2k").unwrap();
+        let settings = DeformSettings::default();
+        let kp = solve_deform(&mesh, &handles, None, EnergyKind::Sd, "kp-newton", &settings, &mut Recorder::default())
+            .unwrap();
+        let mut rec = Recorder::default();
+        let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd, "aqp", &settings, &mut rec).unwrap();
+        assert!(out.stop_reason.is_converged(), "{:?} after {}", out.stop_reason, out.iterations);
+        let rises = check_rows("planar_bar_2k", &rec.rows);
+        let rel = (out.final_energy - kp.final_energy) / kp.final_energy;
+        eprintln!(
+            "planar_bar_2k: aqp {} iterations ({rises} rises, {:?}), kp {}, rel {rel:.1e}",
+            out.iterations, out.stop_reason, kp.iterations
+        );
+        assert!(rel.abs() < 1e-5, "{} vs KP {}", out.final_energy, kp.final_energy);
+    }
+
+    /// The rows hold the energy at `x` (not at `y`): the last row's is the energy of the
+    /// returned map, recomputed; and the energies the solver is not defined for are refused.
+    #[test]
+    fn rows_record_the_energy_at_x() {
+        use crate::init::{tutte, TutteBoundary};
+        use crate::solver::StopAt;
+        let mesh = generate("bumpy_1k").unwrap().normalized();
+        let problem = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let x0 = tutte(&mesh, TutteBoundary::Uniform).unwrap();
+        struct Both(Recorder, StopAt);
+        impl Observer for Both {
+            fn observe(&mut self, r: &IterationRecord) -> super::super::Flow {
+                self.0.observe(r);
+                self.1.observe(r)
+            }
+        }
+        let mut obs = Both(Recorder::default(), StopAt(7));
+        let out = aqp(&problem, x0.clone(), &Settings::default(), &mut obs).unwrap();
+        assert_eq!((out.iterations, out.stop_reason.clone()), (7, StopReason::Interrupted));
+        let rows = &obs.0.rows;
+        assert_eq!(rows.len(), 8);
+        assert_eq!(rows[0].energy, problem.energy(&x0));
+        assert_eq!(rows[7].energy, problem.energy(&out.x));
+        assert_eq!(out.final_energy, rows[7].energy);
+        check_rows("bumpy_1k", rows);
+        assert!(rows[2..].iter().any(|r| value(r, "momentum") > 0.0 && value(r, "energy_y") != r.energy));
+        let nh = EnergyKind::default_for("nh").unwrap();
+        let err = solve_param(&mesh, nh, "aqp", &ParamSettings::for_energy(&nh), &mut Recorder::default())
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(err.starts_with("aqp is not defined for nh: "), "{err}");
+    }
+}
