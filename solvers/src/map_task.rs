@@ -8,6 +8,7 @@ use crate::init::InitError;
 use crate::mesh::{validate_for, Mesh, MeshError, Task};
 use crate::problem::{DegenerateFace, MapProblem};
 use crate::smoothness::Projection;
+use crate::solver::aqp::aqp;
 use crate::solver::catalogue::{lookup, newton_spec, Method, SolverError, SolverOptions, SolverSpec};
 use crate::solver::lbfgs::{lbfgs, Variant};
 use crate::solver::newton::{newton, SolveError};
@@ -59,6 +60,8 @@ pub(crate) fn checked_spec(
 pub(crate) enum Driver {
     Newton(SolverSpec),
     Lbfgs(Variant),
+    /// The Accelerated Quadratic Proxy (its constants are the authors').
+    Aqp,
 }
 
 impl Driver {
@@ -66,7 +69,7 @@ impl Driver {
     pub(crate) fn global_scaling(&self) -> bool {
         match self {
             Driver::Newton(spec) => spec.global_scaling,
-            Driver::Lbfgs(_) => false,
+            Driver::Lbfgs(_) | Driver::Aqp => false,
         }
     }
 
@@ -74,7 +77,7 @@ impl Driver {
     pub(crate) fn smoothness_projection(&self) -> Option<Projection> {
         match self {
             Driver::Newton(spec) => spec.smoothness_projection,
-            Driver::Lbfgs(_) => None,
+            Driver::Lbfgs(_) | Driver::Aqp => None,
         }
     }
 
@@ -89,6 +92,7 @@ impl Driver {
         match self {
             Driver::Newton(spec) => newton(problem, x0, spec.block.as_ref(), settings, observer),
             Driver::Lbfgs(variant) => lbfgs(problem, x0, *variant, settings, observer),
+            Driver::Aqp => aqp(problem, x0, settings, observer),
         }
     }
 }
@@ -101,7 +105,16 @@ pub(crate) fn checked_driver(
     solver: &str,
     options: &SolverOptions,
 ) -> Result<Driver, MapError> {
-    match lookup(solver, task)?.method {
+    let entry = lookup(solver, task)?;
+    match entry.method {
+        Method::Aqp => {
+            if let Some(why) = entry.skip_reason(task, energy, options) {
+                return Err(SolverError::Unsupported(why).into());
+            }
+            energy.check().map_err(MapError::Energy)?;
+            validate_for(mesh, task).into_result()?;
+            Ok(Driver::Aqp)
+        }
         Method::Lbfgs { laplacian } => {
             energy.check().map_err(MapError::Energy)?;
             validate_for(mesh, task).into_result()?;

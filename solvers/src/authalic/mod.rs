@@ -599,7 +599,7 @@ pub fn solve_authalic(
     let aem_safe = match entry.method {
         Method::Sem => None,
         Method::AemCg { safe } => Some(safe),
-        Method::Newton(_) | Method::Lbfgs { .. } => return Err(entry.wrong_task(Task::Authalic).into()),
+        Method::Newton(_) | Method::Lbfgs { .. } | Method::Aqp => return Err(entry.wrong_task(Task::Authalic).into()),
     };
     let problem = AuthalicProblem::new(mesh)?;
     let z0 = problem.initial_map(settings.init_steps)?;

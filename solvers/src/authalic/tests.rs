@@ -292,7 +292,7 @@ fn each_authalic_name_is_dispatched_to_exactly_its_method() {
         match method {
             Method::Sem => sem::sem(&problem, z0, &settings, &mut rec),
             Method::AemCg { safe } => aem::aem_cg(&problem, z0, &settings, safe, &mut rec),
-            Method::Newton(_) | Method::Lbfgs { .. } => unreachable!("not an authalic method"),
+            Method::Newton(_) | Method::Lbfgs { .. } | Method::Aqp => unreachable!("not an authalic method"),
         };
         energies(&rec.rows)
     };

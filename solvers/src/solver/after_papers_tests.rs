@@ -9,7 +9,7 @@ use crate::param::{solve_param, ParamSettings};
 use crate::solver::{IterationRecord, Outcome, Recorder, StopSettings};
 
 /// The solvers of issue 20 that run on the Newton driver or a driver of their own.
-const AFTER_THE_PAPERS: [&str; 5] = ["pn-abs", "fp-abs-6x6", "pn-trust-region", "lbfgs", "lbfgs-laplacian"];
+const AFTER_THE_PAPERS: [&str; 6] = ["pn-abs", "fp-abs-6x6", "pn-trust-region", "lbfgs", "lbfgs-laplacian", "aqp"];
 
 /// A mesh of `$MAPBENCH_MESHES`, `None` (with a note) when the variable is not set.
 fn shared(name: &str) -> Option<Mesh> {

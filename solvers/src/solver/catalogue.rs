@@ -10,6 +10,7 @@ use crate::hessian::{
 };
 use crate::mesh::Task;
 use crate::smoothness::Projection;
+use crate::solver::aqp::AQP_COLUMNS;
 use crate::solver::lbfgs::LBFGS_COLUMNS;
 
 /// A Newton-type solver built for one energy: its system-matrix strategy and options.
@@ -35,6 +36,9 @@ pub enum Method {
     /// L-BFGS with the scaled identity or the Laplacian proxy as initial Hessian (`param`,
     /// `deform`; `solver::lbfgs`). It needs no Newton system.
     Lbfgs { laplacian: bool },
+    /// The Accelerated Quadratic Proxy (`param`, `deform`; `solver::aqp`): the constant
+    /// Dirichlet proxy factored once, momentum and a proxy step. It needs no Newton system.
+    Aqp,
 }
 
 /// How a Newton-type entry builds its strategy.
@@ -175,6 +179,13 @@ fn never(_: &SolverOptions) -> bool {
 /// `slim_weights_are_clamped_outside_its_energies_only`).
 pub const SLIM_ENERGIES: [&str; 3] = ["sd", "exp-sd", "sarap"];
 
+/// The energies AQP is defined for: those whose quadratic part is the Dirichlet energy
+/// `|J|^2` the proxy is the Hessian of (up to a constant factor), the rest being the barrier
+/// or rotation terms the proxy leaves out. The authors define the proxy for their isometric
+/// distortion `|J|^2 + |J^-1|^2` (our `sd` is half of it) and for ARAP `|J - R|^2`; our
+/// `barap` is ARAP plus the barrier `k (|J| + 1/|J|)`.
+pub const AQP_ENERGIES: [&str; 2] = ["sd", "barap"];
+
 const fn authalic(name: &'static str, label: &'static str, description: &'static str, method: Method) -> SolverEntry {
     SolverEntry {
         name,
@@ -274,6 +285,20 @@ pub static SOLVERS: &[SolverEntry] = &[
         &LBFGS_COLUMNS,
         Method::Lbfgs { laplacian: true },
     ),
+    SolverEntry {
+        energies: &AQP_ENERGIES,
+        outside_reason: "its constant proxy is the Hessian of the Dirichlet energy |J|^2, the quadratic part \
+                         of the energies the authors define it for (the isometric distortion, our sd, and \
+                         ARAP, our barap without its barrier); exp-sd (exponential), sarap (quadratic in \
+                         sigma1 only), nh (no |J|^2 term) and bconf (conformal, |f_zbar|^2) have no such part",
+        ..planar(
+            "aqp",
+            "AQP",
+            "Accelerated Quadratic Proxy (Kovalsky et al. 2016): the Dirichlet proxy factored once, kappa = 1000",
+            &AQP_COLUMNS,
+            Method::Aqp,
+        )
+    },
     authalic("sem", "SEM", "stretch energy minimization (Yueh et al. 2019), the fixed point", Method::Sem),
     authalic(
         "aem-cg",
@@ -388,22 +413,25 @@ impl SolverEntry {
             Method::Newton(build) if self.runs_energy(energy.name(), options) => {
                 build(energy, options).map_err(SolverError::Unsupported)
             }
-            Method::Newton(_) => Err(SolverError::Unsupported(format!(
-                "{} is not defined for {}: {}",
-                self.name,
-                energy.name(),
-                self.outside_reason
-            ))),
+            Method::Newton(_) => Err(self.not_defined_for(energy)),
             Method::Sem | Method::AemCg { .. } => Err(self.wrong_task(task)),
             Method::Lbfgs { .. } if !self.runs(task) => Err(self.wrong_task(task)),
             Method::Lbfgs { .. } => Err(SolverError::NoSystem { name: self.name, description: self.description }),
+            Method::Aqp if !self.runs(task) => Err(self.wrong_task(task)),
+            Method::Aqp if !self.runs_energy(energy.name(), options) => Err(self.not_defined_for(energy)),
+            Method::Aqp => Err(SolverError::NoSystem { name: self.name, description: self.description }),
         }
+    }
+
+    /// The error for `energy` outside its energies.
+    fn not_defined_for(&self, energy: &EnergyKind) -> SolverError {
+        SolverError::Unsupported(format!("{} is not defined for {}: {}", self.name, energy.name(), self.outside_reason))
     }
 
     /// Why a run of `task` with `energy` and `options` is outside this solver's definition
     /// (the harness records such a run as skipped), `None` when it runs: an energy outside
     /// its energies without an opt-in, or parameters its builder refuses (CM for BCONF with
-    /// k > 1). Only the Newton-type solvers have energies to choose from.
+    /// k > 1). The Newton-type solvers and AQP have energies to choose from.
     pub fn skip_reason(&self, task: Task, energy: &EnergyKind, options: &SolverOptions) -> Option<String> {
         match self.newton_spec(task, energy, options) {
             Err(SolverError::Unsupported(why)) => Some(why),
@@ -466,6 +494,22 @@ mod tests {
                             let err = built.err().unwrap().to_string();
                             assert!(err.contains("has no Newton system") || task == Task::Authalic, "{err}");
                             assert_eq!(s.skip_reason(task, &e, &none), None);
+                        }
+                        // its energies: no Newton system; the others: skipped with the reason
+                        (Method::Aqp, defined) => {
+                            let err = built.err().unwrap().to_string();
+                            assert_eq!(defined, AQP_ENERGIES.contains(&e.name()), "{e:?}");
+                            if task == Task::Authalic {
+                                assert!(err.starts_with("'aqp' is a param/deform solver"), "{err}");
+                                assert_eq!(s.skip_reason(task, &e, &none), None);
+                            } else if defined {
+                                assert!(err.contains("has no Newton system"), "{err}");
+                                assert_eq!(s.skip_reason(task, &e, &none), None);
+                            } else {
+                                let want = format!("aqp is not defined for {}: its constant proxy is", e.name());
+                                assert!(err.starts_with(&want), "{err}");
+                                assert_eq!(s.skip_reason(task, &e, &none), Some(err));
+                            }
                         }
                     }
                 }
@@ -575,6 +619,7 @@ mod tests {
             let expected: &[&str] = match s.method {
                 Method::Sem | Method::AemCg { .. } => &AUTHALIC_COLUMNS,
                 Method::Lbfgs { .. } => &LBFGS_COLUMNS,
+                Method::Aqp => &AQP_COLUMNS,
                 // the Newton-type solvers write their strategy's counters
                 Method::Newton(_) => {
                     let e = EnergyKind::default_for(s.energies[0]).unwrap();

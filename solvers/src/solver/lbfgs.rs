@@ -9,22 +9,18 @@
 //! - [`InitialHessian::Laplacian`]: the solve with the constant proxy `A = Hessian of
 //!   sum_t a_t |J_t|^2 / sum_t a_t` (the cotan Laplacian, twice, on both coordinates) plus the
 //!   soft handles' `2 lambda`, factored once through our sparse Cholesky, `m = 5` (BCQN's
-//!   code, `mlbfgs_solver.m`, blend `b = 0`). Without handles (`param`, free boundary) `A`
-//!   has the translations in its kernel: vertex 0 is pinned (its rows and columns replaced by
-//!   the identity, its components of `H0 q` set to 0), so the directions never move it, which
-//!   changes no energy (they are translation invariant).
+//!   code, `mlbfgs_solver.m`, blend `b = 0`); `solver::proxy` builds it, with vertex 0
+//!   pinned for the free boundary (`param`).
 //!
 //! Safeguards: a pair with `s^T y <= CURVATURE_EPS |s| |y|` is not stored (it would make `H`
 //! indefinite); a direction that is not a descent direction, or along which the line search
 //! finds no step, is replaced by `-H0 g` with the history cleared (once per iteration).
 
+use super::proxy::{Proxy, ProxyError};
 use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
-use crate::linear::{LinearSettings, SpdSolver};
 use crate::problem::{norm, EnergyScratch, Evaluation, MapProblem};
-use crate::smoothness::Matrix8;
-use crate::solver::newton::{next_shift, system_pattern, SolveError, MAX_REGULARIZATION_RETRIES};
-use nalgebra::Matrix6;
+use crate::solver::newton::SolveError;
 use std::collections::VecDeque;
 use std::time::Instant;
 
@@ -142,104 +138,6 @@ impl History {
         d.iter_mut().for_each(|v| *v = -*v);
         Ok(())
     }
-}
-
-/// The lower triangle of the Laplacian proxy on `pattern` (the Newton pattern of `problem`):
-/// per face `4 a_t / sum a M^T M` (`|J|_F^2 = 2 (|f_z|^2 + |f_zbar|^2) = 2 |M y|^2`), the
-/// handles' `2 lambda`, and the dofs of `pinned` replaced by the identity.
-pub fn laplacian_proxy(problem: &MapProblem, pattern: &crate::assembly::Pattern, pinned: Option<usize>) -> Vec<f64> {
-    let w = 4.0 * problem.weight();
-    let blocks: Vec<Matrix6<f64>> = problem
-        .ops
-        .iter()
-        .map(|op| {
-            let m = op.m();
-            m.transpose() * m * (w * op.area)
-        })
-        .collect();
-    let edge_blocks = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
-    let mut values = Vec::new();
-    pattern.assemble_with_edges(&blocks, &edge_blocks, &mut values);
-    if let Some(pen) = &problem.penalty {
-        for (dof, h) in pen.diagonal() {
-            values[pattern.diag[dof]] += h;
-        }
-    }
-    if let Some(v) = pinned {
-        let pin = |i: usize| i / 2 == v;
-        for c in 0..pattern.n {
-            let range = pattern.col_ptr[c]..pattern.col_ptr[c + 1];
-            for (value, &r) in values[range.clone()].iter_mut().zip(&pattern.row_idx[range]) {
-                if pin(r) || pin(c) {
-                    *value = if r == c { 1.0 } else { 0.0 };
-                }
-            }
-        }
-    }
-    values
-}
-
-/// The factored Laplacian proxy and its pinned vertex.
-struct Proxy {
-    solver: SpdSolver,
-    pinned: Option<usize>,
-    shift: f64,
-    analysis: AnalysisReport,
-    rhs: Vec<f64>,
-    out: Vec<f64>,
-}
-
-impl Proxy {
-    /// Factor the proxy of `problem` once, with the Newton driver's retries on failure;
-    /// `Err` carries the stop reason of a factorization that failed at every shift.
-    fn new(problem: &MapProblem, linear: &LinearSettings, settings: &Settings) -> Result<Proxy, ProxyError> {
-        let pattern = system_pattern(problem);
-        let mut solver = SpdSolver::shared(&pattern, linear.ordering, settings.analyses.as_deref())
-            .map_err(|e| ProxyError::Setup(e.into()))?;
-        let analysis = AnalysisReport {
-            seconds: solver.analysis().seconds(),
-            setup_seconds: solver.setup_seconds(),
-            reused: solver.analysis_reused(),
-        };
-        let has_handles = problem.penalty.as_ref().is_some_and(|p| !p.handles.is_empty());
-        let pinned = if has_handles { None } else { Some(0) };
-        let values = laplacian_proxy(problem, &pattern, pinned);
-        let mut lin = *linear;
-        let mut result = solver.factorize(&values, &lin);
-        for _ in 0..MAX_REGULARIZATION_RETRIES {
-            if result.is_ok() {
-                break;
-            }
-            lin.tikhonov = next_shift(lin.tikhonov);
-            result = solver.factorize(&values, &lin);
-        }
-        if let Err(e) = result {
-            return Err(ProxyError::Failed(StopReason::LinearSolveFailed(format!(
-                "the Laplacian proxy: {e} (shifts {:e} to {:e})",
-                linear.tikhonov, lin.tikhonov
-            ))));
-        }
-        Ok(Proxy { solver, pinned, shift: lin.tikhonov, analysis, rhs: Vec::new(), out: Vec::new() })
-    }
-
-    /// `q <- P A^-1 P q`, `P` zeroing the pinned dofs.
-    fn apply(&mut self, q: &mut Vec<f64>) -> Result<(), crate::linear::LinearError> {
-        self.rhs.clone_from(q);
-        if let Some(v) = self.pinned {
-            self.rhs[2 * v..2 * v + 2].fill(0.0);
-        }
-        self.solver.solve_factored_into(&self.rhs, &mut self.out)?;
-        if let Some(v) = self.pinned {
-            self.out[2 * v..2 * v + 2].fill(0.0);
-        }
-        q.clone_from(&self.out);
-        Ok(())
-    }
-}
-
-enum ProxyError {
-    Setup(SolveError),
-    Failed(StopReason),
 }
 
 /// The initial Hessian as the driver applies it.
@@ -508,31 +406,6 @@ mod tests {
         assert!(h.is_empty() && h.gamma() == 1.0);
         assert!(h.push(vec![1.0, 0.0], vec![2.0, 0.0]));
         assert_eq!(h.gamma(), 0.5);
-    }
-
-    #[test]
-    fn the_proxy_is_the_hessian_of_the_dirichlet_energy_and_pins_vertex_0() {
-        let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
-        let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
-        let pattern = system_pattern(&pb);
-        let a = laplacian_proxy(&pb, &pattern, None);
-        // x^T A x / 2 = sum_t a_t |J_t|^2 / sum a for any map x (the energy is quadratic)
-        let x: Vec<f64> = (0..pb.n_dofs()).map(|i| ((i * 37 % 101) as f64 / 101.0).sin()).collect();
-        let quad: f64 = dot(&x, &pattern.sym_mul(&a, &x)) / 2.0;
-        let dirichlet: f64 = (0..pb.n_faces())
-            .map(|t| {
-                let w = pb.ops[t].wirtinger(pb.target(&x, t));
-                pb.ops[t].area * 2.0 * (w.x() + w.y())
-            })
-            .sum::<f64>()
-            / pb.total_area;
-        assert!((quad - dirichlet).abs() < 1e-10 * dirichlet, "{quad} vs {dirichlet}");
-        // translations are in its kernel; pinned, vertex 0's dofs are the identity's
-        let ones: Vec<f64> = (0..pb.n_dofs()).map(|i| (i % 2) as f64).collect();
-        assert!(norm(&pattern.sym_mul(&a, &ones)) < 1e-9);
-        let p = laplacian_proxy(&pb, &pattern, Some(0));
-        let e0: Vec<f64> = (0..pb.n_dofs()).map(|i| f64::from(u8::from(i == 1))).collect();
-        assert_eq!(pattern.sym_mul(&p, &e0), e0);
     }
 
     /// Both variants descend without flips to KP's minimum on a generated mesh (the shared

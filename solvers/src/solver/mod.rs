@@ -5,9 +5,11 @@
 
 #[cfg(test)]
 mod after_papers_tests;
+pub mod aqp;
 pub mod catalogue;
 pub mod lbfgs;
 pub mod newton;
+pub mod proxy;
 
 pub use crate::line_search::LineSearchSettings;
 pub use catalogue::{SlimOptions, SolverEntry, SolverError, SolverOptions, SolverSpec, SOLVERS};
