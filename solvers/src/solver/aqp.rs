@@ -85,30 +85,11 @@ pub fn aqp(
     let mut ev = Evaluation::default();
     problem.evaluate(&x, &mut ev)?;
     let init_energy = ev.energy;
-    let mut record = IterationRecord {
-        iter: 0,
-        energy: ev.energy,
-        grad_norm: norm(&ev.grad),
-        neg_eig: ev.neg_eig,
-        indefinite_elems: ev.indefinite_elems,
-        flips: problem.flips(&x),
-        extra: AQP_COLUMNS.iter().map(|&n| (n, f64::NAN)).collect(),
-        ..Default::default()
-    };
+    let mut record = IterationRecord::initial(problem, &x, &ev, &AQP_COLUMNS);
     let mut halt = observer.observe(&record).stop_reason();
-    let outcome = |iterations, stop_reason, record: &IterationRecord, x| Outcome {
-        iterations,
-        stop_reason,
-        init_energy,
-        final_energy: record.energy,
-        grad_norm: record.grad_norm,
-        flips: record.flips,
-        x,
-        analysis,
-    };
     let mut proxy = match proxy {
         Ok(p) => p,
-        Err(reason) => return Ok(outcome(0, halt.unwrap_or(reason), &record, x)),
+        Err(reason) => return Ok(Outcome::at(x, &record, init_energy, halt.unwrap_or(reason), analysis)),
     };
 
     let theta = theta(KAPPA);
@@ -216,7 +197,7 @@ pub fn aqp(
         };
         halt = observer.observe(&record).stop_reason();
     };
-    Ok(outcome(iter, stop, &record, x))
+    Ok(Outcome::at(x, &record, init_energy, stop, analysis))
 }
 
 #[cfg(test)]

@@ -188,17 +188,7 @@ pub fn lbfgs(
     let mut ev = Evaluation::default();
     problem.evaluate(&x, &mut ev)?;
     let init_energy = ev.energy;
-    let nan_extra = || LBFGS_COLUMNS.iter().map(|&n| (n, f64::NAN)).collect();
-    let mut record = IterationRecord {
-        iter: 0,
-        energy: ev.energy,
-        grad_norm: norm(&ev.grad),
-        neg_eig: ev.neg_eig,
-        indefinite_elems: ev.indefinite_elems,
-        flips: problem.flips(&x),
-        extra: nan_extra(),
-        ..Default::default()
-    };
+    let mut record = IterationRecord::initial(problem, &x, &ev, &LBFGS_COLUMNS);
     let mut halt = observer.observe(&record).stop_reason().or(setup_stop.take());
 
     let mut history = History::new(variant.memory);
@@ -300,16 +290,7 @@ pub fn lbfgs(
         };
         halt = observer.observe(&record).stop_reason();
     };
-    Ok(Outcome {
-        iterations: iter,
-        stop_reason: stop,
-        init_energy,
-        final_energy: record.energy,
-        grad_norm: record.grad_norm,
-        flips: record.flips,
-        x,
-        analysis,
-    })
+    Ok(Outcome::at(x, &record, init_energy, stop, analysis))
 }
 
 #[cfg(test)]

@@ -55,6 +55,28 @@ pub struct IterationRecord {
     pub extra: Vec<(&'static str, f64)>,
 }
 
+impl IterationRecord {
+    /// Row 0: the initial state `ev` of `x`, with the solver's extra columns `extra` not yet
+    /// defined (NaN: no step has been taken).
+    pub fn initial(
+        problem: &crate::problem::MapProblem,
+        x: &[f64],
+        ev: &crate::problem::Evaluation,
+        extra: &[&'static str],
+    ) -> IterationRecord {
+        IterationRecord {
+            iter: 0,
+            energy: ev.energy,
+            grad_norm: crate::problem::norm(&ev.grad),
+            neg_eig: ev.neg_eig,
+            indefinite_elems: ev.indefinite_elems,
+            flips: problem.flips(x),
+            extra: extra.iter().map(|&n| (n, f64::NAN)).collect(),
+            ..Default::default()
+        }
+    }
+}
+
 /// What the observer wants next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flow {
@@ -346,6 +368,28 @@ pub struct Outcome {
     pub flips: usize,
     /// The system's symbolic analysis (`None` for solvers without a shared system).
     pub analysis: Option<AnalysisReport>,
+}
+
+impl Outcome {
+    /// A run that ends at the iterate `x` its last reported row `last` describes.
+    pub fn at(
+        x: Vec<f64>,
+        last: &IterationRecord,
+        init_energy: f64,
+        stop_reason: StopReason,
+        analysis: Option<AnalysisReport>,
+    ) -> Outcome {
+        Outcome {
+            x,
+            iterations: last.iter,
+            stop_reason,
+            init_energy,
+            final_energy: last.energy,
+            grad_norm: last.grad_norm,
+            flips: last.flips,
+            analysis,
+        }
+    }
 }
 
 #[cfg(test)]

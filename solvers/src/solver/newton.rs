@@ -113,17 +113,8 @@ pub fn newton(
     let mut ev = Evaluation::default();
     problem.evaluate(&x, &mut ev)?;
     let init_energy = ev.energy;
-    let mut record = IterationRecord {
-        iter: 0,
-        energy: ev.energy,
-        grad_norm: norm(&ev.grad),
-        neg_eig: ev.neg_eig,
-        indefinite_elems: ev.indefinite_elems,
-        flips: problem.flips(&x),
-        // No system has been built at row 0: its counters are not defined yet.
-        extra: strategy.counter_names().iter().map(|&n| (n, f64::NAN)).collect(),
-        ..Default::default()
-    };
+    // No system has been built at row 0: the strategy's counters are not defined yet.
+    let mut record = IterationRecord::initial(problem, &x, &ev, strategy.counter_names());
     let mut halt = observer.observe(&record).stop_reason();
 
     let mut blocks = vec![Matrix6::<f64>::zeros(); problem.n_faces()];
@@ -246,16 +237,7 @@ pub fn newton(
         };
         halt = observer.observe(&record).stop_reason();
     };
-    Ok(Outcome {
-        iterations: iter,
-        stop_reason: stop,
-        init_energy,
-        final_energy: record.energy,
-        grad_norm: record.grad_norm,
-        flips: record.flips,
-        x,
-        analysis: Some(analysis),
-    })
+    Ok(Outcome::at(x, &record, init_energy, stop, Some(analysis)))
 }
 
 #[cfg(test)]
