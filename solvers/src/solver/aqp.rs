@@ -178,13 +178,6 @@ pub fn aqp(
         t_cum += t_iter;
         iter += 1;
         record = IterationRecord {
-            iter,
-            energy: ev.energy,
-            grad_norm: norm(&ev.grad),
-            step: accepted.t,
-            neg_eig: ev.neg_eig,
-            indefinite_elems: ev.indefinite_elems,
-            flips,
             t_assemble_s: t_eval,
             t_project_s: 0.0,
             t_solve_s: t_solve,
@@ -194,6 +187,7 @@ pub fn aqp(
             shift,
             ls_evals,
             extra: AQP_COLUMNS.iter().copied().zip([eta, energy_y, t_init]).collect(),
+            ..IterationRecord::of(iter, &ev, flips, accepted.t)
         };
         halt = observer.observe(&record).stop_reason();
     };

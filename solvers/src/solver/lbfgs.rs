@@ -267,13 +267,6 @@ pub fn lbfgs(
         t_cum += t_iter;
         iter += 1;
         record = IterationRecord {
-            iter,
-            energy: ev.energy,
-            grad_norm: norm(&ev.grad),
-            step: accepted.t,
-            neg_eig: ev.neg_eig,
-            indefinite_elems: ev.indefinite_elems,
-            flips,
             t_assemble_s: t_eval,
             t_project_s: 0.0,
             t_solve_s: t_solve,
@@ -287,6 +280,7 @@ pub fn lbfgs(
                 .copied()
                 .zip([if reset { 0 } else { pairs } as f64, f64::from(u8::from(skipped)), f64::from(u8::from(reset))])
                 .collect(),
+            ..IterationRecord::of(iter, &ev, flips, accepted.t)
         };
         halt = observer.observe(&record).stop_reason();
     };

@@ -65,13 +65,22 @@ impl IterationRecord {
         extra: &[&'static str],
     ) -> IterationRecord {
         IterationRecord {
-            iter: 0,
+            extra: extra.iter().map(|&n| (n, f64::NAN)).collect(),
+            ..IterationRecord::of(0, ev, problem.flips(x), 0.0)
+        }
+    }
+
+    /// Row `iter`: the iterate evaluated in `ev` with `flips` inverted elements, reached by a
+    /// step of length `step`; timings, shift, `ls_evals` and extras to be filled in.
+    pub fn of(iter: usize, ev: &crate::problem::Evaluation, flips: usize, step: f64) -> IterationRecord {
+        IterationRecord {
+            iter,
             energy: ev.energy,
             grad_norm: crate::problem::norm(&ev.grad),
+            step,
             neg_eig: ev.neg_eig,
             indefinite_elems: ev.indefinite_elems,
-            flips: problem.flips(x),
-            extra: extra.iter().map(|&n| (n, f64::NAN)).collect(),
+            flips,
             ..Default::default()
         }
     }

@@ -9,7 +9,7 @@ use crate::hessian::pn::{Filtered, TrustRegion};
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
-use crate::problem::{norm, EnergyScratch, EvalError, Evaluation, MapProblem};
+use crate::problem::{EnergyScratch, EvalError, Evaluation, MapProblem};
 use crate::smoothness::{self, Matrix8};
 use nalgebra::Matrix6;
 use rayon::prelude::*;
@@ -218,13 +218,6 @@ pub fn newton(
         t_cum += t_iter;
         iter += 1;
         record = IterationRecord {
-            iter,
-            energy: ev.energy,
-            grad_norm: norm(&ev.grad),
-            step: acc.t,
-            neg_eig: ev.neg_eig,
-            indefinite_elems: ev.indefinite_elems,
-            flips,
             t_assemble_s: t_eval + t_scatter,
             t_project_s: t_project,
             t_solve_s: t_solve,
@@ -234,6 +227,7 @@ pub fn newton(
             shift: Some(lin.tikhonov),
             ls_evals,
             extra: strategy.counter_names().iter().copied().zip(counters).collect(),
+            ..IterationRecord::of(iter, &ev, flips, acc.t)
         };
         halt = observer.observe(&record).stop_reason();
     };
