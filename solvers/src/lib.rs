@@ -31,5 +31,6 @@ pub mod param;
 pub mod problem;
 pub mod smoothness;
 pub mod solver;
+pub mod supernodal;
 pub mod system;
 pub mod task;

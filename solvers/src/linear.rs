@@ -10,11 +10,13 @@
 use crate::assembly::Pattern;
 pub use crate::linear_error::LinearError;
 use crate::ordering::{metis_order_timed, Ordering};
+use crate::supernodal::{Schedule, Workspace};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw,
+    SymmetricOrdering,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
@@ -95,6 +97,9 @@ pub struct Analysis {
     requested: (Ordering, usize),
     /// The ordering used (`metis` falls back to AMD on tiny graphs).
     ordering: Ordering,
+    /// The subtree-parallel numeric factorization's schedule (`supernodal`), when faer chose
+    /// a supernodal factor; `None` for a simplicial one (small systems), which faer factorizes.
+    schedule: Option<Schedule>,
     /// Wall time of the ordering plus the symbolic factorization, without any wait for
     /// another thread's METIS call.
     seconds: f64,
@@ -126,8 +131,15 @@ impl Analysis {
         )
         .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
         let used = if perm.is_some() { Ordering::Metis } else { Ordering::Amd };
+        let schedule = match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(sn) => Some(
+                Schedule::new(sn, symbolic.perm(), symbolic_a.col_ptr(), symbolic_a.row_idx())
+                    .map_err(|e| LinearError::Symbolic(format!("the supernodal schedule: {e:?}")))?,
+            ),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        };
         let seconds = t0.elapsed().saturating_sub(waited).as_secs_f64();
-        Ok(Analysis { symbolic_a, symbolic, requested: (ordering, block), ordering: used, seconds })
+        Ok(Analysis { symbolic_a, symbolic, requested: (ordering, block), ordering: used, schedule, seconds })
     }
 
     /// Wall time the analysis took when it was computed.
@@ -239,7 +251,34 @@ pub struct SpdSolver {
     scaled: Vec<f64>,
     scale: Vec<f64>,
     mem: MemBuffer,
+    /// The parallelism `mem` was sized for.
+    mem_par: Par,
+    /// Per-thread scratch of the subtree-parallel factorization.
+    workspace: Workspace,
+    /// Factorize with faer's own (supernode after supernode) kernel even when a schedule
+    /// exists: `time-system --kernel faer`, to measure one against the other.
+    faer_kernel: bool,
     factored: bool,
+}
+
+/// faer's parallelism for the calling thread: the threads of the rayon pool it runs in (a
+/// run's `threads_per_run`), sequential in a pool of one. faer's supernodal factorization
+/// visits the supernodes in order and parallelizes the dense kernels inside each (the
+/// updates and the diagonal blocks), whose reductions do not depend on the schedule, so the
+/// factor is the same bits for a given thread count (`tests::factor_is_deterministic_in_a_pool`).
+pub fn current_par() -> Par {
+    match rayon::current_num_threads() {
+        0 | 1 => Par::Seq,
+        n => Par::rayon(n),
+    }
+}
+
+fn scratch(symbolic: &SymbolicCholesky<usize>, par: Par) -> MemBuffer {
+    MemBuffer::new(
+        symbolic
+            .factorize_numeric_llt_scratch::<f64>(par, Default::default())
+            .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
+    )
 }
 
 impl SpdSolver {
@@ -294,14 +333,9 @@ impl SpdSolver {
     }
 
     fn with_analysis(analysis: Arc<Analysis>, diag: Vec<usize>, reused: bool, setup_seconds: f64) -> SpdSolver {
-        let par = Par::Seq;
-        let symbolic = &analysis.symbolic;
-        let mem = MemBuffer::new(
-            symbolic
-                .factorize_numeric_llt_scratch::<f64>(par, Default::default())
-                .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
-        );
-        let l_values = vec![0.0; symbolic.len_val()];
+        let mem_par = current_par();
+        let mem = scratch(&analysis.symbolic, mem_par);
+        let l_values = vec![0.0; analysis.symbolic.len_val()];
         let n = analysis.symbolic_a.nrows();
         SpdSolver {
             n,
@@ -313,6 +347,9 @@ impl SpdSolver {
             scaled: Vec::new(),
             scale: vec![1.0; n],
             mem,
+            mem_par,
+            workspace: Workspace::default(),
+            faer_kernel: false,
             factored: false,
         }
     }
@@ -337,6 +374,12 @@ impl SpdSolver {
         self.analysis.ordering
     }
 
+    /// Factorize with faer's sequential-over-supernodes kernel (`true`) instead of the
+    /// subtree-parallel one of `supernodal` (the default); for benchmarks.
+    pub fn set_faer_kernel(&mut self, faer: bool) {
+        self.faer_kernel = faer;
+    }
+
     /// Number of stored entries of the Cholesky factor (with supernodal padding).
     pub fn factor_len(&self) -> usize {
         self.l_values.len()
@@ -350,31 +393,52 @@ impl SpdSolver {
     }
 
     /// Numeric factorization of `values` (scaled and shifted per `settings`), kept for any
-    /// number of [`SpdSolver::solve_factored`] calls until the next factorization.
+    /// number of [`SpdSolver::solve_factored`] calls until the next factorization. Runs on
+    /// the threads of the calling rayon pool ([`current_par`]).
     pub fn factorize(&mut self, values: &[f64], settings: &LinearSettings) -> Result<(), LinearError> {
         self.factored = false;
+        let par = self.par();
         let symbolic_a = &self.analysis.symbolic_a;
         let (col_ptr, row_idx) = (symbolic_a.col_ptr(), symbolic_a.row_idx());
         regularize(col_ptr, row_idx, &self.diag, values, settings, &mut self.scaled, &mut self.scale)?;
-        let a = SparseColMatRef::new(symbolic_a.as_ref(), &self.scaled);
-        self.analysis
-            .symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut self.l_values,
-                a,
-                Side::Lower,
-                LltRegularization::default(),
-                Par::Seq,
-                MemStack::new(&mut self.mem),
-                Default::default(),
-            )
-            .map_err(|e| match e {
-                faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
-                    LinearError::NotPositiveDefinite { pivot: index }
-                }
-            })?;
+        let not_pd = |e| match e {
+            faer::linalg::cholesky::llt::factor::LltError::NonPositivePivot { index } => {
+                LinearError::NotPositiveDefinite { pivot: index }
+            }
+        };
+        match (&self.analysis.schedule, self.analysis.symbolic.raw()) {
+            (Some(schedule), SymbolicCholeskyRaw::Supernodal(sn)) if !self.faer_kernel => {
+                crate::supernodal::factorize(sn, schedule, &mut self.workspace, &self.scaled, &mut self.l_values)
+                    .map_err(not_pd)?;
+            }
+            _ => {
+                let a = SparseColMatRef::new(symbolic_a.as_ref(), &self.scaled);
+                self.analysis
+                    .symbolic
+                    .factorize_numeric_llt::<f64>(
+                        &mut self.l_values,
+                        a,
+                        Side::Lower,
+                        LltRegularization::default(),
+                        par,
+                        MemStack::new(&mut self.mem),
+                        Default::default(),
+                    )
+                    .map_err(not_pd)?;
+            }
+        }
         self.factored = true;
         Ok(())
+    }
+
+    /// [`current_par`], with the scratch memory resized when it changed since the last call.
+    fn par(&mut self) -> Par {
+        let par = current_par();
+        if par != self.mem_par {
+            self.mem = scratch(&self.analysis.symbolic, par);
+            self.mem_par = par;
+        }
+        par
     }
 
     /// Solve with the factor of the last successful [`SpdSolver::factorize`].
@@ -392,8 +456,9 @@ impl SpdSolver {
         x.clear();
         x.extend(b.iter().zip(&self.scale).map(|(bi, si)| bi * si));
         let rhs = MatMut::from_column_major_slice_mut(x, self.n, 1);
+        let par = self.par();
         let llt = LltRef::new(&self.analysis.symbolic, &self.l_values);
-        llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.mem));
+        llt.solve_in_place_with_conj(Conj::No, rhs, par, MemStack::new(&mut self.mem));
         for (xi, si) in x.iter_mut().zip(&self.scale) {
             *xi *= si;
         }

@@ -118,6 +118,13 @@ enum Command {
         ordering: OrderingArg,
         #[arg(long, default_value_t = 5)]
         repeat: usize,
+        /// Threads of the factorization and solve (a run's `threads_per_run`).
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
+        threads: u16,
+        /// `subtree`: mapbench's factorization, parallel over the elimination tree (what runs
+        /// use); `faer`: faer's own, parallel only inside each supernode.
+        #[arg(long, value_enum, default_value = "subtree")]
+        kernel: KernelArg,
     },
     /// Compare a run folder with a baseline: exit 1 on a regression (more iterations, higher
     /// final energy, worse status, new flips), 2 when a baseline run is missing.
@@ -215,6 +222,12 @@ fn append_history(db: &std::path::Path, run_dir: &std::path::Path) -> bool {
 enum OrderingArg {
     Metis,
     Amd,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum KernelArg {
+    Subtree,
+    Faer,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -327,13 +340,16 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             eprintln!("wrote {} systems to {}", files.len(), out.display());
             Ok(ExitCode::SUCCESS)
         }
-        Command::TimeSystem { matrix, ordering, repeat } => {
+        Command::TimeSystem { matrix, ordering, repeat, threads, kernel } => {
             let ordering = match ordering {
                 OrderingArg::Metis => solvers::ordering::Ordering::Metis,
                 OrderingArg::Amd => solvers::ordering::Ordering::Amd,
             };
             let sys = export::read_matrix_market(&matrix)?;
-            let t = export::time_system(&sys, ordering, repeat).with_context(|| matrix.display().to_string())?;
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.into()).build()?;
+            let t = pool
+                .install(|| export::time_system(&sys, ordering, repeat, kernel == KernelArg::Faer))
+                .with_context(|| matrix.display().to_string())?;
             out(format_args!("{}\n", serde_json::to_string(&t)?))?;
             Ok(ExitCode::SUCCESS)
         }

@@ -103,11 +103,20 @@ pub struct Timing {
     pub factorize_ms: f64,
     pub solve_ms: f64,
     pub factor_entries: usize,
+    /// The rayon threads the factorization and solve ran on.
+    pub threads: usize,
+    /// `subtree` (mapbench's parallel factorization) or `faer` (faer's own kernel).
+    pub kernel: &'static str,
 }
 
 /// Analyse once, then factorize and solve `repeat` times (no Jacobi scaling or shift: the
 /// matrix as written), as `scripts/bench_linear_solvers.py` times the other solvers.
-pub fn time_system(sys: &SystemFile, ordering: solvers::ordering::Ordering, repeat: usize) -> Result<Timing> {
+pub fn time_system(
+    sys: &SystemFile,
+    ordering: solvers::ordering::Ordering,
+    repeat: usize,
+    faer_kernel: bool,
+) -> Result<Timing> {
     use solvers::linear::{LinearSettings, SpdSolver};
     use std::time::Instant;
     let diag: Vec<usize> = (0..sys.n)
@@ -121,6 +130,7 @@ pub fn time_system(sys: &SystemFile, ordering: solvers::ordering::Ordering, repe
     let t0 = Instant::now();
     let mut lin = SpdSolver::from_csc_ordered(sys.n, sys.col_ptr.clone(), sys.row_idx.clone(), diag, ordering, block)?;
     let analyse_ms = 1e3 * t0.elapsed().as_secs_f64();
+    lin.set_faer_kernel(faer_kernel);
     let settings = LinearSettings { tikhonov: 0.0, jacobi: false, ordering };
     let b = vec![1.0; sys.n];
     let (mut fact, mut solve) = (Vec::new(), Vec::new());
@@ -139,6 +149,8 @@ pub fn time_system(sys: &SystemFile, ordering: solvers::ordering::Ordering, repe
         factorize_ms: crate::stats::median(&mut fact).unwrap_or(f64::NAN),
         solve_ms: crate::stats::median(&mut solve).unwrap_or(f64::NAN),
         factor_entries: lin.factor_len(),
+        threads: rayon::current_num_threads(),
+        kernel: if faer_kernel { "faer" } else { "subtree" },
     })
 }
 
