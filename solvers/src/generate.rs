@@ -23,6 +23,8 @@ pub const GENERATED: &[(&str, &str)] = &[
     ("bumpy_10k", "disk patch of a bumpy height field, ~10k vertices"),
     ("bumpy_50k", "disk patch of a bumpy height field, ~50k vertices"),
     ("bumpy_200k", "disk patch of a bumpy height field, ~200k vertices (scaling runs)"),
+    ("bumpy_500k", "disk patch of a bumpy height field, ~500k vertices (scaling runs, tag huge)"),
+    ("bumpy_1m", "disk patch of a bumpy height field, ~1M vertices (scaling runs, tag huge)"),
     ("saddle_10k", "disk patch of a hyperbolic paraboloid z = 0.6 (x^2 - y^2), ~10k vertices"),
     ("cap_2k", "spherical cap of polar angle 0.45 pi (hemisphere-like), ~2k vertices"),
     ("strip_thin", "long thin gently bent strip, 50:1 aspect ratio, ~1.3k vertices"),
@@ -75,6 +77,9 @@ pub fn generate(name: &str) -> Result<Mesh, UnknownGenerated> {
         "bumpy_10k" => ring_disk(56, &plane(bumps)),
         "bumpy_50k" => ring_disk(126, &plane(bumps)),
         "bumpy_200k" => ring_disk(252, &plane(bumps)),
+        // pi rings^2 vertices: 399 rings are 500k, 564 are 1M.
+        "bumpy_500k" => ring_disk(399, &plane(bumps)),
+        "bumpy_1m" => ring_disk(564, &plane(bumps)),
         "saddle_10k" => ring_disk(56, &plane(|x, y| 0.6 * (x * x - y * y))),
         "cap_2k" => ring_disk(26, &sphere(0.45 * PI)),
         "short_boundary_3k" => ring_disk(42, &sphere(PI - 0.55)),
@@ -330,8 +335,8 @@ mod tests {
     #[test]
     fn every_generated_mesh_is_a_valid_disk_of_the_advertised_size() {
         for name in generated_names() {
-            if name == "bumpy_200k" {
-                continue; // covered by the size check below without validating (slow in debug)
+            if HUGE.contains(&name) {
+                continue; // huge_meshes_have_their_advertised_size, without validating (slow in debug)
             }
             let mesh = generate(name).unwrap();
             let report = validate(&mesh, true);
@@ -352,6 +357,30 @@ mod tests {
                 }
             }
         }
+    }
+
+    const HUGE: [&str; 3] = ["bumpy_200k", "bumpy_500k", "bumpy_1m"];
+
+    #[test]
+    fn huge_meshes_have_their_advertised_size() {
+        for (name, advertised) in HUGE.iter().zip([200e3, 500e3, 1e6]) {
+            let mesh = generate(name).unwrap();
+            let n = mesh.n_vertices() as f64;
+            assert!((n / advertised - 1.0).abs() < 0.01, "{name}: {n} vertices");
+            // a closed disk of rings: V - E + F = 1 without building the edge set
+            assert_eq!(mesh.n_faces(), 2 * mesh.n_vertices() - 2 - boundary_len(name), "{name}");
+        }
+    }
+
+    /// Vertices on the outer ring of the ring disk of `name` (`ring_disk`'s count rule).
+    fn boundary_len(name: &str) -> usize {
+        let rings = match name {
+            "bumpy_200k" => 252,
+            "bumpy_500k" => 399,
+            _ => 564,
+        };
+        let emb = plane(bumps);
+        ((TAU * (emb.ring_radius)(1.0) * rings as f64).round() as usize).max(6)
     }
 
     #[test]
