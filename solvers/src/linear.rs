@@ -262,10 +262,9 @@ pub struct SpdSolver {
 }
 
 /// faer's parallelism for the calling thread: the threads of the rayon pool it runs in (a
-/// run's `threads_per_run`), sequential in a pool of one. faer's supernodal factorization
-/// visits the supernodes in order and parallelizes the dense kernels inside each (the
-/// updates and the diagonal blocks), whose reductions do not depend on the schedule, so the
-/// factor is the same bits for a given thread count (`tests::factor_is_deterministic_in_a_pool`).
+/// run's `threads_per_run`), sequential in a pool of one. Used by faer's kernels here (the
+/// simplicial factorization, `--kernel faer`, the solves); the supernodal factorization
+/// schedules its own threads (`supernodal`).
 pub fn current_par() -> Par {
     match rayon::current_num_threads() {
         0 | 1 => Par::Seq,
