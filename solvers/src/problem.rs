@@ -7,6 +7,7 @@
 use crate::energy::EnergyKind;
 use crate::hessian::{count_negative, element_gradient, element_hessian, ElementState};
 use crate::local::{local_ops, signed_area, LocalOp};
+use crate::mesh::topology::VertexCorners;
 use crate::mesh::Mesh;
 use crate::smoothness::{self, Projection, Smoothness, Vector8};
 use rayon::prelude::*;
@@ -40,6 +41,8 @@ pub struct MapProblem {
     pub penalty: Option<Penalty>,
     /// The energy smoothness term (Section 4.3), added to the normalized energy.
     pub smoothness: Option<Smoothness>,
+    /// The faces around each vertex, for summing the gradient per vertex in parallel.
+    incidence: VertexCorners,
 }
 
 /// Soft handles `lambda * sum |z_P - c|^2` (design.md: gradient `2 lambda (z_P - c)`,
@@ -107,6 +110,7 @@ impl MapProblem {
             energy,
             penalty: None,
             smoothness: None,
+            incidence: VertexCorners::new(&mesh.faces, mesh.n_vertices()),
         })
     }
 
@@ -186,51 +190,64 @@ impl MapProblem {
     }
 
     /// Energy, gradient, element states and inertia counts at `x`, reusing `out`'s buffers.
+    ///
+    /// One parallel pass over the faces in fixed chunks computes each element's state,
+    /// weighted energy, local gradient and inertia; a second, parallel over the vertices,
+    /// sums the gradient in face order ([`VertexCorners`]); the energy is summed in face order.
+    /// Nothing is allocated once `out` has grown, and the result is the same bits for any
+    /// thread count.
     pub fn evaluate(&self, x: &[f64], out: &mut Evaluation) -> Result<(), EvalError> {
         let nf = self.n_faces();
         out.states.resize(nf, ElementState::default());
-        // Per-element: state, weighted energy and local gradient, in fixed chunks.
         out.locals.resize(nf, [0.0; 7]);
-        let failure = out
+        // Per chunk: the first failure, or the chunk's (negative eigenvalues, indefinite
+        // elements); the integer counts add up in any order.
+        let chunk = |c: usize, states: &mut [ElementState], locals: &mut [[f64; 7]]| {
+            let mut counts = (0usize, 0usize);
+            for (i, (st, loc)) in states.iter_mut().zip(locals.iter_mut()).enumerate() {
+                let t = c * CHUNK + i;
+                let op = &self.ops[t];
+                let w = op.wirtinger(self.target(x, t));
+                let (xx, yy) = (w.x(), w.y());
+                let m = self.energy.modifiers(xx, yy).ok_or(EvalError::NotInDomain { element: t, det: xx - yy })?;
+                *st = ElementState::new(w, m);
+                let g = element_gradient(op, st);
+                if !m.psi.is_finite() || g.iter().any(|v| !v.is_finite()) {
+                    return Err(EvalError::NonFinite { element: t, psi: m.psi });
+                }
+                loc[0] = op.area * m.psi;
+                loc[1..].copy_from_slice(g.as_slice());
+                let n = count_negative(st);
+                counts = (counts.0 + n, counts.1 + usize::from(n > 0));
+            }
+            Ok(counts)
+        };
+        let counts = out
             .states
             .par_chunks_mut(CHUNK)
             .zip(out.locals.par_chunks_mut(CHUNK))
             .enumerate()
-            .map(|(c, (states, locals))| {
-                for (i, (st, loc)) in states.iter_mut().zip(locals.iter_mut()).enumerate() {
-                    let t = c * CHUNK + i;
-                    let op = &self.ops[t];
-                    let w = op.wirtinger(self.target(x, t));
-                    let (xx, yy) = (w.x(), w.y());
-                    let m = self.energy.modifiers(xx, yy).ok_or(EvalError::NotInDomain { element: t, det: xx - yy })?;
-                    *st = ElementState::new(w, m);
-                    let g = element_gradient(op, st);
-                    if !m.psi.is_finite() || g.iter().any(|v| !v.is_finite()) {
-                        return Err(EvalError::NonFinite { element: t, psi: m.psi });
-                    }
-                    loc[0] = op.area * m.psi;
-                    loc[1..].copy_from_slice(g.as_slice());
-                }
-                Ok(())
-            })
+            .map(|(c, (states, locals))| chunk(c, states, locals))
             // The first failing chunk in order: the lowest failing element, a stable message.
-            .find_map_first(|r: Result<(), EvalError>| r.err());
-        if let Some(e) = failure {
-            return Err(e);
-        }
+            .try_reduce(|| (0, 0), |a, b| Ok((a.0 + b.0, a.1 + b.1)));
+        (out.neg_eig, out.indefinite_elems) = match counts {
+            Ok(c) => c,
+            Err(e) => return Err(self.first_failure(x, e)),
+        };
         let inv = 1.0 / self.total_area;
-        out.grad.clear();
+        let locals = &out.locals;
         out.grad.resize(self.n_dofs(), 0.0);
-        let mut energy = 0.0;
-        for (t, loc) in out.locals.iter().enumerate() {
-            energy += loc[0];
-            let f = self.faces[t];
-            for k in 0..3 {
-                out.grad[2 * f[k]] += loc[1 + 2 * k] * inv;
-                out.grad[2 * f[k] + 1] += loc[2 + 2 * k] * inv;
+        out.grad.par_chunks_mut(2).with_min_len(CHUNK).enumerate().for_each(|(v, g)| {
+            let (mut gu, mut gv) = (0.0, 0.0);
+            for &corner in self.incidence.of(v) {
+                let (t, k) = (corner as usize / 3, corner as usize % 3);
+                gu += locals[t][1 + 2 * k] * inv;
+                gv += locals[t][2 + 2 * k] * inv;
             }
-        }
-        out.energy = energy * inv;
+            g[0] = gu;
+            g[1] = gv;
+        });
+        out.energy = locals.iter().map(|loc| loc[0]).sum::<f64>() * inv;
         if let Some(p) = &self.penalty {
             out.energy += p.value(x);
             p.add_gradient(x, &mut out.grad);
@@ -255,17 +272,29 @@ impl MapProblem {
                 }
             }
         }
-        let counts: (usize, usize) = out
-            .states
-            .par_iter()
-            .map(|s| {
-                let n = count_negative(s);
-                (n, usize::from(n > 0))
-            })
-            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-        out.neg_eig = counts.0;
-        out.indefinite_elems = counts.1;
         Ok(())
+    }
+
+    /// The failure of the lowest failing element. `try_reduce` may stop at any failing chunk;
+    /// the reported element must not depend on the thread count, so the chunks before the
+    /// failing one are checked again in order (a failure is the end of a run: no hot path).
+    fn first_failure(&self, x: &[f64], found: EvalError) -> EvalError {
+        let last = match found {
+            EvalError::NotInDomain { element, .. } | EvalError::NonFinite { element, .. } => element,
+        };
+        for t in 0..last {
+            let op = &self.ops[t];
+            let w = op.wirtinger(self.target(x, t));
+            let (xx, yy) = (w.x(), w.y());
+            let Some(m) = self.energy.modifiers(xx, yy) else {
+                return EvalError::NotInDomain { element: t, det: xx - yy };
+            };
+            let g = element_gradient(op, &ElementState::new(w, m));
+            if !m.psi.is_finite() || g.iter().any(|v| !v.is_finite()) {
+                return EvalError::NonFinite { element: t, psi: m.psi };
+            }
+        }
+        found
     }
 
     /// `s^T H s` with `H` the unmodified Hessian of the energy at the iterate `ev` was

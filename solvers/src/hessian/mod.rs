@@ -101,13 +101,30 @@ pub fn k_eigen(s: &ElementState) -> KEigen {
 /// round-off at exactly-singular states (e.g. `2 a1 = 0` at an isometry) is not counted.
 pub const NEG_EIG_RTOL: f64 = 1e-12;
 
+/// The eigenvalues of `K` in the order of [`k_eigen`], without its eigenvectors: the radial
+/// block `[[p, q], [q, r]]` from its mean and half-gap, no trigonometry. Every evaluation
+/// counts the inertia of every element, so this is on the per-iteration path (issue 21); the
+/// values agree with [`k_eigen`]'s to round-off (`k_eigenvalues_match_the_eigensystem`).
+#[inline]
+pub fn k_eigenvalues(s: &ElementState) -> [f64; 4] {
+    let (x, y) = (s.x(), s.y());
+    let m = &s.m;
+    let p = 2.0 * m.a1 + 4.0 * m.b1 * x;
+    let r = 2.0 * m.a2 + 4.0 * m.b2 * y;
+    let q = 4.0 * m.b3 * (x * y).sqrt();
+    let mean = 0.5 * (p + r);
+    let half_gap = (0.25 * (p - r) * (p - r) + q * q).sqrt();
+    [2.0 * m.a1, 2.0 * m.a2, mean + half_gap, mean - half_gap]
+}
+
 /// Number of negative eigenvalues of the unmodified element Hessian. `M` has full row rank
 /// for a non-degenerate triangle, so by Sylvester's law of inertia this equals the count of
 /// `K` (verified in the reference notes, section 1.4).
+#[inline]
 pub fn count_negative(s: &ElementState) -> usize {
-    let e = k_eigen(s);
-    let scale = e.values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    e.values.iter().filter(|&&v| v < -NEG_EIG_RTOL * scale).count()
+    let values = k_eigenvalues(s);
+    let scale = values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    values.iter().filter(|&&v| v < -NEG_EIG_RTOL * scale).count()
 }
 
 /// Gradient of `A psi` with respect to the 6 local dofs (Appendix A):
@@ -283,6 +300,28 @@ pub(crate) mod tests {
                     assert!((k * eig.vectors[i] - eig.vectors[i] * eig.values[i]).norm() <= 1e-10 * k.norm());
                 }
                 assert!((r - k).norm() <= 1e-11 * k.norm(), "{e:?}");
+            }
+        }
+    }
+
+    /// The trig-free eigenvalues equal the eigensystem's, also where `f_zbar = 0` (an
+    /// isometry or a similarity) and where the radial block is diagonal.
+    #[test]
+    fn k_eigenvalues_match_the_eigensystem() {
+        let mut rng = Lcg(29);
+        for e in all_energies() {
+            let mut states: Vec<ElementState> = (0..300).map(|_| random_element(&mut rng, &e).2).collect();
+            for x in [0.5, 1.0, 2.0] {
+                if let Some(m) = e.modifiers(x, 0.0) {
+                    states.push(ElementState { fz: [x.sqrt(), 0.0], fzb: [0.0, 0.0], m });
+                }
+            }
+            for s in states {
+                let (fast, eig) = (k_eigenvalues(&s), k_eigen(&s).values);
+                let scale = eig.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                for (a, b) in fast.iter().zip(&eig) {
+                    assert!((a - b).abs() <= 1e-13 * scale, "{e:?}: {fast:?} vs {eig:?}");
+                }
             }
         }
     }

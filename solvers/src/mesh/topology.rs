@@ -27,6 +27,44 @@ pub fn vertex_neighbors(faces: &[[usize; 3]], n: usize) -> Vec<Vec<usize>> {
     nbrs
 }
 
+/// For each vertex, its corners `3 t + k` (vertex `k` of face `t`) in increasing face order
+/// (indices `>= n` skipped). Summing per-corner contributions of a vertex in this order gives
+/// the same bits as scattering them face after face, so a gradient can be summed per vertex in
+/// parallel and still not depend on the thread count.
+#[derive(Clone, Debug, Default)]
+pub struct VertexCorners {
+    ptr: Vec<usize>,
+    corners: Vec<u32>,
+}
+
+impl VertexCorners {
+    /// Face counts must fit `u32` (as the Newton pattern's scatter maps).
+    pub fn new(faces: &[[usize; 3]], n: usize) -> VertexCorners {
+        let mut ptr = vec![0usize; n + 1];
+        for &v in faces.iter().flatten().filter(|&&v| v < n) {
+            ptr[v + 1] += 1;
+        }
+        for v in 0..n {
+            ptr[v + 1] += ptr[v];
+        }
+        let mut fill = ptr.clone();
+        let mut corners = vec![0u32; ptr[n]];
+        for (t, f) in faces.iter().enumerate() {
+            for (k, &v) in f.iter().enumerate().filter(|(_, &v)| v < n) {
+                corners[fill[v]] = (3 * t + k) as u32;
+                fill[v] += 1;
+            }
+        }
+        VertexCorners { ptr, corners }
+    }
+
+    /// The corners of vertex `v`, as `3 t + k`.
+    #[inline]
+    pub fn of(&self, v: usize) -> &[u32] {
+        &self.corners[self.ptr[v]..self.ptr[v + 1]]
+    }
+}
+
 /// An undirected edge `a < b` with the faces incident to it, split by traversal direction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Edge {
@@ -276,6 +314,18 @@ mod tests {
             f.push([i, m + j, j]);
         }
         f
+    }
+
+    #[test]
+    fn vertex_corners_list_each_vertex_in_face_order() {
+        let c = VertexCorners::new(&SQUARE, 5);
+        assert_eq!(c.of(0), [0, 3]);
+        assert_eq!(c.of(2), [2, 4]);
+        assert_eq!((c.of(1), c.of(3)), (&[1u32][..], &[5u32][..]));
+        assert!(c.of(4).is_empty(), "unreferenced");
+        // an index out of range is skipped, not a panic
+        let bad = VertexCorners::new(&[[0, 1, 7]], 3);
+        assert_eq!((bad.of(0), bad.of(2)), (&[0u32][..], &[][..]));
     }
 
     #[test]
