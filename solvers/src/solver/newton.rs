@@ -4,14 +4,14 @@
 //! we only replace the system matrix" (Section 6).
 
 use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason, SystemView};
-use crate::assembly::Pattern;
+use crate::assembly::{pack_lower, Lower6, Pattern};
 use crate::hessian::pn::{Filtered, TrustRegion};
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::problem::{EnergyScratch, EvalError, Evaluation, MapProblem};
 use crate::smoothness::{self, Matrix8};
-use nalgebra::Matrix6;
+
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -53,13 +53,13 @@ pub fn project_blocks(
     problem: &MapProblem,
     ev: &Evaluation,
     strategy: &dyn SystemBlock,
-    blocks: &mut Vec<Matrix6<f64>>,
+    blocks: &mut Vec<Lower6>,
     edge_blocks: &mut Vec<Matrix8>,
 ) {
     let weight = problem.weight();
-    blocks.resize(problem.n_faces(), Matrix6::zeros());
+    blocks.resize(problem.n_faces(), [0.0; 21]);
     blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).for_each(|((b, s), op)| {
-        *b = strategy.block(op, s) * weight;
+        *b = pack_lower(&(strategy.block(op, s) * weight));
     });
     if let Some(sm) = &problem.smoothness {
         edge_blocks.resize(sm.pairs.len(), Matrix8::zeros());
@@ -76,7 +76,7 @@ pub fn scatter(
     problem: &MapProblem,
     pattern: &Pattern,
     strategy: &dyn SystemBlock,
-    blocks: &[Matrix6<f64>],
+    blocks: &[Lower6],
     edge_blocks: &[Matrix8],
     values: &mut Vec<f64>,
 ) {
@@ -117,7 +117,7 @@ pub fn newton(
     let mut record = IterationRecord::initial(problem, &x, &ev, strategy.counter_names());
     let mut halt = observer.observe(&record).stop_reason();
 
-    let mut blocks = vec![Matrix6::<f64>::zeros(); problem.n_faces()];
+    let mut blocks: Vec<Lower6> = vec![[0.0; 21]; problem.n_faces()];
     let mut values = Vec::new();
     let mut x_new = Vec::with_capacity(x.len());
     // Per-iteration buffers, allocated once: the right-hand side, the Newton direction and
@@ -213,6 +213,13 @@ pub fn newton(
             break StopReason::NonFinite(e.to_string());
         }
         let t_eval = t0.elapsed().as_secs_f64();
+        eprintln!(
+            "TIMING eval {:.2} scatter {:.2} project {:.2} solve {:.1}",
+            t_eval * 1e3,
+            t_scatter * 1e3,
+            t_project * 1e3,
+            t_solve * 1e3
+        );
         let flips = problem.flips(&x);
         let t_iter = t_start.elapsed().as_secs_f64();
         t_cum += t_iter;
@@ -242,6 +249,7 @@ mod tests {
     use crate::local::LocalOp;
     use crate::mesh::Mesh;
     use crate::solver::{Recorder, StopSettings};
+    use nalgebra::Matrix6;
 
     /// A 4-triangle fan mapped with a stretch, so SD has work to do.
     fn problem() -> (MapProblem, Vec<f64>) {
