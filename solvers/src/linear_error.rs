@@ -11,4 +11,6 @@ pub enum LinearError {
     BadDiagonal { index: usize, value: f64 },
     #[error("solve requested before a successful factorization")]
     NotFactored,
+    #[error("right-hand sides of {len} values do not make whole columns of {rows} rows")]
+    RhsLength { rows: usize, len: usize },
 }

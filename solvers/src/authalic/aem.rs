@@ -36,19 +36,20 @@ impl Preconditioner {
         let mut values = Vec::new();
         problem.laplacian(Some(&problem.positions_of(z0)), &mut values);
         let (bi, bb) = (&problem.block_i, &problem.block_b);
-        let mut interior = SpdSolver::from_csc(bi.n, bi.col_ptr.clone(), bi.row_idx.clone(), bi.diag.clone())?;
+        let mut interior = AuthalicProblem::block_solver(bi)?;
         interior.factorize(&bi.gather(&values), &EXACT)?;
-        let mut boundary = SpdSolver::from_csc(bb.n, bb.col_ptr.clone(), bb.row_idx.clone(), bb.diag.clone())?;
+        let mut boundary = AuthalicProblem::block_solver(bb)?;
         boundary.factorize(&bb.gather(&values), &EXACT)?;
         Ok(Preconditioner { ni: problem.n_interior(), interior, boundary })
     }
 
-    /// `h = M^{-1} g` by triangular solves with the stored factors (Eq. 21).
+    /// `h = M^{-1} g` by triangular solves with the stored factors (Eq. 21); the two interior
+    /// coordinates `[g_I^1; g_I^2]` are the two columns of one solve.
     fn apply(&mut self, g: &[f64]) -> Result<Vec<f64>, LinearError> {
-        let ni = self.ni;
-        let mut h = self.interior.solve_factored(&g[..ni])?;
-        h.extend(self.interior.solve_factored(&g[ni..2 * ni])?);
-        h.extend(self.boundary.solve_factored(&g[2 * ni..])?);
+        let mut h = g.to_vec();
+        let (interior, boundary) = h.split_at_mut(2 * self.ni);
+        self.interior.solve_columns_in_place(interior)?;
+        self.boundary.solve_columns_in_place(boundary)?;
         Ok(h)
     }
 }

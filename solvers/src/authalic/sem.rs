@@ -28,16 +28,8 @@ pub fn sem(
     if let Some(reason) = rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
         return rep.finish(problem, &z, &terms, gnorm, reason);
     }
-    let solvers = SpdSolver::from_csc(
-        problem.n_interior(),
-        problem.block_i.col_ptr.clone(),
-        problem.block_i.row_idx.clone(),
-        problem.block_i.diag.clone(),
-    )
-    .and_then(|si| {
-        let b = &problem.block_b;
-        Ok((si, SpdSolver::from_csc(b.n, b.col_ptr.clone(), b.row_idx.clone(), b.diag.clone())?))
-    });
+    let solvers = AuthalicProblem::block_solver(&problem.block_i)
+        .and_then(|si| Ok((si, AuthalicProblem::block_solver(&problem.block_b)?)));
     let (mut solver_i, mut solver_b) = match solvers {
         Ok(s) => s,
         Err(e) => return rep.finish(problem, &z, &terms, gnorm, StopReason::LinearSolveFailed(e.to_string())),
