@@ -28,7 +28,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];
@@ -36,6 +36,11 @@ path = "quad.obj"
     assert_eq!(good[col("status")], "ok");
     assert_eq!(good[col("stop_reason")], "grad_tol");
     assert_eq!(good[col("flips")], "0");
+    // the OS's resident memory of the run (Linux: /proc), at least the loaded mesh and binary
+    if cfg!(target_os = "linux") {
+        let mb: f64 = good[col("peak_rss_mb")].parse().unwrap();
+        assert!(mb > 1.0 && mb < 4096.0, "{mb}");
+    }
     let bad = &rows[1];
     assert_eq!(bad[col("status")], "failed");
     assert!(bad[col("error")].contains("quad.obj") && bad[col("error")].contains("4 vertices"), "{:?}", bad);

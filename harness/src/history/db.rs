@@ -13,7 +13,7 @@ use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 
 /// The schema this build writes. README "History database" documents it.
-pub const SCHEMA_VERSION: i64 = 2;
+pub const SCHEMA_VERSION: i64 = 3;
 
 /// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).
 pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
@@ -62,6 +62,8 @@ pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
     // config's batches in time order.
     "ALTER TABLE batches ADD COLUMN source TEXT NOT NULL DEFAULT 'run';
     CREATE INDEX batches_by_config ON batches(config_name, started_unix, id);",
+    // v3: each run's peak resident memory (`summary.csv`'s `peak_rss_mb`).
+    "ALTER TABLE runs ADD COLUMN peak_rss_mb REAL;",
 ];
 
 /// Where a batch came from (`batches.source`).
@@ -146,6 +148,7 @@ pub struct RunRow {
     pub repeats: Option<i64>,
     pub shifted_iters: Option<i64>,
     pub clamped_iters: Option<i64>,
+    pub peak_rss_mb: Option<f64>,
 }
 
 impl RunRow {
@@ -172,6 +175,7 @@ impl RunRow {
             repeats: int(s.repeats),
             shifted_iters: int(s.shifted_iters),
             clamped_iters: int(s.clamped_iters),
+            peak_rss_mb: s.peak_rss_mb,
         }
     }
 }
@@ -326,7 +330,7 @@ impl HistoryDb {
             .prepare(
                 "SELECT batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
                  final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, \
-                 shifted_iters, clamped_iters FROM runs WHERE batch_id = ?1 ORDER BY rowid",
+                 shifted_iters, clamped_iters, peak_rss_mb FROM runs WHERE batch_id = ?1 ORDER BY rowid",
             )
             .map_err(&sql)?;
         let rows = stmt
@@ -354,6 +358,7 @@ impl HistoryDb {
                     repeats: r.get(16)?,
                     shifted_iters: r.get(17)?,
                     clamped_iters: r.get(18)?,
+                    peak_rss_mb: r.get(19)?,
                 })
             })
             .map_err(&sql)?
@@ -416,7 +421,8 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
     let mut stmt = tx.prepare(
         "INSERT INTO runs (batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
          final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
-         clamped_iters) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19)",
+         clamped_iters, peak_rss_mb) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, \
+         ?17, ?18, ?19, ?20)",
     )?;
     for r in runs {
         stmt.execute(params![
@@ -439,6 +445,7 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.repeats,
             r.shifted_iters,
             r.clamped_iters,
+            r.peak_rss_mb,
         ])
         .map_err(|source| InsertError::Run {
             run: crate::run_folder::run_stem(&r.dataset, &r.energy, &r.solver),

@@ -20,6 +20,7 @@ fn run(dataset: &str, solver: &str, iterations: usize, energy: f64) -> RunRow {
         time_s: Some(0.5),
         time_norm: Some(1.25),
         status: Status::Ok,
+        peak_rss_mb: Some(96.5),
         ..Default::default()
     })
 }
@@ -113,8 +114,8 @@ fn an_older_schema_is_migrated_in_place() {
     assert_eq!((b.len(), b[0].source, b[0].short_revision()), (1, Source::Run, "1234567".to_string()));
     let r = db.runs(1).unwrap();
     assert_eq!(
-        (r[0].iterations, r[0].status, r[0].stop_reason.clone()),
-        (Some(9), Status::Ok, Some(StopReason::GradientTolerance))
+        (r[0].iterations, r[0].status, r[0].stop_reason.clone(), r[0].peak_rss_mb),
+        (Some(9), Status::Ok, Some(StopReason::GradientTolerance), None)
     );
     // version 0 (an empty file, as `sqlite3 FILE` leaves it) becomes a history too
     let empty = dir.path().join("empty.sqlite");
@@ -129,7 +130,8 @@ fn a_newer_or_foreign_database_is_refused_with_a_clear_error_and_left_alone() {
     Connection::open(&newer).unwrap().execute_batch("CREATE TABLE future (x); PRAGMA user_version = 99;").unwrap();
     let e = HistoryDb::open_or_create(&newer).err().unwrap();
     assert!(matches!(e, HistoryError::Newer { found: 99, supported: SCHEMA_VERSION, .. }), "{e}");
-    assert!(e.to_string().contains("newer.sqlite: history schema version 99 is newer than this mapbench's (2)"), "{e}");
+    let want = format!("newer.sqlite: history schema version 99 is newer than this mapbench's ({SCHEMA_VERSION})");
+    assert!(e.to_string().contains(&want), "{e}");
     let foreign = dir.path().join("foreign.sqlite");
     Connection::open(&foreign).unwrap().execute_batch("CREATE TABLE notes (x)").unwrap();
     let e = HistoryDb::open_or_create(&foreign).err().unwrap();

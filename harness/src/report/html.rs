@@ -274,6 +274,9 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
     } else if time.is_some() {
         more += "; time = a single sample";
     }
+    if let Some(mb) = s.peak_rss_mb {
+        let _ = write!(more, "; peak resident memory of the process during the run {mb:.0} MB");
+    }
     if let Some(k) = s.shifted_iters.filter(|k| *k > 0) {
         let _ = write!(detail, ", {k} shifted");
         let _ = write!(more, "; {k} iterations solved with a Tikhonov shift above the base (regularized)");

@@ -6,6 +6,7 @@ pub mod merge;
 pub mod progress;
 pub mod resume;
 
+mod memory;
 mod meshes;
 mod one;
 mod repeats;
@@ -17,6 +18,7 @@ use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::meta::{code_id, Meta};
 use crate::run_folder::{sidecar, summary_csv, write_run, MapBytes, RunFiles, Status, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
+use memory::Monitor;
 use meshes::MeshCache;
 use one::{run_one, RunContext, RunResult};
 use progress::Progress;
@@ -322,10 +324,15 @@ fn run_round(
     let meshes = MeshCache::new(todo.iter().map(|(i, _)| mine[*i].dataset), plan.datasets.len());
     let next = AtomicUsize::new(0);
     let (tx, rx) = mpsc::channel::<Done>();
+    let workers = jobs.min(todo.len());
+    let monitor = Monitor::new(workers);
     std::thread::scope(|scope| {
-        for worker in 0..jobs.min(todo.len()) {
+        // The sampler ends with the round, however the round ends (an error below included).
+        let _stop = StopOnDrop(&monitor);
+        scope.spawn(|| monitor.sample_until_stopped());
+        for worker in 0..workers {
             let tx = tx.clone();
-            let (meshes, next) = (&meshes, &next);
+            let (meshes, next, monitor) = (&meshes, &next, &monitor);
             scope.spawn(move || {
                 let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
                 let work = || loop {
@@ -358,7 +365,12 @@ fn run_round(
                                 stop_at,
                                 keep_map: round == 0 && plan.maps != Maps::None,
                             };
+                            monitor.start(worker);
                             let mut result = run_one(plan, p, loaded.mesh.as_ref(), &ctx);
+                            let peak = monitor.finish(worker);
+                            if result.summary.status != Status::Skipped {
+                                result.summary.peak_rss_mb = peak;
+                            }
                             if result.map_uv.is_some() {
                                 result.mesh_file = loaded.mesh_file();
                             }
@@ -383,6 +395,15 @@ fn run_round(
         }
         Ok(())
     })
+}
+
+/// Stops the memory sampler when dropped.
+struct StopOnDrop<'a>(&'a Monitor);
+
+impl Drop for StopOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.stop();
+    }
 }
 
 /// One more calibration sample, `jobs` copies at once on pools of the runs' thread count. A

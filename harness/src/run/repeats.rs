@@ -24,6 +24,8 @@ pub(super) struct Repeats {
     rows: Vec<Vec<Timings>>,
     /// Why a repeat did not reproduce the first (the run then fails with this message).
     mismatch: Option<String>,
+    /// The largest peak resident set of the repeats (MiB).
+    peak_rss_mb: Option<f64>,
 }
 
 impl Repeats {
@@ -33,6 +35,7 @@ impl Repeats {
             times: first.summary.time_s.into_iter().collect(),
             rows: vec![first.rows.iter().map(timings).collect()],
             mismatch: None,
+            peak_rss_mb: first.summary.peak_rss_mb,
         }
     }
 
@@ -63,6 +66,9 @@ impl Repeats {
                 Some(format!("repeat {n} does not reproduce repeat 1 ({what}): the solver is not deterministic"));
             return;
         }
+        if let Some(m) = again.summary.peak_rss_mb {
+            self.peak_rss_mb = Some(self.peak_rss_mb.map_or(m, |p| p.max(m)));
+        }
         if let Some(t) = again.summary.time_s {
             self.times.push(t);
             self.rows.push(again.rows.iter().map(timings).collect());
@@ -85,6 +91,7 @@ impl Repeats {
         s.time_s = median(&mut times);
         s.time_s_min = times.first().copied();
         s.time_s_max = times.last().copied();
+        s.peak_rss_mb = self.peak_rss_mb;
         for (i, row) in result.rows.iter_mut().enumerate() {
             let column =
                 |c: usize| median(&mut self.rows.iter().filter_map(|r| r.get(i).map(|t| t[c])).collect::<Vec<_>>());
@@ -146,10 +153,14 @@ mod tests {
 
     #[test]
     fn the_median_min_and_max_are_over_repeats_and_timings_are_per_row_medians() {
-        let mut first = result(&[3.0, 2.0, 1.0], 0.30, 0.1);
+        let with_peak = |mut r: RunResult, mb: f64| {
+            r.summary.peak_rss_mb = Some(mb);
+            r
+        };
+        let mut first = with_peak(result(&[3.0, 2.0, 1.0], 0.30, 0.1), 100.0);
         let mut r = Repeats::new(&first);
-        r.add(&first, &result(&[3.0, 2.0, 1.0], 0.10, 0.3));
-        r.add(&first, &result(&[3.0, 2.0, 1.0], 0.20, 0.2));
+        r.add(&first, &with_peak(result(&[3.0, 2.0, 1.0], 0.10, 0.3), 120.0));
+        r.add(&first, &with_peak(result(&[3.0, 2.0, 1.0], 0.20, 0.2), 110.0));
         assert_eq!(r.count(), 3);
         r.apply(&mut first);
         let s = &first.summary;
@@ -157,6 +168,7 @@ mod tests {
         assert_eq!(first.rows[1].t_iter_s, 0.2);
         assert_eq!(first.rows[2].t_cum_s, 0.4);
         assert_eq!(s.iter_ms_median, Some(200.0));
+        assert_eq!(s.peak_rss_mb, Some(120.0), "the largest peak of the repeats");
         assert!((s.ms_per_vertex.unwrap() - 20.0).abs() < 1e-12);
         assert_eq!(s.status, Status::Ok);
     }

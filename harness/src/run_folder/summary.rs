@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 /// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers; then the
 /// repeat and calibration columns (`time_s` is the median over `repeats`), the count of
 /// iterations whose system needed more than the base Tikhonov shift, and of those whose
-/// system clamped SLIM weights.
-pub const SUMMARY_COLUMNS: [&str; 32] = [
+/// system clamped SLIM weights; then the peak resident memory.
+pub const SUMMARY_COLUMNS: [&str; 33] = [
     "dataset",
     "task",
     "energy",
@@ -48,6 +48,7 @@ pub const SUMMARY_COLUMNS: [&str; 32] = [
     "time_norm",
     "shifted_iters",
     "clamped_iters",
+    "peak_rss_mb",
 ];
 
 /// How a run ended: the `status` column. Ordered worst to best for the gate: a pair that
@@ -176,6 +177,11 @@ pub struct SummaryRow {
     /// label such runs "SLIM (clamped)". `None` for solvers without the column.
     #[serde(default)]
     pub clamped_iters: Option<usize>,
+    /// The process's peak resident set (MiB) while the run ran, the largest over its repeats
+    /// (`run::memory`): the loaded meshes, and with `--jobs` above 1 the runs beside it, are
+    /// included. Empty where the OS does not report it, and for runs that did not run.
+    #[serde(default)]
+    pub peak_rss_mb: Option<f64>,
 }
 
 impl SummaryRow {

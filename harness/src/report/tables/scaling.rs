@@ -7,7 +7,8 @@ use crate::run_folder::SummaryRow;
 
 /// The composite-majorization paper's Figure 6 as a table: per energy, the datasets sorted by
 /// size, and for each solver its iterations, median time per iteration and run time (with
-/// its min–max over the repeats). It ranks nothing (no bold). `None` unless some energy has
+/// its min–max over the repeats) and the process's peak resident memory during the run. It
+/// ranks nothing (no bold). `None` unless some energy has
 /// runs on at least three mesh sizes (`param` or `deform`); failed and skipped runs are left out.
 pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
     let runs: Vec<&SummaryRow> =
@@ -33,7 +34,7 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
     }
     let mut columns = ["energy", "dataset", "vertices"].map(String::from).to_vec();
     for s in &solvers {
-        columns.extend([format!("{s} iter"), format!("{s} ms/iter"), format!("{s} time [s]")]);
+        columns.extend([format!("{s} iter"), format!("{s} ms/iter"), format!("{s} time [s]"), format!("{s} peak MB")]);
     }
     let mut out = Vec::new();
     for e in &energies {
@@ -53,8 +54,9 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
                         row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
                         row.push(r.iter_ms_median.map(|t| format!("{t:.1}")).unwrap_or_default());
                         row.push(Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default());
+                        row.push(r.peak_rss_mb.map(|m| format!("{m:.0}")).unwrap_or_default());
                     }
-                    None => row.extend(std::iter::repeat_n(String::new(), 3)),
+                    None => row.extend(std::iter::repeat_n(String::new(), 4)),
                 }
             }
             out.push(row);
@@ -65,7 +67,8 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
         columns,
         rows: out,
         caption: "Datasets sorted by vertices; ms/iter = median wall time of one iteration; time = whole run \
-                  (the median over repeats, min–max in parentheses); * = did not converge; failed runs and \
+                  (the median over repeats, min–max in parentheses); peak MB = the process's peak resident memory \
+                  while the run ran (MiB; with --jobs above 1 the runs beside it count too); * = did not converge; failed runs and \
                   skipped pairs are left out (empty cells). Plotted in plots/scaling__<energy>__*.png."
             .into(),
         bold: Vec::new(),
@@ -90,6 +93,7 @@ mod tests {
             iter_ms_median: Some(ms),
             time_s: Some(ms * it as f64 / 1e3),
             status: Status::Ok,
+            peak_rss_mb: Some(ms * 2.0),
             ..Default::default()
         };
         let mut rows = vec![p("big", 50_000, "kp-newton", 30, 400.0), p("small", 1_000, "kp-newton", 10, 5.0)];
@@ -99,7 +103,7 @@ mod tests {
         let t = scaling_table(&rows).unwrap();
         let order: Vec<&str> = t.rows.iter().map(|r| r[1].as_str()).collect();
         assert_eq!(order, ["small", "mid", "big"]);
-        assert_eq!(t.rows[1], ["sd", "mid", "10000", "20", "50.0", "1.00", "200", "20.0", "4.00"]);
-        assert_eq!(t.rows[0][6..], ["", "", ""]);
+        assert_eq!(t.rows[1], ["sd", "mid", "10000", "20", "50.0", "1.00", "100", "200", "20.0", "4.00", "40"]);
+        assert_eq!(t.rows[0][7..], ["", "", "", ""]);
     }
 }
