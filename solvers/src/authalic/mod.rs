@@ -222,8 +222,8 @@ impl AuthalicProblem {
     }
 
     /// A solver of the Laplacian block `block` (`block_i` or `block_b`), analysed once. METIS
-    /// nested dissection: on a disk of a million vertices AMD's factor of `L_II` is about
-    /// twice as large, and every iteration's preconditioner solve reads it whole (issue 21).
+    /// nested dissection: on `bumpy_200k` AMD's factor of `L_II` has 1.2x the entries (13.9M
+    /// vs 11.6M), and every iteration's preconditioner solve reads the factor whole (issue 21).
     pub fn block_solver(block: &SubBlock) -> Result<SpdSolver, LinearError> {
         SpdSolver::from_csc_ordered(
             block.n,
