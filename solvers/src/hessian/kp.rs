@@ -6,18 +6,20 @@
 //! for NH, SARAP and larger k the radial block is clamped too (the reference code's
 //! "branch B", which equals the eigen-clamp). A `K` that is already PSD is returned as is.
 
-use super::{k_eigen, k_eigenvalues, k_matrix, triple_product, ElementState, SystemBlock};
+use super::{k_eigen, k_matrix, triple_product, ElementState, SystemBlock};
 use crate::local::LocalOp;
 use nalgebra::{Matrix4, Matrix6};
 
 /// The PSD projection of `K`.
 pub fn project_k(s: &ElementState) -> Matrix4<f64> {
-    // The eigenvalues decide the case; only the general one needs the eigenvectors.
-    let values = k_eigenvalues(s);
-    if values.iter().all(|&v| v >= 0.0) {
+    // The case is decided on the eigensystem's own values, not `k_eigenvalues`: the two
+    // differ by round-off, which flips the case for eigenvalues at zero and changed SARAP's
+    // iteration counts on the CI gate (hand_smpl 124 -> 137).
+    let e = k_eigen(s);
+    if e.values.iter().all(|&v| v >= 0.0) {
         return k_matrix(s);
     }
-    if values[1..].iter().all(|&v| v >= 0.0) {
+    if e.values[1..].iter().all(|&v| v >= 0.0) {
         // Only the cone eigenvalue 2 a1 is negative (always the case for SD, ExpSD, BCONF
         // k <= 1, BARAP k <= 2): Eq. 4 clamps it in the modifiers, leaving the radial block
         // unchanged. Same result as the eigen-clamp, cheaper, and the same arithmetic as
@@ -27,7 +29,6 @@ pub fn project_k(s: &ElementState) -> Matrix4<f64> {
         t.m.a1 = 0.0;
         return k_matrix(&t);
     }
-    let e = k_eigen(s);
     let mut k = Matrix4::zeros();
     for i in 0..4 {
         if e.values[i] > 0.0 {

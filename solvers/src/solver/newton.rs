@@ -213,13 +213,6 @@ pub fn newton(
             break StopReason::NonFinite(e.to_string());
         }
         let t_eval = t0.elapsed().as_secs_f64();
-        eprintln!(
-            "TIMING eval {:.2} scatter {:.2} project {:.2} solve {:.1}",
-            t_eval * 1e3,
-            t_scatter * 1e3,
-            t_project * 1e3,
-            t_solve * 1e3
-        );
         let flips = problem.flips(&x);
         let t_iter = t_start.elapsed().as_secs_f64();
         t_cum += t_iter;
