@@ -321,6 +321,23 @@ impl SpdSolver {
         Ok(Self::with_analysis(analysis, diag, false, t0.elapsed().as_secs_f64()))
     }
 
+    /// [`SpdSolver::from_csc_ordered`], taking the analysis from `cache` when an earlier
+    /// solver on the same pattern computed it (an authalic run's `L_II`: the initial map's
+    /// and the preconditioner's).
+    pub fn from_csc_cached(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        diag: Vec<usize>,
+        ordering: Ordering,
+        block: usize,
+        cache: &AnalysisCache,
+    ) -> Result<SpdSolver, LinearError> {
+        let t0 = Instant::now();
+        let (analysis, reused) = cache.get(n, col_ptr, row_idx, ordering, block)?;
+        Ok(Self::with_analysis(analysis, diag, reused, t0.elapsed().as_secs_f64()))
+    }
+
     /// Analyse a lower-triangular CSC pattern (sorted rows, every diagonal present; `diag`
     /// gives the value slot of each diagonal entry) with AMD.
     pub fn from_csc(

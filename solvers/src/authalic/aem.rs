@@ -36,9 +36,9 @@ impl Preconditioner {
         let mut values = Vec::new();
         problem.laplacian(Some(&problem.positions_of(z0)), &mut values);
         let (bi, bb) = (&problem.block_i, &problem.block_b);
-        let mut interior = AuthalicProblem::block_solver(bi)?;
+        let mut interior = problem.block_solver(bi)?;
         interior.factorize(&bi.gather(&values), &EXACT)?;
-        let mut boundary = AuthalicProblem::block_solver(bb)?;
+        let mut boundary = problem.block_solver(bb)?;
         boundary.factorize(&bb.gather(&values), &EXACT)?;
         Ok(Preconditioner { ni: problem.n_interior(), interior, boundary })
     }

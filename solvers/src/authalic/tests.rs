@@ -330,3 +330,17 @@ fn a_newton_solver_is_refused_by_name() {
             .to_string();
     assert!(err.starts_with("'kp-newton' is a param/deform solver: task authalic runs sem, aem-cg, aem-cg-safe"));
 }
+
+/// The initial map and the solver after it factorize `L_II` with one analysis: the second
+/// block solver of a problem reuses the first one's, and each block has its own.
+#[test]
+fn the_blocks_are_analysed_once_per_problem() {
+    let p = problem("bumpy_1k");
+    p.initial_map(2).unwrap();
+    let again = p.block_solver(&p.block_i).unwrap();
+    assert!(again.analysis_reused(), "L_II was analysed again");
+    let boundary = p.block_solver(&p.block_b).unwrap();
+    assert!(!boundary.analysis_reused(), "L_BB took L_II's analysis");
+    assert!(std::sync::Arc::ptr_eq(again.analysis(), p.block_solver(&p.block_i).unwrap().analysis()));
+    assert!(p.block_solver(&p.block_b).unwrap().analysis_reused());
+}
