@@ -28,8 +28,8 @@ pub fn sem(
     if let Some(reason) = rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
         return rep.finish(problem, &z, &terms, gnorm, reason);
     }
-    let solvers = problem.block_solver(&problem.block_i)
-        .and_then(|si| Ok((si, problem.block_solver(&problem.block_b)?)));
+    let solvers =
+        problem.block_solver(&problem.block_i).and_then(|si| Ok((si, problem.block_solver(&problem.block_b)?)));
     let (mut solver_i, mut solver_b) = match solvers {
         Ok(s) => s,
         Err(e) => return rep.finish(problem, &z, &terms, gnorm, StopReason::LinearSolveFailed(e.to_string())),

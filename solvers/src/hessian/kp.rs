@@ -6,20 +6,31 @@
 //! for NH, SARAP and larger k the radial block is clamped too (the reference code's
 //! "branch B", which equals the eigen-clamp). A `K` that is already PSD is returned as is.
 
-use super::{k_eigen, k_matrix, triple_product, ElementState, SystemBlock};
+use super::{k_eigen, k_eigenvalues, k_matrix, triple_product, ElementState, SystemBlock};
 use crate::local::LocalOp;
 use nalgebra::{Matrix4, Matrix6};
 
+/// A relative distance from zero beyond which [`k_eigenvalues`] has the sign of
+/// [`k_eigen`]'s value: the two differ by a few ulps of the largest eigenvalue (tested to
+/// 1e-13 in `k_eigenvalues_match_the_eigensystem`), so the margin is loose by far.
+const SIGN_MARGIN: f64 = 1e-10;
+
 /// The PSD projection of `K`.
 pub fn project_k(s: &ElementState) -> Matrix4<f64> {
-    // The case is decided on the eigensystem's own values, not `k_eigenvalues`: the two
-    // differ by round-off, which flips the case for eigenvalues at zero and changed SARAP's
-    // iteration counts on the CI gate (hand_smpl 124 -> 137).
-    let e = k_eigen(s);
-    if e.values.iter().all(|&v| v >= 0.0) {
+    // The case is the one `k_eigen`'s values decide, so the result is the same bits as
+    // with the eigensystem (the iterates of every KP run depend on it: deciding on the
+    // trig-free values alone flipped cases at zero eigenvalues and changed SARAP's iteration
+    // counts on the CI gate, hand_smpl 124 -> 137). The trig-free values decide when every
+    // one is clearly away from zero; otherwise (and for NaN) the eigensystem does.
+    let fast = k_eigenvalues(s);
+    let scale = fast.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let clear = fast.iter().all(|v| v.abs() > SIGN_MARGIN * scale);
+    let mut eigen = (!clear).then(|| k_eigen(s));
+    let values = eigen.as_ref().map_or(fast, |e| e.values);
+    if values.iter().all(|&v| v >= 0.0) {
         return k_matrix(s);
     }
-    if e.values[1..].iter().all(|&v| v >= 0.0) {
+    if values[1..].iter().all(|&v| v >= 0.0) {
         // Only the cone eigenvalue 2 a1 is negative (always the case for SD, ExpSD, BCONF
         // k <= 1, BARAP k <= 2): Eq. 4 clamps it in the modifiers, leaving the radial block
         // unchanged. Same result as the eigen-clamp, cheaper, and the same arithmetic as
@@ -29,6 +40,7 @@ pub fn project_k(s: &ElementState) -> Matrix4<f64> {
         t.m.a1 = 0.0;
         return k_matrix(&t);
     }
+    let e = eigen.get_or_insert_with(|| k_eigen(s));
     let mut k = Matrix4::zeros();
     for i in 0..4 {
         if e.values[i] > 0.0 {
@@ -71,6 +83,59 @@ mod tests {
                 assert!(kev.min() >= -1e-12 * kev.amax().max(1.0));
             }
             assert!(saw_negative, "{e:?}: sampling never hit an indefinite state");
+        }
+    }
+
+    /// `project_k` as it was, deciding the case on the eigensystem's values.
+    fn project_k_by_the_eigensystem(s: &ElementState) -> Matrix4<f64> {
+        let e = k_eigen(s);
+        if e.values.iter().all(|&v| v >= 0.0) {
+            return k_matrix(s);
+        }
+        if e.values[1..].iter().all(|&v| v >= 0.0) {
+            let mut t = *s;
+            t.m.b1 += t.m.a1 / (2.0 * s.x());
+            t.m.a1 = 0.0;
+            return k_matrix(&t);
+        }
+        let mut k = Matrix4::zeros();
+        for i in 0..4 {
+            if e.values[i] > 0.0 {
+                k += e.vectors[i] * e.vectors[i].transpose() * e.values[i];
+            }
+        }
+        k
+    }
+
+    /// Deciding on the trig-free eigenvalues away from zero changes no bit of the result,
+    /// also at the states with a zero eigenvalue (isometries, similarities, and states on
+    /// the radial block's singular curve).
+    #[test]
+    fn the_projection_is_the_same_bits_as_deciding_on_the_eigensystem() {
+        let mut rng = Lcg(31);
+        for e in all_energies() {
+            let mut states: Vec<ElementState> = (0..2000).map(|_| random_element(&mut rng, &e).2).collect();
+            for x in [0.25, 0.5, 1.0, 2.0] {
+                for y in [0.0, 1e-300, 0.01 * x, 0.5 * x] {
+                    if let Some(m) = e.modifiers(x, y) {
+                        states.push(ElementState { fz: [x.sqrt(), 0.0], fzb: [0.0, y.sqrt()], m });
+                    }
+                }
+            }
+            // Radial blocks made singular: r = q^2 / p.
+            for s in states.clone() {
+                let (x, y) = (s.x(), s.y());
+                let (p, q) = (2.0 * s.m.a1 + 4.0 * s.m.b1 * x, 4.0 * s.m.b3 * (x * y).sqrt());
+                if y > 0.0 && p != 0.0 {
+                    let mut t = s;
+                    t.m.a2 = 0.5 * (q * q / p - 4.0 * s.m.b2 * y);
+                    states.push(t);
+                }
+            }
+            for s in &states {
+                let (a, b) = (project_k(s), project_k_by_the_eigensystem(s));
+                assert!(a.iter().zip(b.iter()).all(|(u, v)| u.to_bits() == v.to_bits()), "{e:?}: {s:?}\n{a}\n{b}");
+            }
         }
     }
 
