@@ -7,14 +7,16 @@ Export the systems first (the regularized KP matrix of each run, lower triangle)
 
 then time them, interleaved round by round so machine noise hits every solver alike:
 
-    python3 scripts/bench_linear_solvers.py target/systems/*.mtx --rounds 5
+    python3 scripts/bench_linear_solvers.py target/systems/*.mtx --rounds 5 [--threads 2]
 
-Solvers (each single-threaded; the ones whose packages are missing are skipped with a note):
-  mapbench-metis, mapbench-amd   `mapbench time-system` (faer, analyse once, refactor)
+Solvers (each on --threads threads, default 1; the ones whose packages are missing are skipped
+with a note):
+  mapbench-metis, mapbench-amd   `mapbench time-system --threads N` (mapbench's subtree-parallel
+                                 factorization, analyse once, refactor)
   pardiso                        MKL Pardiso via pypardiso: mtype 2 (SPD), upper CSR,
-                                 phases 11 / 22 / 33, MKL_NUM_THREADS=1
+                                 phases 11 / 22 / 33, MKL_NUM_THREADS=N
   cholmod-amd, cholmod-metis     CHOLMOD via scikit-sparse < 0.5 (Debian libsuitesparse-dev
-                                 and libopenblas0-pthread, OPENBLAS_NUM_THREADS=1)
+                                 and libopenblas0-pthread, OPENBLAS_NUM_THREADS=N)
 
 Prints median analyse / factorize / solve milliseconds per matrix and solver, and the ratio
 of mapbench's numeric factorization to Pardiso's and CHOLMOD's (issue target: <= 1.0 x
@@ -30,9 +32,21 @@ import subprocess
 import sys
 import time
 
-# Single-threaded vendor libraries: set before numpy/MKL/OpenBLAS load.
+
+
+def threads_from(argv):
+    """--threads N (or --threads=N) from the command line, before argparse runs: the vendor
+    libraries read their thread counts when numpy/MKL/OpenBLAS load."""
+    for i, a in enumerate(argv):
+        if a == "--threads" and i + 1 < len(argv):
+            return argv[i + 1]
+        if a.startswith("--threads="):
+            return a.split("=", 1)[1]
+    return "1"
+
+
 for var in ("MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
-    os.environ[var] = "1"
+    os.environ[var] = threads_from(sys.argv[1:])
 
 import numpy as np  # noqa: E402
 import scipy.io  # noqa: E402
@@ -56,9 +70,9 @@ def load(path):
     return lower, b
 
 
-def time_mapbench(binary, path, ordering, repeat):
+def time_mapbench(binary, path, ordering, repeat, threads):
     out = subprocess.run(
-        [binary, "time-system", path, "--ordering", ordering, "--repeat", str(repeat)],
+        [binary, "time-system", path, "--ordering", ordering, "--repeat", str(repeat), "--threads", str(threads)],
         check=True, capture_output=True, text=True,
     )
     t = json.loads(out.stdout)
@@ -132,11 +146,15 @@ def main():
     ap.add_argument("--rounds", type=int, default=3, help="interleaved rounds (medians over rounds)")
     ap.add_argument("--repeat", type=int, default=3, help="factorizations per solver per round")
     ap.add_argument("--mapbench", default=shutil.which("mapbench") or "target/release/mapbench")
+    ap.add_argument("--threads", type=int, default=1, help="threads of every solver (default 1)")
     args = ap.parse_args()
+    if args.threads < 1 or str(args.threads) != os.environ["MKL_NUM_THREADS"]:
+        sys.exit(f"--threads: give a whole number of threads, at least 1 (got {os.environ['MKL_NUM_THREADS']})")
+    print(f"threads: {args.threads} (mapbench --threads, MKL/OpenBLAS/OpenMP *_NUM_THREADS)")
 
     solvers = {
-        "mapbench-metis": lambda p, a, b: time_mapbench(args.mapbench, p, "metis", args.repeat),
-        "mapbench-amd": lambda p, a, b: time_mapbench(args.mapbench, p, "amd", args.repeat),
+        "mapbench-metis": lambda p, a, b: time_mapbench(args.mapbench, p, "metis", args.repeat, args.threads),
+        "mapbench-amd": lambda p, a, b: time_mapbench(args.mapbench, p, "amd", args.repeat, args.threads),
     }
     if available("pypardiso"):
         solvers["pardiso"] = lambda p, a, b: time_pardiso(a, b, args.repeat)
