@@ -17,8 +17,9 @@ runs="${1:-1000000}"
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(obj config registry handles baseline)
 
-# Built into the main target/ with its release profile, so the dependencies the main build
-# already compiled are reused; scripts/fuzz-rustc.sh instruments only our crates.
+# Built into the main target/ with its release profile, so the dependencies a plain
+# `cargo build --release` compiled are reused (not those of `cargo test --workspace`, whose
+# dev-dependencies turn on more features); scripts/fuzz-rustc.sh instruments only our crates.
 export CARGO_TARGET_DIR="$root/target"
 export RUSTC_WRAPPER="$root/scripts/fuzz-rustc.sh"
 cargo build --release --locked --bins
