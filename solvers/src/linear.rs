@@ -259,6 +259,8 @@ pub struct SpdSolver {
     /// Factorize with faer's own (supernode after supernode) kernel even when a schedule
     /// exists: `time-system --kernel faer`, to measure one against the other.
     faer_kernel: bool,
+    /// Run the triangular solves on one thread whatever the pool (`set_sequential_solves`).
+    sequential_solves: bool,
     factored: bool,
 }
 
@@ -368,6 +370,7 @@ impl SpdSolver {
             mem_cols: 1,
             workspace: Workspace::default(),
             faer_kernel: false,
+            sequential_solves: false,
             factored: false,
         }
     }
@@ -396,6 +399,14 @@ impl SpdSolver {
     /// subtree-parallel one of `supernodal` (the default); for benchmarks.
     pub fn set_faer_kernel(&mut self, faer: bool) {
         self.faer_kernel = faer;
+    }
+
+    /// Solve on the calling thread only, even in a pool of several: faer's parallel solve
+    /// forks per supernode, which costs more than it gains where the supernodes are small
+    /// (the one-coordinate Laplacian of `kp-newton-cg`'s preconditioner). The same bits
+    /// either way.
+    pub fn set_sequential_solves(&mut self, sequential: bool) {
+        self.sequential_solves = sequential;
     }
 
     /// Number of stored entries of the Cholesky factor (with supernodal padding).
@@ -498,6 +509,7 @@ impl SpdSolver {
         }
         let rhs = MatMut::from_column_major_slice_mut(x, n, k);
         let llt = LltRef::new(&self.analysis.symbolic, &self.l_values);
+        let par = if self.sequential_solves { Par::Seq } else { par };
         llt.solve_in_place_with_conj(Conj::No, rhs, par, MemStack::new(&mut self.mem));
         for col in x.chunks_exact_mut(n) {
             col.iter_mut().zip(&self.scale).for_each(|(xi, si)| *xi *= si);

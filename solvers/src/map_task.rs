@@ -11,7 +11,7 @@ use crate::smoothness::Projection;
 use crate::solver::aqp::aqp;
 use crate::solver::catalogue::{lookup, newton_spec, Method, SolverError, SolverOptions, SolverSpec};
 use crate::solver::lbfgs::{lbfgs, Variant};
-use crate::solver::newton::{newton, SolveError};
+use crate::solver::newton::{newton_with, SolveError};
 use crate::solver::{Observer, Outcome, Settings};
 
 /// Why a `param` or `deform` run could not start.
@@ -90,7 +90,7 @@ impl Driver {
         observer: &mut dyn Observer,
     ) -> Result<Outcome, SolveError> {
         match self {
-            Driver::Newton(spec) => newton(problem, x0, spec.block.as_ref(), settings, observer),
+            Driver::Newton(spec) => newton_with(problem, x0, spec.block.as_ref(), spec.solve, settings, observer),
             Driver::Lbfgs(variant) => lbfgs(problem, x0, *variant, settings, observer),
             Driver::Aqp => aqp(problem, x0, settings, observer),
         }

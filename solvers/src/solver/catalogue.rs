@@ -12,6 +12,8 @@ use crate::mesh::Task;
 use crate::smoothness::Projection;
 use crate::solver::aqp::AQP_COLUMNS;
 use crate::solver::lbfgs::LBFGS_COLUMNS;
+use crate::solver::newton::SystemSolve;
+use crate::solver::truncated::{NewtonCgOptions, Preconditioner, CG_COLUMNS};
 
 /// A Newton-type solver built for one energy: its system-matrix strategy and options.
 pub struct SolverSpec {
@@ -21,6 +23,8 @@ pub struct SolverSpec {
     pub global_scaling: bool,
     /// Overrides how the smoothness term's 8x8 blocks are projected.
     pub smoothness_projection: Option<Projection>,
+    /// How each Newton system is solved.
+    pub solve: SystemSolve,
 }
 
 /// How an entry solves.
@@ -52,6 +56,8 @@ pub struct SolverOptions {
     pub slim: SlimOptions,
     #[serde(rename = "pn-trust-region")]
     pub trust_region: TrustRegionOptions,
+    #[serde(rename = "kp-newton-cg")]
+    pub newton_cg: NewtonCgOptions,
 }
 
 /// `[solver.pn-trust-region]`.
@@ -87,6 +93,7 @@ impl SolverOptions {
         SolverOptions {
             slim: if name == "slim" { self.slim } else { d.slim },
             trust_region: if name == "pn-trust-region" { self.trust_region } else { d.trust_region },
+            newton_cg: if name == "kp-newton-cg" { self.newton_cg } else { d.newton_cg },
         }
     }
 }
@@ -202,7 +209,12 @@ const fn authalic(name: &'static str, label: &'static str, description: &'static
 }
 
 fn spec(block: impl SystemBlock + 'static, global_scaling: bool) -> Result<SolverSpec, String> {
-    Ok(SolverSpec { block: Box::new(block), global_scaling, smoothness_projection: None })
+    Ok(SolverSpec {
+        block: Box::new(block),
+        global_scaling,
+        smoothness_projection: None,
+        solve: SystemSolve::Factorized,
+    })
 }
 
 /// Every solver, `param`/`deform` first (the order of `list solvers` and of the known-names
@@ -214,6 +226,26 @@ pub static SOLVERS: &[SolverEntry] = &[
         "Newton, K of each element Hessian projected analytically (complex view, Eq. 4)",
         |_, _| spec(Kp, true),
     ),
+    SolverEntry {
+        options: &["eta_max", "max_cg_iters"],
+        extra_columns: &CG_COLUMNS,
+        ..newton(
+            "kp-newton-cg",
+            "KP-CG",
+            "kp-newton with truncated steps: CG to an Eisenstat-Walker forcing term, preconditioned by the \
+             Laplacian weighted by each block's stiffness",
+            |_, _| spec(Kp, true).map(|s| SolverSpec { solve: SystemSolve::Truncated(Preconditioner::Stiffness), ..s }),
+        )
+    },
+    SolverEntry {
+        extra_columns: &CG_COLUMNS,
+        ..newton(
+            "kp-newton-cg-laplacian",
+            "KP-CG-Lap",
+            "kp-newton-cg preconditioned by the constant Dirichlet Laplacian, factored once",
+            |_, _| spec(Kp, true).map(|s| SolverSpec { solve: SystemSolve::Truncated(Preconditioner::Laplacian), ..s }),
+        )
+    },
     newton("kp-newton-noscale", "KP-noscale", "kp-newton without the global scaling of the initial map", |_, _| {
         spec(Kp, false)
     }),
@@ -621,10 +653,17 @@ mod tests {
                 Method::Lbfgs { .. } => &LBFGS_COLUMNS,
                 Method::Aqp => &AQP_COLUMNS,
                 // the Newton-type solvers write their strategy's counters
+                // the Newton-type solvers write their strategy's counters, then the truncated
+                // steps' columns
                 Method::Newton(_) => {
                     let e = EnergyKind::default_for(s.energies[0]).unwrap();
                     let spec = s.newton_spec(Task::Param, &e, &SolverOptions::default()).unwrap();
-                    spec.block.counter_names()
+                    let mut names = spec.block.counter_names().to_vec();
+                    if matches!(spec.solve, SystemSolve::Truncated(_)) {
+                        names.extend(CG_COLUMNS);
+                    }
+                    assert_eq!(s.extra_columns, names, "{}", s.name);
+                    continue;
                 }
             };
             assert_eq!(s.extra_columns, expected, "{}", s.name);

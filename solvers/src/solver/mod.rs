@@ -10,6 +10,7 @@ pub mod catalogue;
 pub mod lbfgs;
 pub mod newton;
 pub mod proxy;
+pub mod truncated;
 
 pub use crate::line_search::LineSearchSettings;
 pub use catalogue::{SlimOptions, SolverEntry, SolverError, SolverOptions, SolverSpec, SOLVERS};

@@ -3,8 +3,10 @@
 //! injective step plus Armijo line search, repeat. "All methods share the same pipeline and
 //! we only replace the system matrix" (Section 6).
 
+use super::proxy::{ProxyError, ScalarProxy};
+use super::truncated::{Forcing, Preconditioner, TruncatedSolve, CG_COLUMNS};
 use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason, SystemView};
-use crate::assembly::{pack_lower, Lower6, Pattern};
+use crate::assembly::{pack_lower, Lower6, Pattern, SymmetricRows};
 use crate::hessian::pn::{Filtered, TrustRegion};
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
@@ -27,6 +29,24 @@ pub enum SolveError {
 
 /// Alias kept for readability at call sites.
 pub type NewtonSettings = Settings;
+
+/// How the driver solves each Newton system.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SystemSolve {
+    /// Sparse Cholesky of the system, analysed once and factorized every iteration.
+    #[default]
+    Factorized,
+    /// Truncated: preconditioned CG to an Eisenstat-Walker forcing term (`solver::truncated`),
+    /// with the CG columns in the iteration CSVs.
+    Truncated(Preconditioner),
+}
+
+/// The linear solver of a run: a factorization of the system, or the truncated steps with
+/// their forcing terms.
+enum Linear {
+    Factorized(Box<SpdSolver>),
+    Truncated(Box<TruncatedSolve>, Forcing),
+}
 
 /// How many times the Tikhonov shift is increased after a failed factorization (by the
 /// strategies that retry, [`SystemBlock::retries_failed_factorization`]).
@@ -94,6 +114,7 @@ pub fn scatter(
     }
 }
 
+/// [`newton_with`] factorizing every system.
 pub fn newton(
     problem: &MapProblem,
     x0: Vec<f64>,
@@ -101,21 +122,63 @@ pub fn newton(
     settings: &Settings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, SolveError> {
+    newton_with(problem, x0, strategy, SystemSolve::Factorized, settings, observer)
+}
+
+/// The Newton driver with `strategy`'s system matrix, solved as `solve` says.
+pub fn newton_with(
+    problem: &MapProblem,
+    x0: Vec<f64>,
+    strategy: &dyn SystemBlock,
+    solve: SystemSolve,
+    settings: &Settings,
+    observer: &mut dyn Observer,
+) -> Result<Outcome, SolveError> {
     let pattern = system_pattern(problem);
+    let t_setup = Instant::now();
     let mut edge_blocks: Vec<Matrix8> = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
-    let mut linear = SpdSolver::shared(&pattern, settings.linear.ordering, settings.analyses.as_deref())?;
-    let analysis = AnalysisReport {
-        seconds: linear.analysis().seconds(),
-        setup_seconds: linear.setup_seconds(),
-        reused: linear.analysis_reused(),
+    let report = |s: &SpdSolver| AnalysisReport {
+        seconds: s.analysis().seconds(),
+        setup_seconds: s.setup_seconds(),
+        reused: s.analysis_reused(),
     };
+    // The truncated steps' preconditioner is built and factored once: that is part of the
+    // method's cost and goes into iteration 1 (as AQP's proxy); its analysis, like the
+    // factorized variant's, is the run's `analysis_s`.
+    let mut t_factor = 0.0;
+    let (linear, analysis) = match solve {
+        SystemSolve::Factorized => {
+            let s = SpdSolver::shared(&pattern, settings.linear.ordering, settings.analyses.as_deref())?;
+            let analysis = report(&s);
+            (Ok(Linear::Factorized(Box::new(s))), analysis)
+        }
+        SystemSolve::Truncated(_) => match ScalarProxy::new(problem, settings) {
+            Ok(proxy) => {
+                let analysis = proxy.analysis;
+                t_factor = (t_setup.elapsed().as_secs_f64() - analysis.setup_seconds).max(0.0);
+                let steps = TruncatedSolve::new(proxy, SymmetricRows::new(&pattern), settings.options.newton_cg);
+                let forcing = Forcing::new(settings.options.newton_cg.eta_max, settings.stop.grad_tol);
+                (Ok(Linear::Truncated(Box::new(steps), forcing)), analysis)
+            }
+            Err(ProxyError::Setup(e)) => return Err(e),
+            Err(ProxyError::Failed(reason)) => (Err(reason), AnalysisReport::default()),
+        },
+    };
+    let mut names: Vec<&'static str> = strategy.counter_names().to_vec();
+    if matches!(solve, SystemSolve::Truncated(_)) {
+        names.extend(CG_COLUMNS);
+    }
     let mut x = x0;
     let mut ev = Evaluation::default();
     problem.evaluate(&x, &mut ev)?;
     let init_energy = ev.energy;
     // No system has been built at row 0: the strategy's counters are not defined yet.
-    let mut record = IterationRecord::initial(problem, &x, &ev, strategy.counter_names());
+    let mut record = IterationRecord::initial(problem, &x, &ev, &names);
     let mut halt = observer.observe(&record).stop_reason();
+    let mut linear = match linear {
+        Ok(l) => l,
+        Err(reason) => return Ok(Outcome::at(x, &record, init_energy, halt.unwrap_or(reason), Some(analysis))),
+    };
 
     let mut blocks: Vec<Lower6> = vec![[0.0; 21]; problem.n_faces()];
     let mut values = Vec::new();
@@ -159,27 +222,50 @@ pub fn newton(
             linear: &settings.linear,
         });
         let t0 = Instant::now();
-        rhs.clear();
-        rhs.extend(ev.grad.iter().map(|g| -g));
-        let mut lin = LinearSettings { ..settings.linear };
-        let mut solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
-        let retries = if strategy.retries_failed_factorization() { MAX_REGULARIZATION_RETRIES } else { 0 };
-        for _ in 0..retries {
-            if solved.is_ok() {
-                break;
+        let mut cg_columns = Vec::new();
+        let shift = match &mut linear {
+            Linear::Factorized(linear) => {
+                rhs.clear();
+                rhs.extend(ev.grad.iter().map(|g| -g));
+                let mut lin = LinearSettings { ..settings.linear };
+                let mut solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
+                let retries = if strategy.retries_failed_factorization() { MAX_REGULARIZATION_RETRIES } else { 0 };
+                for _ in 0..retries {
+                    if solved.is_ok() {
+                        break;
+                    }
+                    lin.tikhonov = next_shift(lin.tikhonov);
+                    solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
+                }
+                if let Err(e) = solved {
+                    let tried = if retries == 0 {
+                        format!("shift {:e}, no retry", settings.linear.tikhonov)
+                    } else {
+                        format!("shifts {:e} to {:e}", settings.linear.tikhonov, lin.tikhonov)
+                    };
+                    break StopReason::LinearSolveFailed(format!("the system at iterate {iter}: {e} ({tried})"));
+                }
+                lin.tikhonov
             }
-            lin.tikhonov = next_shift(lin.tikhonov);
-            solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
-        }
-        let t_solve = t0.elapsed().as_secs_f64();
-        if let Err(e) = solved {
-            let tried = if retries == 0 {
-                format!("shift {:e}, no retry", settings.linear.tikhonov)
-            } else {
-                format!("shifts {:e} to {:e}", settings.linear.tikhonov, lin.tikhonov)
-            };
-            break StopReason::LinearSolveFailed(format!("the system at iterate {iter}: {e} ({tried})"));
-        }
+            Linear::Truncated(steps, forcing) => {
+                if solve == SystemSolve::Truncated(Preconditioner::Stiffness) {
+                    if let Err(reason) = steps.proxy.reweight(problem, &blocks, &settings.linear) {
+                        break reason;
+                    }
+                }
+                let eta = forcing.next(record.grad_norm);
+                match steps.solve(&values, &ev.grad, eta, &mut d) {
+                    Ok(cg) => cg_columns.extend([cg.iterations as f64, eta, cg.residual]),
+                    Err(e) => {
+                        break StopReason::LinearSolveFailed(format!("the preconditioner at iterate {iter}: {e}"))
+                    }
+                }
+                // the system itself is not shifted; the preconditioner's factorization was
+                steps.proxy.shift
+            }
+        };
+        let t_charged = std::mem::take(&mut t_factor);
+        let t_solve = t0.elapsed().as_secs_f64() + t_charged;
 
         let t0 = Instant::now();
         let g_dot_d: f64 = ev.grad.iter().zip(&d).map(|(g, d)| g * d).sum();
@@ -214,7 +300,7 @@ pub fn newton(
         }
         let t_eval = t0.elapsed().as_secs_f64();
         let flips = problem.flips(&x);
-        let t_iter = t_start.elapsed().as_secs_f64();
+        let t_iter = t_start.elapsed().as_secs_f64() + t_charged;
         t_cum += t_iter;
         iter += 1;
         record = IterationRecord {
@@ -224,9 +310,9 @@ pub fn newton(
             t_linesearch_s: t_ls,
             t_iter_s: t_iter,
             t_cum_s: t_cum,
-            shift: Some(lin.tikhonov),
+            shift: Some(shift),
             ls_evals,
-            extra: strategy.counter_names().iter().copied().zip(counters).collect(),
+            extra: names.iter().copied().zip(counters.into_iter().chain(cg_columns)).collect(),
             ..IterationRecord::of(iter, &ev, flips, acc.t)
         };
         halt = observer.observe(&record).stop_reason();

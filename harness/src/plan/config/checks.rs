@@ -148,8 +148,13 @@ impl Config {
     fn check_solver_options(&self) -> Result<()> {
         for (name, params) in &self.solver {
             let entry = catalogue::lookup(name, self.task).map_err(|e| anyhow::anyhow!("[solver.{name}]: {e}"))?;
-            let SolverParams { clamp_weights, tau } = params;
-            for (key, set) in [("clamp_weights", clamp_weights.is_some()), ("tau", tau.is_some())] {
+            let SolverParams { clamp_weights, tau, eta_max, max_cg_iters } = params;
+            for (key, set) in [
+                ("clamp_weights", clamp_weights.is_some()),
+                ("tau", tau.is_some()),
+                ("eta_max", eta_max.is_some()),
+                ("max_cg_iters", max_cg_iters.is_some()),
+            ] {
                 if set && !entry.options.contains(&key) {
                     let has = if entry.options.is_empty() {
                         format!("{name} has no options")
@@ -161,6 +166,12 @@ impl Config {
             }
             if let Some(t) = tau.filter(|t| !(t.is_finite() && *t > 0.0)) {
                 bail!("[solver.{name}] tau = {t}: it must be a positive number (default 0.01)");
+            }
+            if let Some(e) = eta_max.filter(|e| !(*e > 0.0 && *e < 1.0)) {
+                bail!("[solver.{name}] eta_max = {e}: it must be in (0, 1) (default 0.9)");
+            }
+            if max_cg_iters == &Some(0) {
+                bail!("[solver.{name}] max_cg_iters = 0: it must be at least 1 (default 500)");
             }
         }
         Ok(())

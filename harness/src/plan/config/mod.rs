@@ -82,6 +82,11 @@ pub struct SolverParams {
     /// pn-trust-region: clamp when the last step's model fit has `|rho - 1| < tau`, else
     /// abs; default 0.01 (the authors'), a positive number.
     pub tau: Option<f64>,
+    /// kp-newton-cg: the largest (and first) forcing term, the relative residual a truncated
+    /// step is solved to at most; default 0.9, in (0, 1).
+    pub eta_max: Option<f64>,
+    /// kp-newton-cg: CG iterations per Newton step at most; default 500, at least 1.
+    pub max_cg_iters: Option<usize>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -148,6 +148,10 @@ impl Config {
         if let Some(t) = self.solver.get("pn-trust-region").and_then(|p| p.tau) {
             o.trust_region.tau = t;
         }
+        if let Some(p) = self.solver.get("kp-newton-cg") {
+            o.newton_cg.eta_max = p.eta_max.unwrap_or(o.newton_cg.eta_max);
+            o.newton_cg.max_cg_iters = p.max_cg_iters.unwrap_or(o.newton_cg.max_cg_iters);
+        }
         o
     }
 }

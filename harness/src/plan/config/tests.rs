@@ -229,6 +229,30 @@ fn the_trust_region_threshold_is_read_checked_and_reaches_its_solver() {
 }
 
 #[test]
+fn the_truncated_newton_options_are_read_checked_and_reach_their_solver() {
+    let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+    let c = parse(&format!("{MIN}[solver.kp-newton-cg]\neta_max = 0.5\nmax_cg_iters = 40\n")).unwrap();
+    let o = c.param_settings(&EnergyKind::Sd).solver.options.newton_cg;
+    assert_eq!((o.eta_max, o.max_cg_iters), (0.5, 40));
+    assert_eq!(c.deform_settings().solver.options.newton_cg, o);
+    // one key given: the other keeps its default
+    let c = parse(&format!("{MIN}[solver.kp-newton-cg]\nmax_cg_iters = 7\n")).unwrap();
+    let o = c.param_settings(&EnergyKind::Sd).solver.options.newton_cg;
+    assert_eq!((o.eta_max, o.max_cg_iters), (0.9, 7));
+    // the constant-Laplacian variant has the defaults
+    let e = err(&format!("{MIN}[solver.kp-newton-cg-laplacian]\neta_max = 0.5\n"));
+    assert!(e.contains("has no option 'eta_max' (kp-newton-cg-laplacian has no options)"), "{e}");
+    for bad in ["0.0", "1.0", "-0.5", "nan"] {
+        let e = err(&format!("{MIN}[solver.kp-newton-cg]\neta_max = {bad}\n"));
+        assert!(e.contains("[solver.kp-newton-cg] eta_max = ") && e.contains("must be in (0, 1)"), "{e}");
+    }
+    let e = err(&format!("{MIN}[solver.kp-newton-cg]\nmax_cg_iters = 0\n"));
+    assert!(e.contains("max_cg_iters = 0: it must be at least 1"), "{e}");
+    let e = err(&format!("{MIN}[solver.kp-newton]\neta_max = 0.5\n"));
+    assert!(e.contains("[solver.kp-newton] has no option 'eta_max' (kp-newton has no options)"), "{e}");
+}
+
+#[test]
 fn a_solver_section_for_an_unknown_solver_or_option_is_an_error_naming_it() {
     let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
     let e = err(&format!("{MIN}[solver.slimm]\nclamp_weights = true\n"));
