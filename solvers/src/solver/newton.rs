@@ -142,9 +142,9 @@ pub fn newton_with(
         setup_seconds: s.setup_seconds(),
         reused: s.analysis_reused(),
     };
-    // The truncated steps' preconditioner is built and factored once: that is part of the
-    // method's cost and goes into iteration 1 (as AQP's proxy); its analysis, like the
-    // factorized variant's, is the run's `analysis_s`.
+    // The constant preconditioner is built and factored once: that is part of the method's
+    // cost and goes into iteration 1 (as AQP's proxy); the reweighted one is factored in
+    // every iteration. Its analysis, like the factorized variant's, is the run's `analysis_s`.
     let mut t_factor = 0.0;
     let (linear, analysis) = match solve {
         SystemSolve::Factorized => {
@@ -152,17 +152,24 @@ pub fn newton_with(
             let analysis = report(&s);
             (Ok(Linear::Factorized(Box::new(s))), analysis)
         }
-        SystemSolve::Truncated(_) => match ScalarProxy::new(problem, settings) {
-            Ok(proxy) => {
-                let analysis = proxy.analysis;
-                t_factor = (t_setup.elapsed().as_secs_f64() - analysis.setup_seconds).max(0.0);
-                let steps = TruncatedSolve::new(proxy, SymmetricRows::new(&pattern), settings.options.newton_cg);
-                let forcing = Forcing::new(settings.options.newton_cg.eta_max, settings.stop.grad_tol);
-                (Ok(Linear::Truncated(Box::new(steps), forcing)), analysis)
+        SystemSolve::Truncated(preconditioner) => {
+            let proxy = match preconditioner {
+                Preconditioner::Laplacian => ScalarProxy::new(problem, settings),
+                Preconditioner::Stiffness => ScalarProxy::analysed(problem, settings),
+            };
+            match proxy {
+                Ok(proxy) => {
+                    let analysis = proxy.analysis;
+                    t_factor = (t_setup.elapsed().as_secs_f64() - analysis.setup_seconds).max(0.0);
+                    let options = settings.options.newton_cg;
+                    let steps = TruncatedSolve::new(proxy, SymmetricRows::new(&pattern), options);
+                    let forcing = Forcing::new(options.eta_max, settings.stop.grad_tol);
+                    (Ok(Linear::Truncated(Box::new(steps), forcing)), analysis)
+                }
+                Err(ProxyError::Setup(e)) => return Err(e),
+                Err(ProxyError::Failed(reason)) => (Err(reason), AnalysisReport::default()),
             }
-            Err(ProxyError::Setup(e)) => return Err(e),
-            Err(ProxyError::Failed(reason)) => (Err(reason), AnalysisReport::default()),
-        },
+        }
     };
     let mut names: Vec<&'static str> = strategy.counter_names().to_vec();
     if matches!(solve, SystemSolve::Truncated(_)) {

@@ -256,13 +256,21 @@ pub(crate) struct ScalarProxy {
 
 impl ScalarProxy {
     /// Analyse (with the run's ordering, sharing the analysis through `settings.analyses`)
-    /// and factor `L` once.
+    /// and factor the constant `L`.
     pub(crate) fn new(problem: &MapProblem, settings: &Settings) -> Result<ScalarProxy, ProxyError> {
+        let mut proxy = Self::analysed(problem, settings)?;
+        dirichlet_weights(problem, &mut proxy.weights);
+        let values =
+            scalar_values(problem, &proxy.pattern, &proxy.block, &proxy.weights, proxy.pinned, &mut proxy.full);
+        proxy.shift = factorize_with_retries(&mut proxy.solver, &values, &settings.linear)?;
+        Ok(proxy)
+    }
+
+    /// Analysed but not factored: [`ScalarProxy::reweight`] factors it (a proxy reweighted
+    /// every iteration has no use for the constant factor).
+    pub(crate) fn analysed(problem: &MapProblem, settings: &Settings) -> Result<ScalarProxy, ProxyError> {
         let pinned = pinned_vertex(problem);
         let (pattern, block) = scalar_pattern(problem);
-        let (mut weights, mut full) = (Vec::new(), Vec::new());
-        dirichlet_weights(problem, &mut weights);
-        let values = scalar_values(problem, &pattern, &block, &weights, pinned, &mut full);
         let (n, ordering) = (block.n, settings.linear.ordering);
         let (col_ptr, row_idx, diag) = (&block.col_ptr, &block.row_idx, block.diag.clone());
         let mut solver = match settings.analyses.as_deref() {
@@ -275,8 +283,8 @@ impl ScalarProxy {
             setup_seconds: solver.setup_seconds(),
             reused: solver.analysis_reused(),
         };
-        let shift = factorize_with_retries(&mut solver, &values, &settings.linear)?;
         solver.set_sequential_solves(true);
+        let (weights, full, shift) = (Vec::new(), Vec::new(), settings.linear.tikhonov);
         Ok(ScalarProxy { solver, pinned, shift, analysis, columns: Vec::new(), pattern, block, weights, full })
     }
 
