@@ -34,3 +34,5 @@ pub mod solver;
 pub mod supernodal;
 pub mod system;
 pub mod task;
+#[cfg(test)]
+mod test_support;

@@ -149,7 +149,15 @@ impl SubBlock {
 
     /// The block's values gathered from the full matrix values.
     pub fn gather(&self, full: &[f64]) -> Vec<f64> {
-        self.src.iter().map(|&s| full[s]).collect()
+        let mut out = Vec::new();
+        self.gather_into(full, &mut out);
+        out
+    }
+
+    /// [`SubBlock::gather`] into `out`'s storage (no allocation once it has the capacity).
+    pub fn gather_into(&self, full: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.extend(self.src.iter().map(|&s| full[s]));
     }
 }
 

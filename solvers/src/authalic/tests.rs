@@ -184,7 +184,7 @@ fn run(name: &str, solver: &str, iters: usize) -> (AuthalicOutcome, Vec<crate::s
 }
 
 fn extra(r: &crate::solver::IterationRecord, name: &str) -> f64 {
-    r.extra.iter().find(|e| e.0 == name).map(|e| e.1).unwrap()
+    r.extra_value(name).unwrap()
 }
 
 #[test]

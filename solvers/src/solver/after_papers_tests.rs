@@ -4,21 +4,13 @@
 use crate::deform::{solve_deform, DeformSettings};
 use crate::energy::EnergyKind;
 use crate::generate::{generate, generated_handles};
-use crate::mesh::{obj::load_obj, Mesh};
+use crate::mesh::Mesh;
 use crate::param::{solve_param, ParamSettings};
 use crate::solver::{IterationRecord, Outcome, Recorder, StopSettings};
+use crate::test_support::shared_mesh;
 
 /// The solvers of issue 20 that run on the Newton driver or a driver of their own.
 const AFTER_THE_PAPERS: [&str; 6] = ["pn-abs", "fp-abs-6x6", "pn-trust-region", "lbfgs", "lbfgs-laplacian", "aqp"];
-
-/// A mesh of `$MAPBENCH_MESHES`, `None` (with a note) when the variable is not set.
-fn shared(name: &str) -> Option<Mesh> {
-    let Ok(dir) = std::env::var("MAPBENCH_MESHES") else {
-        eprintln!("MAPBENCH_MESHES not set: {name} skipped");
-        return None;
-    };
-    Some(load_obj(&std::path::Path::new(&dir).join(format!("{name}.obj"))).expect("a mesh of the shared corpus"))
-}
 
 fn param(mesh: &Mesh, solver: &str, max_iters: usize) -> (Outcome, Vec<IterationRecord>) {
     let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
@@ -40,7 +32,7 @@ fn assert_reaches(label: &str, out: &Outcome, rows: &[IterationRecord], kp: &Out
 #[test]
 fn the_solvers_after_the_papers_reach_kp_on_two_shared_meshes() {
     for name in ["bunnyhead", "cow"] {
-        let Some(mesh) = shared(name) else { return };
+        let Some(mesh) = shared_mesh(name) else { return };
         let (kp, _) = param(&mesh, "kp-newton", 200);
         for solver in AFTER_THE_PAPERS {
             let (out, rows) = param(&mesh, solver, 20_000);
@@ -77,7 +69,7 @@ fn the_trust_region_filter_records_its_modes_and_reaches_kp() {
     let (out, rows) = param(&mesh, "pn-trust-region", 200);
     assert_reaches("pn-trust-region", &out, &rows, &kp);
     assert!(rows.windows(2).all(|w| w[1].energy <= w[0].energy));
-    let col = |r: &IterationRecord, name: &str| r.extra.iter().find(|e| e.0 == name).map(|e| e.1).unwrap();
+    let col = |r: &IterationRecord, name: &str| r.extra_value(name).unwrap();
     let names: Vec<&str> = rows[0].extra.iter().map(|e| e.0).collect();
     assert_eq!(names, ["filter", "rho"]);
     assert!(col(&rows[0], "filter").is_nan() && col(&rows[0], "rho").is_nan());

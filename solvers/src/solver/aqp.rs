@@ -200,9 +200,10 @@ mod tests {
     use crate::deform::{solve_deform, DeformSettings};
     use crate::energy::EnergyKind;
     use crate::generate::{generate, generated_handles};
-    use crate::mesh::{load_obj, Mesh};
+    use crate::mesh::Mesh;
     use crate::param::{solve_param, ParamSettings};
     use crate::solver::{Recorder, StopSettings};
+    use crate::test_support::shared_mesh;
 
     #[test]
     fn theta_follows_from_kappa() {
@@ -212,17 +213,8 @@ mod tests {
         assert_eq!(theta(1.0), 0.0);
     }
 
-    /// A mesh of the shared corpus, `None` (the test part skipped) without `MAPBENCH_MESHES`.
-    fn shared(name: &str) -> Option<Mesh> {
-        let Ok(dir) = std::env::var("MAPBENCH_MESHES") else {
-            eprintln!("MAPBENCH_MESHES not set: shared mesh {name} skipped");
-            return None;
-        };
-        Some(load_obj(&std::path::Path::new(&dir).join(format!("{name}.obj"))).unwrap())
-    }
-
     fn value(r: &IterationRecord, column: &str) -> f64 {
-        r.extra.iter().find(|e| e.0 == column).unwrap().1
+        r.extra_value(column).unwrap()
     }
 
     /// The rows' invariants: no flips, row 0's extras NaN, iteration 1 without momentum (so
@@ -274,7 +266,7 @@ mod tests {
         // KP's energy with |grad| 0.45 (README); nor goathead, where it converges to another
         // local minimum, 2.9e-5 above KP's
         for name in ["cow", "bunnyhead"] {
-            if let Some(mesh) = shared(name) {
+            if let Some(mesh) = shared_mesh(name) {
                 reaches_kp_on(&mesh, 1000);
             }
         }

@@ -57,6 +57,11 @@ pub struct IterationRecord {
 }
 
 impl IterationRecord {
+    /// The value of the solver's extra column `name`, `None` when it has no such column.
+    pub fn extra_value(&self, name: &str) -> Option<f64> {
+        self.extra.iter().find(|e| e.0 == name).map(|e| e.1)
+    }
+
     /// Row 0: the initial state `ev` of `x`, with the solver's extra columns `extra` not yet
     /// defined (NaN: no step has been taken).
     pub fn initial(

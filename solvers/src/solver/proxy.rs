@@ -166,18 +166,15 @@ pub const STIFFNESS_FLOOR: f64 = 1e-8;
 /// trace(H_t) / trace(D_t)`, its system block's mean stiffness against the Dirichlet block
 /// `D_t = 4 a_t / sum a M^T M` (`trace D_t = 16 a_t / sum a sum |d_i|^2`), so that
 /// `s_t D_t` has `H_t`'s trace: the isotropic part of each element's projected Hessian.
-fn stiffness_weights(problem: &MapProblem, blocks: &[Lower6], weights: &mut Vec<[f64; 3]>) {
+/// `scale` is scratch (the `s_t`), kept by the caller so that no iteration allocates.
+fn stiffness_weights(problem: &MapProblem, blocks: &[Lower6], weights: &mut Vec<[f64; 3]>, scale: &mut Vec<f64>) {
     let diag = [0, 2, 5, 9, 14, 20]; // LOWER's (a, a) entries
-    let scale: Vec<f64> = problem
-        .ops
-        .par_iter()
-        .zip(blocks.par_iter())
-        .map(|(op, b)| {
-            let d2: f64 = (0..3).map(|i| op.d_re[i] * op.d_re[i] + op.d_im[i] * op.d_im[i]).sum();
-            let trace_d = 16.0 * problem.weight() * op.area * d2;
-            diag.iter().map(|&k| b[k]).sum::<f64>() / trace_d
-        })
-        .collect();
+    scale.clear();
+    scale.par_extend(problem.ops.par_iter().zip(blocks.par_iter()).map(|(op, b)| {
+        let d2: f64 = (0..3).map(|i| op.d_re[i] * op.d_re[i] + op.d_im[i] * op.d_im[i]).sum();
+        let trace_d = 16.0 * problem.weight() * op.area * d2;
+        diag.iter().map(|&k| b[k]).sum::<f64>() / trace_d
+    }));
     let mean = scale.iter().sum::<f64>() / scale.len().max(1) as f64;
     let floor = STIFFNESS_FLOOR * mean;
     dirichlet_weights(problem, weights);
@@ -187,8 +184,9 @@ fn stiffness_weights(problem: &MapProblem, blocks: &[Lower6], weights: &mut Vec<
     });
 }
 
-/// The lower CSC values of `L` from edge `weights`: assembled on `pattern`, gathered into
-/// `block`, the handles' `2 lambda` on the diagonal, `pinned`'s row and column the identity's.
+/// The lower CSC values of `L` from edge `weights` into `values`: assembled on `pattern`
+/// (into the scratch `full`), gathered into `block`, the handles' `2 lambda` on the
+/// diagonal, `pinned`'s row and column the identity's.
 fn scalar_values(
     problem: &MapProblem,
     pattern: &LaplacianPattern,
@@ -196,9 +194,10 @@ fn scalar_values(
     weights: &[[f64; 3]],
     pinned: Option<usize>,
     full: &mut Vec<f64>,
-) -> Vec<f64> {
+    values: &mut Vec<f64>,
+) {
     pattern.assemble(weights, full);
-    let mut values = block.gather(full);
+    block.gather_into(full, values);
     if let Some(pen) = &problem.penalty {
         // the same 2 lambda on both coordinates of a handle's vertex: count the first
         for (dof, h) in pen.diagonal().filter(|(dof, _)| dof % 2 == 0) {
@@ -215,7 +214,6 @@ fn scalar_values(
             }
         }
     }
-    values
 }
 
 /// The vertex graph's Laplacian pattern and its lower CSC block over every vertex.
@@ -233,7 +231,8 @@ pub fn scalar_laplacian_proxy(problem: &MapProblem, pinned: Option<usize>) -> (S
     let (pattern, block) = scalar_pattern(problem);
     let mut weights = Vec::new();
     dirichlet_weights(problem, &mut weights);
-    let values = scalar_values(problem, &pattern, &block, &weights, pinned, &mut Vec::new());
+    let mut values = Vec::new();
+    scalar_values(problem, &pattern, &block, &weights, pinned, &mut Vec::new(), &mut values);
     (block, values)
 }
 
@@ -250,8 +249,12 @@ pub(crate) struct ScalarProxy {
     columns: Vec<f64>,
     pattern: LaplacianPattern,
     block: SubBlock,
+    /// Scratch kept across reweightings (no iteration allocates): edge weights, per-face
+    /// stiffness scales, the assembled matrix, its lower block's values.
     weights: Vec<[f64; 3]>,
+    scale: Vec<f64>,
     full: Vec<f64>,
+    values: Vec<f64>,
 }
 
 impl ScalarProxy {
@@ -260,9 +263,8 @@ impl ScalarProxy {
     pub(crate) fn new(problem: &MapProblem, settings: &Settings) -> Result<ScalarProxy, ProxyError> {
         let mut proxy = Self::analysed(problem, settings)?;
         dirichlet_weights(problem, &mut proxy.weights);
-        let values =
-            scalar_values(problem, &proxy.pattern, &proxy.block, &proxy.weights, proxy.pinned, &mut proxy.full);
-        proxy.shift = factorize_with_retries(&mut proxy.solver, &values, &settings.linear)?;
+        proxy.assemble(problem);
+        proxy.shift = factorize_with_retries(&mut proxy.solver, &proxy.values, &settings.linear)?;
         Ok(proxy)
     }
 
@@ -284,8 +286,15 @@ impl ScalarProxy {
             reused: solver.analysis_reused(),
         };
         solver.set_sequential_solves(true);
-        let (weights, full, shift) = (Vec::new(), Vec::new(), settings.linear.tikhonov);
-        Ok(ScalarProxy { solver, pinned, shift, analysis, columns: Vec::new(), pattern, block, weights, full })
+        let shift = settings.linear.tikhonov;
+        let (columns, weights, scale, full, values) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        Ok(ScalarProxy { solver, pinned, shift, analysis, columns, pattern, block, weights, scale, full, values })
+    }
+
+    /// `values` from the current `weights`.
+    fn assemble(&mut self, problem: &MapProblem) {
+        let (pattern, block, weights) = (&self.pattern, &self.block, &self.weights);
+        scalar_values(problem, pattern, block, weights, self.pinned, &mut self.full, &mut self.values);
     }
 
     /// Refactor `L` with the stiffness weights of `blocks` (one per face, as the Newton driver
@@ -296,9 +305,9 @@ impl ScalarProxy {
         blocks: &[Lower6],
         linear: &LinearSettings,
     ) -> Result<(), StopReason> {
-        stiffness_weights(problem, blocks, &mut self.weights);
-        let values = scalar_values(problem, &self.pattern, &self.block, &self.weights, self.pinned, &mut self.full);
-        match factorize_with_retries(&mut self.solver, &values, linear) {
+        stiffness_weights(problem, blocks, &mut self.weights, &mut self.scale);
+        self.assemble(problem);
+        match factorize_with_retries(&mut self.solver, &self.values, linear) {
             Ok(shift) => {
                 self.shift = shift;
                 Ok(())
@@ -330,9 +339,9 @@ impl ScalarProxy {
         Ok(())
     }
 
-    /// Whether dof `i` is one of the pinned vertex's.
-    pub(crate) fn is_pinned(&self, i: usize) -> bool {
-        self.pinned == Some(i / 2)
+    /// The vertex whose dofs the proxy fixes (none with handles).
+    pub(crate) fn pinned(&self) -> Option<usize> {
+        self.pinned
     }
 }
 
@@ -356,6 +365,22 @@ mod tests {
             .sum::<f64>()
             / pb.total_area;
         d + pb.penalty.as_ref().map_or(0.0, |p| p.value(x))
+    }
+
+    /// The 2n matrix `two` (lower triangle on `pattern`) is `L (x) I_2` for the scalar
+    /// matrix `one` (lower triangle on `block`), entry by entry within `tol` relative.
+    fn assert_kronecker_i2(pattern: &Pattern, two: &[f64], block: &SubBlock, one: &[f64], tol: f64) {
+        let scalar = |r: usize, c: usize| {
+            let range = block.col_ptr[c]..block.col_ptr[c + 1];
+            block.row_idx[range.clone()].binary_search(&r).map_or(0.0, |k| one[range.start + k])
+        };
+        for c in 0..pattern.n {
+            let range = pattern.col_ptr[c]..pattern.col_ptr[c + 1];
+            for (&r, &value) in pattern.row_idx[range.clone()].iter().zip(&two[range]) {
+                let want = if r % 2 == c % 2 { scalar(r / 2, c / 2) } else { 0.0 };
+                assert!((value - want).abs() < tol * (1.0 + want.abs()), "({r}, {c}): {value} vs {want}");
+            }
+        }
     }
 
     fn wave(n: usize, k: usize) -> Vec<f64> {
@@ -418,24 +443,15 @@ mod tests {
             let mut two = Vec::new();
             pattern.assemble(&blocks, &mut two);
             let mut weights = Vec::new();
-            stiffness_weights(&pb, &blocks, &mut weights);
-            let one = scalar_values(&pb, &lap, &block, &weights, None, &mut Vec::new());
-            let scalar = |r: usize, c: usize| {
-                let range = block.col_ptr[c]..block.col_ptr[c + 1];
-                block.row_idx[range.clone()].binary_search(&r).map_or(0.0, |k| one[range.start + k])
-            };
-            for col in 0..pattern.n {
-                let range = pattern.col_ptr[col]..pattern.col_ptr[col + 1];
-                for (&r, &value) in pattern.row_idx[range.clone()].iter().zip(&two[range]) {
-                    let want = if r % 2 == col % 2 { scalar(r / 2, col / 2) } else { 0.0 };
-                    assert!((value - want).abs() < 1e-9 * (1.0 + want.abs()), "({r}, {col}): {value} vs {want}");
-                }
-            }
+            stiffness_weights(&pb, &blocks, &mut weights, &mut Vec::new());
+            let mut one = Vec::new();
+            scalar_values(&pb, &lap, &block, &weights, None, &mut Vec::new(), &mut one);
+            assert_kronecker_i2(&pattern, &two, &block, &one, 1e-9);
         }
         let mut blocks: Vec<Lower6> = (0..pb.n_faces()).map(|t| crate::assembly::pack_lower(&dirichlet(t))).collect();
         blocks[5] = [0.0; 21];
         let (mut floored, mut constant) = (Vec::new(), Vec::new());
-        stiffness_weights(&pb, &blocks, &mut floored);
+        stiffness_weights(&pb, &blocks, &mut floored, &mut Vec::new());
         dirichlet_weights(&pb, &mut constant);
         let mean = 1.0 - 1.0 / pb.n_faces() as f64;
         for k in 0..3 {
@@ -458,17 +474,7 @@ mod tests {
             assert_eq!(pinned.is_none(), pb.penalty.is_some());
             let two = laplacian_proxy(&pb, &pattern, pinned);
             let (block, one) = scalar_laplacian_proxy(&pb, pinned);
-            let scalar = |r: usize, c: usize| {
-                let range = block.col_ptr[c]..block.col_ptr[c + 1];
-                block.row_idx[range.clone()].binary_search(&r).map_or(0.0, |k| one[range.start + k])
-            };
-            for c in 0..pattern.n {
-                let range = pattern.col_ptr[c]..pattern.col_ptr[c + 1];
-                for (&r, &value) in pattern.row_idx[range.clone()].iter().zip(&two[range]) {
-                    let want = if r % 2 == c % 2 { scalar(r / 2, c / 2) } else { 0.0 };
-                    assert!((value - want).abs() < 1e-12 * (1.0 + want.abs()), "({r}, {c}): {value} vs {want}");
-                }
-            }
+            assert_kronecker_i2(&pattern, &two, &block, &one, 1e-12);
             let settings = Settings::default();
             let mut full = Proxy::new(&pb, &settings.linear, &settings).ok().unwrap();
             let mut half = ScalarProxy::new(&pb, &settings).ok().unwrap();
