@@ -1,8 +1,8 @@
 //! One Newton iteration's stages on generated meshes of 5k and 50k vertices (SD at the
 //! Tutte map): evaluation (energy, gradient, element states), the line search's energy-only
 //! evaluation, KP projection of every element, sparse assembly, numeric factorization +
-//! solve, and the maximal injective step; plus the authalic energy gradient and one AEM
-//! preconditioner application.
+//! solve, the triangular solves alone (ours and faer's), and the maximal injective step;
+//! plus the authalic energy gradient and one AEM preconditioner application.
 //! Run with `cargo bench -p mapbench-solvers --bench pipeline`; `cargo test --benches`
 //! runs each benchmark once as a smoke test.
 
@@ -71,6 +71,24 @@ fn bench(c: &mut Criterion) {
         group.bench_function("factorize_solve", |b| {
             b.iter(|| solver.solve(black_box(&values), black_box(&rhs), &settings).map(|x| x[0]))
         });
+        // The triangular solves alone (the preconditioners' and AEM's per-iteration cost):
+        // ours (`triangular`, what the runs use) against faer's, with the same factor, for
+        // one right-hand side and for two solved together.
+        let mut with_faer = SpdSolver::new(&pattern, Ordering::Metis).expect("symbolic analysis");
+        with_faer.set_faer_kernel(true);
+        solver.factorize(&values, &settings).expect("KP system is SPD");
+        with_faer.factorize(&values, &settings).expect("KP system is SPD");
+        let two: Vec<f64> = rhs.iter().chain(&rhs).copied().collect();
+        for (label, s) in [("solve", &mut solver), ("solve_faer", &mut with_faer)] {
+            group.bench_function(label, |b| b.iter(|| s.solve_factored(black_box(&rhs)).map(|x| x[0])));
+            group.bench_function(format!("{label}_2_columns"), |b| {
+                let mut x = two.clone();
+                b.iter(|| {
+                    x.copy_from_slice(&two);
+                    s.solve_columns_in_place(black_box(&mut x)).map(|_| x[0])
+                })
+            });
+        }
         // The same matrix with faer's AMD ordering, and the one-off analyses (ordering +
         // symbolic factorization) of both, so `[linear] ordering`'s default stays justified.
         let mut amd = SpdSolver::new(&pattern, Ordering::Amd).expect("symbolic analysis");
@@ -89,6 +107,25 @@ fn bench(c: &mut Criterion) {
         let auth = AuthalicProblem::new(&generate(name).expect("generated mesh")).expect("disk mesh");
         let z = auth.initial_map(5).expect("initial map");
         group.bench_function("authalic_gradient", |b| b.iter(|| auth.terms_and_gradient(black_box(&z)).0.energy));
+        // AEM's preconditioner solve: L_II of the initial map, both interior coordinates as
+        // two columns, with our triangular solves and with faer's.
+        let mut lap = Vec::new();
+        auth.laplacian(Some(&auth.positions_of(&z)), &mut lap);
+        let l_ii = auth.block_i.gather(&lap);
+        let exact = LinearSettings { tikhonov: 0.0, jacobi: false, ..Default::default() };
+        let cols: Vec<f64> = (0..2 * auth.block_i.n).map(|i| (i as f64 * 0.37).sin()).collect();
+        for (label, faer) in [("aem_preconditioner_solve", false), ("aem_preconditioner_solve_faer", true)] {
+            let mut s = auth.block_solver(&auth.block_i).expect("analysis of L_II");
+            s.set_faer_kernel(faer);
+            s.factorize(&l_ii, &exact).expect("L_II is SPD");
+            group.bench_function(label, |b| {
+                let mut x = cols.clone();
+                b.iter(|| {
+                    x.copy_from_slice(&cols);
+                    s.solve_columns_in_place(black_box(&mut x)).map(|_| x[0])
+                })
+            });
+        }
         group.finish();
     }
 }

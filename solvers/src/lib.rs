@@ -36,3 +36,4 @@ pub mod system;
 pub mod task;
 #[cfg(test)]
 mod test_support;
+pub mod triangular;

@@ -259,8 +259,8 @@ pub struct SpdSolver {
     /// Factorize with faer's own (supernode after supernode) kernel even when a schedule
     /// exists: `time-system --kernel faer`, to measure one against the other.
     faer_kernel: bool,
-    /// Run the triangular solves on one thread whatever the pool (`set_sequential_solves`).
-    sequential_solves: bool,
+    /// The interleaved right-hand sides of `triangular::solve_in_place`.
+    solve_work: Vec<f64>,
     factored: bool,
 }
 
@@ -370,7 +370,7 @@ impl SpdSolver {
             mem_cols: 1,
             workspace: Workspace::default(),
             faer_kernel: false,
-            sequential_solves: false,
+            solve_work: Vec::new(),
             factored: false,
         }
     }
@@ -399,14 +399,6 @@ impl SpdSolver {
     /// subtree-parallel one of `supernodal` (the default); for benchmarks.
     pub fn set_faer_kernel(&mut self, faer: bool) {
         self.faer_kernel = faer;
-    }
-
-    /// Solve on the calling thread only, even in a pool of several: faer's parallel solve
-    /// forks per supernode, which costs more than it gains where the supernodes are small
-    /// (the one-coordinate Laplacian of `kp-newton-cg`'s preconditioner). The same bits
-    /// either way.
-    pub fn set_sequential_solves(&mut self, sequential: bool) {
-        self.sequential_solves = sequential;
     }
 
     /// Number of stored entries of the Cholesky factor (with supernodal padding).
@@ -487,6 +479,8 @@ impl SpdSolver {
     /// Solve for every column of `x` at once (column-major, `n` rows each, as many columns as
     /// `x` holds), in place: one pass over the factor for all of them, which is what a
     /// triangular solve's time is made of (the AEM preconditioner's two interior coordinates).
+    /// A supernodal factor is solved by `triangular` on the calling thread (the same bits for
+    /// any pool), a simplicial one by faer.
     pub fn solve_columns_in_place(&mut self, x: &mut [f64]) -> Result<(), LinearError> {
         if !self.factored {
             return Err(LinearError::NotFactored);
@@ -499,6 +493,28 @@ impl SpdSolver {
         for col in x.chunks_exact_mut(n) {
             col.iter_mut().zip(&self.scale).for_each(|(xi, si)| *xi *= si);
         }
+        match (&self.analysis.schedule, self.analysis.symbolic.raw()) {
+            // A supernodal factor: our sequential solve (the module's doc says why), unless
+            // faer's kernels are asked for.
+            (Some(_), SymbolicCholeskyRaw::Supernodal(sn)) if !self.faer_kernel => {
+                let perm = self.analysis.symbolic.perm();
+                crate::triangular::solve_in_place(sn, perm, &self.l_values, x, &mut self.solve_work);
+            }
+            _ => self.faer_solve(x, k),
+        }
+        for col in x.chunks_exact_mut(n) {
+            col.iter_mut().zip(&self.scale).for_each(|(xi, si)| *xi *= si);
+        }
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            return Err(LinearError::BadDiagonal { index: i % n, value: x[i] });
+        }
+        Ok(())
+    }
+
+    /// faer's triangular solves for the `k` columns of `x` (scaled), on the calling pool's
+    /// threads: a simplicial factor (small systems), or `time-system --kernel faer`.
+    fn faer_solve(&mut self, x: &mut [f64], k: usize) {
+        let n = self.n;
         let par = self.par();
         if k > self.mem_cols {
             let req = self.analysis.symbolic.solve_in_place_scratch::<f64>(k, par);
@@ -509,15 +525,7 @@ impl SpdSolver {
         }
         let rhs = MatMut::from_column_major_slice_mut(x, n, k);
         let llt = LltRef::new(&self.analysis.symbolic, &self.l_values);
-        let par = if self.sequential_solves { Par::Seq } else { par };
         llt.solve_in_place_with_conj(Conj::No, rhs, par, MemStack::new(&mut self.mem));
-        for col in x.chunks_exact_mut(n) {
-            col.iter_mut().zip(&self.scale).for_each(|(xi, si)| *xi *= si);
-        }
-        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
-            return Err(LinearError::BadDiagonal { index: i % n, value: x[i] });
-        }
-        Ok(())
     }
 }
 

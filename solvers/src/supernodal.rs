@@ -7,7 +7,8 @@
 //! own descendants and write only their own columns, so whole subtrees can be factorized
 //! at once. This module computes the same left-looking factorization as faer, into faer's
 //! layout of the values (supernode after supernode, each a column-major block of its
-//! columns and then its pattern's rows), so faer's solve uses the factor as is:
+//! columns and then its pattern's rows), so the solves (`triangular`'s, or faer's for
+//! `time-system --kernel faer`) use the factor as is:
 //!
 //! - every entry of `A` goes to its slot of the factor through a map computed once per
 //!   analysis (the permutation and the supernode layout folded together);
@@ -373,7 +374,7 @@ fn supernode(ctx: &Ctx, s: usize, below: &[f64], base: usize, ls: &mut [f64], pa
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::assembly::Pattern;
     use faer::sparse::linalg::cholesky::{
@@ -385,7 +386,7 @@ mod tests {
 
     /// The Newton pattern of a ring disk with SPD values: a graph Laplacian of the two
     /// interleaved dofs plus a diagonal, with coupling between the dofs of a vertex.
-    fn system(mesh: &str) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>) {
+    pub(crate) fn system(mesh: &str) -> (usize, Vec<usize>, Vec<usize>, Vec<f64>) {
         let mesh = crate::generate::generate(mesh).unwrap();
         system_of(Pattern::new(&mesh.faces, mesh.n_vertices()))
     }
@@ -413,7 +414,8 @@ mod tests {
         (pat.n, pat.col_ptr, pat.row_idx, vals)
     }
 
-    fn analyse(
+    /// AMD and a supernodal factor whatever its size.
+    pub(crate) fn analyse(
         n: usize,
         col_ptr: &[usize],
         row_idx: &[usize],
@@ -427,7 +429,7 @@ mod tests {
         (a, sym)
     }
 
-    fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
+    pub(crate) fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
         match sym.raw() {
             SymbolicCholeskyRaw::Supernodal(s) => s,
             SymbolicCholeskyRaw::Simplicial(_) => panic!("expected a supernodal analysis"),

@@ -275,7 +275,7 @@ impl ScalarProxy {
         let (pattern, block) = scalar_pattern(problem);
         let (n, ordering) = (block.n, settings.linear.ordering);
         let (col_ptr, row_idx, diag) = (&block.col_ptr, &block.row_idx, block.diag.clone());
-        let mut solver = match settings.analyses.as_deref() {
+        let solver = match settings.analyses.as_deref() {
             Some(cache) => SpdSolver::from_csc_cached(n, col_ptr, row_idx, diag, ordering, 1, cache),
             None => SpdSolver::from_csc_ordered(n, col_ptr.clone(), row_idx.clone(), diag, ordering, 1),
         }
@@ -285,7 +285,6 @@ impl ScalarProxy {
             setup_seconds: solver.setup_seconds(),
             reused: solver.analysis_reused(),
         };
-        solver.set_sequential_solves(true);
         let shift = settings.linear.tikhonov;
         let (columns, weights, scale, full, values) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         Ok(ScalarProxy { solver, pinned, shift, analysis, columns, pattern, block, weights, scale, full, values })
