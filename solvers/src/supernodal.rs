@@ -72,11 +72,13 @@ pub enum ScheduleError {
     NotInPattern { row: usize, col: usize },
 }
 
-fn s_range(sym: &SymbolicSupernodalCholesky<usize>, s: usize) -> (usize, usize) {
+/// The columns `begin..end` of supernode `s`.
+pub(crate) fn s_range(sym: &SymbolicSupernodalCholesky<usize>, s: usize) -> (usize, usize) {
     (sym.supernode_begin()[s], sym.supernode_end()[s])
 }
 
-fn s_pattern(sym: &SymbolicSupernodalCholesky<usize>, s: usize) -> &[usize] {
+/// The rows of supernode `s` below its columns.
+pub(crate) fn s_pattern(sym: &SymbolicSupernodalCholesky<usize>, s: usize) -> &[usize] {
     &sym.row_idx()[sym.col_ptr_for_row_idx()[s]..][..sym.nnz_per_super()[s]]
 }
 

@@ -15,6 +15,7 @@
 //! One thread, a fixed order: the result is the same bits on every call and for any pool
 //! (it differs from faer's in the rounding of the sums: `tests::equals_faers_solve`).
 
+use crate::supernodal::{s_pattern, s_range};
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 
@@ -55,8 +56,7 @@ fn solve_k<const K: usize>(
     let n = sym.nrows();
     let fwd = perm.map(|p| p.arrays().0);
     let old = |i: usize| fwd.map_or(i, |f| f[i]);
-    let pat_len = sym.nnz_per_super();
-    let max_pat = pat_len.iter().copied().max().unwrap_or(0);
+    let max_pat = sym.nnz_per_super().iter().copied().max().unwrap_or(0);
     // `w[i]`: the K right-hand sides of row i of the permuted system; `t`: a supernode's
     // pattern rows, gathered (backward) or accumulated before one scatter (forward).
     work.clear();
@@ -66,17 +66,12 @@ fn solve_k<const K: usize>(
         let o = old(i);
         *wi = std::array::from_fn(|c| x[c * n + o]);
     }
-    let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
-    let (val_ptr, pat_ptr, rows) = (sym.col_ptr_for_val(), sym.col_ptr_for_row_idx(), sym.row_idx());
     let ns = sym.n_supernodes();
     // Forward: L y = P b. Per supernode the diagonal block by columns, then its rows below
     // as one product `t = L_below y_s` and one scatter `y[pattern] -= t`.
     for s in 0..ns {
-        let (b, e) = (begin[s], end[s]);
-        let pat = &rows[pat_ptr[s]..][..pat_len[s]];
-        let ncols = e - b;
-        let nrows = ncols + pat.len();
-        let block = &l[val_ptr[s]..][..nrows * ncols];
+        let Supernode { b, e, pat, block } = Supernode::of(sym, l, s);
+        let (ncols, nrows) = (e - b, e - b + pat.len());
         let t = &mut t[..pat.len()];
         t.fill([0.0; K]);
         let ws = &mut w[b..e];
@@ -104,11 +99,8 @@ fn solve_k<const K: usize>(
     // Backward: L^T z = y, in reverse. Per supernode one gather of its pattern rows, then
     // its columns from the last: `z_j = (y_j - L[rows > j, j]^T z[rows > j]) / L_jj`.
     for s in (0..ns).rev() {
-        let (b, e) = (begin[s], end[s]);
-        let pat = &rows[pat_ptr[s]..][..pat_len[s]];
-        let ncols = e - b;
-        let nrows = ncols + pat.len();
-        let block = &l[val_ptr[s]..][..nrows * ncols];
+        let Supernode { b, e, pat, block } = Supernode::of(sym, l, s);
+        let (ncols, nrows) = (e - b, e - b + pat.len());
         let t = &mut t[..pat.len()];
         for (ti, &r) in t.iter_mut().zip(pat) {
             *ti = w[r];
@@ -129,6 +121,24 @@ fn solve_k<const K: usize>(
         for c in 0..K {
             x[c * n + o] = wi[c];
         }
+    }
+}
+
+/// One supernode of the factor: its columns `b..e`, its rows below them and its values
+/// (column-major, `e - b + pat.len()` rows).
+struct Supernode<'a> {
+    b: usize,
+    e: usize,
+    pat: &'a [usize],
+    block: &'a [f64],
+}
+
+impl<'a> Supernode<'a> {
+    fn of(sym: &'a SymbolicSupernodalCholesky<usize>, l: &'a [f64], s: usize) -> Supernode<'a> {
+        let (b, e) = s_range(sym, s);
+        let pat = s_pattern(sym, s);
+        let block = &l[sym.col_ptr_for_val()[s]..][..(e - b + pat.len()) * (e - b)];
+        Supernode { b, e, pat, block }
     }
 }
 
