@@ -260,7 +260,7 @@ pub struct SpdSolver {
     /// exists: `time-system --kernel faer`, to measure one against the other.
     faer_kernel: bool,
     /// The interleaved right-hand sides of `triangular::solve_in_place`.
-    solve_work: Vec<f64>,
+    solve_work: crate::triangular::SolveWork,
     factored: bool,
 }
 
@@ -370,7 +370,7 @@ impl SpdSolver {
             mem_cols: 1,
             workspace: Workspace::default(),
             faer_kernel: false,
-            solve_work: Vec::new(),
+            solve_work: Default::default(),
             factored: false,
         }
     }
@@ -479,8 +479,8 @@ impl SpdSolver {
     /// Solve for every column of `x` at once (column-major, `n` rows each, as many columns as
     /// `x` holds), in place: one pass over the factor for all of them, which is what a
     /// triangular solve's time is made of (the AEM preconditioner's two interior coordinates).
-    /// A supernodal factor is solved by `triangular` on the calling thread (the same bits for
-    /// any pool), a simplicial one by faer.
+    /// A supernodal factor is solved by `triangular` (on the calling pool's threads when it is
+    /// large, the same bits for any pool), a simplicial one by faer.
     pub fn solve_columns_in_place(&mut self, x: &mut [f64]) -> Result<(), LinearError> {
         if !self.factored {
             return Err(LinearError::NotFactored);
@@ -494,11 +494,12 @@ impl SpdSolver {
             col.iter_mut().zip(&self.scale).for_each(|(xi, si)| *xi *= si);
         }
         match (&self.analysis.schedule, self.analysis.symbolic.raw()) {
-            // A supernodal factor: our sequential solve (the module's doc says why), unless
-            // faer's kernels are asked for.
+            // A supernodal factor: our solve (the module's doc says why), unless faer's
+            // kernels are asked for.
             (Some(_), SymbolicCholeskyRaw::Supernodal(sn)) if !self.faer_kernel => {
                 let perm = self.analysis.symbolic.perm();
-                crate::triangular::solve_in_place(sn, perm, &self.l_values, x, &mut self.solve_work);
+                let sched = self.analysis.schedule.as_ref();
+                crate::triangular::solve_in_place(sn, perm, sched, &self.l_values, x, &mut self.solve_work);
             }
             _ => self.faer_solve(x, k),
         }

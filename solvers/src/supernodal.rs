@@ -183,8 +183,19 @@ impl Schedule {
         Ok(Schedule { update_ptr, updates, child_ptr, children, roots, first, work, a_to_l, max_cols })
     }
 
-    fn children(&self, s: usize) -> &[usize] {
+    /// The children of supernode `s`, increasing.
+    pub(crate) fn children(&self, s: usize) -> &[usize] {
         &self.children[self.child_ptr[s]..self.child_ptr[s + 1]]
+    }
+
+    /// The roots of the supernodal elimination forest, increasing.
+    pub(crate) fn roots(&self) -> &[usize] {
+        &self.roots
+    }
+
+    /// The first supernode of the subtree of `s` (the subtree is `first(s)..=s`).
+    pub(crate) fn first(&self, s: usize) -> usize {
+        self.first[s]
     }
 
     fn updates(&self, s: usize) -> &[usize] {

@@ -12,22 +12,96 @@
 //! register. AEM-CG's preconditioner solves at 200k: 58-69 ms per iteration against 76-90 ms
 //! with faer's sequential solve and 90-104 ms with its parallel one (README, issue 21).
 //!
-//! One thread, a fixed order: the result is the same bits on every call and for any pool
-//! (it differs from faer's in the rounding of the sums: `tests::equals_faers_solve`).
+//! Large factors are solved on the calling pool's threads: disjoint subtrees of the
+//! elimination tree run as tasks and the supernodes above them on one thread, with every
+//! row receiving the same operations in the same order as in the sequential solve ([`Tasks`]),
+//! so the result is the same bits on every call and for any pool (it differs from faer's in
+//! the rounding of the sums: `tests::equals_faers_solve`). AEM-CG's two columns at 1M: 0.19-0.21
+//! s on two threads against 0.28-0.34 s on one (issue 21).
 
-use crate::supernodal::{s_pattern, s_range};
+use crate::supernodal::{s_pattern, s_range, Schedule};
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
+use rayon::prelude::*;
+
+/// Factors with fewer values than this are solved on one thread: below it a task costs more
+/// than it saves.
+const PARALLEL_MIN_VALUES: usize = 1 << 19;
+
+/// A parallel task is a subtree with at most `1 / (TASKS_PER_THREAD * threads)` of the
+/// factor's values: small enough to balance the threads, large enough that the supernodes
+/// above all tasks (solved on one thread) stay a small share. On `L_II` of `bumpy_1m` with
+/// two threads: 4 tasks of 23-24% each and 5.6% above them; 1, 3 and 6 per thread measured
+/// the same within the noise (the two threads share the memory bandwidth: 1.5x one thread).
+const TASKS_PER_THREAD: usize = 2;
+
+/// Scratch of the solves, kept by the caller between calls.
+#[derive(Debug, Default)]
+pub struct SolveWork {
+    /// The interleaved right-hand sides, then a supernode's pattern rows (`t`).
+    rows: Vec<f64>,
+    /// The rows above all tasks, copied for the tasks' backward pass to read.
+    snapshot: Vec<f64>,
+    tasks: Vec<TaskWork>,
+}
+
+/// One task's pattern rows and the forward updates it owes the rows above it.
+#[derive(Debug, Default)]
+struct TaskWork {
+    t: Vec<f64>,
+    deferred: Vec<f64>,
+}
 
 /// Solve `P A P^T = L L^T` for the `x.len() / n` columns of `x` (column-major, `n` rows
 /// each) in place: `x <- A^-1 x`. `l` are the factor's values in `sym`'s layout, `perm`
-/// the fill-reducing permutation (`None`: the identity), `work` scratch kept by the caller.
+/// the fill-reducing permutation (`None`: the identity), `sched` the factorization's
+/// schedule (its tree lets large factors be solved on the calling pool's threads), `work`
+/// scratch kept by the caller. The result is the same bits for any pool.
 pub fn solve_in_place(
     sym: &SymbolicSupernodalCholesky<usize>,
     perm: Option<PermRef<'_, usize>>,
+    sched: Option<&Schedule>,
     l: &[f64],
     x: &mut [f64],
-    work: &mut Vec<f64>,
+    work: &mut SolveWork,
+) {
+    let tasks = sched.map_or_else(Vec::new, |sc| split(sym, sc, rayon::current_num_threads(), PARALLEL_MIN_VALUES));
+    solve_with_tasks(sym, perm, sched, &tasks, l, x, work);
+}
+
+/// Roots of disjoint subtrees (increasing) to solve as parallel tasks on `threads` threads,
+/// each with at most `1 / (TASKS_PER_THREAD * threads)` of the values; none when the factor
+/// has fewer than `min_values` values or there is one thread. Subtrees far smaller than
+/// that stay with the supernodes above the tasks.
+fn split(sym: &SymbolicSupernodalCholesky<usize>, sched: &Schedule, threads: usize, min_values: usize) -> Vec<usize> {
+    let val = sym.col_ptr_for_val();
+    let total = val[sym.n_supernodes()];
+    if threads < 2 || total < min_values.max(1) {
+        return Vec::new();
+    }
+    let size = |s: usize| val[s + 1] - val[sched.first(s)];
+    let target = total / (TASKS_PER_THREAD * threads);
+    let mut tasks = Vec::new();
+    let mut stack = sched.roots().to_vec();
+    while let Some(s) = stack.pop() {
+        if size(s) > target {
+            stack.extend_from_slice(sched.children(s));
+        } else if size(s) >= target / 64 {
+            tasks.push(s);
+        }
+    }
+    tasks.sort_unstable();
+    tasks
+}
+
+fn solve_with_tasks(
+    sym: &SymbolicSupernodalCholesky<usize>,
+    perm: Option<PermRef<'_, usize>>,
+    sched: Option<&Schedule>,
+    tasks: &[usize],
+    l: &[f64],
+    x: &mut [f64],
+    work: &mut SolveWork,
 ) {
     let n = sym.nrows();
     if n == 0 {
@@ -35,23 +109,25 @@ pub fn solve_in_place(
     }
     let k = x.len() / n;
     match k {
-        1 => solve_k::<1>(sym, perm, l, x, work),
-        2 => solve_k::<2>(sym, perm, l, x, work),
+        1 => solve_k::<1>(sym, perm, sched, tasks, l, x, work),
+        2 => solve_k::<2>(sym, perm, sched, tasks, l, x, work),
         _ => {
             for col in x.chunks_exact_mut(n) {
-                solve_k::<1>(sym, perm, l, col, work);
+                solve_k::<1>(sym, perm, sched, tasks, l, col, work);
             }
         }
     }
 }
 
-/// [`solve_in_place`] for exactly `K` columns.
+/// The solve for exactly `K` columns.
 fn solve_k<const K: usize>(
     sym: &SymbolicSupernodalCholesky<usize>,
     perm: Option<PermRef<'_, usize>>,
+    sched: Option<&Schedule>,
+    tasks: &[usize],
     l: &[f64],
     x: &mut [f64],
-    work: &mut Vec<f64>,
+    work: &mut SolveWork,
 ) {
     let n = sym.nrows();
     let fwd = perm.map(|p| p.arrays().0);
@@ -59,67 +135,242 @@ fn solve_k<const K: usize>(
     let max_pat = sym.nnz_per_super().iter().copied().max().unwrap_or(0);
     // `w[i]`: the K right-hand sides of row i of the permuted system; `t`: a supernode's
     // pattern rows, gathered (backward) or accumulated before one scatter (forward).
-    work.clear();
-    work.resize((n + max_pat) * K, 0.0);
-    let (w, t) = as_rows::<K>(work).split_at_mut(n);
+    work.rows.clear();
+    work.rows.resize((n + max_pat) * K, 0.0);
+    let (w, t) = as_rows::<K>(&mut work.rows).split_at_mut(n);
     for (i, wi) in w.iter_mut().enumerate() {
         let o = old(i);
         *wi = std::array::from_fn(|c| x[c * n + o]);
     }
-    let ns = sym.n_supernodes();
-    // Forward: L y = P b. Per supernode the diagonal block by columns, then its rows below
-    // as one product `t = L_below y_s` and one scatter `y[pattern] -= t`.
-    for s in 0..ns {
-        let Supernode { b, e, pat, block } = Supernode::of(sym, l, s);
-        let (ncols, nrows) = (e - b, e - b + pat.len());
-        let t = &mut t[..pat.len()];
-        t.fill([0.0; K]);
-        let ws = &mut w[b..e];
-        for (j, col) in block.chunks_exact(nrows).enumerate() {
-            let d = col[j];
-            let xj: [f64; K] = std::array::from_fn(|c| ws[j][c] / d);
-            ws[j] = xj;
-            for (wi, &v) in ws[j + 1..].iter_mut().zip(&col[j + 1..ncols]) {
-                for c in 0..K {
-                    wi[c] -= v * xj[c];
-                }
-            }
-            for (ti, &v) in t.iter_mut().zip(&col[ncols..]) {
-                for c in 0..K {
-                    ti[c] += v * xj[c];
-                }
-            }
+    match sched {
+        Some(sched) if !tasks.is_empty() => {
+            let tw = &mut work.tasks;
+            tw.resize_with(tasks.len(), TaskWork::default);
+            Tasks { sym, sched, l, roots: tasks, max_pat }.solve::<K>(w, t, tw, &mut work.snapshot);
         }
-        for (&r, ti) in pat.iter().zip(t.iter()) {
-            for c in 0..K {
-                w[r][c] -= ti[c];
+        _ => {
+            for s in 0..sym.n_supernodes() {
+                forward_one(&Supernode::of(sym, l, s), w, t);
             }
-        }
-    }
-    // Backward: L^T z = y, in reverse. Per supernode one gather of its pattern rows, then
-    // its columns from the last: `z_j = (y_j - L[rows > j, j]^T z[rows > j]) / L_jj`.
-    for s in (0..ns).rev() {
-        let Supernode { b, e, pat, block } = Supernode::of(sym, l, s);
-        let (ncols, nrows) = (e - b, e - b + pat.len());
-        let t = &mut t[..pat.len()];
-        for (ti, &r) in t.iter_mut().zip(pat) {
-            *ti = w[r];
-        }
-        let ws = &mut w[b..e];
-        for (j, col) in block.chunks_exact(nrows).enumerate().rev() {
-            let mut acc = dot::<K>(&col[ncols..], t);
-            let within = dot::<K>(&col[j + 1..ncols], &ws[j + 1..]);
-            for c in 0..K {
-                acc[c] += within[c];
+            for s in (0..sym.n_supernodes()).rev() {
+                backward_one(&Supernode::of(sym, l, s), w, t);
             }
-            let d = col[j];
-            ws[j] = std::array::from_fn(|c| (ws[j][c] - acc[c]) / d);
         }
     }
     for (i, wi) in w.iter().enumerate() {
         let o = old(i);
         for c in 0..K {
             x[c * n + o] = wi[c];
+        }
+    }
+}
+
+/// Forward step of one supernode on the whole right-hand side: `y[pattern] -= L_below y_s`.
+fn forward_one<const K: usize>(sn: &Supernode, w: &mut [[f64; K]], t: &mut [[f64; K]]) {
+    let t = &mut t[..sn.pat.len()];
+    forward_block(sn, &mut w[sn.b..sn.e], t);
+    for (&r, ti) in sn.pat.iter().zip(t.iter()) {
+        for c in 0..K {
+            w[r][c] -= ti[c];
+        }
+    }
+}
+
+/// Backward step of one supernode on the whole right-hand side.
+fn backward_one<const K: usize>(sn: &Supernode, w: &mut [[f64; K]], t: &mut [[f64; K]]) {
+    let t = &mut t[..sn.pat.len()];
+    for (ti, &r) in t.iter_mut().zip(sn.pat) {
+        *ti = w[r];
+    }
+    backward_block(sn, &mut w[sn.b..sn.e], t);
+}
+
+/// Forward (`L y = b`) within a supernode: its diagonal block column by column on its own
+/// rows `ws`, then its rows below as one product `t = L_below y_s` (the caller scatters it).
+#[inline]
+fn forward_block<const K: usize>(sn: &Supernode, ws: &mut [[f64; K]], t: &mut [[f64; K]]) {
+    let (ncols, nrows) = (sn.e - sn.b, sn.e - sn.b + sn.pat.len());
+    t.fill([0.0; K]);
+    for (j, col) in sn.block.chunks_exact(nrows).enumerate() {
+        let d = col[j];
+        let xj: [f64; K] = std::array::from_fn(|c| ws[j][c] / d);
+        ws[j] = xj;
+        for (wi, &v) in ws[j + 1..].iter_mut().zip(&col[j + 1..ncols]) {
+            for c in 0..K {
+                wi[c] -= v * xj[c];
+            }
+        }
+        for (ti, &v) in t.iter_mut().zip(&col[ncols..]) {
+            for c in 0..K {
+                ti[c] += v * xj[c];
+            }
+        }
+    }
+}
+
+/// Backward (`L^T z = y`) within a supernode, its pattern rows gathered in `t`: its columns
+/// from the last, `z_j = (y_j - L[rows > j, j]^T z[rows > j]) / L_jj`.
+#[inline]
+fn backward_block<const K: usize>(sn: &Supernode, ws: &mut [[f64; K]], t: &[[f64; K]]) {
+    let (ncols, nrows) = (sn.e - sn.b, sn.e - sn.b + sn.pat.len());
+    for (j, col) in sn.block.chunks_exact(nrows).enumerate().rev() {
+        let mut acc = dot::<K>(&col[ncols..], t);
+        let within = dot::<K>(&col[j + 1..ncols], &ws[j + 1..]);
+        for c in 0..K {
+            acc[c] += within[c];
+        }
+        let d = col[j];
+        ws[j] = std::array::from_fn(|c| (ws[j][c] - acc[c]) / d);
+    }
+}
+
+/// The solve with disjoint subtrees of the elimination tree as parallel tasks, the same
+/// bits as the sequential one. A subtree's rows are updated only by its own supernodes, so
+/// the tasks run their forward passes at once; the updates they owe the rows above them
+/// (all of whom are ancestors, above every task) are kept in order and applied when the
+/// sequential walk over the remaining supernodes reaches the subtree's place, so every row
+/// receives the same subtractions in the same order as in the sequential solve. Backward,
+/// the supernodes above the tasks go first, then the tasks at once, reading those rows.
+struct Tasks<'a> {
+    sym: &'a SymbolicSupernodalCholesky<usize>,
+    sched: &'a Schedule,
+    l: &'a [f64],
+    /// The subtrees' roots, increasing.
+    roots: &'a [usize],
+    max_pat: usize,
+}
+
+impl Tasks<'_> {
+    /// The rows (columns of the permuted system) of the subtree of `root`.
+    fn span(&self, root: usize) -> (usize, usize) {
+        (s_range(self.sym, self.sched.first(root)).0, s_range(self.sym, root).1)
+    }
+
+    /// `w` cut into the tasks' row ranges, in order.
+    fn parts<'w, T>(&self, mut w: &'w mut [T]) -> Vec<&'w mut [T]> {
+        let mut parts = Vec::with_capacity(self.roots.len());
+        let mut offset = 0;
+        for &r in self.roots {
+            let (b, e) = self.span(r);
+            let (mine, rest) = std::mem::take(&mut w)[b - offset..].split_at_mut(e - b);
+            parts.push(mine);
+            w = rest;
+            offset = e;
+        }
+        parts
+    }
+
+    /// The outside rows (at or past `end`, the ancestors) of supernode `s`'s pattern start here.
+    fn outside(&self, s: usize, end: usize) -> usize {
+        s_pattern(self.sym, s).partition_point(|&r| r < end)
+    }
+
+    fn solve<const K: usize>(
+        &self,
+        w: &mut [[f64; K]],
+        t: &mut [[f64; K]],
+        task_work: &mut [TaskWork],
+        snapshot: &mut Vec<f64>,
+    ) {
+        let (sym, l, ns) = (self.sym, self.l, self.sym.n_supernodes());
+        self.parts(w)
+            .into_par_iter()
+            .zip(self.roots)
+            .zip(&mut *task_work)
+            .with_max_len(1)
+            .for_each(|((ws, &r), tw)| self.forward_task::<K>(r, ws, tw));
+        // The supernodes above the tasks in order; each task's deferred updates at its place.
+        let mut s = 0;
+        let mut next = 0;
+        while s < ns {
+            match self.roots.get(next) {
+                Some(&r) if self.sched.first(r) == s => {
+                    let end = self.span(r).1;
+                    let rows = (s..=r).flat_map(|d| &s_pattern(sym, d)[self.outside(d, end)..]);
+                    for (&row, v) in rows.zip(task_work[next].deferred.as_chunks::<K>().0) {
+                        for c in 0..K {
+                            w[row][c] -= v[c];
+                        }
+                    }
+                    s = r + 1;
+                    next += 1;
+                }
+                _ => {
+                    forward_one(&Supernode::of(sym, l, s), w, t);
+                    s += 1;
+                }
+            }
+        }
+        // Backward: the supernodes above the tasks, in reverse.
+        let mut s = ns;
+        let mut next = self.roots.len();
+        while s > 0 {
+            match next.checked_sub(1).map(|i| self.roots[i]) {
+                Some(r) if r + 1 == s => {
+                    s = self.sched.first(r);
+                    next -= 1;
+                }
+                _ => {
+                    s -= 1;
+                    backward_one(&Supernode::of(sym, l, s), w, t);
+                }
+            }
+        }
+        // Their rows, final now, for the tasks to read while each writes its own.
+        snapshot.resize(w.len() * K, 0.0);
+        let snap = as_rows::<K>(snapshot);
+        let mut prev = 0;
+        for &r in self.roots {
+            let (b, e) = self.span(r);
+            snap[prev..b].copy_from_slice(&w[prev..b]);
+            prev = e;
+        }
+        snap[prev..].copy_from_slice(&w[prev..]);
+        let snap: &[[f64; K]] = snap;
+        self.parts(w)
+            .into_par_iter()
+            .zip(self.roots)
+            .zip(&mut *task_work)
+            .with_max_len(1)
+            .for_each(|((ws, &r), tw)| self.backward_task::<K>(r, ws, tw, snap));
+    }
+
+    /// Forward over the subtree of `root`, whose rows are `ws`; the updates of the rows
+    /// outside it go to `tw.deferred`, in order.
+    fn forward_task<const K: usize>(&self, root: usize, ws: &mut [[f64; K]], tw: &mut TaskWork) {
+        let (base, end) = self.span(root);
+        let TaskWork { t, deferred } = tw;
+        t.resize(self.max_pat * K, 0.0);
+        let t = as_rows::<K>(t);
+        deferred.clear();
+        for s in self.sched.first(root)..=root {
+            let sn = Supernode::of(self.sym, self.l, s);
+            let t = &mut t[..sn.pat.len()];
+            forward_block(&sn, &mut ws[sn.b - base..sn.e - base], t);
+            let inside = self.outside(s, end);
+            for (&r, ti) in sn.pat[..inside].iter().zip(t.iter()) {
+                for c in 0..K {
+                    ws[r - base][c] -= ti[c];
+                }
+            }
+            t[inside..].iter().for_each(|ti| deferred.extend_from_slice(ti));
+        }
+    }
+
+    /// Backward over the subtree of `root`, whose rows are `ws`; the rows above it are read
+    /// from `snap`.
+    fn backward_task<const K: usize>(&self, root: usize, ws: &mut [[f64; K]], tw: &mut TaskWork, snap: &[[f64; K]]) {
+        let (base, end) = self.span(root);
+        tw.t.resize(self.max_pat * K, 0.0);
+        let t = as_rows::<K>(&mut tw.t);
+        for s in (self.sched.first(root)..=root).rev() {
+            let sn = Supernode::of(self.sym, self.l, s);
+            let t = &mut t[..sn.pat.len()];
+            let (t_in, t_out) = t.split_at_mut(self.outside(s, end));
+            let (p_in, p_out) = sn.pat.split_at(t_in.len());
+            t_in.iter_mut().zip(p_in).for_each(|(ti, &r)| *ti = ws[r - base]);
+            t_out.iter_mut().zip(p_out).for_each(|(ti, &r)| *ti = snap[r]);
+            backward_block(&sn, &mut ws[sn.b - base..sn.e - base], t);
         }
     }
 }
@@ -202,19 +453,19 @@ mod tests {
         let reg = LltRegularization::default();
         sym.factorize_numeric_llt(&mut l, a, Side::Lower, reg, Par::Seq, MemStack::new(&mut mem), Default::default())
             .unwrap();
-        let mut work = Vec::new();
+        let mut work = SolveWork::default();
         for k in [1, 2, 3] {
             let b = rhs(n * k, k);
             let mut want = b.clone();
             let rhs_mat = MatMut::from_column_major_slice_mut(&mut want, n, k);
             LltRef::new(&sym, &l).solve_in_place_with_conj(Conj::No, rhs_mat, Par::Seq, MemStack::new(&mut mem));
             let mut got = b.clone();
-            solve_in_place(supernodal(&sym), sym.perm(), &l, &mut got, &mut work);
+            solve_in_place(supernodal(&sym), sym.perm(), None, &l, &mut got, &mut work);
             let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             let diff = got.iter().zip(&want).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
             assert!(diff <= 1e-12 * scale, "{k} columns: max diff {diff:e} (max |x| {scale:e})");
             let mut again = b.clone();
-            solve_in_place(supernodal(&sym), sym.perm(), &l, &mut again, &mut work);
+            solve_in_place(supernodal(&sym), sym.perm(), None, &l, &mut again, &mut work);
             assert!(again.iter().zip(&got).all(|(x, y)| x.to_bits() == y.to_bits()), "{k} columns, twice");
         }
     }
@@ -235,11 +486,56 @@ mod tests {
         }
         let b = rhs(2 * n, 3);
         let mut x = b.clone();
-        solve_in_place(sn, None, &l, &mut x, &mut Vec::new());
+        solve_in_place(sn, None, None, &l, &mut x, &mut SolveWork::default());
         assert_eq!(x, b);
-        solve_in_place(sn, sym.perm(), &l, &mut x, &mut Vec::new());
+        solve_in_place(sn, sym.perm(), None, &l, &mut x, &mut SolveWork::default());
         assert_eq!(x, b);
         let mut empty: Vec<f64> = Vec::new();
-        solve_in_place(sn, None, &l, &mut empty, &mut Vec::new());
+        solve_in_place(sn, None, None, &l, &mut empty, &mut SolveWork::default());
+    }
+
+    /// Subtrees solved as parallel tasks give the sequential solve's bits, for every split
+    /// (2 to 4 threads' worth of tasks, each in a pool of that many threads), one, two and
+    /// three right-hand sides, twice with the same scratch.
+    #[test]
+    fn parallel_tasks_give_the_sequential_bits() {
+        let (n, cp, ri, vals) = system("bumpy_10k");
+        let (_, sym) = analyse(n, &cp, &ri);
+        let sn = supernodal(&sym);
+        let sched = Schedule::new(sn, sym.perm(), &cp, &ri).unwrap();
+        let mut ws = crate::supernodal::Workspace::default();
+        let mut l = vec![0.0; sym.len_val()];
+        crate::supernodal::factorize(sn, &sched, &mut ws, &vals, &mut l).unwrap();
+        for k in [1, 2, 3] {
+            let b = rhs(n * k, 7 + k);
+            let mut want = b.clone();
+            solve_with_tasks(sn, sym.perm(), Some(&sched), &[], &l, &mut want, &mut SolveWork::default());
+            for threads in 2..=4 {
+                let tasks = split(sn, &sched, threads, 0);
+                assert!(tasks.len() >= threads, "{threads} threads: {} tasks", tasks.len());
+                let in_tasks: usize = tasks.iter().map(|&r| r + 1 - sched.first(r)).sum();
+                assert!(in_tasks < sn.n_supernodes(), "some supernodes are above the tasks");
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let mut work = SolveWork::default();
+                for round in 0..2 {
+                    let mut got = b.clone();
+                    pool.install(|| solve_with_tasks(sn, sym.perm(), Some(&sched), &tasks, &l, &mut got, &mut work));
+                    let same = got.iter().zip(&want).all(|(x, y)| x.to_bits() == y.to_bits());
+                    assert!(same, "{k} columns, {threads} threads, round {round}");
+                }
+            }
+        }
+    }
+
+    /// One thread or a small factor: no tasks.
+    #[test]
+    fn no_tasks_on_one_thread_or_below_the_size() {
+        let (n, cp, ri, _) = system("bumpy_10k");
+        let (_, sym) = analyse(n, &cp, &ri);
+        let sn = supernodal(&sym);
+        let sched = Schedule::new(sn, sym.perm(), &cp, &ri).unwrap();
+        assert!(split(sn, &sched, 1, 0).is_empty());
+        assert!(split(sn, &sched, 2, sym.len_val() + 1).is_empty());
+        assert!(!split(sn, &sched, 2, sym.len_val()).is_empty());
     }
 }
