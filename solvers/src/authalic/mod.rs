@@ -313,18 +313,43 @@ impl AuthalicProblem {
 
     /// `E_S` (deterministic chunked sum), folded faces, faces with non-zero image area.
     fn stretch(&self, x: &[f64]) -> (f64, usize, usize) {
-        let parts: Vec<(f64, usize, usize)> = (0..self.faces.len())
+        let nf = self.faces.len();
+        let parts: Vec<(f64, usize, usize)> = (0..nf.div_ceil(CHUNK))
             .into_par_iter()
-            .with_min_len(CHUNK)
-            .chunks(CHUNK)
-            .map(|chunk| {
-                chunk.into_iter().fold((0.0, 0, 0), |(e, k, nz), t| {
-                    let a = self.image_area(x, t);
-                    (e + a * a / self.area[t], k + usize::from(!(a > 0.0)), nz + usize::from(a != 0.0))
-                })
-            })
+            .map(|c| self.chunk_stretch(x, c * CHUNK..nf.min((c + 1) * CHUNK), None))
             .collect();
         parts.iter().fold((0.0, 0, 0), |(e, k, nz), p| (e + p.0, k + p.1, nz + p.2))
+    }
+
+    /// [`Self::stretch`], also writing each face's gradient coefficient `2 |f(tau)| / |tau|`
+    /// into `coef` (one entry per face): one pass over the faces for the energy and the
+    /// gradient.
+    fn stretch_and_coefficients(&self, x: &[f64], coef: &mut [f64]) -> (f64, usize, usize) {
+        let nf = self.faces.len();
+        let parts: Vec<(f64, usize, usize)> = coef
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(c, out)| self.chunk_stretch(x, c * CHUNK..nf.min((c + 1) * CHUNK), Some(out)))
+            .collect();
+        parts.iter().fold((0.0, 0, 0), |(e, k, nz), p| (e + p.0, k + p.1, nz + p.2))
+    }
+
+    /// The part of `E_S`, folded and non-zero counts of the faces `range`, summed in order;
+    /// `coef[i]` gets `2 |f(tau)| / |tau|` of face `range.start + i` when given.
+    fn chunk_stretch(
+        &self,
+        x: &[f64],
+        range: std::ops::Range<usize>,
+        mut coef: Option<&mut [f64]>,
+    ) -> (f64, usize, usize) {
+        let start = range.start;
+        range.fold((0.0, 0, 0), |(e, k, nz), t| {
+            let a = self.image_area(x, t);
+            if let Some(c) = coef.as_deref_mut() {
+                c[t - start] = 2.0 * a / self.area[t];
+            }
+            (e + a * a / self.area[t], k + usize::from(!(a > 0.0)), nz + usize::from(a != 0.0))
+        })
     }
 
     /// Energy terms at `z`.
@@ -335,51 +360,65 @@ impl AuthalicProblem {
         Terms { energy: self.total_area / area * stretch - area, stretch, area, folded, nonzero }
     }
 
-    /// `nabla_x E_S` per vertex, interleaved: each face adds `2 |f(tau)| / |tau| nabla |f(tau)|`,
-    /// which equals `2 (I_2 (x) L_S(f)) f` of Eq. 11. Summed per vertex in parallel over its
-    /// corners in face order ([`VertexCorners`]): no per-face buffer, and the same bits as a
-    /// scatter face after face, for any thread count.
+    /// `nabla_x E_S` of vertex `v`: each face adds `2 |f(tau)| / |tau| nabla |f(tau)|`
+    /// (`coef` holds the first factor per face), which equals `2 (I_2 (x) L_S(f)) f` of
+    /// Eq. 11. Summed over the vertex's corners in face order ([`VertexCorners`]): the same
+    /// bits as a scatter face after face, for any thread count.
+    #[inline]
+    fn vertex_stretch_gradient(&self, x: &[f64], coef: &[f64], v: usize) -> [f64; 2] {
+        let (mut gu, mut gv) = (0.0, 0.0);
+        for &corner in self.corners.of(v) {
+            let (t, a) = (corner as usize / 3, corner as usize % 3);
+            let f = self.faces[t];
+            let (j, k) = (f[(a + 1) % 3], f[(a + 2) % 3]);
+            let c = coef[t];
+            // d|f(tau)|/d f_a = 1/2 (y_j - y_k, x_k - x_j)
+            gu += c * 0.5 * (x[2 * j + 1] - x[2 * k + 1]);
+            gv += c * 0.5 * (x[2 * k] - x[2 * j]);
+        }
+        [gu, gv]
+    }
+
+    /// `nabla_x E_S` per vertex, interleaved (see [`Self::vertex_stretch_gradient`]).
     pub fn stretch_gradient(&self, x: &[f64]) -> Vec<f64> {
+        let mut coef = vec![0.0; self.faces.len()];
+        self.stretch_and_coefficients(x, &mut coef);
         let mut grad = vec![0.0; 2 * self.n];
         grad.par_chunks_mut(2).with_min_len(CHUNK).enumerate().for_each(|(v, g)| {
-            let (mut gu, mut gv) = (0.0, 0.0);
-            for &corner in self.corners.of(v) {
-                let (t, a) = (corner as usize / 3, corner as usize % 3);
-                let p = self.faces[t].map(|k| [x[2 * k], x[2 * k + 1]]);
-                let c = 2.0 * crate::local::signed_area(p) / self.area[t];
-                let (j, k) = ((a + 1) % 3, (a + 2) % 3);
-                // d|f(tau)|/d f_a = 1/2 (y_j - y_k, x_k - x_j)
-                gu += c * 0.5 * (p[j][1] - p[k][1]);
-                gv += c * 0.5 * (p[k][0] - p[j][0]);
-            }
-            g[0] = gu;
-            g[1] = gv;
+            g.copy_from_slice(&self.vertex_stretch_gradient(x, &coef, v));
         });
         grad
     }
 
     /// Energy terms and the gradient of the normalized authalic energy in `z` (Eq. 13):
     /// interior `(|S| / A) nabla E_S`; angles through `f_B = (cos theta, sin theta)` plus the
-    /// derivatives of `|S| / A` and of `A` (Eq. 13c).
+    /// derivatives of `|S| / A` and of `A` (Eq. 13c). One parallel pass over the faces (the
+    /// energy and each face's gradient coefficient), one over the vertices.
     pub fn terms_and_gradient(&self, z: &[f64]) -> (Terms, Vec<f64>) {
         let ni = self.n_interior();
         let nb = self.n_boundary();
         let x = self.positions_of(z);
-        let (stretch, folded, nonzero) = self.stretch(&x);
+        let mut coef = vec![0.0; self.faces.len()];
+        let (stretch, folded, nonzero) = self.stretch_and_coefficients(&x, &mut coef);
         let theta = &z[2 * ni..];
         let area = self.polygon_area(theta);
         let s = self.total_area;
-        let gs = self.stretch_gradient(&x);
-        let mut g = Vec::with_capacity(self.n_vars());
-        g.extend(self.interior.iter().map(|&v| s / area * gs[2 * v]));
-        g.extend(self.interior.iter().map(|&v| s / area * gs[2 * v + 1]));
+        let mut g = vec![0.0; self.n_vars()];
+        let (gi, gb) = g.split_at_mut(2 * ni);
+        let (g1, g2) = gi.split_at_mut(ni);
+        g1.par_iter_mut().zip(g2).zip(&self.interior).with_min_len(CHUNK).for_each(|((gu, gv), &v)| {
+            let [du, dv] = self.vertex_stretch_gradient(&x, &coef, v);
+            *gu = s / area * du;
+            *gv = s / area * dv;
+        });
         let coef_area = s * stretch / (area * area) + 1.0;
-        for (b, &v) in self.boundary.iter().enumerate() {
+        for (b, (&v, gb)) in self.boundary.iter().zip(gb).enumerate() {
             let th = theta[b];
-            let d_es = -th.sin() * gs[2 * v] + th.cos() * gs[2 * v + 1];
+            let [du, dv] = self.vertex_stretch_gradient(&x, &coef, v);
+            let d_es = -th.sin() * du + th.cos() * dv;
             let (prev, next) = (theta[(b + nb - 1) % nb], theta[(b + 1) % nb]);
             let d_area = 0.5 * ((th - prev).cos() - (next - th).cos());
-            g.push(s / area * d_es - coef_area * d_area);
+            *gb = s / area * d_es - coef_area * d_area;
         }
         (Terms { energy: s / area * stretch - area, stretch, area, folded, nonzero }, g)
     }
