@@ -8,7 +8,7 @@
 //! (`../shared/notes/reference-implementations.md` section 5). For the identity map (3D
 //! positions) it is the ordinary cotangent Laplacian with `cot / 2` weights.
 
-use crate::mesh::topology::vertex_neighbors;
+use crate::mesh::topology::{grouped, is_proper};
 use rayon::prelude::*;
 
 /// Faces per parallel chunk (fixed: results do not depend on the thread count).
@@ -29,16 +29,32 @@ pub struct LaplacianPattern {
 
 impl LaplacianPattern {
     pub fn new(faces: &[[usize; 3]], n: usize) -> LaplacianPattern {
-        let nbrs = vertex_neighbors(faces, n);
-        let mut row_ptr = vec![0usize];
-        let mut col = Vec::new();
+        // Every vertex's neighbours and itself, sorted; duplicates removed below.
+        let (start, all) = grouped(n, || {
+            let edges = faces.iter().filter(|f| is_proper(f, n)).flat_map(|f| {
+                (0..3).flat_map(move |k| {
+                    let (a, b) = (f[k], f[(k + 1) % 3]);
+                    [(a, b), (b, a)]
+                })
+            });
+            (0..n).map(|v| (v, v)).chain(edges)
+        });
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        row_ptr.push(0);
+        let mut col = Vec::with_capacity(all.len() / 2 + n);
         let mut diag = Vec::with_capacity(n);
-        for (v, nb) in nbrs.iter().enumerate() {
-            let mut cols: Vec<usize> = nb.clone();
-            cols.push(v);
-            cols.sort_unstable();
-            diag.push(row_ptr[v] + cols.iter().position(|&c| c == v).unwrap_or(0));
-            col.extend(cols);
+        for v in 0..n {
+            let row = col.len();
+            col.extend_from_slice(&all[start[v]..start[v + 1]]);
+            let mut k = row;
+            for i in row + 1..col.len() {
+                if col[i] != col[k] {
+                    k += 1;
+                    col[k] = col[i];
+                }
+            }
+            col.truncate(k + 1);
+            diag.push(row + col[row..].partition_point(|&c| c < v));
             row_ptr.push(col.len());
         }
         let slot = |a: usize, b: usize| -> usize {
@@ -47,7 +63,8 @@ impl LaplacianPattern {
             row_ptr[a] + row.binary_search(&b).unwrap_or(0)
         };
         let face_slots = faces
-            .iter()
+            .par_iter()
+            .with_min_len(CHUNK)
             .map(|f| {
                 std::array::from_fn(|k| {
                     let (i, j) = (f[(k + 1) % 3], f[(k + 2) % 3]);

@@ -192,15 +192,14 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
     }
 
     // Duplicates: same vertex set in any order; the first occurrence stays in the topology.
-    let mut keyed: Vec<([usize; 3], usize)> = (0..mesh.n_faces())
-        .filter(|&f| is_proper(&mesh.faces[f], n))
-        .map(|f| {
+    // Grouped by the smallest vertex, each group sorted by the other two, then the face.
+    let (_, keyed) = topology::grouped(n, || {
+        (0..mesh.n_faces()).filter(|&f| is_proper(&mesh.faces[f], n)).map(|f| {
             let mut k = mesh.faces[f];
             k.sort_unstable();
-            (k, f)
+            (k[0], (k, f))
         })
-        .collect();
-    keyed.sort_unstable();
+    });
     let mut is_repeat = vec![false; mesh.n_faces()];
     let mut dups = Vec::new();
     let mut first = 0;
