@@ -94,6 +94,7 @@ fn split(sym: &SymbolicSupernodalCholesky<usize>, sched: &Schedule, threads: usi
     tasks
 }
 
+/// [`solve_in_place`] with the subtrees `tasks` as parallel tasks (none: one thread).
 fn solve_with_tasks(
     sym: &SymbolicSupernodalCholesky<usize>,
     perm: Option<PermRef<'_, usize>>,
