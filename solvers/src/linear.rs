@@ -259,7 +259,7 @@ pub struct SpdSolver {
     /// Factorize with faer's own (supernode after supernode) kernel even when a schedule
     /// exists: `time-system --kernel faer`, to measure one against the other.
     faer_kernel: bool,
-    /// The interleaved right-hand sides of `triangular::solve_in_place`.
+    /// Scratch of `triangular::solve_in_place` (right-hand sides, the tasks' buffers).
     solve_work: crate::triangular::SolveWork,
     factored: bool,
 }

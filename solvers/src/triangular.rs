@@ -227,8 +227,8 @@ fn backward_block<const K: usize>(sn: &Supernode, ws: &mut [[f64; K]], t: &[[f64
 
 /// The solve with disjoint subtrees of the elimination tree as parallel tasks, the same
 /// bits as the sequential one. A subtree's rows are updated only by its own supernodes, so
-/// the tasks run their forward passes at once; the updates they owe the rows above them
-/// (all of whom are ancestors, above every task) are kept in order and applied when the
+/// the tasks run their forward passes at once; the updates they owe the rows outside them
+/// (all of them rows of the task root's ancestors, which are in no task) are kept in order and applied when the
 /// sequential walk over the remaining supernodes reaches the subtree's place, so every row
 /// receives the same subtractions in the same order as in the sequential solve. Backward,
 /// the supernodes above the tasks go first, then the tasks at once, reading those rows.
@@ -496,8 +496,8 @@ mod tests {
     }
 
     /// Subtrees solved as parallel tasks give the sequential solve's bits, for every split
-    /// (2 to 4 threads' worth of tasks, each in a pool of that many threads), one, two and
-    /// three right-hand sides, twice with the same scratch.
+    /// (2 to 4 threads' worth of tasks, each in a pool of that many threads, twice with the
+    /// same scratch) and other sets of subtrees, for one, two and three right-hand sides.
     #[test]
     fn parallel_tasks_give_the_sequential_bits() {
         let (n, cp, ri, vals) = system("bumpy_10k");
@@ -511,6 +511,11 @@ mod tests {
             let b = rhs(n * k, 7 + k);
             let mut want = b.clone();
             solve_with_tasks(sn, sym.perm(), Some(&sched), &[], &l, &mut want, &mut SolveWork::default());
+            // Beyond `split`'s choices, any disjoint subtrees: every leaf (adjacent tasks,
+            // supernodes above them in between), and every other subtree of a split (whole
+            // subtrees left to the sequential walk between tasks).
+            let leaves: Vec<usize> = (0..sn.n_supernodes()).filter(|&s| sched.children(s).is_empty()).collect();
+            let every_other: Vec<usize> = split(sn, &sched, 4, 0).into_iter().step_by(2).collect();
             for threads in 2..=4 {
                 let tasks = split(sn, &sched, threads, 0);
                 assert!(tasks.len() >= threads, "{threads} threads: {} tasks", tasks.len());
@@ -518,9 +523,9 @@ mod tests {
                 assert!(in_tasks < sn.n_supernodes(), "some supernodes are above the tasks");
                 let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
                 let mut work = SolveWork::default();
-                for round in 0..2 {
+                for (round, tasks) in [&tasks, &tasks, &leaves, &every_other].into_iter().enumerate() {
                     let mut got = b.clone();
-                    pool.install(|| solve_with_tasks(sn, sym.perm(), Some(&sched), &tasks, &l, &mut got, &mut work));
+                    pool.install(|| solve_with_tasks(sn, sym.perm(), Some(&sched), tasks, &l, &mut got, &mut work));
                     let same = got.iter().zip(&want).all(|(x, y)| x.to_bits() == y.to_bits());
                     assert!(same, "{k} columns, {threads} threads, round {round}");
                 }

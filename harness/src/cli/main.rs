@@ -121,9 +121,9 @@ enum Command {
         /// Threads of the factorization and solve (a run's `threads_per_run`).
         #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
         threads: u16,
-        /// `subtree`: mapbench's factorization, parallel over the elimination tree, and its
-        /// sequential triangular solves (what runs use); `faer`: faer's own factorization,
-        /// parallel only inside each supernode, and faer's solves.
+        /// `subtree`: mapbench's factorization and triangular solves, parallel over the
+        /// elimination tree (what runs use); `faer`: faer's own factorization, parallel only
+        /// inside each supernode, and faer's solves.
         #[arg(long, value_enum, default_value = "subtree")]
         kernel: KernelArg,
     },

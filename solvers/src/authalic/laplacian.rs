@@ -252,4 +252,30 @@ mod tests {
         assert_eq!(b.col_ptr[1] - b.col_ptr[0], 1);
         assert_eq!(b.col_ptr[2] - b.col_ptr[1], 2);
     }
+
+    /// Each row is the vertex's sorted one-ring and itself (an unreferenced vertex: itself),
+    /// the diagonal slot points at the vertex, and every face edge has its two slots.
+    #[test]
+    fn pattern_rows_are_the_one_rings_and_the_vertex() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let n = mesh.n_vertices() + 1;
+        let pat = LaplacianPattern::new(&mesh.faces, n);
+        let nbrs = crate::mesh::topology::vertex_neighbors(&mesh.faces, n);
+        for (v, nb) in nbrs.iter().enumerate() {
+            let mut want = nb.clone();
+            want.push(v);
+            want.sort_unstable();
+            assert_eq!(&pat.col[pat.row_ptr[v]..pat.row_ptr[v + 1]], &want[..], "row {v}");
+            assert_eq!(pat.col[pat.diag[v]], v);
+        }
+        assert_eq!(&pat.col[pat.row_ptr[n - 1]..], &[n - 1]);
+        for (f, slots) in mesh.faces.iter().zip(&pat.face_slots) {
+            for k in 0..3 {
+                let (i, j) = (f[(k + 1) % 3], f[(k + 2) % 3]);
+                let [ij, ji] = slots[k];
+                assert!(pat.row_ptr[i] <= ij && ij < pat.row_ptr[i + 1] && pat.col[ij] == j);
+                assert!(pat.row_ptr[j] <= ji && ji < pat.row_ptr[j + 1] && pat.col[ji] == i);
+            }
+        }
+    }
 }

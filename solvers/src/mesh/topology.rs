@@ -3,7 +3,8 @@
 //! Every function tolerates bad input (indices `>= n`, repeated vertices in a face,
 //! non-manifold or inconsistently oriented faces) without panicking or looping forever:
 //! such faces are skipped, so callers can run these before [`validate`](super::validate)
-//! has rejected anything.
+//! has rejected anything. ([`grouped`] is the exception: a building block whose callers
+//! filter the faces first.)
 
 /// True when `f` can take part in topology: all indices `< n` and pairwise distinct.
 pub fn is_proper(f: &[usize; 3], n: usize) -> bool {
@@ -14,7 +15,12 @@ pub fn is_proper(f: &[usize; 3], n: usize) -> bool {
 /// the group of key `k` at `values[start[k]..start[k + 1]]`. The same order as one sort of
 /// all `(key, value)` pairs, at O(items + n) plus the sorts of the (small) groups: on a
 /// 1M-vertex mesh one sort of the half-edges took most of `validate`'s 3 s.
-pub fn grouped<T: Ord + Copy + Default, I: Iterator<Item = (usize, T)>>(
+///
+/// `items` must yield the same sequence on both calls (a count pass, then a fill pass).
+///
+/// # Panics
+/// When a key is `>= n`: callers pass only the vertices of proper faces.
+pub(crate) fn grouped<T: Ord + Copy + Default, I: Iterator<Item = (usize, T)>>(
     n: usize,
     items: impl Fn() -> I,
 ) -> (Vec<usize>, Vec<T>) {
