@@ -66,7 +66,8 @@ pub fn solve_in_place(
     work: &mut SolveWork,
 ) {
     let tasks = sched.map_or_else(Vec::new, |sc| split(sym, sc, rayon::current_num_threads(), PARALLEL_MIN_VALUES));
-    solve_with_tasks(sym, perm, sched, &tasks, l, x, work);
+    let tasks = sched.filter(|_| !tasks.is_empty()).map(|sc| (sc, &tasks[..]));
+    Solve { sym, perm, l, tasks }.run(x, work);
 }
 
 /// Roots of disjoint subtrees (increasing) to solve as parallel tasks on `threads` threads,
@@ -94,74 +95,65 @@ fn split(sym: &SymbolicSupernodalCholesky<usize>, sched: &Schedule, threads: usi
     tasks
 }
 
-/// [`solve_in_place`] with the subtrees `tasks` as parallel tasks (none: one thread).
-fn solve_with_tasks(
-    sym: &SymbolicSupernodalCholesky<usize>,
-    perm: Option<PermRef<'_, usize>>,
-    sched: Option<&Schedule>,
-    tasks: &[usize],
-    l: &[f64],
-    x: &mut [f64],
-    work: &mut SolveWork,
-) {
-    let n = sym.nrows();
-    if n == 0 {
-        return;
-    }
-    let k = x.len() / n;
-    match k {
-        1 => solve_k::<1>(sym, perm, sched, tasks, l, x, work),
-        2 => solve_k::<2>(sym, perm, sched, tasks, l, x, work),
-        _ => {
-            for col in x.chunks_exact_mut(n) {
-                solve_k::<1>(sym, perm, sched, tasks, l, col, work);
-            }
-        }
-    }
+/// One solve: the factor (`l` in `sym`'s layout, `perm` its permutation) and, when the
+/// solve runs on several threads, the schedule and the roots of the subtrees run as tasks.
+struct Solve<'a> {
+    sym: &'a SymbolicSupernodalCholesky<usize>,
+    perm: Option<PermRef<'a, usize>>,
+    l: &'a [f64],
+    tasks: Option<(&'a Schedule, &'a [usize])>,
 }
 
-/// The solve for exactly `K` columns.
-fn solve_k<const K: usize>(
-    sym: &SymbolicSupernodalCholesky<usize>,
-    perm: Option<PermRef<'_, usize>>,
-    sched: Option<&Schedule>,
-    tasks: &[usize],
-    l: &[f64],
-    x: &mut [f64],
-    work: &mut SolveWork,
-) {
-    let n = sym.nrows();
-    let fwd = perm.map(|p| p.arrays().0);
-    let old = |i: usize| fwd.map_or(i, |f| f[i]);
-    let max_pat = sym.nnz_per_super().iter().copied().max().unwrap_or(0);
-    // `w[i]`: the K right-hand sides of row i of the permuted system; `t`: a supernode's
-    // pattern rows, gathered (backward) or accumulated before one scatter (forward).
-    work.rows.clear();
-    work.rows.resize((n + max_pat) * K, 0.0);
-    let (w, t) = as_rows::<K>(&mut work.rows).split_at_mut(n);
-    for (i, wi) in w.iter_mut().enumerate() {
-        let o = old(i);
-        *wi = std::array::from_fn(|c| x[c * n + o]);
-    }
-    match sched {
-        Some(sched) if !tasks.is_empty() => {
-            let tw = &mut work.tasks;
-            tw.resize_with(tasks.len(), TaskWork::default);
-            Tasks { sym, sched, l, roots: tasks, max_pat }.solve::<K>(w, t, tw, &mut work.snapshot);
+impl Solve<'_> {
+    /// All the columns of `x`: two together, one, or more one by one.
+    fn run(&self, x: &mut [f64], work: &mut SolveWork) {
+        let n = self.sym.nrows();
+        if n == 0 {
+            return;
         }
-        _ => {
-            for s in 0..sym.n_supernodes() {
-                forward_one(&Supernode::of(sym, l, s), w, t);
-            }
-            for s in (0..sym.n_supernodes()).rev() {
-                backward_one(&Supernode::of(sym, l, s), w, t);
-            }
+        match x.len() / n {
+            1 => self.columns::<1>(x, work),
+            2 => self.columns::<2>(x, work),
+            _ => x.chunks_exact_mut(n).for_each(|col| self.columns::<1>(col, work)),
         }
     }
-    for (i, wi) in w.iter().enumerate() {
-        let o = old(i);
-        for c in 0..K {
-            x[c * n + o] = wi[c];
+
+    /// The solve for exactly `K` columns.
+    fn columns<const K: usize>(&self, x: &mut [f64], work: &mut SolveWork) {
+        let Solve { sym, perm, l, tasks } = *self;
+        let n = sym.nrows();
+        let fwd = perm.map(|p| p.arrays().0);
+        let old = |i: usize| fwd.map_or(i, |f| f[i]);
+        let max_pat = sym.nnz_per_super().iter().copied().max().unwrap_or(0);
+        // `w[i]`: the K right-hand sides of row i of the permuted system; `t`: a supernode's
+        // pattern rows, gathered (backward) or accumulated before one scatter (forward).
+        work.rows.clear();
+        work.rows.resize((n + max_pat) * K, 0.0);
+        let (w, t) = as_rows::<K>(&mut work.rows).split_at_mut(n);
+        for (i, wi) in w.iter_mut().enumerate() {
+            let o = old(i);
+            *wi = std::array::from_fn(|c| x[c * n + o]);
+        }
+        match tasks {
+            Some((sched, roots)) => {
+                let tw = &mut work.tasks;
+                tw.resize_with(roots.len(), TaskWork::default);
+                Tasks { sym, sched, l, roots, max_pat }.solve::<K>(w, t, tw, &mut work.snapshot);
+            }
+            None => {
+                for s in 0..sym.n_supernodes() {
+                    forward_one(&Supernode::of(sym, l, s), w, t);
+                }
+                for s in (0..sym.n_supernodes()).rev() {
+                    backward_one(&Supernode::of(sym, l, s), w, t);
+                }
+            }
+        }
+        for (i, wi) in w.iter().enumerate() {
+            let o = old(i);
+            for c in 0..K {
+                x[c * n + o] = wi[c];
+            }
         }
     }
 }
@@ -510,7 +502,7 @@ mod tests {
         for k in [1, 2, 3] {
             let b = rhs(n * k, 7 + k);
             let mut want = b.clone();
-            solve_with_tasks(sn, sym.perm(), Some(&sched), &[], &l, &mut want, &mut SolveWork::default());
+            Solve { sym: sn, perm: sym.perm(), l: &l, tasks: None }.run(&mut want, &mut SolveWork::default());
             // Beyond `split`'s choices, any disjoint subtrees: every leaf (adjacent tasks,
             // supernodes above them in between), and every other subtree of a split (whole
             // subtrees left to the sequential walk between tasks).
@@ -525,7 +517,8 @@ mod tests {
                 let mut work = SolveWork::default();
                 for (round, tasks) in [&tasks, &tasks, &leaves, &every_other].into_iter().enumerate() {
                     let mut got = b.clone();
-                    pool.install(|| solve_with_tasks(sn, sym.perm(), Some(&sched), tasks, &l, &mut got, &mut work));
+                    let solve = Solve { sym: sn, perm: sym.perm(), l: &l, tasks: Some((&sched, &tasks[..])) };
+                    pool.install(|| solve.run(&mut got, &mut work));
                     let same = got.iter().zip(&want).all(|(x, y)| x.to_bits() == y.to_bits());
                     assert!(same, "{k} columns, {threads} threads, round {round}");
                 }
