@@ -11,6 +11,7 @@
 //!   supernodes and a slower factorization than AMD.
 
 use crate::linear_error::LinearError;
+use crate::mesh::topology::grouped;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -90,24 +91,22 @@ pub fn metis_order_timed(
 
 /// The adjacency (METIS CSR: `xadj`, `adjncy`, no self loops, both directions) of the node
 /// graph: node `c / block` is adjacent to `r / block` for every stored entry `(r, c)`.
+/// Grouped by node with a counting pass rather than a vector per node (0.9 s for the 1M-vertex
+/// KP system's 1M nodes).
 fn node_graph(nodes: usize, col_ptr: &[usize], row_idx: &[usize], block: usize) -> (Vec<i32>, Vec<i32>) {
-    let mut adj: Vec<Vec<i32>> = vec![Vec::new(); nodes];
-    for c in 0..col_ptr.len() - 1 {
-        for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
-            let (a, b) = (c / block, r / block);
-            if a != b {
-                adj[a].push(b as i32);
-                adj[b].push(a as i32);
-            }
-        }
-    }
+    let (start, all) = grouped(nodes, || {
+        (0..col_ptr.len() - 1)
+            .flat_map(move |c| row_idx[col_ptr[c]..col_ptr[c + 1]].iter().map(move |&r| (c / block, r / block)))
+            .filter(|(a, b)| a != b)
+            .flat_map(|(a, b)| [(a, b as i32), (b, a as i32)])
+    });
     let mut xadj = Vec::with_capacity(nodes + 1);
-    let mut adjncy = Vec::new();
+    let mut adjncy = Vec::with_capacity(all.len());
     xadj.push(0);
-    for list in &mut adj {
-        list.sort_unstable();
-        list.dedup();
-        adjncy.extend_from_slice(list);
+    for k in 0..nodes {
+        let group = &all[start[k]..start[k + 1]];
+        // sorted: the first of each run of equal neighbours
+        adjncy.extend(group.iter().enumerate().filter(|&(i, v)| i == 0 || group[i - 1] != *v).map(|(_, &v)| v));
         xadj.push(adjncy.len() as i32);
     }
     (xadj, adjncy)
@@ -164,21 +163,20 @@ fn postorder(n: usize, col_ptr: &[usize], row_idx: &[usize], fwd: &[usize]) -> V
     for (new, &old) in fwd.iter().enumerate() {
         inv[old] = new;
     }
-    // Neighbours of each new index with a smaller new index (row k of the permuted lower triangle).
-    let mut below: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for c in 0..n {
-        for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
-            let (a, b) = (inv[r], inv[c]);
-            if a != b {
-                below[a.max(b)].push(a.min(b));
-            }
-        }
-    }
+    // Neighbours of each new index with a smaller new index (row k of the permuted lower
+    // triangle; grouped with a counting pass: a vector per row took 1.5 s for 2M dofs).
+    let inv = &inv;
+    let (row_start, below) = grouped(n, || {
+        (0..n)
+            .flat_map(move |c| row_idx[col_ptr[c]..col_ptr[c + 1]].iter().map(move |&r| (inv[r], inv[c])))
+            .filter(|(a, b)| a != b)
+            .map(|(a, b)| (a.max(b), a.min(b)))
+    });
     const NONE: usize = usize::MAX;
     let mut parent = vec![NONE; n];
     let mut ancestor = vec![NONE; n];
-    for (k, row) in below.iter().enumerate() {
-        for &j0 in row {
+    for k in 0..n {
+        for &j0 in &below[row_start[k]..row_start[k + 1]] {
             let mut j = j0;
             while ancestor[j] != NONE && ancestor[j] != k {
                 let next = ancestor[j];
@@ -191,18 +189,14 @@ fn postorder(n: usize, col_ptr: &[usize], row_idx: &[usize], fwd: &[usize]) -> V
             }
         }
     }
-    let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for (j, &p) in parent.iter().enumerate() {
-        if p != NONE {
-            children[p].push(j);
-        }
-    }
+    let (child_start, children) =
+        grouped(n, || parent.iter().enumerate().filter(|(_, &p)| p != NONE).map(|(j, &p)| (p, j)));
     let mut out = Vec::with_capacity(n);
     let mut stack: Vec<(usize, usize)> = Vec::new();
     for root in (0..n).filter(|&j| parent[j] == NONE) {
         stack.push((root, 0));
         while let Some((node, next)) = stack.pop() {
-            if let Some(&child) = children[node].get(next) {
+            if let Some(&child) = children[child_start[node]..child_start[node + 1]].get(next) {
                 stack.push((node, next + 1));
                 stack.push((child, 0));
             } else {
@@ -304,5 +298,30 @@ mod tests {
         let faces = vec![[0, 1, 2], [0, 2, 3]];
         let pat = Pattern::new(&faces, 4);
         assert_eq!(metis_order(pat.n, &pat.col_ptr, &pat.row_idx, 2).unwrap(), None);
+    }
+
+    /// The node graph is every off-block entry's pair of nodes, both ways, once each, sorted.
+    #[test]
+    fn the_node_graph_is_the_sorted_adjacency_of_the_blocks() {
+        let mesh = crate::generate::generate("bumpy_1k").unwrap();
+        let pat = Pattern::new(&mesh.faces, mesh.n_vertices());
+        for block in [1, 2] {
+            let nodes = pat.n / block;
+            let mut oracle: Vec<std::collections::BTreeSet<i32>> = vec![Default::default(); nodes];
+            for c in 0..pat.n {
+                for &r in &pat.row_idx[pat.col_ptr[c]..pat.col_ptr[c + 1]] {
+                    if r / block != c / block {
+                        oracle[r / block].insert((c / block) as i32);
+                        oracle[c / block].insert((r / block) as i32);
+                    }
+                }
+            }
+            let (xadj, adjncy) = node_graph(nodes, &pat.col_ptr, &pat.row_idx, block);
+            assert_eq!(xadj.len(), nodes + 1);
+            for (v, set) in oracle.iter().enumerate() {
+                let row = &adjncy[xadj[v] as usize..xadj[v + 1] as usize];
+                assert!(row.iter().eq(set.iter()), "block {block}, node {v}");
+            }
+        }
     }
 }
