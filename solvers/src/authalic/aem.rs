@@ -17,8 +17,8 @@
 //! assumes (recorded for both variants, never enforced).
 
 use super::{
-    dot, norm, tolerance_stop, AuthalicOutcome, AuthalicProblem, AuthalicSettings, Extras, FoldGuard, Reporter, Terms,
-    Timings, EXACT,
+    dot, norm, tolerance_stop, AuthalicOutcome, AuthalicProblem, AuthalicSettings, EvalBuffers, Extras, FoldGuard,
+    Reporter, Terms, Timings, EXACT,
 };
 use crate::linear::{LinearError, SpdSolver};
 use crate::solver::{Observer, StopReason};
@@ -46,16 +46,32 @@ impl Preconditioner {
     /// `h = M^{-1} g` by triangular solves with the stored factors (Eq. 21); the two interior
     /// coordinates `[g_I^1; g_I^2]` are the two columns of one solve.
     fn apply(&mut self, g: &[f64]) -> Result<Vec<f64>, LinearError> {
-        let mut h = g.to_vec();
+        let mut h = Vec::new();
+        self.apply_into(g, &mut h)?;
+        Ok(h)
+    }
+
+    /// [`Self::apply`] into `h`.
+    fn apply_into(&mut self, g: &[f64], h: &mut Vec<f64>) -> Result<(), LinearError> {
+        h.clear();
+        h.extend_from_slice(g);
         let (interior, boundary) = h.split_at_mut(2 * self.ni);
         self.interior.solve_columns_in_place(interior)?;
-        self.boundary.solve_columns_in_place(boundary)?;
-        Ok(h)
+        self.boundary.solve_columns_in_place(boundary)
     }
 }
 
 fn axpy(z: &[f64], a: f64, p: &[f64]) -> Vec<f64> {
-    z.iter().zip(p).map(|(x, d)| x + a * d).collect()
+    let mut out = Vec::new();
+    axpy_into(z, a, p, &mut out);
+    out
+}
+
+/// `out = z + a p`, elementwise in parallel (the same bits as in order).
+fn axpy_into(z: &[f64], a: f64, p: &[f64], out: &mut Vec<f64>) {
+    use rayon::prelude::*;
+    out.resize(z.len(), 0.0);
+    out.par_iter_mut().zip(z).zip(p).with_min_len(4096).for_each(|((o, x), d)| *o = x + a * d);
 }
 
 /// What the step rule of one iteration produced.
@@ -73,7 +89,13 @@ pub fn aem_cg(
     observer: &mut dyn Observer,
 ) -> AuthalicOutcome {
     let mut z = z0;
-    let (mut terms, mut g) = problem.terms_and_gradient(&z);
+    // Vectors of the size of z kept between iterations (fresh ones are faulted in and zeroed
+    // each time): the evaluations' buffers, the trial point, the next iterate, gradient and
+    // preconditioned gradient.
+    let mut buf = EvalBuffers::default();
+    let (mut trial, mut z_next, mut g_new, mut h_new) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut g = Vec::new();
+    let mut terms = problem.terms_and_gradient_into(&z, &mut buf, &mut g);
     let mut gnorm = norm(&g);
     let mut rep = Reporter { observer, t_cum: 0.0, init_energy: terms.energy, iterations: 0 };
     if let Some(reason) = rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
@@ -103,25 +125,27 @@ pub fn aem_cg(
             if truncated {
                 alpha_prev = settings.alpha0;
             }
-            match safe_step(problem, settings, &z, &terms, &mut p, &h, hg, &g, alpha_prev, truncated) {
+            match safe_step(problem, settings, &z, &terms, &mut p, &h, hg, &g, alpha_prev, truncated, &mut buf) {
                 Some(s) => s,
                 None => break StopReason::LineSearchFailed,
             }
         } else {
             // Eq. 18 with one evaluation at the previous step length.
             let dphi0 = dot(&p, &g);
-            let phi_a = problem.terms(&axpy(&z, alpha_prev, &p)).energy;
+            axpy_into(&z, alpha_prev, &p, &mut trial);
+            let phi_a = problem.terms_with(&trial, &mut buf).energy;
             let alpha = -alpha_prev * alpha_prev * dphi0 / (2.0 * (phi_a - phi0 - alpha_prev * dphi0));
             if !alpha.is_finite() {
                 break StopReason::NonFinite(format!(
                     "quadratic step {alpha} (Phi(0) = {phi0}, Phi'(0) = {dphi0}, Phi({alpha_prev}) = {phi_a})"
                 ));
             }
-            Step { alpha, z: axpy(&z, alpha, &p), extras: Extras { ls_evals: 1, ..Default::default() } }
+            axpy_into(&z, alpha, &p, &mut z_next);
+            Step { alpha, z: std::mem::take(&mut z_next), extras: Extras { ls_evals: 1, ..Default::default() } }
         };
         let t_ls = t_start.elapsed().as_secs_f64();
         let t0 = Instant::now();
-        let (t_new, g_new) = problem.terms_and_gradient(&step.z);
+        let t_new = problem.terms_and_gradient_into(&step.z, &mut buf, &mut g_new);
         let t_assemble = t0.elapsed().as_secs_f64();
         if !(t_new.energy.is_finite() && g_new.iter().all(|v| v.is_finite())) {
             break StopReason::NonFinite(format!("energy {} after step {}", t_new.energy, step.alpha));
@@ -133,18 +157,18 @@ pub fn aem_cg(
         extras.wolfe = Some(dot(&g_new, &p).abs() <= settings.wolfe_c2 * dphi0.abs());
         // Preconditioned Fletcher-Reeves (Eq. 19b; Algorithm 1, lines 18-22).
         let t1 = Instant::now();
-        let h_new = match precond.apply(&g_new) {
-            Ok(h) => h,
-            Err(e) => break linear_failed(e),
-        };
+        if let Err(e) = precond.apply_into(&g_new, &mut h_new) {
+            break linear_failed(e);
+        }
         let t_solve = t1.elapsed().as_secs_f64();
         let hg_new = dot(&h_new, &g_new);
         let beta = hg_new / hg;
-        p = h_new.iter().zip(&p).map(|(hn, pk)| -hn + beta * pk).collect();
-        h = h_new;
+        p.iter_mut().zip(&h_new).for_each(|(pk, hn)| *pk = -hn + beta * *pk);
+        std::mem::swap(&mut h, &mut h_new);
         hg = hg_new;
-        g = g_new;
-        z = step.z;
+        std::mem::swap(&mut g, &mut g_new);
+        // the old iterate's vector becomes the next step's
+        z_next = std::mem::replace(&mut z, step.z);
         alpha_prev = step.alpha;
         let decrease = phi0 - t_new.energy;
         terms = t_new;
@@ -176,6 +200,7 @@ fn safe_step(
     g: &[f64],
     alpha_prev: f64,
     force_restart: bool,
+    buf: &mut EvalBuffers,
 ) -> Option<Step> {
     let mut extras = Extras::default();
     let mut dphi0 = dot(p, g);
@@ -189,7 +214,7 @@ fn safe_step(
     }
     loop {
         let phi0 = terms.energy;
-        let trial = problem.terms(&axpy(z, alpha_prev, p));
+        let trial = problem.terms_with(&axpy(z, alpha_prev, p), buf);
         extras.ls_evals += 1;
         let a2 = (trial.energy - phi0 - alpha_prev * dphi0) / (alpha_prev * alpha_prev);
         let mut alpha = -dphi0 / (2.0 * a2);
@@ -203,7 +228,7 @@ fn safe_step(
                 trial
             } else {
                 extras.ls_evals += 1;
-                problem.terms(&zt)
+                problem.terms_with(&zt, buf)
             };
             let armijo = t.energy.is_finite() && t.energy <= phi0 + settings.armijo_c * alpha * dphi0;
             let folds_ok = match settings.fold_guard {

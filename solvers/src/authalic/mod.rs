@@ -132,6 +132,14 @@ pub struct AuthalicOutcome {
     pub metrics: AreaMetrics,
 }
 
+/// The image positions and per-face gradient coefficients of an evaluation, kept between
+/// iterations: at 1M vertices each is 16 MB, which a fresh allocation faults in and zeroes.
+#[derive(Default)]
+pub(crate) struct EvalBuffers {
+    x: Vec<f64>,
+    coef: Vec<f64>,
+}
+
 /// Energy terms at a point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Terms {
@@ -164,6 +172,9 @@ pub struct AuthalicProblem {
     pub block_b: SubBlock,
     /// Each vertex's corners, for the gradient's per-vertex sums.
     corners: VertexCorners,
+    /// Where each vertex's image is in `z`: `i < n_interior` for `interior[i]`,
+    /// `n_interior + b` for `boundary[b]` (the positions are a parallel gather by vertex).
+    var_of: Vec<usize>,
     /// The blocks' analyses, computed once per problem: the initial map and the solver
     /// (AEM's preconditioner, SEM's steps) factorize the same `L_II` pattern, whose METIS
     /// analysis takes 2.2 s at 200k vertices.
@@ -209,6 +220,9 @@ impl AuthalicProblem {
         };
         let block_i = SubBlock::new(&pattern, &interior, &local(&interior));
         let block_b = SubBlock::new(&pattern, &boundary, &local(&boundary));
+        let mut var_of = vec![0; n];
+        interior.iter().enumerate().for_each(|(i, &v)| var_of[v] = i);
+        boundary.iter().enumerate().for_each(|(b, &v)| var_of[v] = interior.len() + b);
         Ok(AuthalicProblem {
             source: mesh.source.clone(),
             faces: mesh.faces.clone(),
@@ -222,6 +236,7 @@ impl AuthalicProblem {
             block_i,
             block_b,
             corners: VertexCorners::new(&mesh.faces, n),
+            var_of,
             analyses: AnalysisCache::new(),
         })
     }
@@ -256,18 +271,23 @@ impl AuthalicProblem {
 
     /// The interleaved image positions `[u0, v0, u1, v1, ...]` of `z`.
     pub fn positions_of(&self, z: &[f64]) -> Vec<f64> {
-        let ni = self.n_interior();
-        let mut x = vec![0.0; 2 * self.n];
-        for (i, &v) in self.interior.iter().enumerate() {
-            x[2 * v] = z[i];
-            x[2 * v + 1] = z[ni + i];
-        }
-        for (b, &v) in self.boundary.iter().enumerate() {
-            let th = z[2 * ni + b];
-            x[2 * v] = th.cos();
-            x[2 * v + 1] = th.sin();
-        }
+        let mut x = Vec::new();
+        self.positions_into(z, &mut x);
         x
+    }
+
+    /// [`Self::positions_of`] into `x` (every entry written), in parallel over the vertices.
+    fn positions_into(&self, z: &[f64], x: &mut Vec<f64>) {
+        let ni = self.n_interior();
+        x.resize(2 * self.n, 0.0);
+        x.par_chunks_mut(2).zip(&self.var_of).with_min_len(CHUNK).for_each(|(xv, &k)| {
+            if k < ni {
+                (xv[0], xv[1]) = (z[k], z[ni + k]);
+            } else {
+                let th = z[ni + k];
+                (xv[0], xv[1]) = (th.cos(), th.sin());
+            }
+        });
     }
 
     /// `z` of interleaved positions whose boundary lies on the unit circle; the angles are
@@ -354,8 +374,14 @@ impl AuthalicProblem {
 
     /// Energy terms at `z`.
     pub fn terms(&self, z: &[f64]) -> Terms {
-        let x = self.positions_of(z);
-        let (stretch, folded, nonzero) = self.stretch(&x);
+        self.terms_with(z, &mut EvalBuffers::default())
+    }
+
+    /// [`Self::terms`] with the image positions in `buf`.
+    pub(crate) fn terms_with(&self, z: &[f64], buf: &mut EvalBuffers) -> Terms {
+        self.positions_into(z, &mut buf.x);
+        let x = &buf.x;
+        let (stretch, folded, nonzero) = self.stretch(x);
         let area = self.polygon_area(&z[2 * self.n_interior()..]);
         Terms { energy: self.total_area / area * stretch - area, stretch, area, folded, nonzero }
     }
@@ -395,32 +421,42 @@ impl AuthalicProblem {
     /// derivatives of `|S| / A` and of `A` (Eq. 13c). One parallel pass over the faces (the
     /// energy and each face's gradient coefficient), one over the vertices.
     pub fn terms_and_gradient(&self, z: &[f64]) -> (Terms, Vec<f64>) {
+        let mut g = Vec::new();
+        let terms = self.terms_and_gradient_into(z, &mut EvalBuffers::default(), &mut g);
+        (terms, g)
+    }
+
+    /// [`Self::terms_and_gradient`] with the positions and coefficients in `buf`, the
+    /// gradient into `g` (every entry written).
+    pub(crate) fn terms_and_gradient_into(&self, z: &[f64], buf: &mut EvalBuffers, g: &mut Vec<f64>) -> Terms {
         let ni = self.n_interior();
         let nb = self.n_boundary();
-        let x = self.positions_of(z);
-        let mut coef = vec![0.0; self.faces.len()];
-        let (stretch, folded, nonzero) = self.stretch_and_coefficients(&x, &mut coef);
+        self.positions_into(z, &mut buf.x);
+        buf.coef.resize(self.faces.len(), 0.0);
+        let (x, coef) = (&buf.x, &mut buf.coef);
+        let (stretch, folded, nonzero) = self.stretch_and_coefficients(x, coef);
+        let coef = &buf.coef;
         let theta = &z[2 * ni..];
         let area = self.polygon_area(theta);
         let s = self.total_area;
-        let mut g = vec![0.0; self.n_vars()];
+        g.resize(self.n_vars(), 0.0);
         let (gi, gb) = g.split_at_mut(2 * ni);
         let (g1, g2) = gi.split_at_mut(ni);
         g1.par_iter_mut().zip(g2).zip(&self.interior).with_min_len(CHUNK).for_each(|((gu, gv), &v)| {
-            let [du, dv] = self.vertex_stretch_gradient(&x, &coef, v);
+            let [du, dv] = self.vertex_stretch_gradient(x, coef, v);
             *gu = s / area * du;
             *gv = s / area * dv;
         });
         let coef_area = s * stretch / (area * area) + 1.0;
         for (b, (&v, gb)) in self.boundary.iter().zip(gb).enumerate() {
             let th = theta[b];
-            let [du, dv] = self.vertex_stretch_gradient(&x, &coef, v);
+            let [du, dv] = self.vertex_stretch_gradient(x, coef, v);
             let d_es = -th.sin() * du + th.cos() * dv;
             let (prev, next) = (theta[(b + nb - 1) % nb], theta[(b + 1) % nb]);
             let d_area = 0.5 * ((th - prev).cos() - (next - th).cos());
             *gb = s / area * d_es - coef_area * d_area;
         }
-        (Terms { energy: s / area * stretch - area, stretch, area, folded, nonzero }, g)
+        Terms { energy: s / area * stretch - area, stretch, area, folded, nonzero }
     }
 
     /// `L_S` values at interleaved image positions `x`, or at the identity map (`None`).

@@ -344,3 +344,29 @@ fn the_blocks_are_analysed_once_per_problem() {
     assert!(std::sync::Arc::ptr_eq(again.analysis(), p.block_solver(&p.block_i).unwrap().analysis()));
     assert!(p.block_solver(&p.block_b).unwrap().analysis_reused());
 }
+
+/// Buffers kept between evaluations (AEM-CG's loop) leave nothing behind: evaluating at `b`
+/// after `a` with the same buffers gives what fresh buffers give at `b`, bit for bit, and the
+/// positions are the interior values and the boundary's `(cos theta, sin theta)`.
+#[test]
+fn evaluations_with_reused_buffers_equal_fresh_ones() {
+    let p = problem("bumpy_1k");
+    let (a, b) = (perturbed(&p, 0.01, 3), perturbed(&p, 0.02, 4));
+    let mut buf = EvalBuffers::default();
+    let mut g = Vec::new();
+    p.terms_and_gradient_into(&a, &mut buf, &mut g);
+    let t = p.terms_and_gradient_into(&b, &mut buf, &mut g);
+    let (fresh_t, fresh_g) = p.terms_and_gradient(&b);
+    assert_eq!(t, fresh_t);
+    assert!(g.iter().zip(&fresh_g).all(|(x, y)| x.to_bits() == y.to_bits()) && g.len() == fresh_g.len());
+    p.terms_with(&a, &mut buf);
+    assert_eq!(p.terms_with(&b, &mut buf), p.terms(&b));
+    let x = p.positions_of(&b);
+    let ni = p.n_interior();
+    for (i, &v) in p.interior.iter().enumerate() {
+        assert_eq!((x[2 * v], x[2 * v + 1]), (b[i], b[ni + i]));
+    }
+    for (k, &v) in p.boundary.iter().enumerate() {
+        assert_eq!((x[2 * v], x[2 * v + 1]), (b[2 * ni + k].cos(), b[2 * ni + k].sin()));
+    }
+}
