@@ -220,9 +220,10 @@ fn backward_block<const K: usize>(sn: &Supernode, ws: &mut [[f64; K]], t: &[[f64
 /// The solve with disjoint subtrees of the elimination tree as parallel tasks, the same
 /// bits as the sequential one. A subtree's rows are updated only by its own supernodes, so
 /// the tasks run their forward passes at once; the updates they owe the rows outside them
-/// (all of them rows of the task root's ancestors, which are in no task) are kept in order and applied when the
-/// sequential walk over the remaining supernodes reaches the subtree's place, so every row
-/// receives the same subtractions in the same order as in the sequential solve. Backward,
+/// (all of them rows of the task root's ancestors, which are in no task) are kept in order
+/// and applied when the sequential walk over the remaining supernodes reaches the subtree's
+/// place, so every row receives the same subtractions in the same order as in the
+/// sequential solve. Backward,
 /// the supernodes above the tasks go first, then the tasks at once, reading those rows.
 struct Tasks<'a> {
     sym: &'a SymbolicSupernodalCholesky<usize>,

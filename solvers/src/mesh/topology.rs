@@ -4,7 +4,8 @@
 //! non-manifold or inconsistently oriented faces) without panicking or looping forever:
 //! such faces are skipped, so callers can run these before [`validate`](super::validate)
 //! has rejected anything. ([`grouped`] is the exception: a building block whose callers
-//! filter the faces first.)
+//! pass only keys in range: vertices of proper faces, or the indices of an analysed sparse
+//! pattern in `ordering`.)
 
 /// True when `f` can take part in topology: all indices `< n` and pairwise distinct.
 pub fn is_proper(f: &[usize; 3], n: usize) -> bool {
@@ -19,7 +20,8 @@ pub fn is_proper(f: &[usize; 3], n: usize) -> bool {
 /// `items` must yield the same sequence on both calls (a count pass, then a fill pass).
 ///
 /// # Panics
-/// When a key is `>= n`: callers pass only the vertices of proper faces.
+/// When a key is `>= n`: callers pass only the vertices of proper faces or the row and
+/// column indices of a sparse pattern with `n` columns.
 pub(crate) fn grouped<T: Ord + Copy + Default, I: Iterator<Item = (usize, T)>>(
     n: usize,
     items: impl Fn() -> I,
