@@ -6,7 +6,7 @@
 //! tables, plots and the HTML page from a run folder, `gate` compares a run folder with a
 //! baseline, `export` writes the Newton systems of a plan, `calibration` times the machine's
 //! reference workload, `history` keeps every batch in an SQLite database and renders
-//! its trend page.
+//! its trend page, `signals` turns Ctrl-C, SIGTERM and SIGHUP into a clean stop.
 
 pub mod calibration;
 pub mod export;
@@ -17,4 +17,5 @@ pub mod plan;
 pub mod report;
 pub mod run;
 pub mod run_folder;
+pub mod signals;
 pub mod stats;

@@ -4,7 +4,6 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use config::LoadedConfig;
-mod signals;
 
 use mapbench::gate::{check, compare};
 use mapbench::history::{self, HistoryChoice};
@@ -12,7 +11,7 @@ use mapbench::plan::select::Shard;
 use mapbench::plan::Plan;
 use mapbench::plan::{config, registry};
 use mapbench::run::{self, merge, progress};
-use mapbench::{export, report, run_folder};
+use mapbench::{export, report, run_folder, signals};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -275,6 +274,9 @@ fn is_closed_pipe(e: &anyhow::Error) -> bool {
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Run { config, out, only, resume, jobs, shard, repeat, history } => {
+            // First, before any thread starts: every thread inherits the blocked signals.
+            let interrupt = Arc::new(AtomicBool::new(false));
+            let signal = signals::on_interrupt(interrupt.clone());
             if jobs == Some(0) {
                 anyhow::bail!("--jobs must be at least 1");
             }
@@ -289,8 +291,6 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 eprintln!("note: a --shard batch is not appended to the history; `merge` appends the whole batch");
             }
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
-            let interrupt = Arc::new(AtomicBool::new(false));
-            let signal = signals::on_interrupt(interrupt.clone());
             let opts = run::RunOptions { resume, jobs, shard, interrupt };
             let progress = progress::for_stderr();
             let report = run::run_batch(&plan, &out, &opts, progress.as_ref())?;
