@@ -196,25 +196,26 @@ impl HistoryDb {
                 err,
             })?;
         }
-        Self::open_with(path, OpenFlags::SQLITE_OPEN_READ_WRITE | OpenFlags::SQLITE_OPEN_CREATE)
+        Self::open_with(path, OpenFlags::SQLITE_OPEN_READ_WRITE | OpenFlags::SQLITE_OPEN_CREATE, true)
     }
 
-    /// Open an existing database (an error when there is none) and migrate it.
+    /// Open an existing history (an error when there is none, or the file is empty: only
+    /// `run` and `merge` create one) and migrate an older schema to [`SCHEMA_VERSION`].
     pub fn open_existing(path: &Path) -> Result<HistoryDb, HistoryError> {
         if !path.is_file() {
             return Err(HistoryError::Missing { path: path.to_path_buf() });
         }
-        Self::open_with(path, OpenFlags::SQLITE_OPEN_READ_WRITE)
+        Self::open_with(path, OpenFlags::SQLITE_OPEN_READ_WRITE, false)
     }
 
-    fn open_with(path: &Path, flags: OpenFlags) -> Result<HistoryDb, HistoryError> {
+    fn open_with(path: &Path, flags: OpenFlags, create: bool) -> Result<HistoryDb, HistoryError> {
         let sql = sql_error(path);
         let conn = Connection::open_with_flags(path, flags).map_err(&sql)?;
         // Another process appending at the same moment waits instead of failing.
         conn.busy_timeout(std::time::Duration::from_secs(10)).map_err(&sql)?;
         conn.pragma_update(None, "foreign_keys", true).map_err(&sql)?;
         let mut db = HistoryDb { conn, path: path.to_path_buf() };
-        db.migrate()?;
+        db.migrate(create)?;
         Ok(db)
     }
 
@@ -228,11 +229,14 @@ impl HistoryDb {
     }
 
     /// Bring the schema to [`SCHEMA_VERSION`] in one transaction: a migration that fails
-    /// leaves the database at its old version.
-    fn migrate(&mut self) -> Result<(), HistoryError> {
+    /// leaves the database at its old version. An empty file (version 0, no tables) becomes
+    /// a history only when `create`.
+    fn migrate(&mut self, create: bool) -> Result<(), HistoryError> {
         let path = self.path.clone();
         let sql = sql_error(&path);
+        // `user_version` is any 32-bit integer: a negative one was set by someone else.
         let found = user_version(&self.conn).map_err(&sql)?;
+        let from = usize::try_from(found).map_err(|_| HistoryError::BadVersion { path: path.clone(), found })?;
         if found > SCHEMA_VERSION {
             return Err(HistoryError::Newer { path: path.clone(), found, supported: SCHEMA_VERSION });
         }
@@ -249,8 +253,11 @@ impl HistoryDb {
             if tables > 0 {
                 return Err(HistoryError::Foreign { path: path.clone() });
             }
+            if !create {
+                return Err(HistoryError::Empty { path: path.clone() });
+            }
         }
-        for step in &MIGRATIONS[found as usize..] {
+        for step in &MIGRATIONS[from..] {
             tx.execute_batch(step).map_err(&sql)?;
         }
         tx.pragma_update(None, "user_version", SCHEMA_VERSION).map_err(&sql)?;

@@ -31,8 +31,15 @@ pub enum HistoryError {
         path.display()
     )]
     Newer { path: PathBuf, found: i64, supported: i64 },
+    #[error(
+        "{}: history schema version {found} is negative: not a mapbench history (mapbench numbers its schemas 1, 2, ...)",
+        path.display()
+    )]
+    BadVersion { path: PathBuf, found: i64 },
     #[error("{}: an SQLite database with tables but no mapbench schema version: not a mapbench history", path.display())]
     Foreign { path: PathBuf },
+    #[error("{}: an empty file, not a history yet (a `run` or `merge` creates one)", path.display())]
+    Empty { path: PathBuf },
     #[error("{}: no history database (a `run` or `merge` creates it)", path.display())]
     Missing { path: PathBuf },
     #[error("{}: {what}: {err}", path.display())]

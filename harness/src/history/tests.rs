@@ -117,10 +117,34 @@ fn an_older_schema_is_migrated_in_place() {
         (r[0].iterations, r[0].status, r[0].stop_reason.clone(), r[0].peak_rss_mb),
         (Some(9), Status::Ok, Some(StopReason::GradientTolerance), None)
     );
-    // version 0 (an empty file, as `sqlite3 FILE` leaves it) becomes a history too
-    let empty = dir.path().join("empty.sqlite");
-    Connection::open(&empty).unwrap().execute_batch("VACUUM").unwrap();
-    assert_eq!(HistoryDb::open_existing(&empty).unwrap().version().unwrap(), SCHEMA_VERSION);
+    // version 0 (an empty file, as `sqlite3 FILE` or `touch` leaves it) becomes a history
+    // when a batch is appended, and is left alone by a reader
+    for (name, make) in [("vacuumed", true), ("zero_bytes", false)] {
+        let empty = dir.path().join(format!("{name}.sqlite"));
+        if make {
+            Connection::open(&empty).unwrap().execute_batch("VACUUM").unwrap();
+        } else {
+            std::fs::write(&empty, b"").unwrap();
+        }
+        let size = std::fs::metadata(&empty).unwrap().len();
+        let e = HistoryDb::open_existing(&empty).err().unwrap();
+        assert!(matches!(e, HistoryError::Empty { .. }) && e.to_string().contains("not a history yet"), "{e}");
+        assert_eq!(std::fs::metadata(&empty).unwrap().len(), size, "{name}: the reader wrote to it");
+        assert_eq!(HistoryDb::open_or_create(&empty).unwrap().version().unwrap(), SCHEMA_VERSION);
+    }
+}
+
+#[test]
+fn a_negative_schema_version_is_refused_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("neg.sqlite");
+    Connection::open(&path).unwrap().execute_batch("PRAGMA user_version = -5;").unwrap();
+    for e in [HistoryDb::open_or_create(&path).err().unwrap(), HistoryDb::open_existing(&path).err().unwrap()] {
+        assert!(matches!(e, HistoryError::BadVersion { found: -5, .. }), "{e}");
+        assert!(e.to_string().contains("neg.sqlite: history schema version -5 is negative"), "{e}");
+    }
+    let v: i64 = Connection::open(&path).unwrap().pragma_query_value(None, "user_version", |r| r.get(0)).unwrap();
+    assert_eq!(v, -5, "left alone");
 }
 
 #[test]
