@@ -7,6 +7,7 @@ use config::LoadedConfig;
 
 use mapbench::gate::{check, compare};
 use mapbench::history::{self, HistoryChoice};
+use mapbench::output::Output;
 use mapbench::plan::select::Shard;
 use mapbench::plan::Plan;
 use mapbench::plan::{config, registry};
@@ -102,7 +103,7 @@ enum Command {
         run_dir: PathBuf,
         /// Runs as `<dataset>__<energy>__<solver>` or globs (`*`, `?`); default: every run.
         runs: Vec<String>,
-        /// Write the one selected run's OBJ to this file.
+        /// Write the one selected run's OBJ to this file (`-`: standard output).
         #[arg(long, conflicts_with = "out", required_unless_present = "out")]
         obj: Option<PathBuf>,
         /// Write `<run>.obj` of every selected run into this folder.
@@ -140,7 +141,8 @@ enum Command {
     Compare {
         run_a: PathBuf,
         run_b: PathBuf,
-        /// Also write the comparison as a self-contained HTML page.
+        /// Also write the comparison as a self-contained HTML page (`-`: the page on standard
+        /// output instead of the Markdown).
         #[arg(long)]
         html: Option<PathBuf>,
         /// Relative tolerance on the final energy.
@@ -157,6 +159,7 @@ enum Command {
     /// Write a baseline (JSON) from a run folder's summary.csv.
     Baseline {
         run_dir: PathBuf,
+        /// The baseline file (`-`: standard output).
         #[arg(long)]
         write: PathBuf,
     },
@@ -334,6 +337,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             // Before the registry: a config of another task is refused for what it is.
             export::check_task(&cfg)?;
             let plan = Plan::resolve(cfg, &only)?;
+            mapbench::output::check_folder(&out)?;
             for n in &plan.notices {
                 eprintln!("{n}");
             }
@@ -355,6 +359,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Map { run_dir, runs, obj, out } => {
+            let obj = obj.map(Output::from);
             let dest = match (&obj, &out) {
                 (Some(f), _) => export::maps::Dest::File(f),
                 (None, Some(d)) => export::maps::Dest::Folder(d),
@@ -362,7 +367,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             };
             let done = export::maps::export_maps(&run_dir, &runs, dest)?;
             for p in &done.written {
-                eprintln!("{}", p.display());
+                eprintln!("{p}");
             }
             if !done.missing.is_empty() {
                 eprintln!("no stored map for {}: {}", done.missing.join(", "), export::maps::missing_hint(&run_dir));
@@ -393,6 +398,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             if last == Some(0) {
                 anyhow::bail!("--last must be at least 1");
             }
+            mapbench::output::check_folder(&out)?;
             let h = history::HistoryDb::open_existing(&db)?;
             let page = history::trend::render(&h, config.as_deref(), last, &out)?;
             eprintln!("trend page of {} batches ({} plots): {}", page.batches, page.plots.len(), page.index.display());
@@ -405,20 +411,29 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(ExitCode::from(cmp.exit_code()))
         }
         Command::Compare { run_a, run_b, html, energy_rtol, iterations_tolerance, time_regressions } => {
+            let html = html.map(Output::from);
+            if let Some(h) = &html {
+                h.check()?;
+            }
             let options = compare::Options { energy_rtol, iterations_tolerance, time_regressions };
             let cmp = compare::compare_folders(&run_a, &run_b, options)?;
-            out(format_args!("{}", compare::to_markdown(&cmp)))?;
-            if let Some(path) = html {
-                run_folder::write_atomic(&path, compare::to_html(&cmp).as_bytes())?;
-                eprintln!("wrote {}", path.display());
+            // `--html -`: the page on standard output instead of the Markdown.
+            if html.as_ref() != Some(&Output::Stdout) {
+                out(format_args!("{}", compare::to_markdown(&cmp)))?;
+            }
+            if let Some(h) = html {
+                h.write(compare::to_html(&cmp).as_bytes())?;
+                eprintln!("wrote the comparison page to {h}");
             }
             Ok(ExitCode::from(cmp.exit_code()))
         }
         Command::Baseline { run_dir, write } => {
+            let write = Output::from(write);
+            write.check()?;
             let base = check::make_baseline(&run_dir)?;
             let json = serde_json::to_string_pretty(&base)? + "\n";
-            run_folder::write_atomic(&write, json.as_bytes())?;
-            eprintln!("wrote {} runs to {}", base.runs.len(), write.display());
+            write.write(json.as_bytes())?;
+            eprintln!("wrote {} runs to {write}", base.runs.len());
             Ok(ExitCode::SUCCESS)
         }
         Command::Validate { mesh, task } => {

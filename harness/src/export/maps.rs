@@ -3,18 +3,19 @@
 //! (`uv/<run>.uv.gz` and `meshes/<dataset>.obj.gz`), so any OBJ viewer shows a map as a
 //! texture of its mesh.
 
+use crate::output::Output;
 use crate::plan::select::glob_match;
 use crate::run_folder::keep::Maps;
 use crate::run_folder::map::{self, StoredMesh};
 use crate::run_folder::{read_summary, run_stem, write_atomic};
 use anyhow::{bail, Result};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Where the OBJs go.
 pub enum Dest<'a> {
-    /// One run's OBJ, to this file.
-    File(&'a Path),
+    /// One run's OBJ, to this file or standard output.
+    File(&'a Output),
     /// `<run>.obj` for each selected run, into this folder.
     Folder(&'a Path),
 }
@@ -22,7 +23,8 @@ pub enum Dest<'a> {
 /// What an export did.
 #[derive(Debug, Default, PartialEq)]
 pub struct Exported {
-    pub written: Vec<PathBuf>,
+    /// Where each OBJ went (a file, or standard output).
+    pub written: Vec<String>,
     /// Selected runs (finished ones) whose map the folder did not keep.
     pub missing: Vec<String>,
 }
@@ -31,6 +33,10 @@ pub struct Exported {
 /// matches one of `runs` (globs; none: every run). A selection that matches no run is an
 /// error, and so is `Dest::File` with more than one selected run that has a map.
 pub fn export_maps(run_dir: &Path, runs: &[String], dest: Dest) -> Result<Exported> {
+    match dest {
+        Dest::File(f) => f.check()?,
+        Dest::Folder(d) => crate::output::check_folder(d)?,
+    }
     let rows = read_summary(run_dir)?;
     let selected: Vec<_> = rows
         .iter()
@@ -64,15 +70,15 @@ pub fn export_maps(run_dir: &Path, runs: &[String], dest: Dest) -> Result<Export
                 bail!("--obj writes one map, but {} runs with a map match: give one run, or --out DIR", maps.len());
             }
             if let Some((_, m)) = maps.first() {
-                write_atomic(path, &map::to_obj(m))?;
-                out.written.push(path.to_path_buf());
+                path.write(&map::to_obj(m))?;
+                out.written.push(path.to_string());
             }
         }
         Dest::Folder(dir) => {
             for (stem, m) in &maps {
                 let path = dir.join(format!("{stem}.obj"));
                 write_atomic(&path, &map::to_obj(m))?;
-                out.written.push(path);
+                out.written.push(path.display().to_string());
             }
         }
     }

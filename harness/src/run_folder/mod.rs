@@ -19,7 +19,7 @@ pub use error::FolderError;
 pub use iterations::{iteration_csv, read_iterations, read_run, IterationFile, ITERATION_COLUMNS};
 pub use summary::{read_summary, write_summary, Status, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use solvers::solver::IterationRecord;
 use std::path::{Path, PathBuf};
 
@@ -97,8 +97,42 @@ pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
     written
 }
 
-/// Write `bytes` to `path` atomically: a temporary file in the same folder, then rename.
+/// The files and folders of a run folder that mapbench writes (a verb's output named by the
+/// user must not be one of them: see [`owner`]).
+pub const OWN_ENTRIES: [&str; 8] =
+    ["summary.csv", "meta.json", "index.html", "runs", "uv", "meshes", "plots", "tables"];
+
+/// Whether `dir` is a run folder: it has the `meta.json` and `summary.csv` every batch writes.
+pub fn is_run_folder(dir: &Path) -> bool {
+    meta_json(dir).is_file() && summary_csv(dir).is_file()
+}
+
+/// The run folder whose own file (or folder, [`OWN_ENTRIES`]) `path` is, links followed:
+/// `B/summary.csv`, `B/runs/x.csv`, a link to either. `None` for any other path, a new file
+/// beside them included.
+pub fn owner(path: &Path) -> Option<PathBuf> {
+    // The path as the OS resolves it: its longest existing part, links followed, then the rest.
+    let resolved = path.ancestors().find_map(|a| {
+        let existing = if a.as_os_str().is_empty() { Path::new(".") } else { a };
+        Some(std::fs::canonicalize(existing).ok()?.join(path.strip_prefix(a).ok()?))
+    })?;
+    resolved.ancestors().skip(1).find_map(|dir| {
+        let first = resolved.strip_prefix(dir).ok()?.components().next()?;
+        (OWN_ENTRIES.iter().any(|e| first.as_os_str() == *e) && is_run_folder(dir)).then(|| dir.to_path_buf())
+    })
+}
+
+/// Write `bytes` to `path`: atomically (a temporary file in the same folder, then rename) when
+/// `path` is new or a regular file; through it when it is a symlink, a FIFO, a character
+/// device or a socket, which a rename would replace (a link broken and its target never
+/// written; as root, `/dev/stdout` replaced by a file). A link is written through whatever
+/// it points to (`/dev/stdout` to the open standard output, not to the file behind it).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(_) if path.is_dir() => bail!("{}: is a folder", path.display()),
+        Ok(m) if !m.is_file() => return write_through(path, bytes),
+        _ => {}
+    }
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create folder", dir.display()))?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -113,6 +147,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     written
+}
+
+/// Open `path` for writing (following links, creating a missing target) and write `bytes`.
+fn write_through(path: &Path, bytes: &[u8]) -> Result<()> {
+    use std::io::Write;
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(path)
+        .with_context(|| format!("{}: cannot open for writing", path.display()))?;
+    f.write_all(bytes).and_then(|()| f.flush()).with_context(|| format!("{}: cannot write", path.display()))
 }
 
 /// The bytes of a CSV file mapbench wrote, refused when its last row has no line end: every
