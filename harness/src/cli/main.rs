@@ -41,8 +41,9 @@ enum Command {
         /// settings, mesh and handles (keys in runs/<run>.json); run the rest.
         #[arg(long)]
         resume: bool,
-        /// Runs at once (default: the machine's cores). Each run uses `threads_per_run`
-        /// threads inside (config; default 1 while runs outnumber jobs).
+        /// Runs at once (default: the machine's cores; at most 4 x the cores). Each run uses
+        /// `threads_per_run` threads inside (config; default: the cores shared among the
+        /// runs, 1 while runs outnumber them).
         #[arg(long)]
         jobs: Option<usize>,
         /// Run only shard I of N (1-based): every N-th run of the batch's canonical order.
@@ -280,9 +281,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             // First, before any thread starts: every thread inherits the blocked signals.
             let interrupt = Arc::new(AtomicBool::new(false));
             let signal = signals::on_interrupt(interrupt.clone());
-            if jobs == Some(0) {
-                anyhow::bail!("--jobs must be at least 1");
-            }
+            config::check_jobs(jobs, config::available_cores())?;
             let mut plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
             if let Some(r) = repeat {
                 mapbench::plan::config::check_repeat(r).context("--repeat")?;

@@ -82,11 +82,13 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         .filter(|(i, _)| opts.shard.is_none_or(|s| s.selects(*i)))
         .map(|(_, p)| p)
         .collect();
+    let cores = crate::plan::config::available_cores();
+    crate::plan::config::check_jobs(opts.jobs, cores)?;
     std::fs::create_dir_all(crate::run_folder::runs_dir(out_dir))
         .with_context(|| format!("{}: cannot create", out_dir.display()))?;
-    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let jobs = opts.jobs.unwrap_or(cores).clamp(1, mine.len().max(1));
-    let threads = plan.threads_per_run.unwrap_or_else(|| (opts.jobs.unwrap_or(cores) / mine.len().max(1)).max(1));
+    let threads =
+        plan.threads_per_run.unwrap_or_else(|| default_threads(opts.jobs.unwrap_or(cores), cores, mine.len()));
     let meta = Meta { plan, shard: opts.shard, resume: opts.resume, jobs, threads, started: SystemTime::now() };
     let mut calibration = Calibration::new();
     calibrate(&mut calibration, jobs, threads, progress);
@@ -292,6 +294,13 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     Ok(report)
 }
 
+/// Threads per run when the config does not say: the cores the batch may use (`--jobs`, at
+/// most the machine's) shared among its runs, at least 1. `--jobs` above the cores gives
+/// more runs at once, never more threads to each.
+fn default_threads(jobs: usize, cores: usize, runs: usize) -> usize {
+    (jobs.min(cores) / runs.max(1)).max(1)
+}
+
 /// A repeat of a run that timed out replays its iterations: it stops (as a timeout) where
 /// the first one did, rather than at a deadline the machine's speed moves.
 fn replay_to(first: &RunResult) -> Option<usize> {
@@ -429,4 +438,23 @@ fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String 
             _ => format!(": {}", s.error),
         }
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::default_threads;
+
+    #[test]
+    fn default_threads_share_the_cores_never_more() {
+        // one run on 2 cores: both cores, whatever --jobs says
+        assert_eq!(default_threads(2, 2, 1), 2);
+        assert_eq!(default_threads(8, 2, 1), 2);
+        assert_eq!(default_threads(usize::MAX, 2, 1), 2);
+        // a --jobs 1 Slurm task keeps to one thread
+        assert_eq!(default_threads(1, 64, 1), 1);
+        // more runs than cores: one thread each
+        assert_eq!(default_threads(2, 2, 5), 1);
+        assert_eq!(default_threads(16, 16, 4), 4);
+        assert_eq!(default_threads(4, 2, 0), 2);
+    }
 }

@@ -165,15 +165,35 @@ pub fn available_cores() -> usize {
     std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
 }
 
-/// `threads_per_run` is at least 1 and at most 4 x the cores: more threads than that only
+/// The most threads per run, and runs at once, on `cores` cores: 4 x the cores.
+pub fn max_threads(cores: usize) -> usize {
+    cores.saturating_mul(4)
+}
+
+/// `threads_per_run` is at least 1 and at most [`max_threads`]: more threads than that only
 /// slow a run down (they share the cores), and a typo like 100000 would spawn that many.
 pub fn check_threads_per_run(threads: Option<usize>, cores: usize) -> Result<()> {
     match threads {
         Some(0) => bail!("threads_per_run must be at least 1"),
-        Some(t) if t > 4 * cores => bail!(
+        Some(t) if t > max_threads(cores) => bail!(
             "threads_per_run = {t} is more than 4 x the {cores} cores of this machine ({}): threads beyond the \
              cores share them and only slow each run down",
-            4 * cores
+            max_threads(cores)
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// `--jobs` is at least 1 and at most [`max_threads`], like `threads_per_run`: runs beyond the
+/// cores wait for each other while their clocks run, and each is a thread with its own pool
+/// (a typo like 100000 spawned threads until the process could not start another).
+pub fn check_jobs(jobs: Option<usize>, cores: usize) -> Result<()> {
+    match jobs {
+        Some(0) => bail!("--jobs must be at least 1"),
+        Some(j) if j > max_threads(cores) => bail!(
+            "--jobs {j} is more than 4 x the {cores} cores of this machine ({}): runs beyond the cores wait for \
+             each other while their times are taken",
+            max_threads(cores)
         ),
         _ => Ok(()),
     }

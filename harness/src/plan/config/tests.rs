@@ -93,6 +93,17 @@ fn threads_per_run_is_bounded_by_the_cores() {
 }
 
 #[test]
+fn jobs_are_bounded_like_threads_per_run() {
+    assert!(check_jobs(None, 2).is_ok() && check_jobs(Some(1), 2).is_ok() && check_jobs(Some(8), 2).is_ok());
+    for (jobs, want) in [(9, "--jobs 9 is more than 4 x the 2 cores"), (usize::MAX, "is more than 4 x the 2 cores")] {
+        let e = format!("{:#}", check_jobs(Some(jobs), 2).unwrap_err());
+        assert!(e.contains(want) && e.contains("(8)"), "{e}");
+    }
+    assert!(format!("{:#}", check_jobs(Some(0), 2).unwrap_err()).contains("at least 1"));
+    assert!(check_jobs(Some(usize::MAX), usize::MAX).is_ok(), "no overflow");
+}
+
+#[test]
 fn repeated_energies_solvers_and_datasets_are_refused() {
     let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
     assert!(err(&MIN.replace("[\"sd\"]", "[\"sd\", \"nh\", \"sd\"]")).contains("energies: 'sd' appears twice"));
