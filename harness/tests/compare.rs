@@ -114,3 +114,54 @@ fn times_are_flagged_outside_the_spread_or_beyond_asvs_factor_and_gated_only_on_
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("Time changes (slower gated)"));
 }
+
+/// `check` against a baseline of A and `compare A B` judge a run whose final energy was NaN
+/// (not converged) and is finite now (ok) alike, and the reverse too (issue 41: `compare`
+/// called the first a regression, `check` an improvement, since the baseline wrote NaN as null).
+#[test]
+fn check_and_compare_share_the_rule_for_nan_energies() {
+    let tmp = tempfile::tempdir().unwrap();
+    let nan_run =
+        SummaryRow { final_energy: Some(f64::NAN), status: Status::NotConverged, ..row("cm", (1.0, 1.0, 1.0), 1) };
+    folder(&tmp.path().join("nan"), &[nan_run]);
+    folder(&tmp.path().join("ok"), &[row("cm", (1.0, 1.0, 1.0), 1)]);
+    for (a, b, code, needle) in [("nan", "ok", 0, "finite again"), ("ok", "nan", 1, "not finite")] {
+        let o = mapbench(&["compare", a, b], tmp.path());
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(code), "compare {a} {b}: {t}");
+        let (x, y) = if code == 0 { ("NaN", "2.0000000000") } else { ("2.0000000000", "NaN") };
+        assert!(t.contains(&format!("| final_energy | {x} | {y} | {needle} |")), "compare {a} {b}: {t}");
+        let base = tmp.path().join(format!("{a}.json"));
+        let o = mapbench(&["baseline", a, "--write", base.to_str().unwrap()], tmp.path());
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        let o = mapbench(&["check", b, "--baseline", base.to_str().unwrap()], tmp.path());
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(code), "check {b} against {a}: {t}");
+        assert!(t.contains(needle), "check {b} against {a}: {t}");
+    }
+}
+
+/// Negative and NaN times are a corrupt summary, refused by file, line and column; a zero
+/// time is no measurement: no ratio, never flagged (issue 41: a -35x "ratio", exit 0).
+#[test]
+fn negative_and_nan_times_are_refused_and_zero_has_no_ratio() {
+    let tmp = tempfile::tempdir().unwrap();
+    folder(&tmp.path().join("A"), &[row("cm", (1.0, 1.0, 1.0), 1)]);
+    for (name, t) in [("neg", (-35.0, -35.0, -35.0)), ("nan", (f64::NAN, 1.0, 1.0))] {
+        folder(&tmp.path().join(name), &[row("cm", t, 1)]);
+        let o = mapbench(&["compare", "A", name], tmp.path());
+        let log = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{log}");
+        assert!(log.contains(&format!("{name}/summary.csv: line 2: column")) && log.contains("`time_s`"), "{log}");
+    }
+    let mut min = row("cm", (1.0, -1.0, 1.0), 3);
+    min.time_norm = Some(0.5);
+    folder(&tmp.path().join("min"), &[min]);
+    let log = text(&mapbench(&["compare", "A", "min"], tmp.path()));
+    assert!(log.contains("`time_s_min`: `-1`"), "{log}");
+    folder(&tmp.path().join("zero"), &[row("cm", (0.0, 0.0, 0.0), 1)]);
+    let o = mapbench(&["compare", "A", "zero"], tmp.path());
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{log}");
+    assert!(log.contains("0 slower and 0 faster times") && !log.contains("| 0.00 |"), "{log}");
+}

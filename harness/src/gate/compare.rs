@@ -115,8 +115,8 @@ pub struct TimePair {
 impl TimePair {
     /// after / before, when both are positive measurements.
     pub fn ratio(&self) -> Option<f64> {
-        let r = self.after.value / self.before.value;
-        (self.before.value > 0.0 && r.is_finite()).then_some(r)
+        let (b, a) = (self.before.value, self.after.value);
+        (b > 0.0 && a > 0.0 && (a / b).is_finite()).then(|| a / b)
     }
 }
 

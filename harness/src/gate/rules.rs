@@ -6,6 +6,8 @@
 //! - Status orders `skipped < failed < not_converged < ok` ([`Status`]'s `Ord`): a worse status
 //!   is a regression, and so is any run that becomes `failed`.
 //! - The final energy may move by `energy_rtol` (relative); higher beyond it is a regression.
+//!   A final energy that becomes NaN or infinite is a regression, one that stops being so an
+//!   improvement ([`energy_change`]); a baseline keeps such a value as `"NaN"` / `"inf"`.
 //! - Flips where there were none are a regression.
 //! - Times are never a regression here: [`time_change`] only labels a time as slower or faster,
 //!   when the spreads over the repeats are disjoint (the overlap rule of the report's rankings,
@@ -35,6 +37,9 @@ pub struct Record {
     pub energy: String,
     pub solver: String,
     pub iterations: Option<usize>,
+    /// NaN and infinities are written as the strings `"NaN"`, `"inf"`, `"-inf"` (JSON has no
+    /// such numbers, and `null` would read as "no energy").
+    #[serde(with = "non_finite")]
     pub final_energy: Option<f64>,
     pub status: Status,
     pub flips: Option<usize>,
@@ -126,18 +131,67 @@ pub fn changes(before: &Record, after: &Record, energy_rtol: f64) -> Vec<Change>
         _ => {}
     }
     if let (Some(be), Some(ae)) = (b.final_energy, a.final_energy) {
-        let rel = (ae - be) / be.abs().max(1e-300);
-        // NaN counts as moved, and as a regression.
-        let within = rel.abs() <= energy_rtol;
-        if !within {
-            let lower = ae < be;
-            push("final_energy", format!("{be:.10}"), format!("{ae:.10}"), format!("{rel:+.2e} rel"), !lower);
+        if let Some((delta, regression)) = energy_change(be, ae, energy_rtol) {
+            push("final_energy", format!("{be:.10}"), format!("{ae:.10}"), delta, regression);
         }
     }
     if b.flips == Some(0) && a.flips.unwrap_or(0) > 0 {
         push("flips", "0".into(), fmt_opt(a.flips), String::new(), true);
     }
     out
+}
+
+/// Whether a final energy moved from `before` to `after`: `None` when not, else the delta's
+/// text and whether it is a regression. Finite values move beyond `energy_rtol` (relative),
+/// higher being a regression; a value that becomes NaN or infinite is a regression, one that
+/// stops being so an improvement, and two non-finite values are no change. The one rule of
+/// `check` and `compare`.
+pub fn energy_change(before: f64, after: f64, energy_rtol: f64) -> Option<(String, bool)> {
+    match (before.is_finite(), after.is_finite()) {
+        (true, true) => {
+            let rel = (after - before) / before.abs().max(1e-300);
+            (rel.abs() > energy_rtol).then(|| (format!("{rel:+.2e} rel"), after > before))
+        }
+        (true, false) => Some(("not finite".into(), true)),
+        (false, true) => Some(("finite again".into(), false)),
+        (false, false) => None,
+    }
+}
+
+/// `final_energy` in a baseline: a number, `null`, or `"NaN"`, `"inf"`, `"-inf"`.
+mod non_finite {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(x) if x.is_nan() => s.serialize_str("NaN"),
+            Some(x) if x.is_infinite() => s.serialize_str(if *x > 0.0 { "inf" } else { "-inf" }),
+            Some(x) => s.serialize_f64(*x),
+            None => s.serialize_none(),
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Value {
+        Number(f64),
+        Text(String),
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+        match Option::<Value>::deserialize(d)? {
+            None => Ok(None),
+            Some(Value::Number(x)) => Ok(Some(x)),
+            Some(Value::Text(t)) => match t.as_str() {
+                "NaN" => Ok(Some(f64::NAN)),
+                "inf" => Ok(Some(f64::INFINITY)),
+                "-inf" => Ok(Some(f64::NEG_INFINITY)),
+                other => Err(serde::de::Error::custom(format!(
+                    "final_energy \"{other}\" is not a number (text is only \"NaN\", \"inf\" or \"-inf\")"
+                ))),
+            },
+        }
+    }
 }
 
 /// A time that moved beyond the noise.
@@ -230,6 +284,36 @@ pub(crate) mod tests {
         assert!(changes(&rec(10, 2.0), &rec(10, 2.0 * (1.0 + 0.9e-3)), 1e-3).is_empty());
         assert_eq!(metrics(&changes(&rec(10, 2.0), &rec(10, 2.0 * (1.0 + 1.1e-3)), 1e-3)), [("final_energy", true)]);
         assert_eq!(metrics(&changes(&rec(10, 2.0), &rec(10, f64::NAN), 1.0)), [("final_energy", true)]);
+    }
+
+    #[test]
+    fn non_finite_energies_one_rule_both_ways() {
+        let nan = f64::NAN;
+        assert_eq!(energy_change(2.0, nan, 1e-6), Some(("not finite".into(), true)));
+        assert_eq!(energy_change(2.0, f64::INFINITY, 1e-6), Some(("not finite".into(), true)));
+        assert_eq!(energy_change(nan, 2.0, 1e-6), Some(("finite again".into(), false)));
+        assert_eq!(energy_change(f64::NEG_INFINITY, 2.0, 1e-6), Some(("finite again".into(), false)));
+        assert_eq!(energy_change(nan, nan, 1e-6), None);
+        assert_eq!(energy_change(nan, f64::INFINITY, 1e-6), None);
+        assert_eq!(energy_change(2.0, 2.0 * (1.0 + 1e-7), 1e-6), None);
+        assert_eq!(energy_change(2.0, 2.1, 1e-6).map(|c| c.1), Some(true));
+        assert_eq!(energy_change(2.0, 1.9, 1e-6).map(|c| c.1), Some(false));
+    }
+
+    #[test]
+    fn a_baseline_keeps_non_finite_energies() {
+        for e in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 2.5] {
+            let r = Record { final_energy: Some(e), ..rec(3, 0.0) };
+            let json = serde_json::to_string(&r).unwrap();
+            let back: Record = serde_json::from_str(&json).unwrap();
+            assert_eq!(back.final_energy.map(f64::to_bits), Some(e.to_bits()), "{json}");
+        }
+        let none = Record { final_energy: None, ..rec(3, 0.0) };
+        let back: Record = serde_json::from_str(&serde_json::to_string(&none).unwrap()).unwrap();
+        assert_eq!(back.final_energy, None);
+        let bad = serde_json::to_string(&rec(3, 1.0)).unwrap().replace("1.0", "\"one\"");
+        let e = serde_json::from_str::<Record>(&bad).unwrap_err().to_string();
+        assert!(e.contains("final_energy \"one\" is not a number"), "{e}");
     }
 
     #[test]

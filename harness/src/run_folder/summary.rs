@@ -249,12 +249,22 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>, FolderError> {
             rec.deserialize(Some(&header)).map_err(|e| csv_error(&path, Some(&header), Some(&rec), &e))?;
         // `report` and `merge` derive file names from these fields: a folder written by
         // another tool or edited by hand must not make them write outside the run folder.
+        let line = rec.position().map_or(0, |p| p.line());
         for (kind, name) in [("dataset", &row.dataset), ("energy", &row.energy), ("solver", &row.solver)] {
             crate::plan::names::check_name(kind, name).map_err(|source| FolderError::Name {
                 path: path.clone(),
-                line: rec.position().map_or(0, |p| p.line()),
+                line,
                 source,
             })?;
+        }
+        // Ratios and medians of times would be nonsense (`compare` showed a -35x "ratio").
+        let times = [("time_s", row.time_s), ("time_s_min", row.time_s_min), ("time_s_max", row.time_s_max)];
+        for (column, value) in times.into_iter().chain([("time_norm", row.time_norm)]) {
+            if let Some(t) = value.filter(|t| !(t.is_finite() && *t >= 0.0)) {
+                let at = header.iter().position(|h| h == column).map_or(0, |i| i + 1);
+                let what = format!("column {at} `{column}`: `{t}`: a time is a finite number, at least 0");
+                return Err(FolderError::Line { path, line, what });
+            }
         }
         rows.push(row);
     }
