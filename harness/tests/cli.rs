@@ -480,11 +480,15 @@ fn resume_reruns_nothing_that_finished_and_everything_whose_settings_changed() {
     assert_eq!(log.matches("resumed, ").count(), 4, "{log}");
     assert_eq!(again, first, "the resumed summary is the finished one, timings included");
     assert_eq!(std::fs::read_to_string(out.join("runs/cap_2k__sd__cm.csv")).unwrap(), csv);
-    // a setting that changes results invalidates every run; --only still applies
+    // a setting that changes results invalidates every run
     write_config(tmp.path(), &format!("{body}[stop]\nmax_iters = 3\n"));
-    let (log, _) = run(&["--resume", "--only", "cap_2k*"]);
+    let (log, _) = run(&["--resume"]);
     assert_eq!(log.matches("resumed, ").count(), 0, "{log}");
     assert!(log.contains("cap_2k sd cm: not_converged (max_iters), 3 iterations"), "{log}");
+    // another plan (--only keeps 2 of the 4 runs) is refused: the other 2 would stay behind
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--only", "cap_2k*"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("a run folder of another batch (another plan: 4 runs, this batch 2"), "{}", text(&o));
     // without --resume everything runs again
     let (log, _) = run(&[]);
     assert_eq!(log.matches("resumed, ").count(), 0, "{log}");

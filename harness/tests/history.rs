@@ -42,11 +42,9 @@ fn two_batches_of_one_config_make_two_nights_on_the_trend_page() {
         let out = tmp.path().join(format!("night{night}"));
         let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
         assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-        assert!(
-            text(&o).contains(&format!("history: batch {night} (2 runs of h) appended to reports/history.sqlite")),
-            "{}",
-            text(&o)
-        );
+        let db = tmp.path().join("reports/history.sqlite");
+        let said = format!("history: batch {night} (2 runs of h) appended to {}", db.display());
+        assert!(text(&o).contains(&said), "{}", text(&o));
         // The run's report links to the trend page `run` rendered next to the database.
         let index = std::fs::read_to_string(out.join("index.html")).unwrap();
         assert!(index.contains("href=\"../reports/history-trend/h/index.html\""), "{index}");
@@ -197,4 +195,56 @@ fn thirty_simulated_batches() {
         t1.elapsed().as_secs_f64()
     );
     assert_eq!(page.batches, 30);
+}
+
+/// What `run` says of the history is what happened (issue 41): a trend page that cannot be
+/// rendered is its own warning after "appended" (exit 0: the batch is in), meta.json records
+/// the outcome and the report links no page; a `--resume` of the complete folder is not
+/// appended again; a failed append leaves `history` null in meta.json.
+#[test]
+fn the_history_outcome_is_said_and_recorded_as_it_happened() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), CONFIG);
+    let db = tmp.path().join("h.sqlite");
+    // a file where the trend page's folder would go
+    std::fs::write(tmp.path().join("h-trend"), "in the way").unwrap();
+    let out = tmp.path().join("out");
+    let args = ["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--history", db.to_str().unwrap()];
+    let o = mapbench(&args, tmp.path());
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{log}");
+    assert!(log.contains("history: batch 1 (2 runs of h) appended to") && !log.contains("not updated"), "{log}");
+    assert!(log.contains("warning: the trend page was not rendered:") && log.contains("--config h --out DIR"), "{log}");
+    let meta = |out: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap()
+    };
+    let m = meta(&out);
+    assert_eq!(m["history_outcome"]["outcome"], "appended", "{m}");
+    assert_eq!(m["history_outcome"]["batch_id"], 1);
+    assert!(m["history_outcome"]["trend"].is_null() && m["history_outcome"]["trend_error"].is_string(), "{m}");
+    assert_eq!(m["history"], db.display().to_string());
+    assert!(!std::fs::read_to_string(out.join("index.html")).unwrap().contains("History:"));
+
+    // every run resumed from the appended batch: not appended twice
+    std::fs::remove_file(tmp.path().join("h-trend")).unwrap();
+    let o = mapbench(&[&args[..], &["--resume"]].concat(), tmp.path());
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{log}");
+    assert!(log.contains("not appended to the history: already in the history as batch 1"), "{log}");
+    assert_eq!(HistoryDb::open_existing(&db).unwrap().batches(None, None).unwrap().len(), 1);
+    assert_eq!(meta(&out)["history_outcome"]["outcome"], "not_appended");
+    assert!(meta(&out)["history"].is_null());
+    // a new batch is appended, and its page is rendered and linked
+    let o = mapbench(&args, tmp.path());
+    assert!(text(&o).contains("history: batch 2 (2 runs of h)"), "{}", text(&o));
+    assert!(std::fs::read_to_string(out.join("index.html")).unwrap().contains("href=\"../h-trend/h/index.html\""));
+
+    // a failed append: exit 2, meta.json says failed, no link
+    rusqlite::Connection::open(&db).unwrap().execute_batch("PRAGMA user_version = 9").unwrap();
+    let o = mapbench(&args, tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let m = meta(&out);
+    assert_eq!(m["history_outcome"]["outcome"], "failed", "{m}");
+    assert!(m["history"].is_null() && !text(&o).contains("appended to"), "{m}");
+    assert!(!std::fs::read_to_string(out.join("index.html")).unwrap().contains("History:"));
 }

@@ -54,6 +54,10 @@ enum Command {
         /// `time_s` is the median, `time_s_min`/`time_s_max` the spread.
         #[arg(long)]
         repeat: Option<usize>,
+        /// Delete the results of another config or plan found in the output folder instead of
+        /// refusing to write there (mapbench's own files only).
+        #[arg(long, conflicts_with = "resume")]
+        force: bool,
         #[command(flatten)]
         history: HistoryArgs,
     },
@@ -66,6 +70,10 @@ enum Command {
         /// Output folder (default: reports/<name> of the shards' config).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Replace the results of another config or plan found in the output folder instead of
+        /// refusing to write there (mapbench's own files only).
+        #[arg(long)]
+        force: bool,
         #[command(flatten)]
         history: HistoryArgs,
     },
@@ -200,24 +208,33 @@ impl HistoryArgs {
     }
 }
 
-/// Append a finished run folder to the history and render its config's trend page. A failure
-/// is a warning (the run folder is complete either way) and makes the command exit 2.
-fn append_history(db: &std::path::Path, run_dir: &std::path::Path) -> bool {
-    match history::record(db, run_dir) {
-        Ok(r) => {
-            eprintln!(
-                "history: batch {} ({} runs of {}) appended to {}; trend page {}",
-                r.batch_id,
-                r.runs,
-                r.config,
-                db.display(),
-                r.trend.display()
-            );
+/// Say what became of the batch in the history. `false` when it could not be appended (a
+/// warning: the run folder is complete either way; the command exits 2). A trend page that
+/// could not be rendered is a warning of its own: the batch is in the history.
+fn say_history(outcome: &history::Outcome) -> bool {
+    use history::Outcome;
+    match outcome {
+        Outcome::Off => true,
+        Outcome::NotAppended { reason, .. } => {
+            eprintln!("note: not appended to the history: {reason}");
             true
         }
-        Err(e) => {
-            eprintln!("warning: history not updated: {e} (the run folder {} is complete)", run_dir.display());
+        Outcome::Failed { error, .. } => {
+            eprintln!("warning: history not updated: {error} (the run folder is complete)");
             false
+        }
+        Outcome::Appended { db, batch_id, runs, config, trend, trend_error } => {
+            eprintln!("history: batch {batch_id} ({runs} runs of {config}) appended to {}", db.display());
+            match (trend, trend_error) {
+                (Some(page), _) => eprintln!("history: trend page {}", page.display()),
+                (None, e) => eprintln!(
+                    "warning: the trend page was not rendered: {} (`mapbench history --db {} --config {config} \
+                     --out DIR` renders it)",
+                    e.as_deref().unwrap_or("?"),
+                    db.display()
+                ),
+            }
+            true
         }
     }
 }
@@ -277,7 +294,7 @@ fn is_closed_pipe(e: &anyhow::Error) -> bool {
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Run { config, out, only, resume, jobs, shard, repeat, history } => {
+        Command::Run { config, out, only, resume, jobs, shard, repeat, force, history } => {
             // First, before any thread starts: every thread inherits the blocked signals.
             let interrupt = Arc::new(AtomicBool::new(false));
             let signal = signals::on_interrupt(interrupt.clone());
@@ -293,7 +310,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 eprintln!("note: a --shard batch is not appended to the history; `merge` appends the whole batch");
             }
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
-            let opts = run::RunOptions { resume, jobs, shard, interrupt };
+            let opts = run::RunOptions { resume, jobs, shard, force, interrupt };
             let progress = progress::for_stderr();
             let report = run::run_batch(&plan, &out, &opts, progress.as_ref())?;
             eprintln!(
@@ -310,20 +327,13 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 },
                 report.out_dir.display()
             );
-            let interrupted = opts.interrupt.load(Ordering::SeqCst);
-            // An interrupted batch is partial: its means would read as a change of the code.
-            let appended = match &plan.history {
-                Some(db) if !interrupted => append_history(db, &report.out_dir),
-                Some(_) => {
-                    eprintln!("note: the interrupted batch is not appended to the history");
-                    true
-                }
-                None => true,
-            };
-            Ok(if interrupted {
+            let written = say_history(&report.history);
+            // A signal at any moment, after the last run too (the batch is then complete).
+            let signalled = signal.load(Ordering::SeqCst);
+            Ok(if signalled != 0 {
                 // The shell's convention: 128 + the signal (130 Ctrl-C, 143 SIGTERM).
-                ExitCode::from(128 + signal.load(Ordering::SeqCst).clamp(1, 127) as u8)
-            } else if !appended {
+                ExitCode::from(128 + signalled.clamp(1, 127) as u8)
+            } else if !written {
                 ExitCode::from(2)
             } else if report.failed > 0 {
                 ExitCode::from(1)
@@ -380,8 +390,8 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             eprintln!("report of {} runs in {}", rows.len(), run_dir.display());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Merge { shards, out, history } => {
-            let m = merge::merge(&shards, out.as_deref(), &history.choice())?;
+        Command::Merge { shards, out, force, history } => {
+            let m = merge::merge(&shards, out.as_deref(), &history.choice(), force)?;
             if !m.missing.is_empty() {
                 eprintln!(
                     "warning: {} planned runs are in no shard (first: {}); the report covers the rest",
@@ -389,9 +399,13 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                     m.missing[0]
                 );
             }
+            for d in &m.interrupted {
+                eprintln!("warning: shard {} was interrupted (`run --resume` completes it)", d.display());
+            }
             eprintln!("merged {} runs from {} shards into {}", m.runs, shards.len(), m.out_dir.display());
-            let appended = m.history.as_deref().is_none_or(|db| append_history(db, &m.out_dir));
-            Ok(if m.missing.is_empty() && appended { ExitCode::SUCCESS } else { ExitCode::from(2) })
+            let written = say_history(&m.history);
+            let complete = m.missing.is_empty() && m.interrupted.is_empty();
+            Ok(if complete && written { ExitCode::SUCCESS } else { ExitCode::from(2) })
         }
         Command::History { db, config, last, out } => {
             if last == Some(0) {

@@ -8,7 +8,8 @@ pub mod trend;
 
 pub use db::{BatchRow, HistoryDb, RunRow, Source, SCHEMA_VERSION};
 
-use crate::run_folder::{meta_json, read_summary, FolderError};
+use crate::run_folder::{meta_json, read_summary, write_atomic, FolderError};
+use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::path::{Component, Path, PathBuf};
 use thiserror::Error;
@@ -178,6 +179,90 @@ pub fn record(db: &Path, run_dir: &Path) -> Result<Recorded, HistoryError> {
     let trend = trend_dir(db, &batch.config_name);
     trend::render(&history, Some(&batch.config_name), None, &trend)?;
     Ok(Recorded { batch_id, runs: runs.len(), config: batch.config_name, trend: trend.join("index.html") })
+}
+
+/// What became of a batch in the history: `meta.json`'s `history_outcome`, and what `run` and
+/// `merge` print (README "History database").
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "outcome", rename_all = "snake_case")]
+pub enum Outcome {
+    /// No database: `--no-history`, or a `--shard` batch (`merge` appends the whole batch).
+    #[default]
+    Off,
+    /// Not appended, and why: interrupted, planned runs missing, already in the history.
+    NotAppended { db: PathBuf, reason: String },
+    /// Appending failed: nothing of the batch is in the database.
+    Failed { db: PathBuf, error: String },
+    /// Appended as batch `batch_id`. `trend` is the config's trend page, or `trend_error`
+    /// says why it was not rendered (the batch is in the database either way).
+    Appended {
+        db: PathBuf,
+        batch_id: i64,
+        runs: usize,
+        config: String,
+        trend: Option<PathBuf>,
+        trend_error: Option<String>,
+    },
+}
+
+impl Outcome {
+    /// Append the finished run folder `run_dir` to `db` (none: [`Outcome::Off`]) unless `skip`
+    /// says why not, render its config's trend page, and record the outcome in the folder's
+    /// `meta.json` (`history`: the database when appended, else null; `history_outcome`). An
+    /// error is only a `meta.json` that cannot be written; what happened to the database is
+    /// the outcome.
+    pub fn conclude(db: Option<&Path>, run_dir: &Path, skip: Option<String>) -> Result<Outcome, HistoryError> {
+        let outcome = match (db, skip) {
+            (None, _) => Outcome::Off,
+            (Some(db), Some(reason)) => Outcome::NotAppended { db: absolute(db), reason },
+            (Some(db), None) => Outcome::append(db, run_dir),
+        };
+        outcome.write_into(run_dir)?;
+        Ok(outcome)
+    }
+
+    fn append(db: &Path, run_dir: &Path) -> Outcome {
+        let failed = |e: HistoryError| Outcome::Failed { db: absolute(db), error: e.to_string() };
+        let appended = (|| {
+            let meta = read_meta(run_dir)?;
+            let batch = batch_row(run_dir, &meta)?;
+            let runs: Vec<RunRow> = read_summary(run_dir)?.iter().map(RunRow::from_summary).collect();
+            let mut history = HistoryDb::open_or_create(db)?;
+            let batch_id = history.insert_batch(&batch, &runs)?;
+            Ok((history, batch_id, runs.len(), batch.config_name))
+        })();
+        let (history, batch_id, runs, config) = match appended {
+            Ok(a) => a,
+            Err(e) => return failed(e),
+        };
+        let dir = trend_dir(db, &config);
+        let (trend, trend_error) = match trend::render(&history, Some(&config), None, &dir) {
+            Ok(_) => (Some(absolute(&dir.join("index.html"))), None),
+            Err(e) => (None, Some(e.to_string())),
+        };
+        Outcome::Appended { db: absolute(db), batch_id, runs, config, trend, trend_error }
+    }
+
+    /// Set `history` and `history_outcome` in `run_dir`'s `meta.json`.
+    fn write_into(&self, run_dir: &Path) -> Result<(), HistoryError> {
+        let path = meta_json(run_dir);
+        let mut meta = read_meta(run_dir)?;
+        meta["history"] = match self {
+            Outcome::Appended { db, .. } => db.display().to_string().into(),
+            _ => Value::Null,
+        };
+        meta["history_outcome"] = serde_json::to_value(self).unwrap_or(Value::Null);
+        let text = serde_json::to_string_pretty(&meta)
+            .map_err(|e| HistoryError::Meta { path: path.clone(), what: e.to_string() })?;
+        write_atomic(&path, text.as_bytes())
+            .map_err(|e| HistoryError::Meta { path: path.clone(), what: format!("cannot write: {e:#}") })
+    }
+
+    /// The outcome a run folder's `meta.json` records (`None`: no meta, or a batch from
+    /// before outcomes were recorded).
+    pub fn of_folder(run_dir: &Path) -> Option<Outcome> {
+        serde_json::from_value(read_meta(run_dir).ok()?.get("history_outcome")?.clone()).ok()
+    }
 }
 
 /// `path` made absolute against the current directory, `.` and `..` resolved lexically (the

@@ -82,17 +82,19 @@ pub fn write_index(
 }
 
 /// The link to the trend page of this config's history, when the batch was appended to one
-/// (`meta.json`'s `history`): `run` and `merge` render it into `history::trend_dir` right
-/// after the append, so the link is relative and made before the page exists.
+/// and the page rendered (`meta.json`'s `history_outcome`, set by `run` and `merge` before the
+/// report); relative, so the folders can move together.
 fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Value>, name: &str) {
-    let Some(db) = meta.and_then(|m| m.get("history")).and_then(Value::as_str) else { return };
-    let page = crate::history::trend_dir(Path::new(db), name).join("index.html");
+    let Some(outcome) = meta.and_then(|m| serde_json::from_value(m.get("history_outcome")?.clone()).ok()) else {
+        return;
+    };
+    let crate::history::Outcome::Appended { db, trend: Some(page), .. } = outcome else { return };
     let _ = writeln!(
         h,
         "<p>History: <a href=\"{}\">trend of {} over its batches</a> (database <code>{}</code>)</p>",
         href(&crate::history::relative_link(run_dir, &page)),
         esc(name),
-        esc(db)
+        esc(&db.display().to_string())
     );
 }
 

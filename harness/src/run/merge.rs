@@ -1,12 +1,19 @@
 //! `merge SHARD_DIR...`: combine the folders of `run --shard I/N` batches of one config into
 //! one run folder, as if the batch had run unsharded, and render its report.
+//!
+//! Every shard file is read and checked first, so an error names the shard's file; the merged
+//! folder is then put together in a staging folder beside the output and moved into place, so
+//! a failed merge leaves no partial folder. The history gets the merged batch only when it is
+//! complete: every planned run in some shard, and no shard interrupted.
 
 use crate::calibration::Calibration;
-use crate::history::HistoryChoice;
+use crate::history::{HistoryChoice, Outcome};
 use crate::run_folder::keep::{self, Maps};
-use crate::run_folder::map::{legacy_obj_path, mesh_path, uv_path};
+use crate::run_folder::map::{self, legacy_obj_path, mesh_path, uv_path};
+use crate::run_folder::reuse::{self, Identity, Reuse};
 use crate::run_folder::{
-    iterations_csv, meta_json, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary, SummaryRow,
+    iterations_csv, meta_json, read_run, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary,
+    SummaryRow,
 };
 use anyhow::{bail, Context, Result};
 use serde_json::Value;
@@ -20,8 +27,10 @@ pub struct Merged {
     pub runs: usize,
     /// Planned runs no shard has (a shard missing or interrupted).
     pub missing: Vec<String>,
-    /// The history database the merged batch is to be appended to (`meta.json`'s `history`).
-    pub history: Option<PathBuf>,
+    /// Shards whose batch was interrupted.
+    pub interrupted: Vec<PathBuf>,
+    /// What became of the merged batch in the history.
+    pub history: Outcome,
 }
 
 fn read_meta(dir: &Path) -> Result<Value> {
@@ -30,10 +39,18 @@ fn read_meta(dir: &Path) -> Result<Value> {
     serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))
 }
 
+/// One run of a shard, checked: where it is, its row and its place in the batch's plan.
+struct ShardRun<'a> {
+    dir: &'a Path,
+    stem: String,
+    index: usize,
+    row: SummaryRow,
+}
+
 /// Merge `shards` into `out` (default: `reports/<config name>`). `history` picks the database
-/// recorded in the merged `meta.json` (the config's `history` key, resolved against the
-/// shards' config file, unless overridden); the caller appends to it.
-pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice) -> Result<Merged> {
+/// (the config's `history` key, resolved against the shards' config file, unless overridden).
+/// An output folder of another batch is refused unless `force`.
+pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, force: bool) -> Result<Merged> {
     let Some(first) = shards.first() else { bail!("merge needs at least one shard folder") };
     let metas: Vec<Value> = shards.iter().map(|d| read_meta(d)).collect::<Result<_>>()?;
     let (config, plan) = (&metas[0]["config"], &metas[0]["plan"]);
@@ -46,70 +63,128 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice) ->
             );
         }
     }
-    let order: HashMap<String, usize> = plan
-        .as_array()
-        .with_context(|| format!("{}: meta.json has no plan (written before shards existed)", first.display()))?
-        .iter()
-        .enumerate()
-        .filter_map(|(i, s)| s.as_str().map(|s| (s.to_string(), i)))
-        .collect();
+    let mut identity = Identity::of_meta(&metas[0])
+        .with_context(|| format!("{}: meta.json has no plan (written before shards existed)", first.display()))?;
+    identity.shard = None;
+    let order: HashMap<&str, usize> = identity.plan.iter().enumerate().map(|(i, s)| (s.as_str(), i)).collect();
     let out_dir = match out {
         Some(o) => o.to_path_buf(),
         None => {
-            let name = config["name"].as_str().unwrap_or("merged");
-            crate::plan::names::check_name("config", name)
+            crate::plan::names::check_name("config", &identity.config)
                 .with_context(|| format!("{}: meta.json", first.display()))?;
-            PathBuf::from("reports").join(name)
+            PathBuf::from("reports").join(&identity.config)
         }
     };
     if shards.iter().any(|s| same_dir(s, &out_dir)) {
         bail!("{}: the merged folder must not be one of the shards", out_dir.display());
     }
-    let mut rows: Vec<(usize, SummaryRow)> = Vec::new();
+    let reuse = reuse::check(&out_dir, &identity, force)?;
+
+    // Every shard's runs and files, read and checked where they are.
+    let mut runs: Vec<ShardRun> = Vec::new();
     let mut from: HashMap<String, &Path> = HashMap::new();
-    let mut meshes_copied: std::collections::HashSet<String> = Default::default();
     for dir in shards {
         for row in read_summary(dir)? {
             let stem = run_stem(&row.dataset, &row.energy, &row.solver);
-            let Some(&i) = order.get(&stem) else {
+            let Some(&index) = order.get(stem.as_str()) else {
                 bail!("{}: run {stem} is not in the batch's plan", dir.display());
             };
             if let Some(other) = from.insert(stem.clone(), dir) {
                 bail!("run {stem} is in both {} and {}", other.display(), dir.display());
             }
-            // The dataset's mesh copy is the same in every shard (the runs' keys hash the mesh).
-            let files =
-                [iterations_csv, sidecar::path, uv_path, legacy_obj_path].map(|f| (f(dir, &stem), f(&out_dir, &stem)));
-            let mesh = (mesh_path(dir, &row.dataset), mesh_path(&out_dir, &row.dataset));
-            let new_mesh = mesh.0.is_file() && meshes_copied.insert(row.dataset.clone());
-            for (src, dst) in files.into_iter().chain(new_mesh.then_some(mesh)) {
-                if src.is_file() {
-                    let bytes = std::fs::read(&src).with_context(|| format!("{}: cannot read", src.display()))?;
-                    write_atomic(&dst, &bytes)?;
-                }
-            }
-            rows.push((i, row));
+            check_files(dir, &stem, &row)?;
+            runs.push(ShardRun { dir, stem, index, row });
         }
     }
-    rows.sort_by_key(|(i, _)| *i);
-    let rows: Vec<SummaryRow> = rows.into_iter().map(|(_, r)| r).collect();
-    let mut missing: Vec<(usize, String)> =
-        order.iter().filter(|(s, _)| !from.contains_key(*s)).map(|(s, &i)| (i, s.clone())).collect();
-    missing.sort();
-    write_summary(&summary_csv(&out_dir), &rows)?;
+    runs.sort_by_key(|r| r.index);
+    let missing: Vec<String> =
+        identity.plan.iter().filter(|s| !from.contains_key(s.as_str())).map(|s| s.to_string()).collect();
+    let interrupted: Vec<PathBuf> = shards
+        .iter()
+        .zip(&metas)
+        .filter(|(_, m)| m["interrupted"] == Value::Bool(true))
+        .map(|(d, _)| d.clone())
+        .collect();
+
+    let staging = staging_dir(&out_dir)?;
+    let staged = (|| {
+        stage(&staging, &runs, &metas, shards)?;
+        let history_db = {
+            let config_dir =
+                metas[0]["config_path"].as_str().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
+            history.apply(crate::history::resolve_path(config["history"].as_str().map(Path::new), config_dir))
+        };
+        Ok::<_, anyhow::Error>(history_db)
+    })();
+    let history_db = match staged.and_then(|db| install(&staging, &out_dir, reuse).map(|()| db)) {
+        Ok(db) => db,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&staging);
+            return Err(e);
+        }
+    };
+    let skip = if !missing.is_empty() {
+        Some(format!("{} planned runs are in no shard (first: {}): the batch is incomplete", missing.len(), missing[0]))
+    } else {
+        interrupted.first().map(|d| format!("shard {} was interrupted: the batch is incomplete", d.display()))
+    };
+    let history = Outcome::conclude(history_db.as_deref(), &out_dir, skip)?;
+    let rows: Vec<SummaryRow> = runs.into_iter().map(|r| r.row).collect();
+    crate::report::refresh(&out_dir, &rows)?;
+    Ok(Merged { out_dir, runs: rows.len(), missing, interrupted, history })
+}
+
+/// A shard's files of one run, read as the report will read them: the per-iteration CSV
+/// (complete, for a run that ran) and the map with its mesh, where the shard has one.
+fn check_files(dir: &Path, stem: &str, row: &SummaryRow) -> Result<()> {
+    if row.iterations.is_some() || iterations_csv(dir, stem).exists() {
+        read_run(dir, row)?;
+    }
+    if uv_path(dir, stem).is_file() {
+        map::read(dir, &row.dataset, stem)?;
+    }
+    Ok(())
+}
+
+/// `.<name>.merging-<pid>` beside `out`, new and empty.
+fn staging_dir(out: &Path) -> Result<PathBuf> {
+    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "merged".into());
+    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let staging = parent.join(format!(".{name}.merging-{}", std::process::id()));
+    if staging.exists() {
+        std::fs::remove_dir_all(&staging).with_context(|| format!("{}: cannot clear", staging.display()))?;
+    }
+    std::fs::create_dir_all(&staging).with_context(|| format!("{}: cannot create", staging.display()))?;
+    Ok(staging)
+}
+
+/// Write the merged folder into `staging`: each run's files, the summary in the plan's order,
+/// the maps `maps` keeps, and `meta.json` with every shard's provenance.
+fn stage(staging: &Path, runs: &[ShardRun], metas: &[Value], shards: &[PathBuf]) -> Result<()> {
+    let mut meshes_copied: std::collections::HashSet<&str> = Default::default();
+    for r in runs {
+        // The dataset's mesh copy is the same in every shard (the runs' keys hash the mesh).
+        let files =
+            [iterations_csv, sidecar::path, uv_path, legacy_obj_path].map(|f| (f(r.dir, &r.stem), f(staging, &r.stem)));
+        let mesh = (mesh_path(r.dir, &r.row.dataset), mesh_path(staging, &r.row.dataset));
+        let new_mesh = mesh.0.is_file() && meshes_copied.insert(&r.row.dataset);
+        for (src, dst) in files.into_iter().chain(new_mesh.then_some(mesh)) {
+            if src.is_file() {
+                let bytes = std::fs::read(&src).with_context(|| format!("{}: cannot read", src.display()))?;
+                write_atomic(&dst, &bytes)?;
+            }
+        }
+    }
+    let rows: Vec<SummaryRow> = runs.iter().map(|r| r.row.clone()).collect();
+    write_summary(&summary_csv(staging), &rows)?;
     // Each shard kept its own best per group; the merged folder keeps the batch's.
-    keep::prune(&out_dir, Maps::of_meta(&metas[0]), &rows);
+    keep::prune(staging, Maps::of_meta(&metas[0]), &rows);
     let mut meta = metas[0].clone();
     meta["shard"] = Value::Null;
-    // The shards were not appended (each is part of a batch); the merged batch is.
-    let config_dir = metas[0]["config_path"].as_str().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
-    let key = config["history"].as_str().map(Path::new);
-    let history = history.apply(crate::history::resolve_path(key, config_dir));
-    meta["history"] = history.as_ref().map(|p| crate::history::absolute(p).display().to_string()).into();
     meta["merged_from"] = Value::Array(
         shards
             .iter()
-            .zip(&metas)
+            .zip(metas)
             .map(|(d, m)| {
                 serde_json::json!({
                     "dir": d.display().to_string(), "shard": m["shard"], "host": m["host"],
@@ -126,11 +201,14 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice) ->
     meta["ended_unix"] =
         if ends.iter().all(Option::is_some) { ends.iter().flatten().max().copied().into() } else { Value::Null };
     meta["interrupted"] = metas.iter().any(|m| m["interrupted"] == Value::Bool(true)).into();
+    // Set by the history's outcome once the folder is in place.
+    meta["history"] = Value::Null;
+    meta["history_outcome"] = Value::Null;
     // Every shard's runs keep the time_norm of their own shard's calibration; the merged
     // folder's calibration holds all the samples, so its spread shows how far the shards'
     // machines (or moments) differed.
     let mut calibration = Calibration::new();
-    for m in &metas {
+    for m in metas {
         if let Ok(c) = serde_json::from_value::<Calibration>(m["calibration"].clone()) {
             calibration.samples_s.extend(c.samples_s);
         }
@@ -138,9 +216,28 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice) ->
     meta["calibration"] = serde_json::to_value(&calibration)?;
     meta["calibration_median_s"] = calibration.median_s().into();
     meta["calibration_spread"] = calibration.spread().into();
-    write_atomic(&meta_json(&out_dir), serde_json::to_string_pretty(&meta)?.as_bytes())?;
-    crate::report::refresh(&out_dir, &rows)?;
-    Ok(Merged { out_dir, runs: rows.len(), missing: missing.into_iter().map(|(_, s)| s).collect(), history })
+    write_atomic(&meta_json(staging), serde_json::to_string_pretty(&meta)?.as_bytes())
+}
+
+/// Move the staged folder to `out`: a rename when `out` is new, else `out`'s own entries
+/// (an earlier merge of this batch, or another batch's with `--force`) replaced by the staged
+/// ones, the rest of `out` left as it is.
+fn install(staging: &Path, out: &Path, reuse: Reuse) -> Result<()> {
+    if !out.exists() {
+        if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent).with_context(|| format!("{}: cannot create", parent.display()))?;
+        }
+        return std::fs::rename(staging, out).with_context(|| format!("{}: cannot move into place", out.display()));
+    }
+    if reuse != Reuse::Fresh {
+        reuse::clean(out)?;
+    }
+    for entry in std::fs::read_dir(staging).with_context(|| format!("{}: cannot read", staging.display()))? {
+        let entry = entry?;
+        let dst = out.join(entry.file_name());
+        std::fs::rename(entry.path(), &dst).with_context(|| format!("{}: cannot move into place", dst.display()))?;
+    }
+    std::fs::remove_dir(staging).with_context(|| format!("{}: cannot remove", staging.display()))
 }
 
 fn same_dir(a: &Path, b: &Path) -> bool {

@@ -12,10 +12,12 @@ mod one;
 mod repeats;
 
 use crate::calibration::Calibration;
+use crate::history::{absolute, Outcome};
 use crate::plan::config::Maps;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::meta::{code_id, Meta};
+use crate::run_folder::reuse::{self, Identity, Reuse};
 use crate::run_folder::{sidecar, summary_csv, write_run, MapBytes, RunFiles, Status, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
 use memory::Monitor;
@@ -40,8 +42,12 @@ pub struct BatchReport {
     pub skipped: usize,
     /// Runs not done because the batch was interrupted.
     pub interrupted: usize,
+    /// Finished runs taken from an earlier batch in the folder (`--resume`).
+    pub resumed: usize,
     pub skipped_datasets: Vec<String>,
     pub out_dir: PathBuf,
+    /// What became of the batch in the history database.
+    pub history: crate::history::Outcome,
 }
 
 /// How to run a batch (the `run` flags).
@@ -52,6 +58,8 @@ pub struct RunOptions {
     /// Runs at once (worker threads); default: the machine's cores.
     pub jobs: Option<usize>,
     pub shard: Option<Shard>,
+    /// Delete the results of another batch in the output folder instead of refusing it.
+    pub force: bool,
     /// Set (by Ctrl-C) to stop: running runs are abandoned, no new run starts.
     pub interrupt: Arc<AtomicBool>,
 }
@@ -84,11 +92,25 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         .collect();
     let cores = crate::plan::config::available_cores();
     crate::plan::config::check_jobs(opts.jobs, cores)?;
+    let identity = Identity {
+        config: plan.config.config.name.clone(),
+        plan: plan.runs.iter().map(|p| p.stem.clone()).collect(),
+        shard: opts.shard.map(|s| s.to_string()),
+    };
+    if reuse::check(out_dir, &identity, opts.force)? == Reuse::Another {
+        reuse::clean(out_dir)?;
+        progress.notice(&format!("--force: deleted the results of another batch in {}", out_dir.display()));
+    }
     std::fs::create_dir_all(crate::run_folder::runs_dir(out_dir))
         .with_context(|| format!("{}: cannot create", out_dir.display()))?;
     let jobs = opts.jobs.unwrap_or(cores).clamp(1, mine.len().max(1));
     let threads =
         plan.threads_per_run.unwrap_or_else(|| default_threads(opts.jobs.unwrap_or(cores), cores, mine.len()));
+    // A resumed folder whose batch is already in the history is not appended twice.
+    let appended_before = match opts.resume.then(|| Outcome::of_folder(out_dir)).flatten() {
+        Some(Outcome::Appended { db, batch_id, .. }) => Some((db, batch_id)),
+        _ => None,
+    };
     let meta = Meta { plan, shard: opts.shard, resume: opts.resume, jobs, threads, started: SystemTime::now() };
     let mut calibration = Calibration::new();
     calibrate(&mut calibration, jobs, threads, progress);
@@ -161,6 +183,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
             Status::Skipped => report.skipped += 1,
         }
         report.runs += 1;
+        report.resumed += usize::from(resumed);
         summary.append(s)?;
         finished.push((i, first.summary, resumed, wrote));
         Ok(())
@@ -238,9 +261,14 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         }
     }
     progress.finish();
-    calibrate(&mut calibration, jobs, threads, progress);
-    let interrupted = opts.interrupt.load(Ordering::Relaxed);
+    // A stopped batch ends without the last sample (Slurm kills a job some seconds after its
+    // SIGTERM). It is interrupted when runs are missing: a signal after the last run cuts
+    // nothing (the exit code still says it came).
+    if !opts.interrupt.load(Ordering::Relaxed) {
+        calibrate(&mut calibration, jobs, threads, progress);
+    }
     report.interrupted = total - report.runs;
+    let interrupted = report.interrupted > 0;
     if interrupted {
         progress.notice(&format!(
             "interrupted: {} runs finished and written, {} not run (`--resume` runs them)",
@@ -281,8 +309,19 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
             missing.join(", ")
         ));
     }
-    // meta.json before the report, which states its calibration samples.
+    // meta.json before the report, which states its calibration samples, then the history,
+    // which reads the finished folder and records its outcome in meta.json for the report.
     meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
+    let skip = if interrupted {
+        Some("the batch was interrupted: its means would read as a change of the code".to_string())
+    } else {
+        appended_before
+            .filter(|(db, _)| {
+                report.resumed == report.runs && plan.history.as_deref().map(absolute).as_ref() == Some(db)
+            })
+            .map(|(_, id)| format!("already in the history as batch {id}: every run was resumed from it"))
+    };
+    report.history = Outcome::conclude(plan.history.as_deref(), out_dir, skip)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
     // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
     // CPU) must not fan the plots out to every core of the node.

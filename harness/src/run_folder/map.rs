@@ -131,7 +131,15 @@ pub fn read_uv(path: &Path, mesh: &StoredMesh) -> Result<Vec<[f64; 2]>> {
     let raw = gunzip(path)?;
     let bad = |what: String| anyhow::anyhow!("{}: {what}", path.display());
     let Some(rest) = raw.strip_prefix(UV_MAGIC) else {
-        return Err(bad("not a mapbench map (no `mapbench uv 1` header)".into()));
+        // `mapbench uv 9`: another version of the format, not a file of something else.
+        let version = raw.strip_prefix(b"mapbench uv ".as_slice()).and_then(|r| r.split(|&b| b == b'\n').next());
+        return Err(bad(match version {
+            Some(v) => format!(
+                "map format version `{}`, which this mapbench does not read (it reads version 1)",
+                String::from_utf8_lossy(&v[..v.len().min(20)])
+            ),
+            None => "not a mapbench map (no `mapbench uv 1` header)".into(),
+        }));
     };
     if rest.len() < 16 {
         return Err(bad("cut short in its header".into()));
@@ -311,6 +319,13 @@ mod tests {
         write(&uv_path(dir.path(), "d__sd__cm"), &bytes[..bytes.len() / 2]);
         let e = format!("{:#}", read(dir.path(), "d", "d__sd__cm").unwrap_err());
         assert!(e.contains("d__sd__cm.uv.gz"), "{e}");
+        // Another version of the format says so (it read as "no `mapbench uv 1` header").
+        write(&uv_path(dir.path(), "d__sd__cm"), &gzip(&[b"mapbench uv 9\n".as_slice(), &[0; 16]].concat()));
+        let e = format!("{:#}", read(dir.path(), "d", "d__sd__cm").unwrap_err());
+        assert!(e.contains("map format version `9`, which this mapbench does not read"), "{e}");
+        write(&uv_path(dir.path(), "d__sd__cm"), &gzip(b"P6\n"));
+        let e = format!("{:#}", read(dir.path(), "d", "d__sd__cm").unwrap_err());
+        assert!(e.contains("not a mapbench map (no `mapbench uv 1` header)"), "{e}");
         // The mesh missing, too.
         std::fs::remove_file(mesh_path(dir.path(), "d")).unwrap();
         let e = format!("{:#}", read(dir.path(), "d", "d__sd__cm").unwrap_err());

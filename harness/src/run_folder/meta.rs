@@ -72,9 +72,10 @@ impl Meta<'_> {
             "ended_unix": ended.map(secs),
             "interrupted": interrupted,
             "repeat": self.plan.repeat,
-            // The history database this batch is appended to (null: none); the report links
-            // to its trend page.
-            "history": self.plan.history.as_ref().map(|p| crate::history::absolute(p).display().to_string()),
+            // The history database the batch was appended to (null: not, or not yet) and what
+            // became of it, set once the batch is over (`history::Outcome::conclude`).
+            "history": null,
+            "history_outcome": null,
             // Which final maps the folder keeps (`maps`); merge prunes by it.
             "maps": self.plan.maps.as_str(),
             // The reference workload's samples; `time_norm` divides by their median.

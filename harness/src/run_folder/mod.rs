@@ -11,6 +11,7 @@ pub mod iterations;
 pub mod keep;
 pub mod map;
 pub mod meta;
+pub mod reuse;
 pub mod sidecar;
 pub mod summary;
 
