@@ -55,3 +55,77 @@ fn sigterm_during_metis_orderings_stops_cleanly_every_time() {
         assert!(meta["ended_unix"].is_u64(), "try {k}: {meta}");
     }
 }
+
+/// Ctrl-C in round 2 of a `repeat = 3` batch: the message says per run how many repeats
+/// finished, `summary.csv` has no row for a run with missing repeats, and `--resume` runs
+/// exactly the missing repeats, ending with every run's three (issue 41: such runs showed
+/// as ok with `repeats=1`, and `--resume` ran all of them again).
+#[test]
+fn an_interrupted_repeated_batch_keeps_its_repeats_and_resume_runs_only_the_missing_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"rep\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\", \"slim\"]\n\
+         repeat = 3\n",
+    );
+    let out = tmp.path().join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mapbench"))
+        .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1", "--no-history"])
+        .current_dir(tmp.path())
+        .env_remove("MAPBENCH_MESHES")
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut log = String::new();
+    let mut sent = false;
+    for line in std::io::BufReader::new(child.stderr.take().unwrap()).lines() {
+        let line = line.unwrap();
+        // The first run's second repeat is in: the others have one.
+        if !sent && line.contains("repeat 2/3") {
+            let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+            assert!(kill.success());
+            sent = true;
+        }
+        log.push_str(&line);
+        log.push('\n');
+    }
+    assert_eq!(child.wait().unwrap().code(), Some(130), "{log}");
+    assert!(log.contains("interrupted: 0 runs finished and written, 3 cut short in their repeats"), "{log}");
+    assert!(log.contains("bumpy_1k__sd__kp-newton 2/3, bumpy_1k__sd__cm 1/3, bumpy_1k__sd__slim 1/3"), "{log}");
+    assert_eq!(read_csv(&out.join("summary.csv")).1.len(), 0, "a row for a run with missing repeats");
+    for stem in ["bumpy_1k__sd__kp-newton", "bumpy_1k__sd__cm", "bumpy_1k__sd__slim"] {
+        assert!(!out.join(format!("runs/{stem}.json")).exists(), "{stem}: a sidecar of a finished run");
+        assert!(out.join(format!("runs/{stem}.partial.json")).is_file(), "{stem}");
+    }
+    let index = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(!index.contains(".partial.") && !index.contains("bumpy_1k__sd__cm.csv"), "unfinished runs listed");
+
+    let o = mapbench(
+        &["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1", "--resume"],
+        tmp.path(),
+    );
+    let log = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{log}");
+    assert!(log.contains("bumpy_1k__sd__kp-newton: 2 of 3 repeats resumed"), "{log}");
+    assert!(log.contains("bumpy_1k__sd__cm: 1 of 3 repeats resumed"), "{log}");
+    // kp-newton runs once more (no intermediate line), cm and slim twice (one each)
+    assert!(!log.contains("repeat 3/3") && !log.contains("repeat 2/3 bumpy_1k__sd__kp-newton"), "{log}");
+    for stem in ["bumpy_1k__sd__cm", "bumpy_1k__sd__slim"] {
+        assert_eq!(log.matches(&format!("repeat 2/3 {stem}")).count(), 1, "{log}");
+    }
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert_eq!(rows.len(), 3);
+    for r in &rows {
+        assert_eq!(r[col("repeats")], "3", "{r:?}");
+        assert_eq!(r[col("status")], "ok", "{r:?}");
+        let t = |c: &str| r[col(c)].parse::<f64>().unwrap();
+        assert!(t("time_s_min") <= t("time_s") && t("time_s") <= t("time_s_max"), "{r:?}");
+        let stem = format!("{}__{}__{}", r[0], r[2], r[3]);
+        assert!(out.join(format!("runs/{stem}.json")).is_file(), "{stem}: no sidecar");
+        let partial = ["json", "csv"].map(|e| out.join(format!("runs/{stem}.partial.{e}")).exists());
+        assert_eq!(partial, [false, false], "{stem}");
+    }
+    // the kept map (maps = "best": one per group) came from a repeat run in this batch
+    assert_eq!(std::fs::read_dir(out.join("uv")).unwrap().count(), 1);
+}

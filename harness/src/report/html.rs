@@ -75,7 +75,7 @@ pub fn write_index(
     status_matrix(&mut h, run_dir, summaries);
     tables_section(&mut h, run_dir, tables, plots);
     plots_section(&mut h, run_dir, plots);
-    files_section(&mut h, run_dir, tables)?;
+    files_section(&mut h, run_dir, summaries, tables)?;
     provenance_section(&mut h, meta.as_ref());
     h += "</body>\n</html>\n";
     write_atomic(&run_dir.join("index.html"), h.as_bytes())
@@ -435,7 +435,18 @@ fn list_files(run_dir: &Path, sub: &str, ext: &str) -> Result<Vec<String>> {
     Ok(out)
 }
 
-fn files_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)]) -> Result<()> {
+/// The folder's files of this batch: its tables, and the runs' and meshes' files of the runs
+/// in the summary (an interrupted run's partial repeats, or any other file, are not listed).
+fn files_section(h: &mut String, run_dir: &Path, summaries: &[SummaryRow], tables: &[(String, Table)]) -> Result<()> {
+    let stems: std::collections::HashSet<String> =
+        summaries.iter().map(|s| crate::run_folder::run_stem(&s.dataset, &s.energy, &s.solver)).collect();
+    let datasets: std::collections::HashSet<&str> = summaries.iter().map(|s| s.dataset.as_str()).collect();
+    // `runs/<stem>.csv`, `uv/<stem>.uv.gz`, `meshes/<dataset>.obj.gz`: the name up to its extension.
+    let of_batch = |f: &String, ext: &str| {
+        let name = f.rsplit('/').next().unwrap_or(f);
+        let base = name.strip_suffix(&format!(".{ext}")).unwrap_or(name);
+        stems.contains(base) || datasets.contains(base)
+    };
     *h += "<h2 id=\"files\">Files</h2>\n";
     let link = |f: &str| format!("<li><a href=\"{}\">{}</a></li>\n", href(f), esc(f));
     *h += "<ul class=\"files\">\n";
@@ -460,7 +471,7 @@ fn files_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)]) -> 
         ("Meshes of the maps (gzip OBJ)", "meshes", "obj.gz"),
         ("Final maps of an older folder (OBJ: source mesh as v, map as vt)", "uv", "obj"),
     ] {
-        let files = list_files(run_dir, sub, ext)?;
+        let files: Vec<String> = list_files(run_dir, sub, ext)?.into_iter().filter(|f| of_batch(f, ext)).collect();
         if files.is_empty() && sub != "runs" {
             continue;
         }

@@ -44,6 +44,9 @@ pub struct BatchReport {
     pub interrupted: usize,
     /// Finished runs taken from an earlier batch in the folder (`--resume`).
     pub resumed: usize,
+    /// Runs an interrupt cut short in their repeats, with how many repeats finished; kept in
+    /// `runs/<run>.partial.*` for `--resume`, not in `summary.csv`.
+    pub partial: Vec<(String, usize)>,
     pub skipped_datasets: Vec<String>,
     pub out_dir: PathBuf,
     /// What became of the batch in the history database.
@@ -73,8 +76,47 @@ struct Slot {
     repeats: Option<Repeats>,
 }
 
-/// One finished work item of a round: the run's index in the batch and its result.
-type Done = (usize, usize, RunResult, bool, Option<String>);
+impl Slot {
+    /// Every repeat is in (or one did not reproduce the first, which fails the run).
+    fn complete(&self, repeat: usize) -> bool {
+        self.repeats.as_ref().is_none_or(|r| r.mismatched() || r.count() >= repeat)
+    }
+
+    /// Repeat `round + 1` (of round-robin round `round`) is this run's next.
+    fn next_in(&self, round: usize) -> bool {
+        self.repeats.as_ref().is_some_and(|r| !r.mismatched() && r.count() == round)
+    }
+}
+
+/// Where a result of a round came from.
+enum Origin {
+    Ran,
+    /// A finished run of an earlier batch in the folder (`--resume`).
+    Resumed,
+    /// The repeats an interrupt cut short in an earlier batch (`--resume`): the rest are run.
+    Restored(Repeats),
+}
+
+/// One finished work item of a round.
+struct Done {
+    /// The run's index in the batch.
+    index: usize,
+    worker: usize,
+    result: RunResult,
+    origin: Origin,
+    key: Option<String>,
+}
+
+/// One work item of a round.
+#[derive(Clone, Copy)]
+struct Todo {
+    /// The run's index in the batch.
+    index: usize,
+    /// Where a replay of a timed-out run stops.
+    stop_at: Option<usize>,
+    /// Keep the final map (the first time the run runs in this batch).
+    keep_map: bool,
+}
 
 /// Run the plan's runs (those of `opts.shard`) into `out_dir`, then render its report. With
 /// `repeat = N` every run runs once, then every run again (round-robin), N times, with a
@@ -129,7 +171,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     let mut finished: Vec<(usize, SummaryRow, bool, Option<String>)> = Vec::new();
     // Datasets whose mesh copy this batch has written (once each, with its first map).
     let mut meshes_written: Vec<usize> = Vec::new();
-    let mut finish = |i: usize, worker: usize, slot: Slot, complete: bool, report: &mut BatchReport| -> Result<()> {
+    let mut finish = |i: usize, worker: usize, slot: Slot, report: &mut BatchReport| -> Result<()> {
         let Slot { mut first, resumed, key, repeats } = slot;
         if let Some(r) = repeats {
             r.apply(&mut first);
@@ -137,8 +179,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         let p = mine[i];
         // A run whose files cannot be written (a folder in the way, a name the OS refuses)
         // fails alone, like any other failed run; without a sidecar `--resume` retries it.
-        // Neither has a run whose repeats were cut short by an interrupt.
-        let sidecar_key = key.as_deref().filter(|_| !resumed && complete);
+        let sidecar_key = key.as_deref().filter(|_| !resumed);
         let files = RunFiles {
             stem: &p.stem,
             summary: &first.summary,
@@ -192,72 +233,95 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         if opts.interrupt.load(Ordering::Relaxed) {
             break;
         }
-        // Round 0 runs everything; later rounds the runs that ran and agree so far.
-        let todo: Vec<(usize, Option<usize>)> = if round == 0 {
-            (0..total).map(|i| (i, None)).collect()
+        // Round 0 runs everything; round r the runs whose next repeat is r + 1 (a run whose
+        // repeats an earlier batch began waits for the round of its next one).
+        let todo: Vec<Todo> = if round == 0 {
+            (0..total).map(|index| Todo { index, stop_at: None, keep_map: plan.maps != Maps::None }).collect()
         } else {
-            calibrate(&mut calibration, jobs, threads, progress);
             slots
                 .iter()
                 .enumerate()
-                .filter_map(|(i, s)| s.as_ref().filter(|s| s.repeats.is_some()).map(|s| (i, replay_to(&s.first))))
+                .filter_map(|(index, s)| {
+                    let s = s.as_ref().filter(|s| s.next_in(round))?;
+                    let keep_map = s.first.map_uv.is_none() && plan.maps != Maps::None;
+                    Some(Todo { index, stop_at: replay_to(&s.first), keep_map })
+                })
                 .collect()
         };
         if todo.is_empty() {
-            break;
+            continue;
         }
-        let last = round + 1 == plan.repeat;
+        if round > 0 {
+            calibrate(&mut calibration, jobs, threads, progress);
+        }
         let outcome = run_round(plan, out_dir, &mine, &todo, opts, progress, jobs, threads, &code, round, |done| {
-            let (i, worker, result, resumed, key) = done;
+            let Done { index: i, worker, result, origin, key } = done;
             if result.interrupted {
                 return Ok(());
             }
-            match slots[i].take() {
-                None => {
-                    let repeats =
-                        (!resumed && plan.repeat > 1 && Repeats::wanted(&result)).then(|| Repeats::new(&result));
-                    let slot = Slot { first: result, resumed, key, repeats };
-                    if !last && slot.repeats.is_none() {
-                        // Failed, skipped and resumed runs are not repeated: fewer solves to go.
-                        progress.fewer_solves(plan.repeat - 1);
-                    }
-                    if last || slot.repeats.is_none() {
-                        finish(i, worker, slot, true, &mut report)?;
-                    } else {
-                        let line = format!("  repeat 1/{} {}: {}", plan.repeat, mine[i].stem, seconds_of(&slot.first));
-                        progress.run_finished(worker, &line);
-                        slots[i] = Some(slot);
-                    }
+            let stem = &mine[i].stem;
+            let ran = matches!(origin, Origin::Ran);
+            let slot = match (slots[i].take(), origin) {
+                (None, Origin::Resumed) => Slot { first: result, resumed: true, key, repeats: None },
+                (None, Origin::Restored(repeats)) => {
+                    // Those repeats were solved in the earlier batch.
+                    progress.fewer_solves(repeats.count());
+                    let line = format!("  {stem}: {} of {} repeats resumed", repeats.count(), plan.repeat);
+                    progress.run_finished(worker, &line);
+                    Slot { first: result, resumed: false, key, repeats: Some(repeats) }
                 }
-                Some(mut slot) => {
+                (None, Origin::Ran) => {
+                    let repeats = (plan.repeat > 1 && Repeats::wanted(&result)).then(|| Repeats::new(&result));
+                    Slot { first: result, resumed: false, key, repeats }
+                }
+                (Some(mut slot), _) => {
                     if let Some(r) = slot.repeats.as_mut() {
                         r.add(&slot.first, &result);
-                        if !last {
-                            let line = format!(
-                                "  repeat {}/{} {}: {}",
-                                round + 1,
-                                plan.repeat,
-                                mine[i].stem,
-                                seconds_of(&result)
-                            );
-                            progress.run_finished(worker, &line);
-                        }
                     }
-                    if last {
-                        finish(i, worker, slot, true, &mut report)?;
-                    } else {
-                        slots[i] = Some(slot);
+                    // A run resumed from its partial repeats gets its map from this repeat.
+                    if slot.first.map_uv.is_none() && result.map_uv.is_some() {
+                        (slot.first.map_uv, slot.first.mesh_file) = (result.map_uv, result.mesh_file);
                     }
+                    slot
                 }
+            };
+            if slot.repeats.is_none() && plan.repeat > 1 {
+                // Failed, skipped and resumed runs are not repeated: fewer solves to go.
+                progress.fewer_solves(plan.repeat - 1);
+            }
+            if slot.complete(plan.repeat) {
+                finish(i, worker, slot, &mut report)?;
+            } else {
+                if let Some(r) = slot.repeats.as_ref().filter(|_| ran) {
+                    let t = r.last_time().map_or("-".to_string(), |t| format!("{t:.3} s"));
+                    progress.run_finished(worker, &format!("  repeat {}/{} {stem}: {t}", r.count(), plan.repeat));
+                }
+                slots[i] = Some(slot);
             }
             Ok(())
         });
         outcome?;
     }
-    // Runs whose repeats an interrupt cut short keep the repeats they have (no sidecar).
+    // Runs whose repeats an interrupt cut short: their repeats so far are kept for
+    // `--resume` (no summary row: they did not finish); a run whose repeats disagreed
+    // has its result (failed) whatever is missing.
     for (i, slot) in slots.iter_mut().enumerate() {
-        if let Some(slot) = slot.take() {
-            finish(i, 0, slot, false, &mut report)?;
+        let Some(slot) = slot.take() else { continue };
+        if slot.complete(plan.repeat) {
+            finish(i, 0, slot, &mut report)?;
+            continue;
+        }
+        let stem = &mine[i].stem;
+        let Slot { first, key, repeats, .. } = slot;
+        let Some(repeats) = repeats else { continue };
+        // An earlier batch's sidecar must not vouch for this run.
+        let _ = std::fs::remove_file(sidecar::path(out_dir, stem));
+        report.partial.push((stem.clone(), repeats.count()));
+        if let Some(key) = key {
+            let partial = sidecar::Partial { key, summary: first.summary, repeats };
+            if let Err(e) = sidecar::write_partial(out_dir, stem, &partial, &first.rows) {
+                progress.notice(&format!("{stem}: its repeats so far cannot be kept for --resume: {e:#}"));
+            }
         }
     }
     progress.finish();
@@ -270,9 +334,17 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     report.interrupted = total - report.runs;
     let interrupted = report.interrupted > 0;
     if interrupted {
+        let partial = match report.partial.len() {
+            0 => String::new(),
+            n => format!(
+                "{n} cut short in their repeats ({}; kept for `--resume`), ",
+                report.partial.iter().map(|(s, k)| format!("{s} {k}/{}", plan.repeat)).collect::<Vec<_>>().join(", ")
+            ),
+        };
         progress.notice(&format!(
-            "interrupted: {} runs finished and written, {} not run (`--resume` runs them)",
-            report.runs, report.interrupted
+            "interrupted: {} runs finished and written, {partial}{} not run (`--resume` runs them)",
+            report.runs,
+            report.interrupted - report.partial.len()
         ));
     }
     if calibration.unsteady() {
@@ -346,21 +418,14 @@ fn replay_to(first: &RunResult) -> Option<usize> {
     matches!(first.summary.stop_reason, Some(StopReason::Timeout)).then_some(first.summary.iterations).flatten()
 }
 
-fn seconds_of(r: &RunResult) -> String {
-    match r.summary.time_s {
-        Some(t) => format!("{t:.3} s"),
-        None => r.summary.status.to_string(),
-    }
-}
-
-/// One round: the runs `todo` (index into `mine`, and where a replay stops) on `jobs`
-/// workers; the calling thread hands each result to `done` as it arrives.
+/// One round: the runs `todo` on `jobs` workers; the calling thread hands each result to
+/// `done` as it arrives.
 #[allow(clippy::too_many_arguments)]
 fn run_round(
     plan: &Plan,
     out_dir: &Path,
     mine: &[&PlannedRun],
-    todo: &[(usize, Option<usize>)],
+    todo: &[Todo],
     opts: &RunOptions,
     progress: &dyn Progress,
     jobs: usize,
@@ -369,7 +434,7 @@ fn run_round(
     round: usize,
     mut done: impl FnMut(Done) -> Result<()>,
 ) -> Result<()> {
-    let meshes = MeshCache::new(todo.iter().map(|(i, _)| mine[*i].dataset), plan.datasets.len());
+    let meshes = MeshCache::new(todo.iter().map(|t| mine[t.index].dataset), plan.datasets.len());
     let next = AtomicUsize::new(0);
     let (tx, rx) = mpsc::channel::<Done>();
     let workers = jobs.min(todo.len());
@@ -387,22 +452,29 @@ fn run_round(
                     if opts.interrupt.load(Ordering::Relaxed) {
                         break;
                     }
-                    let Some(&(i, stop_at)) = todo.get(next.fetch_add(1, Ordering::Relaxed)) else { break };
+                    let Some(&Todo { index: i, stop_at, keep_map }) = todo.get(next.fetch_add(1, Ordering::Relaxed))
+                    else {
+                        break;
+                    };
                     let p = mine[i];
                     let ds = plan.dataset(p);
                     let again = if round > 0 { format!(" (repeat {})", round + 1) } else { String::new() };
                     progress.run_started(worker, &format!("{} {} {}{again}", ds.name, p.energy, p.solver));
                     // An unreadable mesh file has no key; its run fails below as usual.
                     let key = resume::run_key(plan, p, code).ok();
+                    let earlier =
+                        |summary, rows| RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false };
                     let previous = match (&key, opts.resume && round == 0) {
-                        (Some(k), true) => resume::previous(out_dir, &p.stem, k, plan.maps),
+                        (Some(k), true) => resume::previous(out_dir, &p.stem, k, plan.maps)
+                            .map(|(summary, rows)| (earlier(summary, rows), Origin::Resumed))
+                            .or_else(|| {
+                                let (partial, rows) = sidecar::read_partial::<Repeats>(out_dir, &p.stem, k)?;
+                                Some((earlier(partial.summary, rows), Origin::Restored(partial.repeats)))
+                            }),
                         _ => None,
                     };
-                    let resumed = previous.is_some();
-                    let result = match previous {
-                        Some((summary, rows)) => {
-                            RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false }
-                        }
+                    let (result, origin) = match previous {
+                        Some(earlier) => earlier,
                         None => {
                             let loaded = meshes.get(p.dataset, ds);
                             let ctx = RunContext {
@@ -411,7 +483,7 @@ fn run_round(
                                 worker,
                                 analyses: loaded.analyses.clone(),
                                 stop_at,
-                                keep_map: round == 0 && plan.maps != Maps::None,
+                                keep_map,
                             };
                             monitor.start(worker);
                             let mut result = run_one(plan, p, loaded.mesh.as_ref(), &ctx);
@@ -422,11 +494,11 @@ fn run_round(
                             if result.map_uv.is_some() {
                                 result.mesh_file = loaded.mesh_file();
                             }
-                            result
+                            (result, Origin::Ran)
                         }
                     };
                     meshes.done(p.dataset);
-                    if tx.send((i, worker, result, resumed, key)).is_err() {
+                    if tx.send(Done { index: i, worker, result, origin, key }).is_err() {
                         break;
                     }
                 };

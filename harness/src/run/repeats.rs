@@ -15,8 +15,9 @@ fn timings(r: &IterationRecord) -> Timings {
     [r.t_assemble_s, r.t_project_s, r.t_solve_s, r.t_linesearch_s, r.t_iter_s, r.t_cum_s]
 }
 
-/// What the repeats of one run measured so far.
-#[derive(Debug)]
+/// What the repeats of one run measured so far; kept in `runs/<run>.partial.json` when an
+/// interrupt cuts them short.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
 pub(super) struct Repeats {
     /// `time_s` of each repeat, the first one's first.
     times: Vec<f64>,
@@ -40,9 +41,18 @@ impl Repeats {
     }
 
     /// How many repeats were measured (the first included).
-    #[cfg(test)]
     pub fn count(&self) -> usize {
         self.times.len()
+    }
+
+    /// A repeat did not reproduce the first: the run fails, whatever repeats are missing.
+    pub fn mismatched(&self) -> bool {
+        self.mismatch.is_some()
+    }
+
+    /// `time_s` of the latest repeat.
+    pub fn last_time(&self) -> Option<f64> {
+        self.times.last().copied()
     }
 
     /// A run may be repeated: it ran (converged or not), and its repeats agreed so far.

@@ -84,6 +84,8 @@ pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
         if let Some(k) = run.key {
             sidecar::write(dir, run.stem, k, run.summary)?;
         }
+        // Finished: a partial state of an interrupted batch is over.
+        sidecar::remove_partial(dir, run.stem);
         Ok(())
     })();
     if written.is_err() {
