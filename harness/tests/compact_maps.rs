@@ -123,9 +123,11 @@ fn a_folder_of_the_older_format_still_reports_and_exports() {
     let (_, out, _) = run(tmp.path(), "", &[]);
     let stem = format!("bumpy_1k__sd__{}", best_solver(&out));
     // Rewrite the folder as older versions left it: one OBJ per map, no mesh copy.
-    let legacy = out.join(format!("uv/{stem}.obj"));
-    let o = mapbench(&["map", out.to_str().unwrap(), &stem, "--obj", legacy.to_str().unwrap()], tmp.path());
+    // (`map` writes no file into a run folder's own `uv/`: the OBJ is moved there.)
+    let (obj, legacy) = (tmp.path().join("legacy.obj"), out.join(format!("uv/{stem}.obj")));
+    let o = mapbench(&["map", out.to_str().unwrap(), &stem, "--obj", obj.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    std::fs::rename(&obj, &legacy).unwrap();
     let stored = mapbench::run_folder::map::read(&out, "bumpy_1k", &stem).unwrap().unwrap();
     std::fs::remove_file(out.join(format!("uv/{stem}.uv.gz"))).unwrap();
     std::fs::remove_dir_all(out.join("meshes")).unwrap();

@@ -114,9 +114,13 @@ fn a_run_whose_files_cannot_be_written_fails_alone() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(tmp.path(), TWO_RUNS);
     let out = tmp.path().join("out");
-    // A folder where the first run's CSV goes.
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // A folder where the first run's CSV goes, and no map of it from the first batch.
     let blocked = out.join("runs/bumpy_1k__sd__kp-newton.csv");
+    std::fs::remove_file(&blocked).unwrap();
     std::fs::create_dir_all(&blocked).unwrap();
+    let _ = std::fs::remove_file(out.join("uv/bumpy_1k__sd__kp-newton.uv.gz"));
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     let log = text(&o);
     assert_eq!(o.status.code(), Some(1), "{log}");
