@@ -129,3 +129,30 @@ fn an_interrupted_repeated_batch_keeps_its_repeats_and_resume_runs_only_the_miss
     // the kept map (maps = "best": one per group) came from a repeat run in this batch
     assert_eq!(std::fs::read_dir(out.join("uv")).unwrap().count(), 1);
 }
+
+/// SIGTERM during the batch's first calibration sample (a KP-Newton workload on bumpy_10k,
+/// with its METIS ordering, about a second before any run starts): a clean stop with no run.
+#[test]
+fn sigterm_during_the_calibration_stops_cleanly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), SHARDED);
+    for delay_ms in [150u64, 300, 450, 600] {
+        let out = tmp.path().join(format!("cal{delay_ms}"));
+        let child = Command::new(env!("CARGO_BIN_EXE_mapbench"))
+            .args(["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1", "--no-history"])
+            .current_dir(tmp.path())
+            .env_remove("MAPBENCH_MESHES")
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        assert!(Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap().success());
+        let o = child.wait_with_output().unwrap();
+        let log = text(&o);
+        assert_eq!(o.status.code(), Some(143), "{delay_ms} ms: {log}");
+        assert!(out.join("index.html").is_file(), "{delay_ms} ms: no report: {log}");
+        let meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+        assert_eq!(meta["interrupted"], true, "{delay_ms} ms: {log}");
+    }
+}
