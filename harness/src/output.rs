@@ -109,6 +109,10 @@ mod tests {
         std::os::unix::fs::symlink(b.join("summary.csv"), tmp.path().join("link")).unwrap();
         assert!(Output::from(tmp.path().join("link")).check().is_err());
         assert!(Output::from(b.join("runs/../summary.csv")).check().is_err());
+        assert!(Output::from(b.join("new/../summary.csv")).check().is_err(), "through a folder that is not there");
+        // a dangling link into a run folder's own folder
+        std::os::unix::fs::symlink(b.join("runs/new.csv"), tmp.path().join("dangling")).unwrap();
+        assert!(Output::from(tmp.path().join("dangling")).check().is_err());
         // a new file in the run folder, and anything elsewhere, are fine
         Output::from(b.join("compare.html")).write(b"<p>").unwrap();
         Output::from(tmp.path().join("summary.csv")).write(b"z").unwrap();

@@ -88,12 +88,19 @@ fn merge_appends_only_complete_batches_names_the_shards_files_and_leaves_nothing
     let o = mapbench(&[&["merge", &s1, &s2, "--out", "all"], &hist[..]].concat(), tmp.path());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert!(text(&o).contains("history: batch 1 (2 runs of m) appended"), "{}", text(&o));
-    // merged again into its own folder: replaced, a file of the user's beside it kept
+    // merged again into its own folder: replaced, a file of the user's beside it kept, and
+    // the same shards' batch not appended twice
     std::fs::write(tmp.path().join("all/notes.txt"), "mine").unwrap();
-    let o = mapbench(&["merge", &s1, &s2, "--out", "all", "--no-history"], tmp.path());
+    let o = mapbench(&[&["merge", &s1, &s2, "--out", "all"], &hist[..]].concat(), tmp.path());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(
+        text(&o).contains("as batch 1 (appended by an earlier batch of this folder); not appended again"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(mapbench::history::HistoryDb::open_existing(&db).unwrap().batches(None, None).unwrap().len(), 1);
     assert_eq!(std::fs::read_to_string(tmp.path().join("all/notes.txt")).unwrap(), "mine");
-    assert!(leftovers(tmp.path()).is_empty());
+    assert!(tmp.path().join("all/index.html").is_file() && leftovers(tmp.path()).is_empty());
 }
 
 #[test]

@@ -223,6 +223,14 @@ fn say_history(outcome: &history::Outcome) -> bool {
             eprintln!("warning: history not updated: {error} (the run folder is complete)");
             false
         }
+        Outcome::AlreadyIn { db, batch_id, .. } => {
+            eprintln!(
+                "history: already in {} as batch {batch_id} (appended by an earlier batch of this folder); not \
+                 appended again",
+                db.display()
+            );
+            true
+        }
         Outcome::Appended { db, batch_id, runs, config, trend, trend_error } => {
             eprintln!("history: batch {batch_id} ({runs} runs of {config}) appended to {}", db.display());
             match (trend, trend_error) {
@@ -320,10 +328,10 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 report.not_converged,
                 report.failed,
                 if report.skipped > 0 { format!(", {} skipped", report.skipped) } else { String::new() },
-                if report.interrupted > 0 {
-                    format!(", {} not run (interrupted)", report.interrupted)
-                } else {
-                    String::new()
+                match (report.interrupted - report.partial.len(), report.partial.len()) {
+                    (0, 0) => String::new(),
+                    (n, 0) => format!(", {n} not run (interrupted)"),
+                    (n, p) => format!(", {p} cut short in their repeats and {n} not run (interrupted)"),
                 },
                 report.out_dir.display()
             );

@@ -39,7 +39,7 @@ pub struct Record {
     pub iterations: Option<usize>,
     /// NaN and infinities are written as the strings `"NaN"`, `"inf"`, `"-inf"` (JSON has no
     /// such numbers, and `null` would read as "no energy").
-    #[serde(with = "non_finite")]
+    #[serde(default, with = "non_finite")]
     pub final_energy: Option<f64>,
     pub status: Status,
     pub flips: Option<usize>,

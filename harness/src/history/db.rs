@@ -264,6 +264,11 @@ impl HistoryDb {
         tx.commit().map_err(&sql)
     }
 
+    /// Remove batch `id` and its runs (a merge that could not put its folder in place).
+    pub fn remove_batch(&self, id: i64) -> Result<(), HistoryError> {
+        self.conn.execute("DELETE FROM batches WHERE id = ?1", params![id]).map(|_| ()).map_err(sql_error(&self.path))
+    }
+
     /// Append one batch and its runs in one transaction; returns the batch's id. On any
     /// error nothing of the batch is left.
     pub fn insert_batch(&mut self, batch: &BatchRow, runs: &[RunRow]) -> Result<i64, HistoryError> {

@@ -189,7 +189,7 @@ pub enum Outcome {
     /// No database: `--no-history`, or a `--shard` batch (`merge` appends the whole batch).
     #[default]
     Off,
-    /// Not appended, and why: interrupted, planned runs missing, already in the history.
+    /// Not appended, and why: interrupted, planned runs missing.
     NotAppended { db: PathBuf, reason: String },
     /// Appending failed: nothing of the batch is in the database.
     Failed { db: PathBuf, error: String },
@@ -203,30 +203,57 @@ pub enum Outcome {
         trend: Option<PathBuf>,
         trend_error: Option<String>,
     },
+    /// Already in the database as batch `batch_id`, appended by an earlier `run` or `merge`
+    /// of this folder (a `--resume` that resumed every run, a merge of the same shards):
+    /// not appended twice.
+    AlreadyIn { db: PathBuf, batch_id: i64, trend: Option<PathBuf> },
+}
+
+/// What to do with a finished batch.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Decision {
+    Append,
+    /// Not appended, for this reason.
+    Skip(String),
+    /// It is in the database already ([`Outcome::in_history`] of the folder's earlier outcome).
+    AlreadyIn {
+        batch_id: i64,
+        trend: Option<PathBuf>,
+    },
 }
 
 impl Outcome {
-    /// Append the finished run folder `run_dir` to `db` (none: [`Outcome::Off`]) unless `skip`
-    /// says why not, render its config's trend page, and record the outcome in the folder's
-    /// `meta.json` (`history`: the database when appended, else null; `history_outcome`). An
-    /// error is only a `meta.json` that cannot be written; what happened to the database is
-    /// the outcome.
-    pub fn conclude(db: Option<&Path>, run_dir: &Path, skip: Option<String>) -> Result<Outcome, HistoryError> {
-        let outcome = match (db, skip) {
+    /// Carry out `decision` for the finished run folder `folder` and the database `db` (none:
+    /// [`Outcome::Off`]): append the batch (its run folder recorded as `recorded_as`, where
+    /// the folder is moved after a merge) and render its config's trend page; then record the
+    /// outcome in `folder`'s `meta.json` (`history`: the database when the batch is in it,
+    /// else null; `history_outcome`). An error is only a `meta.json` that cannot be written;
+    /// what happened to the database is the outcome.
+    pub fn conclude(
+        db: Option<&Path>,
+        folder: &Path,
+        recorded_as: &Path,
+        decision: Decision,
+    ) -> Result<Outcome, HistoryError> {
+        let outcome = match (db, decision) {
             (None, _) => Outcome::Off,
-            (Some(db), Some(reason)) => Outcome::NotAppended { db: absolute(db), reason },
-            (Some(db), None) => Outcome::append(db, run_dir),
+            (Some(db), Decision::Skip(reason)) => Outcome::NotAppended { db: absolute(db), reason },
+            (Some(db), Decision::AlreadyIn { batch_id, trend }) => {
+                Outcome::AlreadyIn { db: absolute(db), batch_id, trend }
+            }
+            (Some(db), Decision::Append) => Outcome::append(db, folder, recorded_as),
         };
-        outcome.write_into(run_dir)?;
+        outcome.write_into(folder)?;
         Ok(outcome)
     }
 
-    fn append(db: &Path, run_dir: &Path) -> Outcome {
+    fn append(db: &Path, folder: &Path, recorded_as: &Path) -> Outcome {
         let failed = |e: HistoryError| Outcome::Failed { db: absolute(db), error: e.to_string() };
         let appended = (|| {
-            let meta = read_meta(run_dir)?;
-            let batch = batch_row(run_dir, &meta)?;
-            let runs: Vec<RunRow> = read_summary(run_dir)?.iter().map(RunRow::from_summary).collect();
+            let meta = read_meta(folder)?;
+            let mut batch = batch_row(folder, &meta)?;
+            batch.run_dir = absolute(recorded_as).display().to_string();
+            let runs: Vec<RunRow> = read_summary(folder)?.iter().map(RunRow::from_summary).collect();
             let mut history = HistoryDb::open_or_create(db)?;
             let batch_id = history.insert_batch(&batch, &runs)?;
             Ok((history, batch_id, runs.len(), batch.config_name))
@@ -243,14 +270,35 @@ impl Outcome {
         Outcome::Appended { db: absolute(db), batch_id, runs, config, trend, trend_error }
     }
 
-    /// Set `history` and `history_outcome` in `run_dir`'s `meta.json`.
-    fn write_into(&self, run_dir: &Path) -> Result<(), HistoryError> {
-        let path = meta_json(run_dir);
-        let mut meta = read_meta(run_dir)?;
-        meta["history"] = match self {
-            Outcome::Appended { db, .. } => db.display().to_string().into(),
-            _ => Value::Null,
-        };
+    /// Take an appended batch out of the database again (its folder could not be put in
+    /// place), and render its config's trend page without it. Best effort: says what failed.
+    pub fn withdraw(&self) -> Result<(), HistoryError> {
+        let Outcome::Appended { db, batch_id, config, .. } = self else { return Ok(()) };
+        let history = HistoryDb::open_existing(db)?;
+        history.remove_batch(*batch_id)?;
+        trend::render(&history, Some(config), None, &trend_dir(db, config)).map(|_| ())
+    }
+
+    /// The database and batch id when the batch is in the history (appended now or before).
+    pub fn in_history(&self) -> Option<(&Path, i64, Option<&PathBuf>)> {
+        match self {
+            Outcome::Appended { db, batch_id, trend, .. } | Outcome::AlreadyIn { db, batch_id, trend } => {
+                Some((db, *batch_id, trend.as_ref()))
+            }
+            _ => None,
+        }
+    }
+
+    /// The `history` key of `meta.json`: the database when the batch is in it.
+    pub fn meta_history(&self) -> Value {
+        self.in_history().map_or(Value::Null, |(db, ..)| db.display().to_string().into())
+    }
+
+    /// Set `history` and `history_outcome` in `folder`'s `meta.json`.
+    fn write_into(&self, folder: &Path) -> Result<(), HistoryError> {
+        let path = meta_json(folder);
+        let mut meta = read_meta(folder)?;
+        meta["history"] = self.meta_history();
         meta["history_outcome"] = serde_json::to_value(self).unwrap_or(Value::Null);
         let text = serde_json::to_string_pretty(&meta)
             .map_err(|e| HistoryError::Meta { path: path.clone(), what: e.to_string() })?;

@@ -85,14 +85,16 @@ pub fn write_index(
 /// and the page rendered (`meta.json`'s `history_outcome`, set by `run` and `merge` before the
 /// report); relative, so the folders can move together.
 fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Value>, name: &str) {
-    let Some(outcome) = meta.and_then(|m| serde_json::from_value(m.get("history_outcome")?.clone()).ok()) else {
+    let outcome =
+        meta.and_then(|m| serde_json::from_value::<crate::history::Outcome>(m.get("history_outcome")?.clone()).ok());
+    let Some(outcome) = outcome else {
         return;
     };
-    let crate::history::Outcome::Appended { db, trend: Some(page), .. } = outcome else { return };
+    let Some((db, _, Some(page))) = outcome.in_history() else { return };
     let _ = writeln!(
         h,
         "<p>History: <a href=\"{}\">trend of {} over its batches</a> (database <code>{}</code>)</p>",
-        href(&crate::history::relative_link(run_dir, &page)),
+        href(&crate::history::relative_link(run_dir, page)),
         esc(name),
         esc(&db.display().to_string())
     );

@@ -7,13 +7,13 @@
 //! complete: every planned run in some shard, and no shard interrupted.
 
 use crate::calibration::Calibration;
-use crate::history::{HistoryChoice, Outcome};
+use crate::history::{Decision, HistoryChoice, Outcome};
 use crate::run_folder::keep::{self, Maps};
 use crate::run_folder::map::{self, legacy_obj_path, mesh_path, uv_path};
 use crate::run_folder::reuse::{self, Identity, Reuse};
 use crate::run_folder::{
     iterations_csv, meta_json, read_run, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary,
-    SummaryRow,
+    SummaryRow, OWN_ENTRIES,
 };
 use anyhow::{bail, Context, Result};
 use serde_json::Value;
@@ -79,6 +79,8 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
         bail!("{}: the merged folder must not be one of the shards", out_dir.display());
     }
     let reuse = reuse::check(&out_dir, &identity, force)?;
+    // An earlier merge of these same shards into this folder: its batch may be in the history.
+    let previous = (reuse == Reuse::Same).then(|| read_meta(&out_dir).ok()).flatten();
 
     // Every shard's runs and files, read and checked where they are.
     let mut runs: Vec<ShardRun> = Vec::new();
@@ -106,32 +108,59 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
         .map(|(d, _)| d.clone())
         .collect();
 
+    let history_db = {
+        let config_dir =
+            metas[0]["config_path"].as_str().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
+        history.apply(crate::history::resolve_path(config["history"].as_str().map(Path::new), config_dir))
+    };
+    let rows: Vec<SummaryRow> = runs.iter().map(|r| r.row.clone()).collect();
+    // The whole folder is made in the staging folder, history outcome and report included,
+    // and only then put in place; on any error the staging folder goes, and a batch appended
+    // for it is taken out of the history again.
     let staging = staging_dir(&out_dir)?;
-    let staged = (|| {
-        stage(&staging, &runs, &metas, shards)?;
-        let history_db = {
-            let config_dir =
-                metas[0]["config_path"].as_str().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
-            history.apply(crate::history::resolve_path(config["history"].as_str().map(Path::new), config_dir))
+    let mut appended = None;
+    let made = (|| {
+        let merged_from = stage(&staging, &runs, &metas, shards)?;
+        let decision = if let Some(first) = missing.first() {
+            Decision::Skip(format!(
+                "{} planned runs are in no shard (first: {first}): the batch is incomplete",
+                missing.len()
+            ))
+        } else if let Some(d) = interrupted.first() {
+            Decision::Skip(format!("shard {} was interrupted: the batch is incomplete", d.display()))
+        } else {
+            already_in(previous.as_ref(), history_db.as_deref(), &merged_from).unwrap_or(Decision::Append)
         };
-        Ok::<_, anyhow::Error>(history_db)
+        let outcome = Outcome::conclude(history_db.as_deref(), &staging, &out_dir, decision)?;
+        appended = Some(outcome.clone());
+        crate::report::refresh(&staging, &rows)?;
+        install(&staging, &out_dir, reuse)?;
+        Ok::<_, anyhow::Error>(outcome)
     })();
-    let history_db = match staged.and_then(|db| install(&staging, &out_dir, reuse).map(|()| db)) {
-        Ok(db) => db,
+    let history = match made {
+        Ok(outcome) => outcome,
         Err(e) => {
             let _ = std::fs::remove_dir_all(&staging);
+            if let Some(Err(w)) = appended.map(|o| o.withdraw()) {
+                return Err(e.context(format!("the merged batch stays in the history, without its folder: {w}")));
+            }
             return Err(e);
         }
     };
-    let skip = if !missing.is_empty() {
-        Some(format!("{} planned runs are in no shard (first: {}): the batch is incomplete", missing.len(), missing[0]))
-    } else {
-        interrupted.first().map(|d| format!("shard {} was interrupted: the batch is incomplete", d.display()))
-    };
-    let history = Outcome::conclude(history_db.as_deref(), &out_dir, skip)?;
-    let rows: Vec<SummaryRow> = runs.into_iter().map(|r| r.row).collect();
-    crate::report::refresh(&out_dir, &rows)?;
     Ok(Merged { out_dir, runs: rows.len(), missing, interrupted, history })
+}
+
+/// [`Decision::AlreadyIn`] when the folder's earlier merge (`previous`, its `meta.json`) was
+/// of the same shards (the same `merged_from`) and its batch is in `db`.
+fn already_in(previous: Option<&Value>, db: Option<&Path>, merged_from: &Value) -> Option<Decision> {
+    let previous = previous?;
+    if &previous["merged_from"] != merged_from {
+        return None;
+    }
+    let outcome: Outcome = serde_json::from_value(previous.get("history_outcome")?.clone()).ok()?;
+    let (was, batch_id, trend) = outcome.in_history()?;
+    (Some(was) == db.map(crate::history::absolute).as_deref())
+        .then(|| Decision::AlreadyIn { batch_id, trend: trend.cloned() })
 }
 
 /// A shard's files of one run, read as the report will read them: the per-iteration CSV
@@ -148,19 +177,13 @@ fn check_files(dir: &Path, stem: &str, row: &SummaryRow) -> Result<()> {
 
 /// `.<name>.merging-<pid>` beside `out`, new and empty.
 fn staging_dir(out: &Path) -> Result<PathBuf> {
-    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "merged".into());
-    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let staging = parent.join(format!(".{name}.merging-{}", std::process::id()));
-    if staging.exists() {
-        std::fs::remove_dir_all(&staging).with_context(|| format!("{}: cannot clear", staging.display()))?;
-    }
-    std::fs::create_dir_all(&staging).with_context(|| format!("{}: cannot create", staging.display()))?;
-    Ok(staging)
+    sibling(out, "merging")
 }
 
 /// Write the merged folder into `staging`: each run's files, the summary in the plan's order,
-/// the maps `maps` keeps, and `meta.json` with every shard's provenance.
-fn stage(staging: &Path, runs: &[ShardRun], metas: &[Value], shards: &[PathBuf]) -> Result<()> {
+/// the maps `maps` keeps, and `meta.json` with every shard's provenance (`merged_from`, which
+/// is returned).
+fn stage(staging: &Path, runs: &[ShardRun], metas: &[Value], shards: &[PathBuf]) -> Result<Value> {
     let mut meshes_copied: std::collections::HashSet<&str> = Default::default();
     for r in runs {
         // The dataset's mesh copy is the same in every shard (the runs' keys hash the mesh).
@@ -187,7 +210,7 @@ fn stage(staging: &Path, runs: &[ShardRun], metas: &[Value], shards: &[PathBuf])
             .zip(metas)
             .map(|(d, m)| {
                 serde_json::json!({
-                    "dir": d.display().to_string(), "shard": m["shard"], "host": m["host"],
+                    "dir": crate::history::absolute(d).display().to_string(), "shard": m["shard"], "host": m["host"],
                     "git_revision": m["git_revision"], "git_dirty": m["git_dirty"],
                     "started_unix": m["started_unix"], "ended_unix": m["ended_unix"],
                     "interrupted": m["interrupted"], "calibration": m["calibration"],
@@ -216,12 +239,14 @@ fn stage(staging: &Path, runs: &[ShardRun], metas: &[Value], shards: &[PathBuf])
     meta["calibration"] = serde_json::to_value(&calibration)?;
     meta["calibration_median_s"] = calibration.median_s().into();
     meta["calibration_spread"] = calibration.spread().into();
-    write_atomic(&meta_json(staging), serde_json::to_string_pretty(&meta)?.as_bytes())
+    write_atomic(&meta_json(staging), serde_json::to_string_pretty(&meta)?.as_bytes())?;
+    Ok(meta["merged_from"].clone())
 }
 
-/// Move the staged folder to `out`: a rename when `out` is new, else `out`'s own entries
-/// (an earlier merge of this batch, or another batch's with `--force`) replaced by the staged
-/// ones, the rest of `out` left as it is.
+/// Move the staged folder to `out`: a rename when `out` is new; else `out`'s own entries (an
+/// earlier merge of this batch, or another batch's with `--force`) are moved aside, the staged
+/// ones moved in, and the ones aside deleted; on a failure every entry goes back where it was.
+/// The rest of `out` is left as it is.
 fn install(staging: &Path, out: &Path, reuse: Reuse) -> Result<()> {
     if !out.exists() {
         if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
@@ -229,20 +254,95 @@ fn install(staging: &Path, out: &Path, reuse: Reuse) -> Result<()> {
         }
         return std::fs::rename(staging, out).with_context(|| format!("{}: cannot move into place", out.display()));
     }
-    if reuse != Reuse::Fresh {
-        reuse::clean(out)?;
+    let aside = sibling(out, "replaced")?;
+    let mut moved_aside: Vec<&str> = Vec::new();
+    let mut moved_in: Vec<std::ffi::OsString> = Vec::new();
+    let mut moves = || -> Result<()> {
+        if reuse != Reuse::Fresh {
+            for entry in OWN_ENTRIES {
+                let from = out.join(entry);
+                if std::fs::symlink_metadata(&from).is_ok() {
+                    let to = aside.join(entry);
+                    std::fs::rename(&from, &to).with_context(|| format!("{}: cannot move aside", from.display()))?;
+                    moved_aside.push(entry);
+                }
+            }
+        }
+        for entry in std::fs::read_dir(staging).with_context(|| format!("{}: cannot read", staging.display()))? {
+            let name = entry?.file_name();
+            let to = out.join(&name);
+            std::fs::rename(staging.join(&name), &to)
+                .with_context(|| format!("{}: cannot move into place", to.display()))?;
+            moved_in.push(name);
+        }
+        Ok(())
+    };
+    let moved = moves();
+    if moved.is_err() {
+        for name in &moved_in {
+            let _ = std::fs::rename(out.join(name), staging.join(name));
+        }
+        for entry in &moved_aside {
+            let _ = std::fs::rename(aside.join(entry), out.join(entry));
+        }
     }
-    for entry in std::fs::read_dir(staging).with_context(|| format!("{}: cannot read", staging.display()))? {
-        let entry = entry?;
-        let dst = out.join(entry.file_name());
-        std::fs::rename(entry.path(), &dst).with_context(|| format!("{}: cannot move into place", dst.display()))?;
-    }
+    let _ = std::fs::remove_dir_all(&aside);
+    moved?;
     std::fs::remove_dir(staging).with_context(|| format!("{}: cannot remove", staging.display()))
+}
+
+/// `.<name>.<what>-<pid>` beside `out`, new and empty: on the same file system as `out`'s
+/// folder, so entries move by rename.
+fn sibling(out: &Path, what: &str) -> Result<PathBuf> {
+    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "merged".into());
+    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = parent.join(format!(".{name}.{what}-{}", std::process::id()));
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).with_context(|| format!("{}: cannot clear", dir.display()))?;
+    }
+    std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+    Ok(dir)
 }
 
 fn same_dir(a: &Path, b: &Path) -> bool {
     match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
         (Ok(a), Ok(b)) => a == b,
         _ => false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(path: &Path, text: &str) {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, text).unwrap();
+    }
+
+    #[test]
+    fn install_replaces_own_entries_and_puts_everything_back_when_a_move_fails() {
+        let tmp = tempfile::tempdir().unwrap();
+        let (out, staging) = (tmp.path().join("out"), tmp.path().join(".out.merging-1"));
+        write(&out.join("summary.csv"), "old");
+        write(&out.join("runs/a.csv"), "old");
+        write(&out.join("notes/mine.txt"), "mine");
+        write(&staging.join("summary.csv"), "new");
+        write(&staging.join("runs/b.csv"), "new");
+        // A staged entry that cannot replace the user's non-empty folder of the same name.
+        write(&staging.join("notes/x"), "staged");
+        assert!(install(&staging, &out, Reuse::Same).is_err());
+        assert_eq!(std::fs::read_to_string(out.join("summary.csv")).unwrap(), "old");
+        assert!(out.join("runs/a.csv").is_file() && !out.join("runs/b.csv").exists());
+        assert_eq!(std::fs::read_to_string(staging.join("summary.csv")).unwrap(), "new", "moved back");
+        assert_eq!(std::fs::read_to_string(out.join("notes/mine.txt")).unwrap(), "mine");
+        // without the conflict: the new entries in, the old ones gone, the user's kept
+        std::fs::remove_dir_all(staging.join("notes")).unwrap();
+        install(&staging, &out, Reuse::Same).unwrap();
+        assert_eq!(std::fs::read_to_string(out.join("summary.csv")).unwrap(), "new");
+        assert!(out.join("runs/b.csv").is_file() && !out.join("runs/a.csv").exists());
+        assert!(out.join("notes/mine.txt").is_file() && !staging.exists());
+        let left: Vec<_> = std::fs::read_dir(tmp.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(left, ["out"], "nothing aside is left");
     }
 }

@@ -12,7 +12,7 @@ mod one;
 mod repeats;
 
 use crate::calibration::Calibration;
-use crate::history::{absolute, Outcome};
+use crate::history::{absolute, Decision, Outcome};
 use crate::plan::config::Maps;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
@@ -143,21 +143,30 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         reuse::clean(out_dir)?;
         progress.notice(&format!("--force: deleted the results of another batch in {}", out_dir.display()));
     }
-    std::fs::create_dir_all(crate::run_folder::runs_dir(out_dir))
-        .with_context(|| format!("{}: cannot create", out_dir.display()))?;
     let jobs = opts.jobs.unwrap_or(cores).clamp(1, mine.len().max(1));
     let threads =
         plan.threads_per_run.unwrap_or_else(|| default_threads(opts.jobs.unwrap_or(cores), cores, mine.len()));
     // A resumed folder whose batch is already in the history is not appended twice.
-    let appended_before = match opts.resume.then(|| Outcome::of_folder(out_dir)).flatten() {
-        Some(Outcome::Appended { db, batch_id, .. }) => Some((db, batch_id)),
-        _ => None,
+    let previous = opts.resume.then(|| Outcome::of_folder(out_dir)).flatten();
+    let meta = Meta {
+        plan,
+        shard: opts.shard,
+        resume: opts.resume,
+        jobs,
+        threads,
+        started: SystemTime::now(),
+        history: previous.clone(),
     };
-    let meta = Meta { plan, shard: opts.shard, resume: opts.resume, jobs, threads, started: SystemTime::now() };
+    // meta.json and summary.csv first: from then on the folder is a run folder, whenever
+    // the batch is stopped.
     let mut calibration = Calibration::new();
-    calibrate(&mut calibration, jobs, threads, progress);
+    std::fs::create_dir_all(out_dir).with_context(|| format!("{}: cannot create", out_dir.display()))?;
     meta.write(out_dir, None, false, &calibration)?;
     let mut summary = SummaryWriter::create(&summary_csv(out_dir))?;
+    std::fs::create_dir_all(crate::run_folder::runs_dir(out_dir))
+        .with_context(|| format!("{}: cannot create", out_dir.display()))?;
+    calibrate(&mut calibration, jobs, threads, progress);
+    meta.write(out_dir, None, false, &calibration)?;
     let mut report =
         BatchReport { skipped_datasets: plan.notices.clone(), out_dir: out_dir.to_path_buf(), ..Default::default() };
     let code = code_id(&plan.config.dir);
@@ -266,8 +275,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
                 (None, Origin::Restored(repeats)) => {
                     // Those repeats were solved in the earlier batch.
                     progress.fewer_solves(repeats.count());
-                    let line = format!("  {stem}: {} of {} repeats resumed", repeats.count(), plan.repeat);
-                    progress.run_finished(worker, &line);
+                    progress.notice(&format!("  {stem}: {} of {} repeats resumed", repeats.count(), plan.repeat));
                     Slot { first: result, resumed: false, key, repeats: Some(repeats) }
                 }
                 (None, Origin::Ran) => {
@@ -290,6 +298,11 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
                 progress.fewer_solves(plan.repeat - 1);
             }
             if slot.complete(plan.repeat) {
+                // A repeat that did not reproduce the first ends the run: its other repeats
+                // will not run.
+                if let Some(r) = slot.repeats.as_ref().filter(|r| r.mismatched()) {
+                    progress.fewer_solves(plan.repeat.saturating_sub(r.count() + 1));
+                }
                 finish(i, worker, slot, &mut report)?;
             } else {
                 if let Some(r) = slot.repeats.as_ref().filter(|_| ran) {
@@ -384,16 +397,19 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     // meta.json before the report, which states its calibration samples, then the history,
     // which reads the finished folder and records its outcome in meta.json for the report.
     meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
-    let skip = if interrupted {
-        Some("the batch was interrupted: its means would read as a change of the code".to_string())
+    let decision = if interrupted {
+        Decision::Skip("the batch was interrupted: its means would read as a change of the code".into())
     } else {
-        appended_before
-            .filter(|(db, _)| {
-                report.resumed == report.runs && plan.history.as_deref().map(absolute).as_ref() == Some(db)
-            })
-            .map(|(_, id)| format!("already in the history as batch {id}: every run was resumed from it"))
+        match previous.as_ref().and_then(Outcome::in_history) {
+            Some((db, batch_id, trend))
+                if report.resumed == report.runs && plan.history.as_deref().map(absolute).as_deref() == Some(db) =>
+            {
+                Decision::AlreadyIn { batch_id, trend: trend.cloned() }
+            }
+            _ => Decision::Append,
+        }
     };
-    report.history = Outcome::conclude(plan.history.as_deref(), out_dir, skip)?;
+    report.history = Outcome::conclude(plan.history.as_deref(), out_dir, out_dir, decision)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
     // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
     // CPU) must not fan the plots out to every core of the node.

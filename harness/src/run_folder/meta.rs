@@ -19,6 +19,9 @@ pub struct Meta<'a> {
     pub jobs: usize,
     pub threads: usize,
     pub started: SystemTime,
+    /// What became of the folder's batch in the history, until this one's is known: a
+    /// resumed folder's earlier outcome (its batch may be in the history), else nothing.
+    pub history: Option<crate::history::Outcome>,
 }
 
 impl Meta<'_> {
@@ -72,10 +75,10 @@ impl Meta<'_> {
             "ended_unix": ended.map(secs),
             "interrupted": interrupted,
             "repeat": self.plan.repeat,
-            // The history database the batch was appended to (null: not, or not yet) and what
-            // became of it, set once the batch is over (`history::Outcome::conclude`).
-            "history": null,
-            "history_outcome": null,
+            // The history database the batch is in (null: not, or not yet) and what became of
+            // it, set once the batch is over (`history::Outcome::conclude`).
+            "history": self.history.as_ref().map_or(serde_json::Value::Null, |o| o.meta_history()),
+            "history_outcome": self.history,
             // Which final maps the folder keeps (`maps`); merge prunes by it.
             "maps": self.plan.maps.as_str(),
             // The reference workload's samples; `time_norm` divides by their median.

@@ -111,13 +111,25 @@ pub fn is_run_folder(dir: &Path) -> bool {
 }
 
 /// The run folder whose own file (or folder, [`OWN_ENTRIES`]) `path` is, links followed:
-/// `B/summary.csv`, `B/runs/x.csv`, a link to either. `None` for any other path, a new file
-/// beside them included.
+/// `B/summary.csv`, `B/runs/x.csv`, `B/new/../summary.csv`, a link to any of them (a dangling
+/// one too). `None` for any other path, a new file beside them included.
 pub fn owner(path: &Path) -> Option<PathBuf> {
-    // The path as the OS resolves it: its longest existing part, links followed, then the rest.
+    owner_within(path, 8)
+}
+
+fn owner_within(path: &Path, links: usize) -> Option<PathBuf> {
+    // A link is judged by where it points (`write_atomic` writes through it), also when its
+    // target does not exist yet.
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) && links > 0 {
+        let target = std::fs::read_link(path).ok()?;
+        let target = path.parent().map_or(target.clone(), |p| p.join(&target));
+        return owner_within(&target, links - 1);
+    }
+    // The path as the OS resolves it: its longest existing part, links followed, then the
+    // rest with `.` and `..` applied.
     let resolved = path.ancestors().find_map(|a| {
         let existing = if a.as_os_str().is_empty() { Path::new(".") } else { a };
-        Some(std::fs::canonicalize(existing).ok()?.join(path.strip_prefix(a).ok()?))
+        Some(crate::history::absolute(&std::fs::canonicalize(existing).ok()?.join(path.strip_prefix(a).ok()?)))
     })?;
     resolved.ancestors().skip(1).find_map(|dir| {
         let first = resolved.strip_prefix(dir).ok()?.components().next()?;

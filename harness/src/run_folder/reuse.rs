@@ -74,7 +74,7 @@ pub fn check(dir: &Path, mine: &Identity, force: bool) -> Result<Reuse> {
     if empty {
         return Ok(Reuse::Fresh);
     }
-    if !is_run_folder(dir) {
+    if !is_run_folder(dir) && !only_own_entries(dir) {
         bail!(
             "{}: not empty and not a mapbench run folder (no meta.json and summary.csv); mapbench writes a batch \
              only into a new, empty or run folder (give another --out)",
@@ -100,6 +100,17 @@ pub fn check(dir: &Path, mine: &Identity, force: bool) -> Result<Reuse> {
         );
     }
     Ok(Reuse::Another)
+}
+
+/// Whether every entry of `dir` is one mapbench writes ([`OWN_ENTRIES`], or a temporary of
+/// `write_atomic`): a batch stopped before its `meta.json` (a run folder of no known batch).
+fn only_own_entries(dir: &Path) -> bool {
+    std::fs::read_dir(dir).is_ok_and(|entries| {
+        entries.flatten().all(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            OWN_ENTRIES.contains(&name.as_str()) || (name.starts_with('.') && name.contains(".tmp"))
+        })
+    })
 }
 
 /// Delete a run folder's own files and folders ([`OWN_ENTRIES`]), nothing else.
@@ -163,6 +174,12 @@ mod tests {
         clean(&dir).unwrap();
         assert!(!dir.join("runs").exists() && !dir.join("summary.csv").exists() && !meta_json(&dir).exists());
         assert_eq!(std::fs::read_to_string(dir.join("notes.txt")).unwrap(), "mine", "not mapbench's: kept");
+        // only mapbench's own entries, no meta.json (a batch stopped at its start): a run
+        // folder of no known batch
+        std::fs::create_dir_all(tmp.path().join("stopped/runs")).unwrap();
+        let e = check(&tmp.path().join("stopped"), &mine, false).unwrap_err().to_string();
+        assert!(e.contains("a meta.json that names no batch") && e.contains("--force"), "{e}");
+        assert_eq!(check(&tmp.path().join("stopped"), &mine, true).unwrap(), Reuse::Another);
         // a folder with files but no run folder's markers: refused even with --force
         let e = check(&dir, &mine, true).unwrap_err().to_string();
         assert!(e.contains("not empty and not a mapbench run folder"), "{e}");
