@@ -13,7 +13,7 @@ use crate::map_task::{check_handles, checked_driver, map_problem};
 use crate::mesh::{Mesh, Task};
 use crate::problem::Penalty;
 use crate::smoothness::Projection;
-use crate::solver::{Observer, Outcome, Settings, StopSettings};
+use crate::solver::{Observer, Outcome, Settings, StartMap, StopSettings};
 
 /// Settings of a `deform` run.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -127,7 +127,10 @@ pub fn solve_deform(
         lambda: settings.lambda,
         handles: handles.iter().map(|h| (h.vertex, [(h.target[0] - mid[0]) * s, (h.target[1] - mid[1]) * s])).collect(),
     });
-    driver.solve(&problem, x, &settings.solver, observer).map_err(|err| MapError::Solve { source_name, err })
+    let mut outcome =
+        driver.solve(&problem, x, &settings.solver, observer).map_err(|err| MapError::Solve { source_name, err })?;
+    outcome.start = Some(if init.is_some() { StartMap::Given } else { StartMap::Rest });
+    Ok(outcome)
 }
 
 #[cfg(test)]

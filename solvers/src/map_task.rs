@@ -65,14 +65,6 @@ pub(crate) enum Driver {
 }
 
 impl Driver {
-    /// Whether the `param` initialization gets the global scaling (Section 4.2).
-    pub(crate) fn global_scaling(&self) -> bool {
-        match self {
-            Driver::Newton(spec) => spec.global_scaling,
-            Driver::Lbfgs(_) | Driver::Aqp => false,
-        }
-    }
-
     /// The solver's own projection of the smoothness term's blocks, if it has one.
     pub(crate) fn smoothness_projection(&self) -> Option<Projection> {
         match self {

@@ -53,15 +53,15 @@ fn fp4_and_fp6_take_the_same_path() {
 }
 
 #[test]
-fn cm_and_unscaled_kp_are_identical_where_their_hessians_agree() {
+fn cm_and_kp_are_identical_where_their_hessians_agree() {
     // design.md: CM's Hessian equals KP's for SD, BCONF (k <= 1) and BARAP (k <= 2), so the
-    // runs agree iterate for iterate when both start from the same (unscaled) Tutte map.
+    // runs agree iterate for iterate from the same start (the common, scaled Tutte map).
     // hilbert: long and thin, where round-off differences between KP and CM grew into
     // different iteration counts before KP used CM's arithmetic for the cone term.
     for mesh in meshes(&["bimba_5k", "hilbert"]) {
         for energy in [EnergyKind::Sd, EnergyKind::Bconf { k: 0.1 }, EnergyKind::Barap { k: 0.1 }] {
             let (a, ra) = run(&mesh, energy, "cm");
-            let (b, rb) = run(&mesh, energy, "kp-newton-noscale");
+            let (b, rb) = run(&mesh, energy, "kp-newton");
             let label = format!("{} {}", mesh.source, energy.name());
             assert_eq!(a.iterations, b.iterations, "{label}");
             assert_eq!(a.stop_reason, b.stop_reason, "{label}");

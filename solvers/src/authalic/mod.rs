@@ -647,6 +647,7 @@ impl Reporter<'_> {
                 grad_norm,
                 flips: t.folded,
                 analysis: None,
+                start: Some(crate::solver::StartMap::ArclengthStretch),
             },
             metrics,
         }

@@ -34,7 +34,7 @@ pub fn project_k(s: &ElementState) -> Matrix4<f64> {
         // Only the cone eigenvalue 2 a1 is negative (always the case for SD, ExpSD, BCONF
         // k <= 1, BARAP k <= 2): Eq. 4 clamps it in the modifiers, leaving the radial block
         // unchanged. Same result as the eigen-clamp, cheaper, and the same arithmetic as
-        // CM's cone term, so `cm` and `kp-newton-noscale` produce identical iterates.
+        // CM's cone term, so `cm` and `kp-newton` produce identical iterates from the same start.
         let mut t = *s;
         t.m.b1 += t.m.a1 / (2.0 * s.x());
         t.m.a1 = 0.0;

@@ -15,12 +15,21 @@ use crate::solver::lbfgs::LBFGS_COLUMNS;
 use crate::solver::newton::SystemSolve;
 use crate::solver::truncated::{NewtonCgOptions, Preconditioner, CG_COLUMNS};
 
+/// Where a solver's runs start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// The task's common start, the same map for every solver, so that a ranking compares
+    /// methods and not starts: `param` the Tutte map globally scaled (Section 4.2) for the
+    /// energies that define the scaling, `deform` the rest pose (or the dataset's own start).
+    Common,
+    /// `param`'s Tutte map without the global scaling (`kp-newton-noscale`, the variant that
+    /// isolates what the scaling does).
+    TutteUnscaled,
+}
+
 /// A Newton-type solver built for one energy: its system-matrix strategy and options.
 pub struct SolverSpec {
     pub block: Box<dyn SystemBlock>,
-    /// Apply the global-scaling heuristic of Section 4.2 to the `param` initialization
-    /// (for the energies that define it: SD, BCONF, BARAP).
-    pub global_scaling: bool,
     /// Overrides how the smoothness term's 8x8 blocks are projected.
     pub smoothness_projection: Option<Projection>,
     /// How each Newton system is solved.
@@ -123,6 +132,8 @@ pub struct SolverEntry {
     /// One line for `list solvers`.
     pub description: &'static str,
     pub method: Method,
+    /// Where its runs start: the task's common start, unless its method defines its own.
+    pub start: Start,
 }
 
 const NEWTON_TASKS: &[Task] = &[Task::Param, Task::Deform];
@@ -145,6 +156,7 @@ const fn newton(name: &'static str, label: &'static str, description: &'static s
         label,
         description,
         method: Method::Newton(build),
+        start: Start::Common,
     }
 }
 
@@ -168,6 +180,7 @@ const fn planar(
         label,
         description,
         method,
+        start: Start::Common,
     }
 }
 
@@ -205,16 +218,12 @@ const fn authalic(name: &'static str, label: &'static str, description: &'static
         label,
         description,
         method,
+        start: Start::Common,
     }
 }
 
-fn spec(block: impl SystemBlock + 'static, global_scaling: bool) -> Result<SolverSpec, String> {
-    Ok(SolverSpec {
-        block: Box::new(block),
-        global_scaling,
-        smoothness_projection: None,
-        solve: SystemSolve::Factorized,
-    })
+fn spec(block: impl SystemBlock + 'static) -> Result<SolverSpec, String> {
+    Ok(SolverSpec { block: Box::new(block), smoothness_projection: None, solve: SystemSolve::Factorized })
 }
 
 /// Every solver, `param`/`deform` first (the order of `list solvers` and of the known-names
@@ -224,7 +233,7 @@ pub static SOLVERS: &[SolverEntry] = &[
         "kp-newton",
         "KP",
         "Newton, K of each element Hessian projected analytically (complex view, Eq. 4)",
-        |_, _| spec(Kp, true),
+        |_, _| spec(Kp),
     ),
     SolverEntry {
         options: &["eta_max", "max_cg_iters"],
@@ -234,7 +243,7 @@ pub static SOLVERS: &[SolverEntry] = &[
             "KP-CG",
             "kp-newton with truncated steps: CG to an Eisenstat-Walker forcing term, preconditioned by the \
              Laplacian weighted by each block's stiffness",
-            |_, _| spec(Kp, true).map(|s| SolverSpec { solve: SystemSolve::Truncated(Preconditioner::Stiffness), ..s }),
+            |_, _| spec(Kp).map(|s| SolverSpec { solve: SystemSolve::Truncated(Preconditioner::Stiffness), ..s }),
         )
     },
     SolverEntry {
@@ -243,28 +252,34 @@ pub static SOLVERS: &[SolverEntry] = &[
             "kp-newton-cg-laplacian",
             "KP-CG-Lap",
             "kp-newton-cg preconditioned by the constant Dirichlet Laplacian, factored once",
-            |_, _| spec(Kp, true).map(|s| SolverSpec { solve: SystemSolve::Truncated(Preconditioner::Laplacian), ..s }),
+            |_, _| spec(Kp).map(|s| SolverSpec { solve: SystemSolve::Truncated(Preconditioner::Laplacian), ..s }),
         )
     },
-    newton("kp-newton-noscale", "KP-noscale", "kp-newton without the global scaling of the initial map", |_, _| {
-        spec(Kp, false)
-    }),
+    SolverEntry {
+        start: Start::TutteUnscaled,
+        ..newton(
+            "kp-newton-noscale",
+            "KP-noscale",
+            "kp-newton from the Tutte map without the global scaling",
+            |_, _| spec(Kp),
+        )
+    },
     // Table 7's numeric column; the same as kp-newton without a smoothness term.
     newton("kp-newton-eig8", "KP-eig8", "kp-newton with the smoothness term's 8x8 blocks eigen-projected", |_, _| {
-        spec(Kp, true).map(|s| SolverSpec { smoothness_projection: Some(Projection::Numeric), ..s })
+        spec(Kp).map(|s| SolverSpec { smoothness_projection: Some(Projection::Numeric), ..s })
     }),
     newton(
         "fp-newton-4x4",
         "FP4",
         "Newton, element Hessians projected numerically via the reduced 4x4 matrix",
-        |_, _| spec(Fp4, false),
+        |_, _| spec(Fp4),
     ),
-    newton("fp-newton-6x6", "FP6", "Newton, 6x6 element Hessians eigen-projected numerically", |_, _| spec(Fp6, false)),
+    newton("fp-newton-6x6", "FP6", "Newton, 6x6 element Hessians eigen-projected numerically", |_, _| spec(Fp6)),
     newton("cm", "CM", "composite majorization (Shtengel et al. 2017), a convex-concave split", |e, _| {
-        spec(Cm::for_energy(e)?, false)
+        spec(Cm::for_energy(e)?)
     }),
     newton("newton", "Newton", "Newton on the unmodified Hessians (may stop on an indefinite system)", |_, _| {
-        spec(Unprojected, false)
+        spec(Unprojected)
     }),
     SolverEntry {
         energies: &SLIM_ENERGIES,
@@ -275,23 +290,21 @@ pub static SOLVERS: &[SolverEntry] = &[
         options: &["clamp_weights"],
         extra_columns: &crate::hessian::slim::CLAMPED_COLUMN,
         ..newton("slim", "SLIM", "SLIM (Rabinovich et al. 2017): the local-global proxy as system matrix", |_, _| {
-            spec(Slim, false)
+            spec(Slim)
         })
     },
-    newton("akvf", "AKVF", "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient", |_, _| {
-        spec(Akvf, false)
-    }),
+    newton("akvf", "AKVF", "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient", |_, _| spec(Akvf)),
     newton(
         "pn-abs",
         "PN-abs",
         "projected Newton with K's eigenvalues made absolute (Chen et al. 2024), otherwise kp-newton",
-        |_, _| spec(Filtered(Filter::Abs), true),
+        |_, _| spec(Filtered(Filter::Abs)),
     ),
     newton(
         "fp-abs-6x6",
         "FP6-abs",
         "6x6 element Hessians with their eigenvalues made absolute numerically (Chen et al. 2024)",
-        |_, _| spec(Fp6Abs, false),
+        |_, _| spec(Fp6Abs),
     ),
     SolverEntry {
         options: &["tau"],
@@ -300,7 +313,7 @@ pub static SOLVERS: &[SolverEntry] = &[
             "pn-trust-region",
             "PN-TR",
             "trust-region eigenvalue filtering (Chen et al. 2024): abs or clamp per iteration from the model fit",
-            |_, o| spec(TrustRegion { tau: o.trust_region.tau }, true),
+            |_, o| spec(TrustRegion { tau: o.trust_region.tau }),
         )
     },
     planar(
@@ -593,7 +606,6 @@ mod tests {
         for (o, tau) in [(SolverOptions::default(), 0.01), (loose, 0.5)] {
             let spec = tr.newton_spec(Task::Param, &EnergyKind::Sd, &o).unwrap();
             assert_eq!(spec.block.trust_region(), Some(TrustRegion { tau }));
-            assert!(spec.global_scaling);
         }
         // only it adapts its filter
         for s in SOLVERS.iter().filter(|s| s.name != "pn-trust-region") {
@@ -602,7 +614,7 @@ mod tests {
             }
         }
         let abs = find("pn-abs").unwrap().newton_spec(Task::Deform, &EnergyKind::Sd, &loose).unwrap();
-        assert!(abs.global_scaling && abs.block.counter_names().is_empty());
+        assert!(abs.block.counter_names().is_empty());
     }
 
     /// The energies SLIM is declared for are exactly those where its weights need no clamping:

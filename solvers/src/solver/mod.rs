@@ -370,6 +370,47 @@ pub struct AnalysisReport {
     pub reused: bool,
 }
 
+/// The map a run started from (`summary.csv`'s `start`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum StartMap {
+    /// `param`: the Tutte map globally scaled (Section 4.2).
+    TutteScaled,
+    /// `param`: the Tutte map (the energies without the scaling rule, `kp-newton-noscale`).
+    Tutte,
+    /// `deform`: the rest pose.
+    Rest,
+    /// `deform`: the dataset's own start (a generated shape's released pose).
+    Given,
+    /// `authalic`: the arc-length boundary on the unit circle and the fixed-boundary stretch
+    /// steps.
+    ArclengthStretch,
+}
+
+impl StartMap {
+    pub const ALL: [StartMap; 5] =
+        [StartMap::TutteScaled, StartMap::Tutte, StartMap::Rest, StartMap::Given, StartMap::ArclengthStretch];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StartMap::TutteScaled => "tutte-scaled",
+            StartMap::Tutte => "tutte",
+            StartMap::Rest => "rest",
+            StartMap::Given => "given",
+            StartMap::ArclengthStretch => "arclength-stretch",
+        }
+    }
+}
+
+impl std::str::FromStr for StartMap {
+    type Err = String;
+    fn from_str(s: &str) -> Result<StartMap, String> {
+        StartMap::ALL
+            .into_iter()
+            .find(|m| m.as_str() == s)
+            .ok_or_else(|| format!("unknown start '{s}' (known: {})", StartMap::ALL.map(|m| m.as_str()).join(", ")))
+    }
+}
+
 /// Result of a solver run.
 #[derive(Clone, Debug)]
 pub struct Outcome {
@@ -383,6 +424,8 @@ pub struct Outcome {
     pub flips: usize,
     /// The system's symbolic analysis (`None` for solvers without a shared system).
     pub analysis: Option<AnalysisReport>,
+    /// The start map, set by the task (a driver does not know it).
+    pub start: Option<StartMap>,
 }
 
 impl Outcome {
@@ -403,6 +446,7 @@ impl Outcome {
             grad_norm: last.grad_norm,
             flips: last.flips,
             analysis,
+            start: None,
         }
     }
 }
