@@ -13,6 +13,7 @@ pub mod export;
 pub mod fuzzing;
 pub mod gate;
 pub mod history;
+pub mod judge;
 pub mod output;
 pub mod plan;
 pub mod report;

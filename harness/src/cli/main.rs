@@ -197,7 +197,8 @@ struct HistoryArgs {
     /// The history database (default: the config's `history`, else reports/history.sqlite).
     #[arg(long, value_name = "PATH")]
     history: Option<PathBuf>,
-    /// Do not append this batch to any history database.
+    /// Do not append this batch to any history database, nor add the reference minima it
+    /// computes to the reference store: nothing is written outside the run folder.
     #[arg(long, conflicts_with = "history")]
     no_history: bool,
 }
@@ -314,6 +315,10 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             }
             let choice = history.choice();
             plan.history = plan.history.take().and_then(|p| choice.apply(p));
+            if choice == HistoryChoice::Off {
+                // Nothing outside the run folder: the references it computes stay its own.
+                plan.references.iter_mut().for_each(|r| r.persist = false);
+            }
             if shard.is_some() && plan.history.take().is_some() {
                 eprintln!("note: a --shard batch is not appended to the history; `merge` appends the whole batch");
             }

@@ -9,6 +9,8 @@
 //!   A final energy that becomes NaN or infinite is a regression, one that stops being so an
 //!   improvement ([`energy_change`]); a baseline keeps such a value as `"NaN"` / `"inf"`.
 //! - Flips where there were none are a regression.
+//! - A final gap to the reference minimum (`final_gap`, the harness's convergence test) that
+//!   rises above [`GAP_TARGET`] is a regression, one that falls to it an improvement.
 //! - Times are never a regression here: [`time_change`] only labels a time as slower or faster,
 //!   when the spreads over the repeats are disjoint (the overlap rule of the report's rankings,
 //!   [`Timed::overlaps`]) or, with a single sample, when the ratio exceeds [`SINGLE_SAMPLE_FACTOR`].
@@ -18,6 +20,9 @@ use crate::report::tables::ranking::Timed;
 use crate::run_folder::{Status, SummaryRow};
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
+
+/// The gap the gate holds a run to: the default tightest target of the convergence test.
+pub const GAP_TARGET: f64 = 1e-6;
 
 /// Default relative tolerance on the final energy.
 pub const DEFAULT_ENERGY_RTOL: f64 = 1e-6;
@@ -49,6 +54,9 @@ pub struct Record {
     /// Wall time of the run when the baseline was written; shown, never gated.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time_s: Option<f64>,
+    /// The final gap to the reference minimum (`param`, `deform`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub final_gap: Option<f64>,
 }
 
 impl Record {
@@ -75,6 +83,7 @@ impl From<&SummaryRow> for Record {
             flips: row.flips,
             iterations_tolerance: None,
             time_s: row.time_s,
+            final_gap: row.final_gap,
         }
     }
 }
@@ -133,6 +142,12 @@ pub fn changes(before: &Record, after: &Record, energy_rtol: f64) -> Vec<Change>
     if let (Some(be), Some(ae)) = (b.final_energy, a.final_energy) {
         if let Some((delta, regression)) = energy_change(be, ae, energy_rtol) {
             push("final_energy", format!("{be:.10}"), format!("{ae:.10}"), delta, regression);
+        }
+    }
+    if let (Some(bg), Some(ag)) = (b.final_gap, a.final_gap) {
+        let (was, is) = (bg <= GAP_TARGET, ag <= GAP_TARGET);
+        if was != is {
+            push("final_gap", format!("{bg:.2e}"), format!("{ag:.2e}"), format!("target {GAP_TARGET:e}"), was);
         }
     }
     if b.flips == Some(0) && a.flips.unwrap_or(0) > 0 {
@@ -254,6 +269,7 @@ pub(crate) mod tests {
             flips: Some(0),
             iterations_tolerance: None,
             time_s: Some(1.0),
+            final_gap: None,
         }
     }
 
@@ -284,6 +300,20 @@ pub(crate) mod tests {
         assert!(changes(&rec(10, 2.0), &rec(10, 2.0 * (1.0 + 0.9e-3)), 1e-3).is_empty());
         assert_eq!(metrics(&changes(&rec(10, 2.0), &rec(10, 2.0 * (1.0 + 1.1e-3)), 1e-3)), [("final_energy", true)]);
         assert_eq!(metrics(&changes(&rec(10, 2.0), &rec(10, f64::NAN), 1.0)), [("final_energy", true)]);
+    }
+
+    #[test]
+    fn a_final_gap_that_rises_above_the_target_is_a_regression() {
+        let gap = |g| Record { final_gap: Some(g), ..rec(10, 2.0) };
+        assert_eq!(metrics(&changes(&gap(1e-9), &gap(1e-4), 1e-6)), [("final_gap", true)]);
+        assert_eq!(metrics(&changes(&gap(1e-4), &gap(1e-9), 1e-6)), [("final_gap", false)]);
+        // within the target, or above it, both times: no change
+        assert!(changes(&gap(1e-9), &gap(1e-7), 1e-6).is_empty());
+        assert!(changes(&gap(1e-3), &gap(1e-2), 1e-6).is_empty());
+        // an old baseline without gaps: not compared
+        assert!(changes(&rec(10, 2.0), &gap(1.0), 1e-6).is_empty());
+        let c = changes(&gap(1e-9), &gap(f64::INFINITY), 1e-6);
+        assert_eq!(metrics(&c), [("final_gap", true)]);
     }
 
     #[test]

@@ -13,7 +13,7 @@ use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 
 /// The schema this build writes. README "History database" documents it.
-pub const SCHEMA_VERSION: i64 = 3;
+pub const SCHEMA_VERSION: i64 = 4;
 
 /// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).
 pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
@@ -64,6 +64,12 @@ pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
     CREATE INDEX batches_by_config ON batches(config_name, started_unix, id);",
     // v3: each run's peak resident memory (`summary.csv`'s `peak_rss_mb`).
     "ALTER TABLE runs ADD COLUMN peak_rss_mb REAL;",
+    // v4: the harness's verdict (`summary.csv`'s `start` .. `verdict`).
+    "ALTER TABLE runs ADD COLUMN start TEXT;
+    ALTER TABLE runs ADD COLUMN ref_energy REAL;
+    ALTER TABLE runs ADD COLUMN ref_source TEXT;
+    ALTER TABLE runs ADD COLUMN final_gap REAL;
+    ALTER TABLE runs ADD COLUMN verdict TEXT;",
 ];
 
 /// Where a batch came from (`batches.source`).
@@ -149,6 +155,12 @@ pub struct RunRow {
     pub shifted_iters: Option<i64>,
     pub clamped_iters: Option<i64>,
     pub peak_rss_mb: Option<f64>,
+    /// `summary.csv`'s `start`, `ref_source` and `verdict` as written there.
+    pub start: Option<String>,
+    pub ref_energy: Option<f64>,
+    pub ref_source: Option<String>,
+    pub final_gap: Option<f64>,
+    pub verdict: Option<String>,
 }
 
 impl RunRow {
@@ -176,6 +188,11 @@ impl RunRow {
             shifted_iters: int(s.shifted_iters),
             clamped_iters: int(s.clamped_iters),
             peak_rss_mb: s.peak_rss_mb,
+            start: s.start.map(|x| x.as_str().to_string()),
+            ref_energy: s.ref_energy,
+            ref_source: s.ref_source.map(|x| x.as_str().to_string()),
+            final_gap: s.final_gap,
+            verdict: s.verdict.map(|x| x.as_str().to_string()),
         }
     }
 }
@@ -342,7 +359,8 @@ impl HistoryDb {
             .prepare(
                 "SELECT batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
                  final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, \
-                 shifted_iters, clamped_iters, peak_rss_mb FROM runs WHERE batch_id = ?1 ORDER BY rowid",
+                 shifted_iters, clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict \
+                 FROM runs WHERE batch_id = ?1 ORDER BY rowid",
             )
             .map_err(&sql)?;
         let rows = stmt
@@ -371,6 +389,11 @@ impl HistoryDb {
                     shifted_iters: r.get(17)?,
                     clamped_iters: r.get(18)?,
                     peak_rss_mb: r.get(19)?,
+                    start: r.get(20)?,
+                    ref_energy: r.get(21)?,
+                    ref_source: r.get(22)?,
+                    final_gap: r.get(23)?,
+                    verdict: r.get(24)?,
                 })
             })
             .map_err(&sql)?
@@ -433,8 +456,8 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
     let mut stmt = tx.prepare(
         "INSERT INTO runs (batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
          final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
-         clamped_iters, peak_rss_mb) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, \
-         ?17, ?18, ?19, ?20)",
+         clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict) VALUES (?1, ?2, ?3, ?4, ?5, \
+         ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25)",
     )?;
     for r in runs {
         stmt.execute(params![
@@ -458,6 +481,11 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.shifted_iters,
             r.clamped_iters,
             r.peak_rss_mb,
+            r.start,
+            r.ref_energy,
+            r.ref_source,
+            r.final_gap,
+            r.verdict,
         ])
         .map_err(|source| InsertError::Run {
             run: crate::run_folder::run_stem(&r.dataset, &r.energy, &r.solver),

@@ -331,6 +331,7 @@ fn record(r: &RunRow) -> Record {
         flips: r.flips.and_then(|i| usize::try_from(i).ok()),
         iterations_tolerance: None,
         time_s: r.time_s,
+        final_gap: r.final_gap,
     }
 }
 

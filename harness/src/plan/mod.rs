@@ -70,6 +70,11 @@ pub struct Plan {
     pub history: Option<std::path::PathBuf>,
     /// Which final maps the run folder keeps.
     pub maps: config::Maps,
+    /// The tolerances of the convergence test, loosest first (`targets`); empty for the
+    /// authalic task, which its solvers' own rules judge.
+    pub targets: Vec<f64>,
+    /// Where reference minima are looked up and added (`param`, `deform`).
+    pub references: Option<crate::judge::reference::Stores>,
 }
 
 impl Plan {
@@ -117,7 +122,13 @@ impl Plan {
         let repeat = c.repeat.unwrap_or(1);
         config::check_repeat(repeat).with_context(invalid)?;
         let history = Some(crate::history::resolve_path(c.history.as_deref(), &cfg.dir));
+        let judged = c.task != Task::Authalic;
+        let mut targets = if judged { c.targets.clone().unwrap_or(config::DEFAULT_TARGETS.to_vec()) } else { vec![] };
+        targets.sort_by(|a, b| b.total_cmp(a));
+        let references = judged.then(|| crate::judge::reference::Stores::of(&cfg));
         Ok(Plan {
+            targets,
+            references,
             repeat,
             history,
             maps: c.maps.unwrap_or_default(),

@@ -73,6 +73,26 @@ impl RunSettings {
         }
     }
 
+    /// What determines the minimum a run's problem has from its start, as JSON for its
+    /// reference key: the energy with its parameters, the start's settings (`param`), the
+    /// handles' penalty weight (`deform`) and the smoothness term's weight (not how a solver
+    /// projects it). `None` for the authalic task, which has no reference.
+    pub fn problem_key_text(&self) -> Option<String> {
+        let weight = |s: &Option<(f64, solvers::smoothness::Projection)>| s.map(|(w, _)| w);
+        let v = match self {
+            RunSettings::Param { energy, settings } => serde_json::json!({
+                "task": "param", "energy": energy, "tutte_boundary": settings.tutte_boundary,
+                "scaling_jump": settings.scaling_jump, "smoothness": weight(&settings.smoothness),
+            }),
+            RunSettings::Deform { energy, settings } => serde_json::json!({
+                "task": "deform", "energy": energy, "lambda": settings.lambda,
+                "smoothness": weight(&settings.smoothness),
+            }),
+            RunSettings::Authalic(_) => return None,
+        };
+        Some(v.to_string())
+    }
+
     /// Everything that determines the run's result, as JSON for its `--resume` key: every
     /// setting (floats round-trip exactly; the shared analyses are not a setting and are
     /// skipped), the energy with its parameters, the stop rule.

@@ -33,8 +33,9 @@ pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
 /// Builds one table from the summary, `None` when it does not apply.
 type TableFn = fn(&[SummaryRow]) -> Option<Table>;
 
-/// The per-iteration rows of each run of a (dataset, energy) group, by run stem.
-type Group = Vec<(String, Vec<solvers::solver::IterationRecord>)>;
+/// The per-iteration rows of each run of a (dataset, energy) group, by run stem, with the
+/// reference minimum the run is judged by.
+type Group = Vec<(String, Vec<solvers::solver::IterationRecord>, Option<f64>)>;
 
 /// Every table that applies to these runs, with its file stem: the paper-shaped mean tables
 /// first, the corpus aggregates next to them, then the per-mesh and cost tables.
@@ -82,20 +83,20 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     for s in summary.iter().filter(|s| finished(s)) {
         let stem = run_stem(&s.dataset, &s.energy, &s.solver);
         let rows = read_run(run_dir, s)?.rows;
-        groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows));
+        groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows, s.ref_energy));
     }
     for runs in groups.values() {
         let best = runs
             .iter()
-            .flat_map(|(_, r)| r.iter().map(|x| x.energy))
+            .flat_map(|(_, r, _)| r.iter().map(|x| x.energy))
             .filter(|e| e.is_finite())
             .fold(f64::INFINITY, f64::min);
         if !best.is_finite() {
             continue;
         }
-        for (stem, rows) in runs {
+        for (stem, rows, e_star) in runs {
             let path = run_dir.join("runs").join(format!("{stem}.csv"));
-            let bytes = iteration_csv(rows, best)?;
+            let bytes = iteration_csv(rows, best, *e_star)?;
             if std::fs::read(&path).ok().as_deref() != Some(&bytes[..]) {
                 write_atomic(&path, &bytes)?;
             }

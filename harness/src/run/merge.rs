@@ -8,6 +8,7 @@
 
 use crate::calibration::Calibration;
 use crate::history::{Decision, HistoryChoice, Outcome};
+use crate::judge::reference::GroupReference;
 use crate::run_folder::keep::{self, Maps};
 use crate::run_folder::map::{self, legacy_obj_path, mesh_path, uv_path};
 use crate::run_folder::reuse::{self, Identity, Reuse};
@@ -113,14 +114,14 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
             metas[0]["config_path"].as_str().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
         history.apply(crate::history::resolve_path(config["history"].as_str().map(Path::new), config_dir))
     };
-    let rows: Vec<SummaryRow> = runs.iter().map(|r| r.row.clone()).collect();
     // The whole folder is made in the staging folder, history outcome and report included,
     // and only then put in place; on any error the staging folder goes, and a batch appended
     // for it is taken out of the history again.
     let staging = staging_dir(&out_dir)?;
     let mut appended = None;
+    let mut rows: Vec<SummaryRow> = Vec::new();
     let made = (|| {
-        let merged_from = stage(&staging, &runs, &metas, shards)?;
+        let merged_from = stage(&staging, &runs, &metas, shards, &mut rows)?;
         let decision = if let Some(first) = missing.first() {
             Decision::Skip(format!(
                 "{} planned runs are in no shard (first: {first}): the batch is incomplete",
@@ -180,10 +181,17 @@ fn staging_dir(out: &Path) -> Result<PathBuf> {
     sibling(out, "merging")
 }
 
-/// Write the merged folder into `staging`: each run's files, the summary in the plan's order,
-/// the maps `maps` keeps, and `meta.json` with every shard's provenance (`merged_from`, which
-/// is returned).
-fn stage(staging: &Path, runs: &[ShardRun], metas: &[Value], shards: &[PathBuf]) -> Result<Value> {
+/// Write the merged folder into `staging`: each run's files, the summary in the plan's order
+/// (its runs judged again as one batch: a run of one shard may lower the reference of a
+/// run of another; left in `rows`), the maps `maps` keeps, and `meta.json` with every
+/// shard's provenance (`merged_from`, which is returned).
+fn stage(
+    staging: &Path,
+    runs: &[ShardRun],
+    metas: &[Value],
+    shards: &[PathBuf],
+    rows: &mut Vec<SummaryRow>,
+) -> Result<Value> {
     let mut meshes_copied: std::collections::HashSet<&str> = Default::default();
     for r in runs {
         // The dataset's mesh copy is the same in every shard (the runs' keys hash the mesh).
@@ -198,12 +206,24 @@ fn stage(staging: &Path, runs: &[ShardRun], metas: &[Value], shards: &[PathBuf])
             }
         }
     }
-    let rows: Vec<SummaryRow> = runs.iter().map(|r| r.row.clone()).collect();
-    write_summary(&summary_csv(staging), &rows)?;
+    *rows = runs.iter().map(|r| r.row.clone()).collect();
+    let mut references: Vec<GroupReference> = Vec::new();
+    for m in metas {
+        for g in serde_json::from_value::<Vec<GroupReference>>(m["references"].clone()).unwrap_or_default() {
+            if !references.iter().any(|r| r.dataset == g.dataset && r.energy == g.energy) {
+                references.push(g);
+            }
+        }
+    }
+    let targets: Vec<f64> = serde_json::from_value(metas[0]["targets"].clone()).unwrap_or_default();
+    let grad_tol = |energy: &str| metas[0]["stop_per_energy"][energy]["grad_tol"].as_f64();
+    crate::judge::judge_batch(staging, rows, &references, &targets, grad_tol)?;
+    write_summary(&summary_csv(staging), rows)?;
     // Each shard kept its own best per group; the merged folder keeps the batch's.
-    keep::prune(staging, Maps::of_meta(&metas[0]), &rows);
+    keep::prune(staging, Maps::of_meta(&metas[0]), rows);
     let mut meta = metas[0].clone();
     meta["shard"] = Value::Null;
+    meta["references"] = serde_json::to_value(&references)?;
     meta["merged_from"] = Value::Array(
         shards
             .iter()

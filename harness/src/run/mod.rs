@@ -156,6 +156,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         threads,
         started: SystemTime::now(),
         history: previous.clone(),
+        references: Vec::new(),
     };
     // meta.json and summary.csv first: from then on the folder is a run folder, whenever
     // the batch is stopped.
@@ -165,6 +166,10 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     let mut summary = SummaryWriter::create(&summary_csv(out_dir))?;
     std::fs::create_dir_all(crate::run_folder::runs_dir(out_dir))
         .with_context(|| format!("{}: cannot create", out_dir.display()))?;
+    // The reference minima the runs are judged by, before any run (computing a missing one
+    // is a tight solve, timed by nobody).
+    let mut meta = meta;
+    meta.references = crate::judge::reference::prepare(plan, &mine, progress, &opts.interrupt)?;
     calibrate(&mut calibration, jobs, threads, progress);
     meta.write(out_dir, None, false, &calibration)?;
     let mut report =
@@ -371,6 +376,21 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     // measured here normalized by this batch's calibration (a resumed run keeps its own, or
     // none: it was timed in another batch, on a machine this calibration did not see).
     finished.sort_by_key(|(i, ..)| *i);
+    let mut judged: Vec<SummaryRow> = finished.iter().map(|(_, s, ..)| s.clone()).collect();
+    let stop_of = |energy: &str| plan.runs.iter().find(|p| p.energy == energy).map(|p| p.settings.stop().grad_tol);
+    crate::judge::judge_batch(out_dir, &mut judged, &meta.references, &plan.targets, stop_of)?;
+    if let Some(line) = verdict_line(&judged, &plan.targets) {
+        progress.notice(&line);
+    }
+    (report.ok, report.not_converged) = (0, 0);
+    for ((_, s, ..), j) in finished.iter_mut().zip(judged) {
+        match j.status {
+            Status::Ok => report.ok += 1,
+            Status::NotConverged => report.not_converged += 1,
+            Status::Failed | Status::Skipped => {}
+        }
+        *s = j;
+    }
     let mut rows: Vec<SummaryRow> = Vec::with_capacity(finished.len());
     for (i, mut s, resumed, wrote) in finished {
         if !resumed && s.time_norm.is_none() {
@@ -551,6 +571,18 @@ fn calibrate(calibration: &mut Calibration, jobs: usize, threads: usize, progres
     }
 }
 
+/// How the judged runs of a batch fared, by verdict, in one line (`None` without any).
+fn verdict_line(rows: &[SummaryRow], targets: &[f64]) -> Option<String> {
+    let tightest = targets.last()?;
+    let counts: Vec<String> = crate::judge::verdict::Verdict::ALL
+        .iter()
+        .map(|v| (v, rows.iter().filter(|r| r.verdict == Some(*v)).count()))
+        .filter(|(_, n)| *n > 0)
+        .map(|(v, n)| format!("{n} {v}"))
+        .collect();
+    (!counts.is_empty()).then(|| format!("judged at {tightest:e} against the reference minima: {}", counts.join(", ")))
+}
+
 /// The line a finished run prints.
 fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String {
     format!(
@@ -559,7 +591,12 @@ fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String 
         s.energy,
         s.solver,
         if resumed { "resumed, " } else { "" },
-        s.status,
+        // The harness judges param and deform runs once the batch is over: until then a run
+        // has only its own rule's word.
+        match (s.task, s.status) {
+            (crate::plan::Task::Authalic, st) | (_, st @ (Status::Failed | Status::Skipped)) => st.as_str(),
+            _ => "ran",
+        },
         match (&s.iterations, &s.final_energy, &s.time_s) {
             (Some(it), Some(e), Some(t)) => format!(" ({}), {it} iterations, E = {e:.8}, {t:.2} s", s.stop_column()),
             _ => format!(": {}", s.error),

@@ -133,6 +133,7 @@ pub(super) fn run_one(
     summary.init_energy = Some(outcome.init_energy);
     summary.final_energy = Some(outcome.final_energy);
     summary.grad_norm = Some(outcome.grad_norm);
+    summary.start = outcome.start;
     // The symbolic analysis is shared by the runs on a mesh, so which run computes it depends
     // on scheduling: time_s leaves it out for every run (including any wait for another run
     // computing it) and analysis_s reports its cost.

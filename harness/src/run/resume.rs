@@ -47,6 +47,13 @@ pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
     let (energy, solver) = (&run.energy, &run.solver);
     let mut h = Fnv::new();
     h.bytes(code.as_bytes()).bytes(settings.to_string().as_bytes()).bytes(energy.as_bytes()).bytes(solver.as_bytes());
+    hash_dataset(&mut h, ds)?;
+    Ok(format!("{:016x}", h.0))
+}
+
+/// Hash what a run takes from its dataset: the mesh (a file by content), the counts the
+/// registry expects, the handles (a file by content).
+pub(crate) fn hash_dataset(h: &mut Fnv, ds: &crate::plan::registry::Dataset) -> Result<()> {
     match &ds.source {
         MeshSource::Generated(g) => h.bytes(b"generated").bytes(g.as_bytes()),
         MeshSource::File(p) => h.bytes(b"file").file(p)?,
@@ -62,7 +69,7 @@ pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
             Err(_) => h.bytes(path.display().to_string().as_bytes()),
         },
     };
-    Ok(format!("{:016x}", h.0))
+    Ok(())
 }
 
 /// The finished run `stem` if its sidecar has `key` and all its files are intact: the CSV

@@ -22,6 +22,9 @@ pub struct Meta<'a> {
     /// What became of the folder's batch in the history, until this one's is known: a
     /// resumed folder's earlier outcome (its batch may be in the history), else nothing.
     pub history: Option<crate::history::Outcome>,
+    /// The reference minimum of each (dataset, energy) group of the batch (`merge` judges
+    /// the merged batch by them).
+    pub references: Vec<crate::judge::reference::GroupReference>,
 }
 
 impl Meta<'_> {
@@ -75,6 +78,9 @@ impl Meta<'_> {
             "ended_unix": ended.map(secs),
             "interrupted": interrupted,
             "repeat": self.plan.repeat,
+            // The convergence test's targets, loosest first, and each group's reference.
+            "targets": self.plan.targets,
+            "references": self.references,
             // The history database the batch is in (null: not, or not yet) and what became of
             // it, set once the batch is over (`history::Outcome::conclude`).
             "history": self.history.as_ref().map_or(serde_json::Value::Null, |o| o.meta_history()),

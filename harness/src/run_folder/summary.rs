@@ -2,10 +2,11 @@
 //! rewritten in the plan's order at the end.
 
 use super::{csv_error, read_csv_bytes, write_atomic, FolderError};
+use crate::judge::verdict::Verdict;
 use crate::plan::Task;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
-use solvers::solver::StopReason;
+use solvers::solver::{StartMap, StopReason};
 use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -14,8 +15,11 @@ use std::path::{Path, PathBuf};
 /// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers; then the
 /// repeat and calibration columns (`time_s` is the median over `repeats`), the count of
 /// iterations whose system needed more than the base Tikhonov shift, and of those whose
-/// system clamped SLIM weights; then the peak resident memory.
-pub const SUMMARY_COLUMNS: [&str; 33] = [
+/// system clamped SLIM weights; then the peak resident memory; then the harness's verdict:
+/// the start map, the reference minimum and where it came from, the final gap and the
+/// verdict. After them, for each target `tau` of the batch, `iters_to_<tau>` and
+/// `time_to_<tau>` ([`target_columns`]).
+pub const SUMMARY_COLUMNS: [&str; 38] = [
     "dataset",
     "task",
     "energy",
@@ -49,7 +53,47 @@ pub const SUMMARY_COLUMNS: [&str; 33] = [
     "shifted_iters",
     "clamped_iters",
     "peak_rss_mb",
+    "start",
+    "ref_energy",
+    "ref_source",
+    "final_gap",
+    "verdict",
 ];
+
+/// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
+pub fn target_columns(tau: f64) -> [String; 2] {
+    [format!("iters_to_{tau:e}"), format!("time_to_{tau:e}")]
+}
+
+/// Where a run's reference minimum came from (`ref_source`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RefSource {
+    /// The reference store's tight solve.
+    Reference,
+    /// A run of this batch ended lower (or no reference was available): the batch's best
+    /// final energy without flips.
+    Batch,
+}
+
+impl RefSource {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RefSource::Reference => "reference",
+            RefSource::Batch => "batch",
+        }
+    }
+}
+
+/// When a run passed the convergence test at one target.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ToTarget {
+    pub tau: f64,
+    /// The first iteration that passed (`None`: never).
+    pub iters: Option<usize>,
+    /// The run's time up to it: `time_s` less the iterations after it.
+    pub time_s: Option<f64>,
+}
 
 /// How a run ended: the `status` column. Ordered worst to best for the gate: a pair that
 /// stops being run (`skipped`) is worse than one that runs and fails.
@@ -182,12 +226,47 @@ pub struct SummaryRow {
     /// included. Empty where the OS does not report it, and for runs that did not run.
     #[serde(default)]
     pub peak_rss_mb: Option<f64>,
+    /// The map the run started from.
+    #[serde(default, with = "start_column")]
+    pub start: Option<StartMap>,
+    /// The reference minimum `E*` the run is judged by (`param`, `deform`).
+    #[serde(default)]
+    pub ref_energy: Option<f64>,
+    #[serde(default)]
+    pub ref_source: Option<RefSource>,
+    /// `(E_final - E*) / (E0 - E*)`.
+    #[serde(default)]
+    pub final_gap: Option<f64>,
+    /// The harness's verdict (`status` is `ok` exactly when it is `solved`).
+    #[serde(default)]
+    pub verdict: Option<Verdict>,
+    /// Iterations and time to each target, the loosest first.
+    #[serde(skip)]
+    pub to_targets: Vec<ToTarget>,
 }
 
 impl SummaryRow {
     /// The `stop_reason` column's text.
     pub fn stop_column(&self) -> &'static str {
         self.stop_reason.as_ref().map_or(stop_column::FAILED, StopReason::as_str)
+    }
+}
+
+/// The `start` column: the start map's name, empty when unknown.
+mod start_column {
+    use serde::{de::Error, Deserialize, Deserializer, Serializer};
+    use solvers::solver::StartMap;
+
+    pub fn serialize<S: Serializer>(v: &Option<StartMap>, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(v.map_or("", StartMap::as_str))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<StartMap>, D::Error> {
+        let text = String::deserialize(d)?;
+        if text.is_empty() {
+            return Ok(None);
+        }
+        text.parse().map(Some).map_err(D::Error::custom)
     }
 }
 
@@ -218,15 +297,62 @@ impl SummaryWriter {
     }
 }
 
-/// Write a whole `summary.csv` atomically (the batch's final, canonically ordered one).
+/// Write a whole `summary.csv` atomically (the batch's final, canonically ordered one), with
+/// the target columns of every target a row has.
 pub fn write_summary(path: &Path, rows: &[SummaryRow]) -> Result<()> {
+    let mut taus: Vec<f64> = Vec::new();
+    for t in rows.iter().flat_map(|r| &r.to_targets) {
+        if !taus.contains(&t.tau) {
+            taus.push(t.tau);
+        }
+    }
+    taus.sort_by(|a, b| b.total_cmp(a));
     // The header is written by hand so that an empty summary has one too.
+    let mut header: Vec<String> = SUMMARY_COLUMNS.iter().map(|c| c.to_string()).collect();
+    header.extend(taus.iter().flat_map(|&t| target_columns(t)));
     let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
-    w.write_record(SUMMARY_COLUMNS)?;
+    w.write_record(&header)?;
     for r in rows {
-        w.serialize(r)?;
+        let mut record = fixed_record(r)?;
+        for &tau in &taus {
+            let t = r.to_targets.iter().find(|t| t.tau == tau);
+            record.push_field(&t.and_then(|t| t.iters).map_or(String::new(), |i| i.to_string()));
+            record.push_field(&t.and_then(|t| t.time_s).map_or(String::new(), |s| s.to_string()));
+        }
+        w.write_record(&record)?;
     }
     write_atomic(path, &w.into_inner().context("flushing CSV")?)
+}
+
+/// The fixed columns of a row as one record (serde's CSV writer cannot add fields to it).
+fn fixed_record(row: &SummaryRow) -> Result<csv::StringRecord> {
+    let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
+    w.serialize(row)?;
+    let bytes = w.into_inner().context("flushing CSV")?;
+    let mut r = csv::ReaderBuilder::new().has_headers(false).from_reader(bytes.as_slice());
+    Ok(r.records().next().context("an empty record")??)
+}
+
+/// The `iters_to_<tau>` / `time_to_<tau>` cells of a record, by header name.
+fn read_targets(header: &csv::StringRecord, rec: &csv::StringRecord) -> Result<Vec<ToTarget>, String> {
+    let mut out: Vec<ToTarget> = Vec::new();
+    for (j, name) in header.iter().enumerate() {
+        let Some(tau) = name.strip_prefix("iters_to_") else { continue };
+        let bad = |j: usize, what: &str| format!("column {} `{}`: `{}` is not {what}", j + 1, &header[j], &rec[j]);
+        let tau_value: f64 = tau.parse().map_err(|_| format!("column {} `{name}`: not a target", j + 1))?;
+        let cell = rec.get(j).unwrap_or("");
+        let iters = if cell.is_empty() { None } else { Some(cell.parse().map_err(|_| bad(j, "a count"))?) };
+        let time_col = header.iter().position(|h| h == format!("time_to_{tau}"));
+        let time_s = match time_col.and_then(|k| rec.get(k).map(|c| (k, c))) {
+            None | Some((_, "")) => None,
+            Some((k, c)) => match c.parse::<f64>() {
+                Ok(t) if t.is_finite() && t >= 0.0 => Some(t),
+                _ => return Err(bad(k, "a time (finite, at least 0)")),
+            },
+        };
+        out.push(ToTarget { tau: tau_value, iters, time_s });
+    }
+    Ok(out)
 }
 
 /// Read a run folder's `summary.csv`; errors name the file, the line and the column.
@@ -257,6 +383,9 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>, FolderError> {
                 source,
             })?;
         }
+        let mut row = row;
+        row.to_targets =
+            read_targets(&header, &rec).map_err(|what| FolderError::Line { path: path.clone(), line, what })?;
         // Ratios and medians of times would be nonsense (`compare` showed a -35x "ratio").
         let times = [("time_s", row.time_s), ("time_s_min", row.time_s_min), ("time_s_max", row.time_s_max)];
         for (column, value) in times.into_iter().chain([("time_norm", row.time_norm)]) {

@@ -147,6 +147,33 @@ pub struct Config {
     /// Which final maps the run folder keeps: `all`, `best` (default: per dataset and energy
     /// the best run's) or `none`.
     pub maps: Option<Maps>,
+    /// The tolerances of the convergence test (`param`, `deform`): a run solves its problem
+    /// at `tau` once its energy is within `tau` of the way from its start to the reference
+    /// minimum; it is `ok` at the tightest. Default `[1e-3, 1e-6]`.
+    pub targets: Option<Vec<f64>>,
+    /// The reference store the batch adds the minima it computes to, relative to the
+    /// config's folder; default `references.json` beside the history database. The
+    /// committed `references.json` beside the registry is read first.
+    pub references: Option<PathBuf>,
+}
+
+/// The default targets of the convergence test.
+pub const DEFAULT_TARGETS: [f64; 2] = [1e-3, 1e-6];
+
+/// Targets are tolerances strictly between 0 and 1, given at most once each (at least one).
+pub fn check_targets(targets: &[f64]) -> Result<()> {
+    if targets.is_empty() {
+        bail!("targets = []: give at least one tolerance, e.g. [1e-3, 1e-6]");
+    }
+    for (i, t) in targets.iter().enumerate() {
+        if !(*t > 0.0 && *t < 1.0) {
+            bail!("targets: {t} is not a tolerance between 0 and 1 (exclusive)");
+        }
+        if targets[..i].contains(t) {
+            bail!("targets: {t} is given twice");
+        }
+    }
+    Ok(())
 }
 
 /// The most repeats a batch may ask for (a typo like 10000 would run the plan that often).
