@@ -61,6 +61,18 @@ enum Command {
         #[command(flatten)]
         history: HistoryArgs,
     },
+    /// Compute the reference minima a config's runs are judged by (param, deform) that no
+    /// store holds yet, and list them all; a nightly then starts warm.
+    References {
+        config: PathBuf,
+        #[arg(long)]
+        only: Vec<String>,
+        /// The store computed references are added to (default: the config's `references`,
+        /// else references.json beside its history database). `--store references.json` in
+        /// the repository's root refreshes the committed seed.
+        #[arg(long)]
+        store: Option<PathBuf>,
+    },
     /// Re-render the tables, plots and index.html of a run folder from its CSVs alone.
     Report { run_dir: PathBuf },
     /// Combine the folders of `run --shard I/N` batches into one run folder and report.
@@ -353,6 +365,37 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             } else {
                 ExitCode::SUCCESS
             })
+        }
+        Command::References { config, only, store } => {
+            let interrupt = Arc::new(AtomicBool::new(false));
+            let signal = signals::on_interrupt(interrupt.clone());
+            let mut plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
+            let Some(stores) = plan.references.as_mut() else {
+                anyhow::bail!("{}: an authalic config has no reference minima", config.display());
+            };
+            if let Some(p) = store {
+                stores.store = p;
+            }
+            let store = stores.store.clone();
+            for n in &plan.notices {
+                eprintln!("{n}");
+            }
+            let runs: Vec<&mapbench::plan::PlannedRun> = plan.runs.iter().collect();
+            let progress = progress::for_stderr();
+            let groups = mapbench::judge::reference::prepare(&plan, &runs, progress.as_ref(), &interrupt)?;
+            progress.finish();
+            println!("dataset\tenergy\te_star\torigin\tkey");
+            for g in &groups {
+                let e = g.e_star.map_or_else(|| "-".to_string(), |e| format!("{e:.15e}"));
+                println!("{}\t{}\t{e}\t{:?}\t{}", g.dataset, g.energy, g.origin, g.key.as_deref().unwrap_or("-"));
+            }
+            let missing = groups.iter().filter(|g| g.e_star.is_none()).count();
+            eprintln!("{} references in {} ({missing} not available)", groups.len(), store.display());
+            let signalled = signal.load(Ordering::SeqCst);
+            if signalled != 0 {
+                return Ok(ExitCode::from(128 + signalled.clamp(1, 127) as u8));
+            }
+            Ok(if missing > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
         }
         Command::ExportSystem { config, out, only, iteration } => {
             let cfg = LoadedConfig::load(&config)?;
