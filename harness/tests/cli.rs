@@ -204,7 +204,8 @@ path = "grid.obj"
     assert_eq!(rows.len(), 16);
     for r in &rows[..12] {
         assert_eq!(r[col("status")], "ok", "{r:?}");
-        assert_eq!(r[col("stop_reason")], "energy_decrease");
+        // the deform default, |grad| <= 1e-6, from the rest pose
+        assert_eq!((r[col("stop_reason")].as_str(), r[col("start")].as_str()), ("grad_tol", "rest"), "{r:?}");
         assert_eq!(r[col("flips")], "0");
     }
     for r in &rows[12..] {
@@ -275,7 +276,9 @@ fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
 #[test]
 #[ignore = "minutes: run with --ignored and MAPBENCH_MESHES"]
 fn deform_with_smoothness_converges_on_every_shared_shape_with_sd_and_nh() {
-    let extra = "[stop]\nmax_iters = 1500\n[energy.sd]\nsmoothness = 0.25\n\
+    // The paper's deform rule (Section 6.2): what is tested is that each run converges.
+    let extra =
+        "[stop]\nmax_iters = 1500\nenergy_decrease_tol = 1e-6\ngrad_tol = 1e-10\n[energy.sd]\nsmoothness = 0.25\n\
                  [energy.nh]\nmu = 0.2\nkappa = 0.8\nsmoothness = 0.25\n";
     let Some((header, rows)) = shared_deform_batch(extra) else { return };
     let stop = header.iter().position(|h| h == "stop_reason").unwrap();

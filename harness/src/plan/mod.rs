@@ -208,7 +208,7 @@ mod tests {
         )
         .unwrap();
         let RunSettings::Deform { settings, .. } = &d.runs[0].settings else { panic!() };
-        assert_eq!((settings.lambda, settings.solver.stop.energy_decrease_tol), (50.0, 1e-6));
+        assert_eq!((settings.lambda, settings.solver.stop.grad_tol), (50.0, 1e-6));
         let a = plan(
             "name = \"a\"\ntask = \"authalic\"\nsolvers = [\"sem\"]\n[[dataset]]\nname = \"m\"\npath = \"m.obj\"\n\
              [stop]\nmax_iters = 9\n",
