@@ -9,6 +9,7 @@ pub mod html;
 pub mod plots;
 pub mod tables;
 
+use crate::judge::verdict::Verdict;
 use crate::plan::Task;
 use crate::run_folder::read_run;
 use crate::run_folder::summary::ToTarget;
@@ -41,8 +42,8 @@ type TableFn = fn(&[SummaryRow]) -> Option<Table>;
 type Group = Vec<(String, Vec<solvers::solver::IterationRecord>, Option<f64>)>;
 
 /// Every table that applies to these runs (as [`at_target`] ranks them), with its file stem:
-/// the paper-shaped mean tables first, the corpus aggregates next to them, then the per-mesh
-/// and cost tables.
+/// the paper-shaped mean tables first, the harness's verdicts and the corpus aggregates next to
+/// them, then the per-mesh and cost tables.
 pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
     let means: [(&str, TableFn); 2] = [("param", tables::param_table), ("deform", tables::deform_table)];
     let rest: [(&str, TableFn); 5] = [
@@ -54,6 +55,7 @@ pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
     ];
     let build = |(stem, f): &(&str, TableFn)| f(summary).map(|t| (stem.to_string(), t));
     let mut out: Vec<(String, Table)> = means.iter().filter_map(build).collect();
+    out.extend(tables::verdict_table(summary).map(|t| (tables::VERDICTS.to_string(), t)));
     out.extend(tables::aggregates_table(summary, batch).map(|t| (tables::AGGREGATES.to_string(), t)));
     out.extend(rest.iter().filter_map(build));
     out
@@ -128,6 +130,18 @@ pub fn target_rule<'a>(rows: impl IntoIterator<Item = &'a SummaryRow>) -> String
          (reached {t} with no flipped triangle, the harness's verdict); a run that did not reach it counts as it \
          ran, to its own stop."
     )
+}
+
+/// A verdict in the report's words (`stopped above target`).
+pub fn verdict_text(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Solved => "solved",
+        Verdict::Flipped => "flipped",
+        Verdict::StoppedAboveTarget => "stopped above target",
+        Verdict::OtherMinimum => "other minimum",
+        Verdict::Unfinished => "unfinished",
+        Verdict::OwnRule => "own rule",
+    }
 }
 
 /// The label of a solver's runs that clamped weights.
@@ -214,7 +228,6 @@ pub(crate) fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::judge::verdict::Verdict;
     use crate::run_folder::SummaryRow;
 
     fn param(d: &str, e: &str, s: &str, clamped: Option<usize>) -> SummaryRow {
@@ -309,10 +322,13 @@ mod tests {
         {
             assert!(t.caption.contains("to the 1e-6 target (the harness's convergence test"), "{stem}: {}", t.caption);
         }
+        let verdicts = table(tables::VERDICTS);
+        assert_eq!(verdicts.rows[2][..5], ["sd", "slim", "1", "0", "0"]);
         // Without verdicts, the captions say nothing of targets.
         let old: Vec<SummaryRow> = rows.iter().map(|r| SummaryRow { to_targets: Vec::new(), ..r.clone() }).collect();
         let tables = super::tables(&labelled(&at_target(&old)), &Batch::default());
         assert!(tables.iter().all(|(_, t)| !t.caption.contains("target")));
+        assert!(!tables.iter().any(|(s, _)| s == tables::VERDICTS));
     }
 
     #[test]
