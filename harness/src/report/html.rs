@@ -10,7 +10,7 @@ use crate::report::batch::Batch;
 use crate::report::plots::{Plot, PlotKind};
 use crate::report::tables::ranking::Timed;
 use crate::report::tables::{Table, AGGREGATES};
-use crate::report::{clamped_label, unique};
+use crate::report::{clamped_label, tau_text, tightest_target, unique};
 use crate::run_folder::{run_stem, write_atomic, Status, SummaryRow};
 use anyhow::{Context, Result};
 use serde_json::Value;
@@ -73,7 +73,7 @@ pub fn write_index(
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
     status_matrix(&mut h, run_dir, summaries);
-    tables_section(&mut h, run_dir, tables, plots);
+    tables_section(&mut h, run_dir, tables, plots, summaries);
     plots_section(&mut h, run_dir, plots);
     files_section(&mut h, run_dir, summaries, tables)?;
     provenance_section(&mut h, meta.as_ref());
@@ -308,7 +308,13 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
 }
 
 /// Every table, and the performance profiles right after the corpus aggregates.
-fn tables_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)], plots: &[Plot]) {
+fn tables_section(
+    h: &mut String,
+    run_dir: &Path,
+    tables: &[(String, Table)],
+    plots: &[Plot],
+    summaries: &[SummaryRow],
+) {
     *h += "<h2 id=\"tables\">Tables</h2>\n";
     if tables.is_empty() {
         *h += "<p>No paper-style table applies to this run.</p>\n";
@@ -326,28 +332,56 @@ fn tables_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)], pl
             href(&format!("tables/{stem}.md")),
         );
         if stem == AGGREGATES {
-            profiles_section(h, &profiles);
+            profiles_section(h, &profiles, summaries);
         }
     }
     if !tables.iter().any(|(stem, _)| stem == AGGREGATES) {
-        profiles_section(h, &profiles);
+        profiles_section(h, &profiles, summaries);
     }
 }
 
-/// The performance profiles of each energy, iterations and time side by side.
-fn profiles_section(h: &mut String, profiles: &[&Plot]) {
+/// The profiles of each energy side by side: the Dolan–Moré performance profiles of
+/// iterations and time, and the Moré–Wild data profile.
+fn profiles_section(h: &mut String, profiles: &[&Plot], summaries: &[SummaryRow]) {
     if profiles.is_empty() {
         return;
     }
-    *h += "<h3 id=\"profiles\">Performance profiles</h3>\n<p class=\"caption\">Dolan–Moré performance profiles \
-           per energy: for each solver, the fraction of datasets it solves (converges on) within τ times the \
-           cost of the best solver on that dataset (the best of the solvers that solved it), τ on a log2 axis. \
-           At τ = 1: how often the solver is the best; at the right end: how often it solves at all. Failed and \
-           unconverged runs are never solved. Problem set: the datasets on which every solver of the plot has a \
-           run that was not skipped (a common set; a dataset where some solver was skipped is left out for \
-           all, and a solver skipped everywhere is not drawn); datasets no solver solved stay in the \
-           denominator. Costs: iterations (at least 1), and time_norm when every finished run has it, else \
-           time_s (the median over repeats).</p>\n<div class=\"grid\">\n";
+    let (costs, solved) = match tightest_target(summaries) {
+        Some(tau) => {
+            let t = tau_text(tau);
+            (
+                format!(
+                    "Costs: iterations and time to the {t} target (the harness's convergence test), iterations at \
+                     least 1; time in time_norm units when every finished run has it, else time_s (the median over \
+                     repeats)."
+                ),
+                format!("solved = reached the {t} target with no flipped triangle (status ok)"),
+            )
+        }
+        None => (
+            "Costs: iterations (at least 1), and time_norm when every finished run has it, else time_s (the \
+             median over repeats)."
+                .to_string(),
+            "solved = converged (status ok)".to_string(),
+        ),
+    };
+    let _ = write!(
+        h,
+        "<h3 id=\"profiles\">Performance and data profiles</h3>\n<p class=\"caption\">Dolan–Moré performance \
+         profiles per energy (iterations, time): for each solver, the fraction of datasets it solves within τ \
+         times the cost of the best solver on that dataset (the best of the solvers that solved it), τ on a log2 \
+         axis. At τ = 1: how often the solver is the best; at the right end: how often it solves at all. \
+         Moré–Wild data profiles (Moré and Wild 2009, “data profile”): d_s(α) = the fraction of datasets solver s \
+         solves within a budget α of time, α on a log10 axis in calibration units (time normalized by the batch's \
+         calibration, like time_norm) when the batch is calibrated, else in seconds; unlike the performance \
+         profile it does not compare with the best solver, so adding a solver does not move the others' \
+         curves. {solved}; failed and unsolved runs never count. Problem set: the datasets on which every solver \
+         of the plot has a run that was not skipped (a common set; a dataset where some solver was skipped is \
+         left out for all, and a solver skipped everywhere is not drawn); datasets no solver solved stay in the \
+         denominator. {costs}</p>\n<div class=\"grid\">\n",
+        solved = esc(&solved),
+        costs = esc(&costs),
+    );
     for p in profiles {
         let _ = writeln!(
             h,
@@ -601,7 +635,7 @@ mod tests {
             assert!(png_size(&p.join("plots").join(&name)).0 > 0);
             shown += 1;
         }
-        assert_eq!(shown, 11);
+        assert_eq!(shown, 12);
         // Every run CSV is linked (the failed run's too), and every map OBJ.
         for stem in ["tiny__sd__kp-newton", "tiny__sd__slim", "tiny__sd__cm", "disk__authalic__aem-cg"] {
             assert!(html.contains(&format!("href=\"runs/{stem}.csv\"")), "{stem}");
