@@ -1,8 +1,9 @@
 //! Aggregates over the corpus of one energy (issue 18, "Aggregates across the corpus"), as
 //! pure functions of the summary rows: solved counts, shifted geometric means with unsolved
-//! runs at the cap (the Mittelmann convention), and Dolan–Moré performance profiles. The
-//! aggregates table (`tables/aggregates.rs`) and the profile plots (`plots/profiles.rs`)
-//! only format and draw what these return.
+//! runs at the cap (the Mittelmann convention), Dolan–Moré performance profiles and Moré–Wild
+//! data profiles. The aggregates table (`tables/aggregates.rs`) and the profile plots
+//! (`plots/profiles.rs`) only format and draw what these return. The report passes judged
+//! runs as [`crate::report::to_target`] ranks them: iterations and time to the tightest target.
 //!
 //! The rules, stated once (the captions and the README repeat them):
 //! - Skipped pairs are left out entirely; `runs` counts the others, `solved` the converged.
@@ -17,7 +18,8 @@
 //! - Profiles: the problems are the datasets on which every profiled solver has a run that
 //!   was not skipped (a common problem set, as Dolan and Moré require); datasets where some
 //!   solver was skipped or has no run are left out and counted. Unsolved runs never count as
-//!   solved; a dataset nobody solved stays in the denominator.
+//!   solved; a dataset nobody solved stays in the denominator. Data profiles use the same
+//!   problem set.
 
 use super::batch::Batch;
 use super::tables::ranking::Timed;
@@ -309,27 +311,50 @@ impl Profiles {
     }
 }
 
+/// The common problem set of `runs` (one energy): the solvers with a run that was not
+/// skipped, the datasets on which each of them has one (the problems) and the others (left
+/// out), in first-appearance order.
+fn problem_set<'a>(runs: &[&'a SummaryRow]) -> (Vec<&'a str>, Vec<&'a str>, Vec<&'a str>) {
+    let solvers = unique(runs.iter().filter(|r| !skipped(r)).map(|r| r.solver.as_str()));
+    let datasets = unique(runs.iter().filter(|r| !skipped(r)).map(|r| r.dataset.as_str()));
+    let (problems, left_out): (Vec<&str>, Vec<&str>) =
+        datasets.into_iter().partition(|d| solvers.iter().all(|s| run_of(runs, d, s).is_some()));
+    (solvers, problems, left_out)
+}
+
+/// The run of solver `s` on dataset `d` that was not skipped.
+fn run_of<'a>(runs: &[&'a SummaryRow], d: &str, s: &str) -> Option<&'a SummaryRow> {
+    runs.iter().copied().find(|r| r.dataset == d && r.solver == s && !skipped(r))
+}
+
+/// The cost of solver `s` on problem `d` when it solved it (status ok, finite cost), floored
+/// at `floor`.
+fn solved_cost(
+    runs: &[&SummaryRow],
+    d: &str,
+    s: &str,
+    cost: &impl Fn(&SummaryRow) -> Option<f64>,
+    floor: f64,
+) -> Option<f64> {
+    run_of(runs, d, s).filter(|r| r.status == Status::Ok).and_then(cost).filter(|c| c.is_finite()).map(|c| c.max(floor))
+}
+
 /// Dolan–Moré performance profiles of `runs` (one energy) for `cost` (iterations, time):
 /// r(p, s) = c(p, s) / min over the solvers that solved p of c(p, ·); a run solves its
 /// problem when its status is ok and its cost is finite; costs are floored at `floor`.
 pub fn performance_profiles(runs: &[&SummaryRow], cost: impl Fn(&SummaryRow) -> Option<f64>, floor: f64) -> Profiles {
-    let solvers = unique(runs.iter().filter(|r| !skipped(r)).map(|r| r.solver.as_str()));
-    let datasets = unique(runs.iter().filter(|r| !skipped(r)).map(|r| r.dataset.as_str()));
-    let run = |d: &str, s: &str| runs.iter().copied().find(|r| r.dataset == d && r.solver == s && !skipped(r));
-    let (problems, left_out): (Vec<&str>, Vec<&str>) =
-        datasets.into_iter().partition(|d| solvers.iter().all(|s| run(d, s).is_some()));
-    let solved_cost = |d: &str, s: &str| {
-        run(d, s).filter(|r| r.status == Status::Ok).and_then(&cost).filter(|c| c.is_finite()).map(|c| c.max(floor))
-    };
-    let best: Vec<Option<f64>> =
-        problems.iter().map(|d| solvers.iter().filter_map(|s| solved_cost(d, s)).reduce(f64::min)).collect();
+    let (solvers, problems, left_out) = problem_set(runs);
+    let best: Vec<Option<f64>> = problems
+        .iter()
+        .map(|d| solvers.iter().filter_map(|s| solved_cost(runs, d, s, &cost, floor)).reduce(f64::min))
+        .collect();
     let profiles = solvers
         .iter()
         .map(|s| {
             let mut ratios: Vec<f64> = problems
                 .iter()
                 .zip(&best)
-                .map(|(d, b)| match (solved_cost(d, s), b) {
+                .map(|(d, b)| match (solved_cost(runs, d, s, &cost, floor), b) {
                     (Some(c), Some(b)) => c / b,
                     _ => f64::INFINITY,
                 })
@@ -339,6 +364,82 @@ pub fn performance_profiles(runs: &[&SummaryRow], cost: impl Fn(&SummaryRow) -> 
         })
         .collect();
     Profiles {
+        problems: problems.into_iter().map(String::from).collect(),
+        left_out: left_out.into_iter().map(String::from).collect(),
+        profiles,
+    }
+}
+
+/// One solver's data profile (Moré and Wild 2009): what it cost to solve each problem.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DataProfile {
+    pub solver: String,
+    /// One per problem, ascending; `f64::INFINITY` where the solver did not solve it.
+    pub costs: Vec<f64>,
+}
+
+impl DataProfile {
+    /// d_s(α): the fraction of the problems solved within the budget `alpha`.
+    pub fn fraction_within(&self, alpha: f64) -> f64 {
+        if self.costs.is_empty() {
+            return 0.0;
+        }
+        self.costs.iter().filter(|c| **c <= alpha).count() as f64 / self.costs.len() as f64
+    }
+
+    /// The step function as a polyline in (log10 α, d) from `lo` to `hi`: 0 until the first
+    /// solve, a vertical step at every cost, flat after the last one.
+    pub fn steps(&self, lo: f64, hi: f64) -> Vec<(f64, f64)> {
+        let mut pts = vec![(lo.log10(), self.fraction_within(lo))];
+        let mut finite: Vec<f64> =
+            self.costs.iter().copied().filter(|c| c.is_finite() && *c > lo && *c <= hi).collect();
+        finite.dedup();
+        for c in finite {
+            let below = pts.last().map_or(0.0, |p| p.1);
+            pts.push((c.log10(), below));
+            pts.push((c.log10(), self.fraction_within(c)));
+        }
+        let last = pts.last().map_or(0.0, |p| p.1);
+        pts.push((hi.log10(), last));
+        pts
+    }
+}
+
+/// The data profiles of one energy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DataProfiles {
+    /// The common problem set, as for [`performance_profiles`].
+    pub problems: Vec<String>,
+    pub left_out: Vec<String>,
+    pub profiles: Vec<DataProfile>,
+}
+
+impl DataProfiles {
+    /// The budget axis: from a little below the cheapest solve to a little above the dearest
+    /// (a decade around one cost when there is one, `None` when nothing was solved).
+    pub fn budget_range(&self) -> Option<(f64, f64)> {
+        let costs = || self.profiles.iter().flat_map(|p| &p.costs).copied().filter(|c| c.is_finite());
+        let lo = costs().reduce(f64::min)?;
+        let hi = costs().reduce(f64::max)?;
+        Some((lo / 2.0, (hi * 2.0).max(lo * 10.0)))
+    }
+}
+
+/// Moré–Wild data profiles of `runs` (one energy): for each solver, the costs (`cost`,
+/// floored at `floor`) of the problems it solved (status ok) on the common problem set, so
+/// that d_s(α) = |{p : c(p, s) ≤ α}| / |P|.
+pub fn data_profiles(runs: &[&SummaryRow], cost: impl Fn(&SummaryRow) -> Option<f64>, floor: f64) -> DataProfiles {
+    let (solvers, problems, left_out) = problem_set(runs);
+    let profiles = solvers
+        .iter()
+        .map(|s| {
+            let mut costs: Vec<f64> =
+                problems.iter().map(|d| solved_cost(runs, d, s, &cost, floor).unwrap_or(f64::INFINITY)).collect();
+            costs.sort_by(f64::total_cmp);
+            DataProfile { solver: s.to_string(), costs }
+        })
+        .collect();
+    DataProfiles {
         problems: problems.into_iter().map(String::from).collect(),
         left_out: left_out.into_iter().map(String::from).collect(),
         profiles,
@@ -406,6 +507,60 @@ mod tests {
         assert_eq!(p.profiles[0].ratios[..2], [1.0, 1.0]);
         assert_eq!(p.profiles[1].ratios, [1.0, 3.0, 4.0]);
         assert!(close(p.profiles[1].fraction_within(3.5), 2.0 / 3.0));
+    }
+
+    #[test]
+    fn data_profiles_count_the_problems_solved_within_each_budget() {
+        let rows = [
+            run("d1", "a", Status::Ok, 10, 1.0),
+            run("d1", "b", Status::Ok, 10, 4.0),
+            // b's unsolved run is fast and never counts.
+            run("d2", "a", Status::Ok, 10, 2.0),
+            run("d2", "b", Status::NotConverged, 10, 0.5),
+            run("d3", "a", Status::Failed, 0, 0.001),
+            run("d3", "b", Status::Ok, 10, 3.0),
+            // b skipped on d4: not a common problem.
+            run("d4", "a", Status::Ok, 10, 0.1),
+            run("d4", "b", Status::Skipped, 0, 0.0),
+        ];
+        let refs: Vec<&SummaryRow> = rows.iter().collect();
+        let p = data_profiles(&refs, |r| r.time_s, PROFILE_MIN_TIME);
+        assert_eq!(
+            (p.problems.clone(), p.left_out.clone()),
+            (vec!["d1".into(), "d2".into(), "d3".into()], vec!["d4".into()])
+        );
+        let (a, b) = (&p.profiles[0], &p.profiles[1]);
+        assert_eq!(a.costs, [1.0, 2.0, f64::INFINITY]);
+        assert_eq!(b.costs, [3.0, 4.0, f64::INFINITY]);
+        for (alpha, da, db) in [
+            (0.5, 0.0, 0.0),
+            (1.0, 1.0 / 3.0, 0.0),
+            (2.0, 2.0 / 3.0, 0.0),
+            (3.0, 2.0 / 3.0, 1.0 / 3.0),
+            (4.0, 2.0 / 3.0, 2.0 / 3.0),
+            (1e9, 2.0 / 3.0, 2.0 / 3.0),
+        ] {
+            assert!(close(a.fraction_within(alpha), da), "a at {alpha}");
+            assert!(close(b.fraction_within(alpha), db), "b at {alpha}");
+        }
+        // Half the cheapest solve to twice the dearest, at least a decade.
+        assert_eq!(p.budget_range(), Some((0.5, 10.0)));
+        let steps = a.steps(0.5, 10.0);
+        let want = [
+            (0.5f64.log10(), 0.0),
+            (0.0, 0.0),
+            (0.0, 1.0 / 3.0),
+            (2f64.log10(), 1.0 / 3.0),
+            (2f64.log10(), 2.0 / 3.0),
+            (1.0, 2.0 / 3.0),
+        ];
+        assert_eq!(steps.len(), want.len(), "{steps:?}");
+        for (s, w) in steps.iter().zip(want) {
+            assert!(close(s.0, w.0) && close(s.1, w.1), "{steps:?}");
+        }
+        // Nothing solved: no axis.
+        let none = data_profiles(&refs[4..5], |r| r.time_s, PROFILE_MIN_TIME);
+        assert_eq!(none.budget_range(), None);
     }
 
     #[test]

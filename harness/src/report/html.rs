@@ -6,11 +6,13 @@
 //! wide tables scroll sideways in their own box.
 
 use crate::calibration::SPREAD_WARNING;
+use crate::judge::verdict::Verdict;
 use crate::report::batch::Batch;
 use crate::report::plots::{Plot, PlotKind};
 use crate::report::tables::ranking::Timed;
 use crate::report::tables::{Table, AGGREGATES};
-use crate::report::{clamped_label, unique};
+use crate::report::{clamped_label, reached_target, tau_text, tightest_target, to_target, unique, verdict_text};
+use crate::run_folder::summary::RefSource;
 use crate::run_folder::{run_stem, write_atomic, Status, SummaryRow};
 use anyhow::{Context, Result};
 use serde_json::Value;
@@ -73,7 +75,7 @@ pub fn write_index(
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
     status_matrix(&mut h, run_dir, summaries);
-    tables_section(&mut h, run_dir, tables, plots);
+    tables_section(&mut h, run_dir, tables, plots, summaries);
     plots_section(&mut h, run_dir, plots);
     files_section(&mut h, run_dir, summaries, tables)?;
     provenance_section(&mut h, meta.as_ref());
@@ -230,8 +232,27 @@ fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
            run, the solver is not defined for the energy (the reason shown; left out of every aggregate and \
            ranking). “k shifted”: k iterations solved their Newton system with a Tikhonov shift above the \
            base (regularized Newton); “k clamped”: k iterations clamped SLIM weights (the solver run \
-           outside the energies it is defined for; tables and profiles name it “slim (clamped)”).</p>\n\
-           <div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
+           outside the energies it is defined for; tables and profiles name it “slim (clamped)”).";
+    if let Some(tau) = tightest_target(summaries) {
+        let t = tau_text(tau);
+        let _ = write!(
+            h,
+            " The harness judges param and deform runs against the reference minimum E* of their dataset and \
+             energy, whatever the solver's own stop rule said: <span class=\"ok\">ok</span> = solved, the run \
+             reached the {t} target (E0 − E ≥ (1 − {t})(E0 − E*)) with no flipped triangle, and its cell shows \
+             the iterations and time <i>to the target</i> (“to {t}”; the tooltip gives its own stop). A yellow \
+             cell names the harness's verdict and the final gap (E_final − E*)/(E0 − E*), with the iterations \
+             and time to the target when the run reached it, else to its own stop: <b>stopped above target</b> = its own rule called it converged above the \
+             target; <b>other minimum</b> = it stopped with a small gradient farther than the loosest target \
+             from E* (another local minimum or a saddle, not short of this one); <b>unfinished</b> = it stopped \
+             for another reason above the target (iteration cap, time limit, failed line search or linear \
+             solve; the tooltip names it); <b>flipped</b> = it reached the target but its final map flips \
+             triangles. Authalic runs keep their solvers' own rules."
+        );
+    }
+    *h += "</p>\n";
+    reference_note(h, summaries);
+    *h += "<div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
     if several_energies {
         *h += "<th class=\"k\">energy</th>";
     }
@@ -260,19 +281,57 @@ fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
     *h += "</table></div>\n";
 }
 
+/// The line naming the (dataset, energy) groups whose reference minimum E* a run of this batch
+/// set (`ref_source = batch`): every run of such a group is judged against it.
+fn reference_note(h: &mut String, summaries: &[SummaryRow]) {
+    let mut groups: Vec<String> = Vec::new();
+    for s in summaries.iter().filter(|s| s.ref_source == Some(RefSource::Batch)) {
+        let g = format!("{} / {}", s.dataset, s.energy);
+        if !groups.contains(&g) {
+            groups.push(g);
+        }
+    }
+    if groups.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        h,
+        "<p class=\"caption\" id=\"references\">E* from this batch (ref_source = batch) for {} group{}: {}. A run \
+         of the batch ended below the stored reference minimum (or none was stored), so its final energy without \
+         flips is E* for every run of the group.</p>",
+        groups.len(),
+        if groups.len() == 1 { "" } else { "s" },
+        esc(&groups.join(", "))
+    );
+}
+
 fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
     let Some(s) = run else {
         *h += "<td class=\"none\">–</td>";
         return;
     };
-    let time = Timed::time_s(s);
-    let mut detail = match (s.iterations, &time) {
-        (Some(i), Some(t)) => format!("{i} it, {}", timed_seconds(t)),
-        (Some(i), None) => format!("{i} it"),
+    // A judged run that reached its tightest target shows the iterations and time to it.
+    let target = reached_target(s);
+    let shown = to_target(s);
+    let time = Timed::time_s(&shown);
+    let to = target.map(|t| format!(" to {}", tau_text(t.tau))).unwrap_or_default();
+    let mut detail = match (shown.iterations, &time) {
+        (Some(i), Some(t)) => format!("{i} it, {}{to}", timed_seconds(t)),
+        (Some(i), None) => format!("{i} it{to}"),
         _ => String::new(),
     };
-    // What the tooltip adds: the repeats behind the time and the regularization.
+    // What the tooltip adds: the run's own stop when the cell shows the target, the repeats
+    // behind the time and the regularization.
     let mut more = String::new();
+    if let (Some(t), Some(i)) = (target, shown.iterations) {
+        let own = match (s.iterations, s.time_s) {
+            (Some(i), Some(t)) => format!("{i} it, {}", seconds(t)),
+            (Some(i), None) => format!("{i} it"),
+            _ => "unknown".to_string(),
+        };
+        let at = time.map(|t| format!(" ({})", seconds(t.value))).unwrap_or_default();
+        let _ = write!(more, "; reached the {} target at iteration {i}{at}; its own stop: {own}", tau_text(t.tau));
+    }
     if let Some(t) = time.filter(|t| !t.single_sample()) {
         let _ = write!(more, "; time = median of {} repeats, min–max {}–{}", t.samples, seconds(t.lo), seconds(t.hi));
     } else if time.is_some() {
@@ -290,13 +349,32 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
         let _ =
             write!(more, "; {k} iterations clamped SLIM weights (tables name the run {})", clamped_label(&s.solver));
     }
-    let (class, head, tip, small) = match s.status {
-        Status::Ok => ("ok", "ok".to_string(), format!("converged ({}){more}", s.stop_column()), detail),
-        Status::NotConverged => {
+    // The harness's verdict on a judged run it did not call solved.
+    let verdict = s.verdict.filter(|v| !matches!(v, Verdict::Solved | Verdict::OwnRule));
+    let (class, head, tip, small) = match (s.status, verdict) {
+        (Status::Ok, _) if s.verdict == Some(Verdict::Solved) => {
+            ("ok", "ok".to_string(), format!("solved (own stop: {}){more}", s.stop_column()), detail)
+        }
+        (Status::Ok, _) => ("ok", "ok".to_string(), format!("converged ({}){more}", s.stop_column()), detail),
+        (Status::NotConverged, Some(v)) => {
+            let gap = s.final_gap.map(|g| format!("gap {g:.1e}; ")).unwrap_or_default();
+            let flips = match (v, s.flips) {
+                (Verdict::Flipped, Some(f)) => format!("; {f} flipped triangles"),
+                _ => String::new(),
+            };
+            let tip = format!(
+                "not solved: {}{flips}; final gap {}; own stop: {}{more}",
+                verdict_text(v),
+                s.final_gap.map_or("unknown".to_string(), |g| format!("{g:.3e}")),
+                s.stop_column()
+            );
+            ("nc", verdict_text(v).to_string(), tip, format!("{gap}{detail}"))
+        }
+        (Status::NotConverged, None) => {
             ("nc", s.stop_column().to_string(), format!("not converged: {}{more}", s.stop_column()), detail)
         }
-        Status::Failed => ("failed", "failed".to_string(), "failed".to_string(), s.error.clone()),
-        Status::Skipped => ("skipped", "skipped".to_string(), format!("skipped: {}", s.error), s.error.clone()),
+        (Status::Failed, _) => ("failed", "failed".to_string(), "failed".to_string(), s.error.clone()),
+        (Status::Skipped, _) => ("skipped", "skipped".to_string(), format!("skipped: {}", s.error), s.error.clone()),
     };
     let body = format!("<b>{}</b><br><small>{}</small>", esc(&head), esc(&small));
     let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));
@@ -308,7 +386,13 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
 }
 
 /// Every table, and the performance profiles right after the corpus aggregates.
-fn tables_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)], plots: &[Plot]) {
+fn tables_section(
+    h: &mut String,
+    run_dir: &Path,
+    tables: &[(String, Table)],
+    plots: &[Plot],
+    summaries: &[SummaryRow],
+) {
     *h += "<h2 id=\"tables\">Tables</h2>\n";
     if tables.is_empty() {
         *h += "<p>No paper-style table applies to this run.</p>\n";
@@ -326,28 +410,56 @@ fn tables_section(h: &mut String, run_dir: &Path, tables: &[(String, Table)], pl
             href(&format!("tables/{stem}.md")),
         );
         if stem == AGGREGATES {
-            profiles_section(h, &profiles);
+            profiles_section(h, &profiles, summaries);
         }
     }
     if !tables.iter().any(|(stem, _)| stem == AGGREGATES) {
-        profiles_section(h, &profiles);
+        profiles_section(h, &profiles, summaries);
     }
 }
 
-/// The performance profiles of each energy, iterations and time side by side.
-fn profiles_section(h: &mut String, profiles: &[&Plot]) {
+/// The profiles of each energy side by side: the Dolan–Moré performance profiles of
+/// iterations and time, and the Moré–Wild data profile.
+fn profiles_section(h: &mut String, profiles: &[&Plot], summaries: &[SummaryRow]) {
     if profiles.is_empty() {
         return;
     }
-    *h += "<h3 id=\"profiles\">Performance profiles</h3>\n<p class=\"caption\">Dolan–Moré performance profiles \
-           per energy: for each solver, the fraction of datasets it solves (converges on) within τ times the \
-           cost of the best solver on that dataset (the best of the solvers that solved it), τ on a log2 axis. \
-           At τ = 1: how often the solver is the best; at the right end: how often it solves at all. Failed and \
-           unconverged runs are never solved. Problem set: the datasets on which every solver of the plot has a \
-           run that was not skipped (a common set; a dataset where some solver was skipped is left out for \
-           all, and a solver skipped everywhere is not drawn); datasets no solver solved stay in the \
-           denominator. Costs: iterations (at least 1), and time_norm when every finished run has it, else \
-           time_s (the median over repeats).</p>\n<div class=\"grid\">\n";
+    let (costs, solved) = match tightest_target(summaries) {
+        Some(tau) => {
+            let t = tau_text(tau);
+            (
+                format!(
+                    "Costs: iterations and time to the {t} target (the harness's convergence test), iterations at \
+                     least 1; time in time_norm units when every finished run has it, else time_s (the median over \
+                     repeats)."
+                ),
+                format!("solved = reached the {t} target with no flipped triangle (status ok)"),
+            )
+        }
+        None => (
+            "Costs: iterations (at least 1), and time_norm when every finished run has it, else time_s (the \
+             median over repeats)."
+                .to_string(),
+            "solved = converged (status ok)".to_string(),
+        ),
+    };
+    let _ = write!(
+        h,
+        "<h3 id=\"profiles\">Performance and data profiles</h3>\n<p class=\"caption\">Dolan–Moré performance \
+         profiles per energy (iterations, time): for each solver, the fraction of datasets it solves within τ \
+         times the cost of the best solver on that dataset (the best of the solvers that solved it), τ on a log2 \
+         axis. At τ = 1: how often the solver is the best; at the right end: how often it solves at all. \
+         Moré–Wild data profiles (Moré and Wild 2009, “data profile”): d_s(α) = the fraction of datasets solver s \
+         solves within a budget α of time, α on a log10 axis in calibration units (time normalized by the batch's \
+         calibration, like time_norm) when the batch is calibrated, else in seconds; unlike the performance \
+         profile it does not compare with the best solver, so adding a solver does not move the others' \
+         curves. {solved}; failed and unsolved runs never count. Problem set: the datasets on which every solver \
+         of the plot has a run that was not skipped (a common set; a dataset where some solver was skipped is \
+         left out for all, and a solver skipped everywhere is not drawn); datasets no solver solved stay in the \
+         denominator. {costs}</p>\n<div class=\"grid\">\n",
+        solved = esc(&solved),
+        costs = esc(&costs),
+    );
     for p in profiles {
         let _ = writeln!(
             h,
@@ -601,7 +713,7 @@ mod tests {
             assert!(png_size(&p.join("plots").join(&name)).0 > 0);
             shown += 1;
         }
-        assert_eq!(shown, 11);
+        assert_eq!(shown, 12);
         // Every run CSV is linked (the failed run's too), and every map OBJ.
         for stem in ["tiny__sd__kp-newton", "tiny__sd__slim", "tiny__sd__cm", "disk__authalic__aem-cg"] {
             assert!(html.contains(&format!("href=\"runs/{stem}.csv\"")), "{stem}");
@@ -671,6 +783,60 @@ mod tests {
         assert!(html.contains("Each run was timed once (repeat = 1)"));
         assert!(html.contains("No machine calibration in meta.json"));
         assert!(html.contains("time = a single sample"));
+    }
+
+    #[test]
+    fn status_cells_show_the_target_the_verdict_and_the_gap() {
+        use crate::run_folder::summary::ToTarget;
+        let (dir, mut rows) = tiny_run();
+        let p = dir.path();
+        let to = |iters: Option<usize>, time_s: Option<f64>| {
+            vec![ToTarget { tau: 1e-3, iters: Some(1), time_s: Some(0.1) }, ToTarget { tau: 1e-6, iters, time_s }]
+        };
+        // kp-newton solved 1e-6 at iteration 2 (0.2 s) and stopped at 3 (0.25 s); slim's own
+        // rule stopped it above the target, whose E* it lowered.
+        (rows[0].verdict, rows[0].to_targets, rows[0].final_gap) =
+            (Some(Verdict::Solved), to(Some(2), Some(0.2)), Some(0.0));
+        (rows[1].verdict, rows[1].to_targets, rows[1].final_gap) =
+            (Some(Verdict::StoppedAboveTarget), to(None, None), Some(3.2e-4));
+        for r in &mut rows[..2] {
+            (r.ref_energy, r.ref_source) = (Some(4.0), Some(RefSource::Batch));
+        }
+        let plots = crate::report::plots::render_all(p, &rows).unwrap();
+        let tables = crate::report::tables(&crate::report::at_target(&rows), &Batch::default());
+        write_index(p, &rows, &tables, &plots, &Batch::default()).unwrap();
+        let html = std::fs::read_to_string(p.join("index.html")).unwrap();
+        assert!(html.contains("<b>ok</b><br><small>2 it, 0.200 s to 1e-6</small>"), "the solved cell");
+        assert!(html.contains("solved (own stop: grad_tol); reached the 1e-6 target at iteration 2 (0.200 s); its own stop: 3 it, 0.250 s"));
+        assert!(
+            html.contains("<b>stopped above target</b><br><small>gap 3.2e-4; 3 it, 0.250 s</small>"),
+            "the verdict cell"
+        );
+        assert!(html.contains("not solved: stopped above target; final gap 3.200e-4; own stop: max_iters"));
+        // The legend explains the verdicts; the batch's references are named.
+        for words in
+            ["<b>other minimum</b> = ", "<b>unfinished</b> = ", "<b>flipped</b> = ", "to the target</i> (“to 1e-6”"]
+        {
+            assert!(html.contains(words), "{words}");
+        }
+        assert!(html.contains("E* from this batch (ref_source = batch) for 1 group: tiny / sd."));
+        // The data profile sits with the performance profiles, explained.
+        assert!(html.contains("<img src=\"plots/profile__sd__data.png\""));
+        assert!(html.contains("Moré–Wild data profiles (Moré and Wild 2009, “data profile”): d_s(α)"));
+        assert!(html.contains("Costs: iterations and time to the 1e-6 target"));
+        assert!(html.contains("id=\"table-verdicts\""), "the verdicts table");
+        // Another verdict and a flipped run that reached the target.
+        rows[1].verdict = Some(Verdict::OtherMinimum);
+        (rows[0].verdict, rows[0].status, rows[0].flips) = (Some(Verdict::Flipped), Status::NotConverged, Some(4));
+        for r in &mut rows[..2] {
+            r.ref_source = Some(RefSource::Reference);
+        }
+        write_index(p, &rows, &[], &[], &Batch::default()).unwrap();
+        let html = std::fs::read_to_string(p.join("index.html")).unwrap();
+        assert!(html.contains("<b>other minimum</b><br><small>gap 3.2e-4; 3 it, 0.250 s</small>"));
+        assert!(html.contains("<b>flipped</b><br><small>gap 0.0e0; 2 it, 0.200 s to 1e-6</small>"));
+        assert!(html.contains("not solved: flipped; 4 flipped triangles"));
+        assert!(!html.contains("E* from this batch"), "stored references: no line");
     }
 
     #[test]

@@ -9,8 +9,10 @@ pub mod html;
 pub mod plots;
 pub mod tables;
 
+use crate::judge::verdict::Verdict;
 use crate::plan::Task;
 use crate::run_folder::read_run;
+use crate::run_folder::summary::ToTarget;
 use crate::run_folder::{iteration_csv, run_stem, write_atomic, Status, SummaryRow};
 use anyhow::Result;
 use batch::Batch;
@@ -22,7 +24,9 @@ use tables::Table;
 pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     fill_best(run_dir, summary)?;
     let batch = Batch::read(run_dir);
-    let tables = tables(&labelled(summary), &batch);
+    // Tables rank what the harness judged (the plots make the same view for their rankings; the
+    // status matrix shows both the run's own stop and its target).
+    let tables = tables(&labelled(&at_target(summary)), &batch);
     for (stem, table) in &tables {
         table.write(&run_dir.join("tables"), stem)?;
     }
@@ -37,8 +41,9 @@ type TableFn = fn(&[SummaryRow]) -> Option<Table>;
 /// reference minimum the run is judged by.
 type Group = Vec<(String, Vec<solvers::solver::IterationRecord>, Option<f64>)>;
 
-/// Every table that applies to these runs, with its file stem: the paper-shaped mean tables
-/// first, the corpus aggregates next to them, then the per-mesh and cost tables.
+/// Every table that applies to these runs (as [`at_target`] ranks them), with its file stem:
+/// the paper-shaped mean tables first, the harness's verdicts and the corpus aggregates next to
+/// them, then the per-mesh and cost tables.
 pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
     let means: [(&str, TableFn); 2] = [("param", tables::param_table), ("deform", tables::deform_table)];
     let rest: [(&str, TableFn); 5] = [
@@ -50,6 +55,7 @@ pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
     ];
     let build = |(stem, f): &(&str, TableFn)| f(summary).map(|t| (stem.to_string(), t));
     let mut out: Vec<(String, Table)> = means.iter().filter_map(build).collect();
+    out.extend(tables::verdict_table(summary).map(|t| (tables::VERDICTS.to_string(), t)));
     out.extend(tables::aggregates_table(summary, batch).map(|t| (tables::AGGREGATES.to_string(), t)));
     out.extend(rest.iter().filter_map(build));
     out
@@ -67,6 +73,75 @@ pub fn labelled(summary: &[SummaryRow]) -> Vec<SummaryRow> {
             _ => r.clone(),
         })
         .collect()
+}
+
+/// The tightest target of a judged run (`param`, `deform`) when it reached it: its iterations
+/// and time there. `None` for a run that did not, and for runs the harness does not judge
+/// (`authalic`, folders from before the verdicts).
+pub fn reached_target(r: &SummaryRow) -> Option<ToTarget> {
+    r.to_targets.last().filter(|t| t.iters.is_some() && t.time_s.is_some()).copied()
+}
+
+/// The row as every table, aggregate and profile ranks it (issue 35): a judged run that
+/// reached its tightest target counts the iterations and time to it, not to its own stop; the
+/// time's min–max over the repeats, `time_norm` and `ms_per_vertex` scale by the same ratio
+/// `time_to / time_s`. Any other run counts as it ran (an unsolved run enters the means at the
+/// cap anyway). Names and statuses are unchanged, so files are found as before.
+pub fn to_target(r: &SummaryRow) -> SummaryRow {
+    let Some(ToTarget { iters: Some(iters), time_s: Some(to), .. }) = reached_target(r) else { return r.clone() };
+    // time_to <= time_s; a run of no measurable time reached it in no time.
+    let k = r.time_s.filter(|t| *t > 0.0).map_or(0.0, |t| to / t);
+    let scale = |v: Option<f64>| v.map(|v| v * k);
+    SummaryRow {
+        iterations: Some(iters),
+        time_s: Some(to),
+        time_s_min: scale(r.time_s_min),
+        time_s_max: scale(r.time_s_max),
+        time_norm: scale(r.time_norm),
+        ms_per_vertex: scale(r.ms_per_vertex),
+        ..r.clone()
+    }
+}
+
+/// [`to_target`] of every row.
+pub fn at_target(summary: &[SummaryRow]) -> Vec<SummaryRow> {
+    summary.iter().map(to_target).collect()
+}
+
+/// The tightest target the runs were judged at (`1e-6` by default), `None` when no run was
+/// judged.
+pub fn tightest_target<'a>(rows: impl IntoIterator<Item = &'a SummaryRow>) -> Option<f64> {
+    rows.into_iter().filter_map(|r| r.to_targets.last()).map(|t| t.tau).reduce(f64::min)
+}
+
+/// A target as the columns name it: `1e-6`.
+pub fn tau_text(tau: f64) -> String {
+    format!("{tau:e}")
+}
+
+/// The caption sentence of a table that counts iterations and time of judged runs: what they
+/// are counted to. Empty when no run was judged (the solvers' own stops then).
+pub fn target_rule<'a>(rows: impl IntoIterator<Item = &'a SummaryRow>) -> String {
+    let Some(tau) = tightest_target(rows) else { return String::new() };
+    let t = tau_text(tau);
+    format!(
+        "Iterations and times are to the {t} target (the harness's convergence test: the first iteration \
+         with E0 − E ≥ (1 − {t})(E0 − E*), E* the reference minimum), not to the solver's own stop; ok = solved \
+         (reached {t} with no flipped triangle, the harness's verdict); a run that did not reach it counts as it \
+         ran, to its own stop."
+    )
+}
+
+/// A verdict in the report's words (`stopped above target`).
+pub fn verdict_text(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Solved => "solved",
+        Verdict::Flipped => "flipped",
+        Verdict::StoppedAboveTarget => "stopped above target",
+        Verdict::OtherMinimum => "other minimum",
+        Verdict::Unfinished => "unfinished",
+        Verdict::OwnRule => "own rule",
+    }
 }
 
 /// The label of a solver's runs that clamped weights.
@@ -168,6 +243,92 @@ mod tests {
             status: Status::Ok,
             ..Default::default()
         }
+    }
+
+    /// A judged param run on `d` (sd): its own stop at `own` (iterations, seconds), the 1e-6
+    /// target at `to` when it reached it; 5 repeats within ±1%, time_norm = 2 × time_s and
+    /// 10 ms per vertex per second.
+    fn judged(d: &str, s: &str, own: (usize, f64), to: Option<(usize, f64)>, v: Verdict) -> SummaryRow {
+        let t = own.1;
+        SummaryRow {
+            iterations: Some(own.0),
+            time_s: Some(t),
+            time_s_min: Some(0.99 * t),
+            time_s_max: Some(1.01 * t),
+            repeats: Some(5),
+            time_norm: Some(2.0 * t),
+            ms_per_vertex: Some(10.0 * t),
+            final_energy: Some(2.0),
+            flips: Some(0),
+            verdict: Some(v),
+            status: if v == Verdict::Solved { Status::Ok } else { Status::NotConverged },
+            to_targets: vec![
+                ToTarget { tau: 1e-3, iters: to.map(|x| x.0 / 2), time_s: to.map(|x| x.1 / 2.0) },
+                ToTarget { tau: 1e-6, iters: to.map(|x| x.0), time_s: to.map(|x| x.1) },
+            ],
+            ..param(d, "sd", s, None)
+        }
+    }
+
+    fn close(a: Option<f64>, b: f64) -> bool {
+        a.is_some_and(|a| (a - b).abs() < 1e-12)
+    }
+
+    #[test]
+    fn a_run_that_reached_its_target_ranks_by_iterations_and_time_to_it() {
+        let r = judged("a", "cm", (30, 3.0), Some((10, 1.5)), Verdict::Solved);
+        let t = to_target(&r);
+        assert_eq!((t.iterations, t.time_s), (Some(10), Some(1.5)));
+        // The spread, time_norm and ms per vertex scale by 1.5 / 3.
+        assert!(close(t.time_s_min, 0.99 * 1.5) && close(t.time_s_max, 1.01 * 1.5), "{t:?}");
+        assert!(close(t.time_norm, 3.0) && close(t.ms_per_vertex, 15.0), "{t:?}");
+        assert_eq!((t.status, t.solver.as_str(), t.repeats), (Status::Ok, "cm", Some(5)));
+        assert_eq!(to_target(&t), t, "a view of the view is the view");
+        // Not reached (or not judged): as it ran.
+        let short = judged("a", "slim", (300, 3.0), None, Verdict::StoppedAboveTarget);
+        assert_eq!(to_target(&short), short);
+        let authalic = SummaryRow { task: Task::Authalic, ..param("d", "authalic", "aem-cg", None) };
+        assert_eq!(to_target(&authalic), authalic);
+        assert_eq!(tightest_target(&[r.clone(), authalic]), Some(1e-6));
+        assert_eq!(tightest_target(&[short.clone()][..0]), None);
+    }
+
+    #[test]
+    fn tables_and_aggregates_rank_the_iterations_and_time_to_the_target() {
+        // By their own stops kp-newton (12 it, 1.2 s) beats cm (30 it, 3.0 s); to the 1e-6
+        // target cm (10 it, 1.0 s) beats kp-newton (12 it, 1.2 s).
+        let rows = vec![
+            judged("a", "cm", (30, 3.0), Some((10, 1.0)), Verdict::Solved),
+            judged("a", "kp-newton", (12, 1.2), Some((12, 1.2)), Verdict::Solved),
+            judged("a", "slim", (300, 0.6), None, Verdict::Unfinished),
+        ];
+        let tables = tables(&labelled(&at_target(&rows)), &Batch::default());
+        let table = |stem: &str| &tables.iter().find(|(s, _)| s == stem).expect(stem).1;
+        let per_mesh = table("per_mesh");
+        assert_eq!(per_mesh.rows[0][5..7], ["10", "1.00 (0.99–1.01)"]);
+        assert_eq!(per_mesh.rows[0][8..10], ["12", "1.20 (1.19–1.21)"]);
+        assert_eq!(per_mesh.rows[0][11..13], ["300*", "0.60 (0.59–0.61)"], "slim counts as it ran");
+        // cm: the fewest iterations, the shortest time, and tied on energy with kp-newton.
+        assert_eq!(per_mesh.bold, [(0, 5), (0, 6), (0, 7), (0, 10)]);
+        let means = table("param");
+        assert_eq!(means.rows[0], ["cm", "10.0/10.000 (9.900–10.100)"]);
+        assert_eq!(means.bold, [(0, 1)]);
+        let agg = table(tables::AGGREGATES);
+        // sgm over one dataset: cm's own 10 iterations and 2 x 1.0 calibration units.
+        assert_eq!(agg.rows[0][8..10], ["10.0", "2.000 (1.980–2.020)"]);
+        assert_eq!(agg.rows[1][8..10], ["12.0", "2.400 (2.376–2.424)"]);
+        assert_eq!(agg.bold, [(0, 8), (0, 9)]);
+        for (stem, t) in tables.iter().filter(|(s, _)| ["param", "per_mesh", tables::AGGREGATES].contains(&s.as_str()))
+        {
+            assert!(t.caption.contains("to the 1e-6 target (the harness's convergence test"), "{stem}: {}", t.caption);
+        }
+        let verdicts = table(tables::VERDICTS);
+        assert_eq!(verdicts.rows[2][..5], ["sd", "slim", "1", "0", "0"]);
+        // Without verdicts, the captions say nothing of targets.
+        let old: Vec<SummaryRow> = rows.iter().map(|r| SummaryRow { to_targets: Vec::new(), ..r.clone() }).collect();
+        let tables = super::tables(&labelled(&at_target(&old)), &Batch::default());
+        assert!(tables.iter().all(|(_, t)| !t.caption.contains("target")));
+        assert!(!tables.iter().any(|(s, _)| s == tables::VERDICTS));
     }
 
     #[test]

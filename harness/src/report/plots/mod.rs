@@ -2,7 +2,9 @@
 //! per (dataset, energy) the convergence curves of every solver (energy gap vs iteration and
 //! vs time, #negative eigenvalues vs iteration, as in the complex-view paper's Figures 2-3),
 //! per run the final map with each triangle colored by its distortion, and per energy the
-//! scaling plots and the Dolan–Moré performance profiles over the corpus.
+//! scaling plots, the Dolan–Moré performance profiles and the Moré–Wild data profiles over the
+//! corpus. The curves and maps read each run's files by its own summary row; the scaling plots
+//! and the profiles draw the rows as the report ranks them ([`crate::report::at_target`]).
 
 mod canvas;
 mod chart;
@@ -43,12 +45,15 @@ pub enum PlotKind {
     ProfileIterations,
     /// Dolan–Moré performance profile of time over the datasets of an energy.
     ProfileTime,
+    /// Moré–Wild data profile over the datasets of an energy: the fraction solved within a
+    /// budget of time.
+    ProfileData,
 }
 
 impl PlotKind {
     /// A performance profile (shown with the corpus aggregates, not with the curves).
     pub fn is_profile(&self) -> bool {
-        matches!(self, PlotKind::ProfileIterations | PlotKind::ProfileTime)
+        matches!(self, PlotKind::ProfileIterations | PlotKind::ProfileTime | PlotKind::ProfileData)
     }
 }
 
@@ -68,7 +73,7 @@ pub struct Plot {
 
 /// Render every plot of a run folder into `run_dir/plots/` and return them in report order:
 /// per (dataset, energy) group the three curve plots, then the maps of its runs; then the
-/// scaling plots and the performance profiles of each energy.
+/// scaling plots, the performance profiles and the data profile of each energy.
 pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>> {
     let mut solvers: Vec<&str> = Vec::new();
     let mut groups: Vec<(&str, &str)> = Vec::new();
@@ -80,8 +85,11 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
             groups.push((&s.dataset, &s.energy));
         }
     }
+    // Scaling plots and profiles rank iterations and time to the target, as the tables do (the
+    // per-run files match the rows as they are, so curves and maps read those).
+    let ranked = super::at_target(summaries);
     // Profiles compare methods: clamped SLIM runs are their own solver there (as in the tables).
-    let labelled = super::labelled(summaries);
+    let labelled = super::labelled(&ranked);
     let profile_solvers = super::unique(labelled.iter().map(|s| s.solver.as_str()));
     // Groups, and the plots inside a group, render in parallel (the caller's rayon pool);
     // indexed collects keep the plots in the groups' order.
@@ -100,7 +108,7 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
         || groups.par_iter().map(per_group).collect::<Result<Vec<_>>>(),
         || {
             rayon::join(
-                || scaling::render_scaling(run_dir, summaries, &solvers),
+                || scaling::render_scaling(run_dir, &ranked, &solvers),
                 || profiles::render_profiles(run_dir, &labelled, &profile_solvers),
             )
         },

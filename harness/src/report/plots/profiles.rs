@@ -1,19 +1,24 @@
 //! Dolan–Moré performance profiles per energy (`profile__<energy>__iterations.png` and
 //! `__time.png`): the step functions of [`crate::report::corpus::performance_profiles`]
-//! drawn on a log2 τ axis, one line per solver in its usual color and marker.
+//! drawn on a log2 τ axis, one line per solver in its usual color and marker; and Moré–Wild
+//! data profiles (`profile__<energy>__data.png`): [`crate::report::corpus::data_profiles`] of
+//! the time to the target on a log10 budget axis.
 
 use super::chart::{self, draw_series, format_linear, house_style, iter_gap_points, render_framed, Series};
 use super::curves::Curve;
 use super::{Plot, PlotKind, ALL_DATASETS};
-use crate::report::corpus::{performance_profiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME};
-use crate::report::is_param_or_deform;
+use crate::report::corpus::{
+    data_profiles, performance_profiles, DataProfiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME,
+};
+use crate::report::{is_param_or_deform, tau_text, tightest_target};
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// The two profiles of every `param`/`deform` energy with at least one problem in its common
-/// problem set, written under `run_dir/plots/`.
+/// The two performance profiles of every `param`/`deform` energy with at least one problem in
+/// its common problem set, and its data profile when some solver solved a problem, written
+/// under `run_dir/plots/`.
 pub(super) fn render_profiles(run_dir: &Path, summaries: &[SummaryRow], solvers: &[&str]) -> Result<Vec<Plot>> {
     let rows: Vec<&SummaryRow> = summaries.iter().filter(|r| is_param_or_deform(r)).collect();
     let unit = TimeUnit::choose(rows.iter().copied());
@@ -46,6 +51,25 @@ pub(super) fn render_profiles(run_dir: &Path, summaries: &[SummaryRow], solvers:
             write_atomic(&run_dir.join(&file), &png)?;
             plots.push(Plot { file, title, dataset: ALL_DATASETS.into(), energy: energy.into(), kind });
         }
+        let data = data_profiles(&runs, |r| unit.timed(r).map(|t| t.value), PROFILE_MIN_TIME);
+        let Some(budget) = data.budget_range().filter(|_| !data.problems.is_empty()) else { continue };
+        let to = tightest_target(runs.iter().copied())
+            .map_or("time to solve".to_string(), |t| format!("time to {}", tau_text(t)));
+        let file = format!("plots/profile__{energy}__data.png");
+        let title = format!("{energy}: data profile, {to} ({} datasets)", data.problems.len());
+        let x_desc = match unit {
+            TimeUnit::Calibrated => format!("budget α: {to} in calibration units (log10 axis)"),
+            TimeUnit::Seconds => format!("budget α: {to} in seconds (log10 axis)"),
+        };
+        let png = render_data_profile(&title, &x_desc, &data, budget, solvers)?;
+        write_atomic(&run_dir.join(&file), &png)?;
+        plots.push(Plot {
+            file,
+            title,
+            dataset: ALL_DATASETS.into(),
+            energy: energy.into(),
+            kind: PlotKind::ProfileData,
+        });
     }
     Ok(plots)
 }
@@ -100,6 +124,65 @@ fn render_profile(title: &str, profiles: &Profiles, solvers: &[&str]) -> Result<
     })
 }
 
+/// The label of a budget tick at `x` decades above 10^`d0`: only whole decades (0.01, 1, 1e5).
+fn decade_tick(x: f64, d0: f64) -> String {
+    let k = x + d0;
+    if (k - k.round()).abs() > 1e-9 {
+        return String::new();
+    }
+    let k = k.round() as i32;
+    if (-2..=4).contains(&k) {
+        format_linear(10f64.powi(k))
+    } else {
+        format!("1e{k}")
+    }
+}
+
+/// The data profile's steps on a log10 budget axis from `lo` to `hi`, shifted by whole
+/// decades so that the axis starts in [0, 1) (the markers' spacing needs x ≥ 0).
+fn render_data_profile(
+    title: &str,
+    x_desc: &str,
+    data: &DataProfiles,
+    (lo, hi): (f64, f64),
+    solvers: &[&str],
+) -> Result<Vec<u8>> {
+    let d0 = lo.log10().floor();
+    let (x_min, x_max) = (lo.log10() - d0, hi.log10() - d0);
+    let curves: Vec<Series> = data
+        .profiles
+        .iter()
+        .map(|p| {
+            let steps = p.steps(lo, hi);
+            let curve = Curve {
+                iter: steps.iter().map(|s| s.0 - d0).collect(),
+                gap: steps.iter().map(|s| s.1).collect(),
+                ..Default::default()
+            };
+            Series { solver: &p.solver, style: chart::style(solvers, &p.solver), converged: true, curve }
+        })
+        .collect();
+    render_framed(&curves, |chart_area| {
+        let points = iter_gap_points(&curves);
+        let mut builder = ChartBuilder::on(chart_area);
+        builder.caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(42).y_label_area_size(60);
+        let pad = 0.02 * (x_max - x_min);
+        let mut chart = builder.build_cartesian_2d(x_min - pad..x_max + pad, -0.03..1.05)?;
+        let x_label = |v: &f64| decade_tick(*v, d0);
+        let mut mesh = chart.configure_mesh();
+        mesh.x_desc(x_desc).y_desc("fraction of datasets solved").x_label_formatter(&x_label).y_label_formatter(&|v| {
+            if (0.0..=1.0).contains(v) {
+                format_linear(*v)
+            } else {
+                String::new()
+            }
+        });
+        house_style(&mut mesh).draw()?;
+        draw_series(&mut chart, &curves, &points, x_max)?;
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -109,7 +192,7 @@ mod tests {
     use crate::run_folder::Status;
 
     #[test]
-    fn two_profiles_per_energy_named_by_the_issue_and_none_without_problems() {
+    fn three_profiles_per_energy_named_by_the_issues_and_none_without_problems() {
         let dir = tempfile::tempdir().unwrap();
         let row = |d: &str, e: &str, s: &str, status: Status, it: usize| SummaryRow {
             dataset: d.into(),
@@ -131,14 +214,61 @@ mod tests {
         ];
         let plots = render_profiles(dir.path(), &rows, &["kp-newton", "cm"]).unwrap();
         let files: Vec<&str> = plots.iter().map(|p| p.file.as_str()).collect();
-        assert_eq!(files, ["plots/profile__sd__iterations.png", "plots/profile__sd__time.png"]);
+        assert_eq!(
+            files,
+            ["plots/profile__sd__iterations.png", "plots/profile__sd__time.png", "plots/profile__sd__data.png"]
+        );
         assert_eq!(plots[0].kind, PlotKind::ProfileIterations);
+        assert_eq!(plots[2].kind, PlotKind::ProfileData);
+        // Unjudged rows (no targets): the solvers' own stops, in seconds (no time_norm).
+        assert_eq!(plots[2].title, "sd: data profile, time to solve (2 datasets)");
         assert_eq!(plots[0].dataset, ALL_DATASETS);
         assert!(plots[0].title.contains("2 datasets"), "{}", plots[0].title);
         for p in &plots {
             assert_eq!(png_size(&dir.path().join(&p.file)), CURVE_SIZE);
         }
+        assert_eq!(
+            (decade_tick(1.0, -2.0), decade_tick(0.5, -2.0), decade_tick(0.0, 0.0)),
+            ("0.1".into(), "".into(), "1".into())
+        );
+        assert_eq!((decade_tick(2.0, 3.0), decade_tick(0.0, -3.0)), ("1e5".into(), "1e-3".into()));
         assert_eq!(tau_label(0.0), "1");
+    }
+
+    #[test]
+    fn the_data_profile_of_a_judged_calibrated_batch_is_in_calibration_units_to_the_target() {
+        use crate::run_folder::summary::ToTarget;
+        let dir = tempfile::tempdir().unwrap();
+        let row = |d: &str, s: &str, solved: bool| SummaryRow {
+            dataset: d.into(),
+            task: Task::Param,
+            energy: "sd".into(),
+            solver: s.into(),
+            iterations: Some(10),
+            time_s: Some(2.0),
+            time_norm: Some(4.0),
+            status: if solved { Status::Ok } else { Status::NotConverged },
+            to_targets: vec![ToTarget { tau: 1e-6, iters: solved.then_some(5), time_s: solved.then_some(0.5) }],
+            ..Default::default()
+        };
+        let rows = crate::report::at_target(&[
+            row("a", "cm", true),
+            row("a", "slim", false),
+            row("b", "cm", true),
+            row("b", "slim", true),
+        ]);
+        // To the target: 0.5 s of 2 s, so a quarter of time_norm.
+        assert_eq!(rows[0].time_norm, Some(1.0));
+        let runs: Vec<&SummaryRow> = rows.iter().collect();
+        let data = data_profiles(&runs, |r| TimeUnit::Calibrated.timed(r).map(|t| t.value), PROFILE_MIN_TIME);
+        assert_eq!(data.profiles[0].costs, [1.0, 1.0]);
+        assert_eq!(data.profiles[1].costs, [1.0, f64::INFINITY]);
+        assert_eq!((data.profiles[1].fraction_within(0.9), data.profiles[1].fraction_within(1.0)), (0.0, 0.5));
+        let plots = render_profiles(dir.path(), &rows, &["cm", "slim"]).unwrap();
+        let data_plot = plots.iter().find(|p| p.kind == PlotKind::ProfileData).expect("a data profile");
+        assert_eq!(data_plot.file, "plots/profile__sd__data.png");
+        assert_eq!(data_plot.title, "sd: data profile, time to 1e-6 (2 datasets)");
+        assert_eq!(png_size(&dir.path().join(&data_plot.file)), CURVE_SIZE);
         assert_eq!(tau_label(3.0), "8");
         assert_eq!(tau_label(0.5), "1.41");
         assert_eq!(

@@ -109,6 +109,7 @@ fn renders_every_group_and_map_as_png_of_the_requested_size() {
             "plots/disk__authalic__aem-cg__map.png",
             "plots/profile__sd__iterations.png",
             "plots/profile__sd__time.png",
+            "plots/profile__sd__data.png",
         ]
     );
     for p in &plots {

@@ -2,11 +2,12 @@
 //! geometric means of iterations and time (computed in [`crate::report::corpus`]), next to
 //! the paper-shaped mean tables that one hard mesh can dominate.
 
+use super::comparison::with_space;
 use super::ranking::{self, fastest, lowest, Timed};
 use super::Table;
 use crate::report::batch::Batch;
 use crate::report::corpus::{self, Cap, CapSource, TimeUnit, ITERATION_SHIFT};
-use crate::report::{finished, is_param_or_deform};
+use crate::report::{finished, is_param_or_deform, target_rule};
 use crate::run_folder::SummaryRow;
 
 /// The table's file stem (and the anchor the profiles sit under in `index.html`).
@@ -93,10 +94,11 @@ pub fn aggregates_table(rows: &[SummaryRow], batch: &Batch) -> Option<Table> {
              The caps used are in the last columns (limit = the batch's max_iters or timeout, most seen = \
              observed). Time bounds in parentheses: the same mean over the repeats' min and max times. Bold: \
              the lowest means among the solvers that solved every dataset of the energy (iterations tie at \
-             the printed digit). {} {}",
+             the printed digit). {} {}{}",
             unit.describe(),
             ranking::CONVERGED_RULE,
-            ranking::time_rule(single)
+            ranking::time_rule(single),
+            with_space(target_rule(&rows)),
         ),
         bold,
     })

@@ -4,7 +4,7 @@
 use super::ranking::{self, comparable, equal, fastest, lowest, Timed};
 use super::Table;
 use crate::plan::Task;
-use crate::report::{converged, failed, finished, is_param_or_deform, skipped};
+use crate::report::{converged, failed, finished, is_param_or_deform, skipped, target_rule};
 use crate::run_folder::SummaryRow;
 
 /// How a solver x energy table averages its runs.
@@ -115,15 +115,25 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
              for the energy) left out; \
              {SHIFTED} = some run solved Newton systems with a Tikhonov shift above the base (shifted_iters > 0). \
              {} Bold: the fastest solver per energy among those that converged on every dataset of the energy \
-             (a solver with a failed, unconverged or missing run there is never bold). {}",
+             (a solver with a failed, unconverged or missing run there is never bold). {}{}",
             spec.time_label,
             sets.len(),
             sets.into_iter().collect::<Vec<_>>().join(", "),
             ranking::CONVERGED_RULE,
             ranking::time_rule(single),
+            with_space(target_rule(all.iter().copied())),
         ),
         bold,
     })
+}
+
+/// ` sentence`, or nothing for an empty one.
+pub(super) fn with_space(sentence: String) -> String {
+    if sentence.is_empty() {
+        sentence
+    } else {
+        format!(" {sentence}")
+    }
 }
 
 /// The complex-view paper's Table 4 shape for `param` runs: iterations / ms per vertex.
@@ -247,9 +257,10 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
              * = did not converge (hit max_iters or another stop rule); (k shifted) = k iterations solved \
              their Newton system with a Tikhonov shift above the base (regularized Newton); skipped = the \
              solver is not defined for the energy (not run). {} Bold = best of the row: fewest iterations, \
-             shortest time, lowest energy to 5 decimals. {}",
+             shortest time, lowest energy to 5 decimals. {}{}",
             ranking::CONVERGED_RULE,
-            ranking::time_rule(single)
+            ranking::time_rule(single),
+            with_space(target_rule(runs.iter().copied())),
         ),
         bold,
     })

@@ -7,12 +7,14 @@ mod comparison;
 mod projection;
 pub mod ranking;
 mod scaling;
+mod verdicts;
 
 pub use aggregates::{aggregates_table, AGGREGATES};
 pub use authalic::authalic_table;
 pub use comparison::{deform_table, param_table, per_mesh_table};
 pub use projection::{projection_table, smoothness_table};
 pub use scaling::scaling_table;
+pub use verdicts::{verdict_table, VERDICTS};
 
 use crate::run_folder::write_atomic;
 use anyhow::Result;

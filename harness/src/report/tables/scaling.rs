@@ -1,8 +1,9 @@
 //! Iterations and time against the mesh size.
 
+use super::comparison::with_space;
 use super::ranking::Timed;
 use super::Table;
-use crate::report::{converged, finished, is_param_or_deform};
+use crate::report::{converged, finished, is_param_or_deform, target_rule};
 use crate::run_folder::SummaryRow;
 
 /// The composite-majorization paper's Figure 6 as a table: per energy, the datasets sorted by
@@ -66,11 +67,12 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
         title: "Iterations and time vs mesh size (composite-majorization paper, Figure 6)".into(),
         columns,
         rows: out,
-        caption: "Datasets sorted by vertices; ms/iter = median wall time of one iteration; time = whole run \
+        caption: format!("Datasets sorted by vertices; ms/iter = median wall time of one iteration; time = whole run \
                   (the median over repeats, min–max in parentheses); peak MB = the process's peak resident memory \
                   while the run ran (MiB; with --jobs above 1 the runs beside it count too); * = did not converge; failed runs and \
-                  skipped pairs are left out (empty cells). Plotted in plots/scaling__<energy>__*.png."
-            .into(),
+                  skipped pairs are left out (empty cells). Plotted in plots/scaling__<energy>__*.png.{}",
+            with_space(target_rule(runs.iter().copied()))
+        ),
         bold: Vec::new(),
     })
 }
