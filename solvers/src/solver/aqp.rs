@@ -2,8 +2,10 @@
 //! constant quadratic proxy of the energy, factored once, used as the preconditioner of a
 //! Nesterov-type accelerated descent, with the authors' step memory and injectivity caps.
 //!
-//! - Proxy: `H = 2 sum_t a_t T_t^T T_t / sum_t a_t`, the Hessian of the Dirichlet energy
-//!   `sum_t a_t |J_t|^2 / sum_t a_t` (`solver::proxy`, shared with `lbfgs-laplacian`), plus
+//! - Proxy: `H = 2 c sum_t a_t T_t^T T_t / sum_t a_t`, the Hessian of the energy's quadratic
+//!   part `c sum_t a_t |J_t|^2 / sum_t a_t` (the paper's `f = 1/2 x^T H x + g(x)`; `c = 1/2`
+//!   for our half SD, so the step `-H^-1 grad f` is the authors' for their `|J|^2 + |J^-1|^2`;
+//!   `c = 1` for BARAP's ARAP part; `solver::proxy`, shared with `lbfgs-laplacian`), plus
 //!   the soft handles' `2 lambda` for `deform` (the authors use hard constraints in a KKT
 //!   system; a constant penalty keeps the proxy constant). For the free boundary (`param`)
 //!   vertex 0 is pinned (identity rows; its components of every direction are 0) instead of

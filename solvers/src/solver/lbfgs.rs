@@ -7,8 +7,9 @@
 //! - [`InitialHessian::Scaled`]: `gamma I` with `gamma = s^T y / y^T y` of the newest pair
 //!   (1 before the first), `m = 10` (the SLIM repository's baseline);
 //! - [`InitialHessian::Laplacian`]: the solve with the constant proxy `A = Hessian of
-//!   sum_t a_t |J_t|^2 / sum_t a_t` (the cotan Laplacian, twice, on both coordinates) plus the
-//!   soft handles' `2 lambda`, factored once through our sparse Cholesky, `m = 5` (BCQN's
+//!   c sum_t a_t |J_t|^2 / sum_t a_t`, the energy's quadratic part (`c = 1/2` for SD, 1 for
+//!   BARAP, `solver::proxy::dirichlet_coefficient`) plus the soft handles' `2 lambda`,
+//!   factored once through our sparse Cholesky, `m = 5` (BCQN's
 //!   code, `mlbfgs_solver.m`, blend `b = 0`); `solver::proxy` builds it, with vertex 0
 //!   pinned for the free boundary (`param`).
 //!
