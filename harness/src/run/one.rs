@@ -147,7 +147,8 @@ pub(super) fn run_one(
     summary.flips = Some(outcome.flips);
     // Rows after row 0 each come from one solved system (row 0 has none, `shift` empty).
     summary.shifted_iters = run.settings.base_shift().map(|base| shifted_iters(base, &rows));
-    summary.clamped_iters = clamped_iters(&rows);
+    summary.clamped_iters = marked_iters(&rows, solvers::hessian::slim::CLAMPED_COLUMN[0]);
+    summary.cg_capped_iters = marked_iters(&rows, solvers::solver::truncated::CG_CAPPED_COLUMN);
     summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
@@ -178,10 +179,10 @@ fn shifted_iters(base: f64, rows: &[IterationRecord]) -> usize {
     rows.iter().filter(|r| r.shift.is_some_and(|s| s > base)).count()
 }
 
-/// Rows whose system clamped at least one SLIM weight, for a solver that writes the
-/// `clamped` column (row 0's is NaN: it has no system).
-fn clamped_iters(rows: &[IterationRecord]) -> Option<usize> {
-    let name = solvers::hessian::slim::CLAMPED_COLUMN[0];
+/// Rows marked by a safety net in the extra column `name` (above 0), for a solver that writes
+/// it (row 0's is NaN: it has no system): `clamped` (the system clamped at least one SLIM
+/// weight), `cg_capped` (the truncated step's CG stopped at `max_cg_iters`).
+fn marked_iters(rows: &[IterationRecord], name: &str) -> Option<usize> {
     let col = rows.first()?.extra.iter().position(|e| e.0 == name)?;
     Some(rows.iter().filter(|r| r.extra.get(col).is_some_and(|e| e.1 > 0.0)).count())
 }
@@ -237,7 +238,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn shifted_and_clamped_iterations_are_counted_from_the_rows() {
+    fn shifted_clamped_and_cg_capped_iterations_are_counted_from_the_rows() {
+        let clamped_iters = |rows: &[IterationRecord]| marked_iters(rows, "clamped");
         let row = |shift: Option<f64>, clamped: Option<f64>| IterationRecord {
             shift,
             extra: clamped.map(|c| vec![("clamped", c)]).unwrap_or_default(),
@@ -257,5 +259,13 @@ mod tests {
         let rows = [row(None, None), row(Some(1e-10), None)];
         assert_eq!((shifted_iters(1e-10, &rows), clamped_iters(&rows)), (0, None));
         assert_eq!(clamped_iters(&[]), None);
+        // kp-newton-cg's rows: the steps whose CG stopped at the cap
+        let cg = |capped: f64| IterationRecord {
+            extra: vec![("cg_iters", 500.0), ("forcing", 0.5), ("cg_residual", 0.7), ("cg_capped", capped)],
+            ..Default::default()
+        };
+        let rows = [cg(f64::NAN), cg(1.0), cg(0.0), cg(1.0)];
+        assert_eq!(marked_iters(&rows, solvers::solver::truncated::CG_CAPPED_COLUMN), Some(2));
+        assert_eq!(marked_iters(&rows, "clamped"), None);
     }
 }
