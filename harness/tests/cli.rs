@@ -48,7 +48,7 @@ path = "quad.obj"
     let (h, it) = read_csv(&out.join("runs/bumpy_1k__sd__kp-newton.csv"));
     assert_eq!(
         h.join(","),
-        "iter,energy,energy_minus_best,grad_norm,step,neg_eig,indefinite_elems,flips,t_assemble_s,t_project_s,t_solve_s,t_linesearch_s,t_iter_s,t_cum_s,shift,ls_evals,gap"
+        "iter,energy,energy_minus_best,grad_norm,step,neg_eig,indefinite_elems,flips,t_assemble_s,t_project_s,t_solve_s,t_linesearch_s,t_iter_s,t_cum_s,shift,ls_evals,gap,t_record_s"
     );
     assert_eq!(it.len() - 1, good[col("iterations")].parse::<usize>().unwrap());
     assert_eq!(it.last().unwrap()[2].parse::<f64>().unwrap(), 0.0);
@@ -142,7 +142,7 @@ path = "two.obj"
     let (h, it) = read_csv(&out.join("runs/bumpy_1k__authalic__aem-cg-safe.csv"));
     assert_eq!(
         h[14..].join(","),
-        "shift,ls_evals,gap,image_area,stretch_energy,ascent,wolfe,backtracks,restarted,fold_rejects,quad_fallback"
+        "shift,ls_evals,gap,t_record_s,image_area,stretch_energy,ascent,wolfe,backtracks,restarted,fold_rejects,quad_fallback"
     );
     assert_eq!(it.len(), 21);
     let table = std::fs::read_to_string(out.join("tables/authalic.md")).unwrap();
