@@ -28,7 +28,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb,start,ref_energy,ref_source,final_gap,verdict,iters_to_1e-3,time_to_1e-3,iters_to_1e-6,time_to_1e-6");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb,start,ref_energy,ref_source,final_gap,verdict,cg_capped_iters,iters_to_1e-3,time_to_1e-3,iters_to_1e-6,time_to_1e-6");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];
@@ -48,7 +48,7 @@ path = "quad.obj"
     let (h, it) = read_csv(&out.join("runs/bumpy_1k__sd__kp-newton.csv"));
     assert_eq!(
         h.join(","),
-        "iter,energy,energy_minus_best,grad_norm,step,neg_eig,indefinite_elems,flips,t_assemble_s,t_project_s,t_solve_s,t_linesearch_s,t_iter_s,t_cum_s,shift,ls_evals,gap"
+        "iter,energy,energy_minus_best,grad_norm,step,neg_eig,indefinite_elems,flips,t_assemble_s,t_project_s,t_solve_s,t_linesearch_s,t_iter_s,t_cum_s,shift,ls_evals,gap,t_record_s"
     );
     assert_eq!(it.len() - 1, good[col("iterations")].parse::<usize>().unwrap());
     assert_eq!(it.last().unwrap()[2].parse::<f64>().unwrap(), 0.0);
@@ -142,7 +142,7 @@ path = "two.obj"
     let (h, it) = read_csv(&out.join("runs/bumpy_1k__authalic__aem-cg-safe.csv"));
     assert_eq!(
         h[14..].join(","),
-        "shift,ls_evals,gap,image_area,stretch_energy,ascent,wolfe,backtracks,restarted,fold_rejects,quad_fallback"
+        "shift,ls_evals,gap,t_record_s,image_area,stretch_energy,ascent,wolfe,backtracks,restarted,fold_rejects,quad_fallback"
     );
     assert_eq!(it.len(), 21);
     let table = std::fs::read_to_string(out.join("tables/authalic.md")).unwrap();
@@ -504,6 +504,32 @@ fn resume_reruns_nothing_that_finished_and_everything_whose_settings_changed() {
     // without --resume everything runs again
     let (log, _) = run(&[]);
     assert_eq!(log.matches("resumed, ").count(), 0, "{log}");
+}
+
+/// Issue 35: the truncated steps whose CG stopped at its cap are counted like shifted
+/// systems. With `max_cg_iters = 1` on the sack in SARAP, `kp-newton-cg`'s
+/// `cg_capped_iters` is the number of its rows marked `cg_capped = 1` (some); `kp-newton`,
+/// without truncated steps, leaves the column empty.
+#[test]
+fn cg_capped_steps_are_counted_in_a_batch() {
+    let tmp = tempfile::tempdir().unwrap();
+    let body = "name = \"cap\"\ndatasets = [\"sack_1k\"]\nenergies = [\"sarap\"]\n\
+                solvers = [\"kp-newton\", \"kp-newton-cg\"]\n[solver.kp-newton-cg]\nmax_cg_iters = 1\n\
+                [stop]\nmax_iters = 30\n";
+    let cfg = write_config(tmp.path(), body);
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-history"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let row = |solver: &str| rows.iter().find(|r| r[col("solver")] == solver).unwrap();
+    assert_eq!(row("kp-newton")[col("cg_capped_iters")], "");
+    let counted: usize = row("kp-newton-cg")[col("cg_capped_iters")].parse().unwrap();
+    let (h, it) = read_csv(&out.join("runs/sack_1k__sarap__kp-newton-cg.csv"));
+    let c = h.iter().position(|x| x == "cg_capped").unwrap();
+    assert_eq!(it[0][c], "NaN");
+    let marked = it[1..].iter().filter(|r| r[c] == "1.0").count();
+    assert!(counted > 0 && counted == marked, "{counted} counted, {marked} rows marked");
 }
 
 /// Issue 18's honest labels in a batch: pairs outside a solver's definition are skipped with

@@ -197,6 +197,31 @@ impl MapProblem {
     /// Nothing is allocated once `out` has grown, and the result is the same bits for any
     /// thread count.
     pub fn evaluate(&self, x: &[f64], out: &mut Evaluation) -> Result<(), EvalError> {
+        self.evaluate_counting(x, out, true)
+    }
+
+    /// [`MapProblem::evaluate`] without the inertia counts (`neg_eig` and `indefinite_elems`
+    /// left 0): for a method that needs only the energy and gradient, whose counts are for
+    /// the record alone and timed apart ([`MapProblem::count_inertia`]).
+    pub fn evaluate_without_inertia(&self, x: &[f64], out: &mut Evaluation) -> Result<(), EvalError> {
+        self.evaluate_counting(x, out, false)
+    }
+
+    /// The inertia counts of the element states of `ev` into it: the same as
+    /// [`MapProblem::evaluate`]'s (integer sums, in any order).
+    pub fn count_inertia(&self, ev: &mut Evaluation) {
+        (ev.neg_eig, ev.indefinite_elems) = ev
+            .states
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|st| {
+                let n = count_negative(st);
+                (n, usize::from(n > 0))
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    }
+
+    fn evaluate_counting(&self, x: &[f64], out: &mut Evaluation, inertia: bool) -> Result<(), EvalError> {
         let nf = self.n_faces();
         out.states.resize(nf, ElementState::default());
         out.locals.resize(nf, [0.0; 7]);
@@ -217,8 +242,10 @@ impl MapProblem {
                 }
                 loc[0] = op.area * m.psi;
                 loc[1..].copy_from_slice(g.as_slice());
-                let n = count_negative(st);
-                counts = (counts.0 + n, counts.1 + usize::from(n > 0));
+                if inertia {
+                    let n = count_negative(st);
+                    counts = (counts.0 + n, counts.1 + usize::from(n > 0));
+                }
             }
             Ok(counts)
         };
@@ -384,6 +411,32 @@ mod tests {
             }
         }
         Mesh::new("grid", p, f)
+    }
+
+    /// The evaluation without the inertia counts is the full one's energy and gradient bit
+    /// for bit, and counting afterwards gives its counts (some positive here).
+    #[test]
+    fn inertia_counted_apart_is_the_evaluation_s() {
+        let mesh = grid(8);
+        let mut rng = Lcg(3);
+        let x: Vec<f64> = mesh
+            .positions
+            .iter()
+            .flat_map(|p| [1.7 * p[0] + rng.range(-0.01, 0.01), 0.6 * p[1] + 0.2 * p[0]])
+            .collect();
+        let mut negative = 0;
+        for energy in all_energies() {
+            let pb = MapProblem::new(&mesh, energy).unwrap();
+            let (mut full, mut apart) = (Evaluation::default(), Evaluation::default());
+            pb.evaluate(&x, &mut full).unwrap();
+            pb.evaluate_without_inertia(&x, &mut apart).unwrap();
+            assert_eq!((apart.neg_eig, apart.indefinite_elems), (0, 0));
+            assert_eq!((apart.energy.to_bits(), &apart.grad), (full.energy.to_bits(), &full.grad), "{energy:?}");
+            pb.count_inertia(&mut apart);
+            assert_eq!((apart.neg_eig, apart.indefinite_elems), (full.neg_eig, full.indefinite_elems), "{energy:?}");
+            negative += full.neg_eig;
+        }
+        assert!(negative > 0);
     }
 
     #[test]

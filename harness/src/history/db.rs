@@ -13,7 +13,7 @@ use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 
 /// The schema this build writes. README "History database" documents it.
-pub const SCHEMA_VERSION: i64 = 4;
+pub const SCHEMA_VERSION: i64 = 5;
 
 /// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).
 pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
@@ -70,6 +70,9 @@ pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
     ALTER TABLE runs ADD COLUMN ref_source TEXT;
     ALTER TABLE runs ADD COLUMN final_gap REAL;
     ALTER TABLE runs ADD COLUMN verdict TEXT;",
+    // v5: the truncated solvers' steps at the CG cap (`summary.csv`'s `cg_capped_iters`),
+    // counted like `shifted_iters` and `clamped_iters`.
+    "ALTER TABLE runs ADD COLUMN cg_capped_iters INTEGER;",
 ];
 
 /// Where a batch came from (`batches.source`).
@@ -161,6 +164,7 @@ pub struct RunRow {
     pub ref_source: Option<String>,
     pub final_gap: Option<f64>,
     pub verdict: Option<String>,
+    pub cg_capped_iters: Option<i64>,
 }
 
 impl RunRow {
@@ -193,6 +197,7 @@ impl RunRow {
             ref_source: s.ref_source.map(|x| x.as_str().to_string()),
             final_gap: s.final_gap,
             verdict: s.verdict.map(|x| x.as_str().to_string()),
+            cg_capped_iters: int(s.cg_capped_iters),
         }
     }
 }
@@ -359,8 +364,8 @@ impl HistoryDb {
             .prepare(
                 "SELECT batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
                  final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, \
-                 shifted_iters, clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict \
-                 FROM runs WHERE batch_id = ?1 ORDER BY rowid",
+                 shifted_iters, clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, \
+                 cg_capped_iters FROM runs WHERE batch_id = ?1 ORDER BY rowid",
             )
             .map_err(&sql)?;
         let rows = stmt
@@ -394,6 +399,7 @@ impl HistoryDb {
                     ref_source: r.get(22)?,
                     final_gap: r.get(23)?,
                     verdict: r.get(24)?,
+                    cg_capped_iters: r.get(25)?,
                 })
             })
             .map_err(&sql)?
@@ -456,8 +462,9 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
     let mut stmt = tx.prepare(
         "INSERT INTO runs (batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
          final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
-         clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict) VALUES (?1, ?2, ?3, ?4, ?5, \
-         ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25)",
+         clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, cg_capped_iters) VALUES (?1, \
+         ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, \
+         ?25, ?26)",
     )?;
     for r in runs {
         stmt.execute(params![
@@ -486,6 +493,7 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.ref_source,
             r.final_gap,
             r.verdict,
+            r.cg_capped_iters,
         ])
         .map_err(|source| InsertError::Run {
             run: crate::run_folder::run_stem(&r.dataset, &r.energy, &r.solver),

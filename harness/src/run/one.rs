@@ -138,7 +138,7 @@ pub(super) fn run_one(
     // on scheduling: time_s leaves it out for every run (including any wait for another run
     // computing it) and analysis_s reports its cost.
     let setup = outcome.analysis.map_or(0.0, |a| a.setup_seconds);
-    let elapsed = (elapsed - setup).max(0.0);
+    let elapsed = run_time(elapsed, setup, &rows);
     summary.analysis_s = outcome.analysis.map(|a| a.seconds);
     summary.analysis_shared = outcome.analysis.map(|a| a.reused);
     summary.time_s = Some(elapsed);
@@ -147,7 +147,8 @@ pub(super) fn run_one(
     summary.flips = Some(outcome.flips);
     // Rows after row 0 each come from one solved system (row 0 has none, `shift` empty).
     summary.shifted_iters = run.settings.base_shift().map(|base| shifted_iters(base, &rows));
-    summary.clamped_iters = clamped_iters(&rows);
+    summary.clamped_iters = marked_iters(&rows, solvers::hessian::slim::CLAMPED_COLUMN[0]);
+    summary.cg_capped_iters = marked_iters(&rows, solvers::solver::truncated::CG_CAPPED_COLUMN);
     summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
@@ -157,6 +158,14 @@ pub(super) fn run_one(
     // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
     RunResult { summary, rows, map_uv, mesh_file: None, interrupted }
+}
+
+/// A run's `time_s` from its wall time `elapsed`: less the shared analysis's `setup` and the
+/// work its solver did only for the rows and the stop rule (`t_record_s`, as the authors of
+/// `aqp` leave their logging out of the timed iterate).
+fn run_time(elapsed: f64, setup: f64, rows: &[IterationRecord]) -> f64 {
+    let record: f64 = rows.iter().map(|r| r.t_record_s).sum();
+    (elapsed - setup - record).max(0.0)
 }
 
 /// The statistics of a run's times: `ms_per_vertex` from `time_s`, and the medians over
@@ -178,10 +187,10 @@ fn shifted_iters(base: f64, rows: &[IterationRecord]) -> usize {
     rows.iter().filter(|r| r.shift.is_some_and(|s| s > base)).count()
 }
 
-/// Rows whose system clamped at least one SLIM weight, for a solver that writes the
-/// `clamped` column (row 0's is NaN: it has no system).
-fn clamped_iters(rows: &[IterationRecord]) -> Option<usize> {
-    let name = solvers::hessian::slim::CLAMPED_COLUMN[0];
+/// Rows marked by a safety net in the extra column `name` (above 0), for a solver that writes
+/// it (row 0's is NaN: it has no system): `clamped` (the system clamped at least one SLIM
+/// weight), `cg_capped` (the truncated step's CG stopped at `max_cg_iters`).
+fn marked_iters(rows: &[IterationRecord], name: &str) -> Option<usize> {
     let col = rows.first()?.extra.iter().position(|e| e.0 == name)?;
     Some(rows.iter().filter(|r| r.extra.get(col).is_some_and(|e| e.1 > 0.0)).count())
 }
@@ -237,7 +246,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn shifted_and_clamped_iterations_are_counted_from_the_rows() {
+    fn the_run_time_leaves_out_the_analysis_and_the_record_only_work() {
+        let row = |t_record_s: f64| IterationRecord { t_iter_s: 0.5, t_record_s, ..Default::default() };
+        let rows = [row(0.0), row(0.125), row(0.25)];
+        assert_eq!(run_time(2.0, 0.5, &rows), 1.125);
+        assert_eq!(run_time(2.0, 0.0, &[row(0.0), row(0.0)]), 2.0);
+        assert_eq!(run_time(0.1, 0.0, &rows), 0.0);
+    }
+
+    #[test]
+    fn shifted_clamped_and_cg_capped_iterations_are_counted_from_the_rows() {
+        let clamped_iters = |rows: &[IterationRecord]| marked_iters(rows, "clamped");
         let row = |shift: Option<f64>, clamped: Option<f64>| IterationRecord {
             shift,
             extra: clamped.map(|c| vec![("clamped", c)]).unwrap_or_default(),
@@ -257,5 +276,13 @@ mod tests {
         let rows = [row(None, None), row(Some(1e-10), None)];
         assert_eq!((shifted_iters(1e-10, &rows), clamped_iters(&rows)), (0, None));
         assert_eq!(clamped_iters(&[]), None);
+        // kp-newton-cg's rows: the steps whose CG stopped at the cap
+        let cg = |capped: f64| IterationRecord {
+            extra: vec![("cg_iters", 500.0), ("forcing", 0.5), ("cg_residual", 0.7), ("cg_capped", capped)],
+            ..Default::default()
+        };
+        let rows = [cg(f64::NAN), cg(1.0), cg(0.0), cg(1.0)];
+        assert_eq!(marked_iters(&rows, solvers::solver::truncated::CG_CAPPED_COLUMN), Some(2));
+        assert_eq!(marked_iters(&rows, "clamped"), None);
     }
 }

@@ -8,11 +8,12 @@ use crate::run_folder::Status;
 use crate::stats::median;
 use solvers::solver::IterationRecord;
 
-/// The timing columns of one row: assemble, project, solve, line search, iteration, cumulative.
-type Timings = [f64; 6];
+/// The timing columns of one row: assemble, project, solve, line search, iteration,
+/// cumulative, record-only.
+type Timings = [f64; 7];
 
 fn timings(r: &IterationRecord) -> Timings {
-    [r.t_assemble_s, r.t_project_s, r.t_solve_s, r.t_linesearch_s, r.t_iter_s, r.t_cum_s]
+    [r.t_assemble_s, r.t_project_s, r.t_solve_s, r.t_linesearch_s, r.t_iter_s, r.t_cum_s, r.t_record_s]
 }
 
 /// What the repeats of one run measured so far; kept in `runs/<run>.partial.json` when an
@@ -105,9 +106,10 @@ impl Repeats {
         for (i, row) in result.rows.iter_mut().enumerate() {
             let column =
                 |c: usize| median(&mut self.rows.iter().filter_map(|r| r.get(i).map(|t| t[c])).collect::<Vec<_>>());
-            let m: Vec<f64> = (0..6).map(|c| column(c).unwrap_or(f64::NAN)).collect();
+            let m: Vec<f64> = (0..7).map(|c| column(c).unwrap_or(f64::NAN)).collect();
             [row.t_assemble_s, row.t_project_s, row.t_solve_s, row.t_linesearch_s, row.t_iter_s, row.t_cum_s] =
                 [m[0], m[1], m[2], m[3], m[4], m[5]];
+            row.t_record_s = m[6];
         }
         fill_times(s, &result.rows);
     }
@@ -148,6 +150,7 @@ mod tests {
                 energy: e,
                 t_iter_s: t_iter,
                 t_cum_s: t_iter * i as f64,
+                t_record_s: t_iter / 4.0,
                 ..Default::default()
             })
             .collect();
@@ -177,6 +180,7 @@ mod tests {
         assert_eq!((s.repeats, s.time_s, s.time_s_min, s.time_s_max), (Some(3), Some(0.20), Some(0.10), Some(0.30)));
         assert_eq!(first.rows[1].t_iter_s, 0.2);
         assert_eq!(first.rows[2].t_cum_s, 0.4);
+        assert_eq!(first.rows[2].t_record_s, 0.05);
         assert_eq!(s.iter_ms_median, Some(200.0));
         assert_eq!(s.peak_rss_mb, Some(120.0), "the largest peak of the repeats");
         assert!((s.ms_per_vertex.unwrap() - 20.0).abs() < 1e-12);

@@ -8,9 +8,10 @@ use solvers::solver::IterationRecord;
 use std::path::Path;
 
 /// Per-iteration CSV columns, in design.md order; `shift` (empty when the row has no Newton
-/// system), `ls_evals` and `gap` (the row's relative gap to the reference minimum the run is
-/// judged by; empty without one) follow as extras.
-pub const ITERATION_COLUMNS: [&str; 17] = [
+/// system), `ls_evals`, `gap` (the row's relative gap to the reference minimum the run is
+/// judged by; empty without one) and `t_record_s` (the row's record-only work, outside
+/// `t_iter_s`, `t_cum_s` and the run's `time_s`) follow as extras.
+pub const ITERATION_COLUMNS: [&str; 18] = [
     "iter",
     "energy",
     "energy_minus_best",
@@ -28,10 +29,12 @@ pub const ITERATION_COLUMNS: [&str; 17] = [
     "shift",
     "ls_evals",
     "gap",
+    "t_record_s",
 ];
 
-/// The columns a file written before they existed may lack (read as empty).
-const OPTIONAL_COLUMNS: [&str; 2] = ["shift", "gap"];
+/// The columns a file written before they existed may lack (read as empty; `t_record_s` as 0,
+/// nothing was timed apart).
+const OPTIONAL_COLUMNS: [&str; 3] = ["shift", "gap", "t_record_s"];
 
 #[derive(Clone, Debug, Serialize)]
 struct IterationRow {
@@ -52,6 +55,7 @@ struct IterationRow {
     shift: Option<f64>,
     ls_evals: usize,
     gap: Option<f64>,
+    t_record_s: f64,
 }
 
 /// The per-iteration CSV of one run; `best` is the best final energy of the run's
@@ -97,6 +101,7 @@ pub fn iteration_csv(rows: &[IterationRecord], best: f64, e_star: Option<f64>) -
             shift: r.shift,
             ls_evals: r.ls_evals,
             gap: e_star.zip(e0).map(|(s, e0)| crate::judge::convergence::gap(r.energy, e0, s)),
+            t_record_s: r.t_record_s,
         })?);
         if !r.extra.is_empty() {
             out.push(b',');
@@ -197,6 +202,7 @@ pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<It
             t_cum_s: f(13)?,
             shift: opt(14)?,
             ls_evals: u(15)?,
+            t_record_s: opt(17)?.unwrap_or(0.0),
             extra,
         });
     }
@@ -237,12 +243,12 @@ mod tests {
         let text = String::from_utf8(iteration_csv(&with_extra, 2.5, None).unwrap()).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], format!("{},a,b", ITERATION_COLUMNS.join(",")));
-        assert!(lines[1].starts_with("0,3.0,0.5,") && lines[1].ends_with(",0,,1.5,NaN"), "{}", lines[1]);
-        assert!(lines[2].ends_with(",0,,0.0,1e-20"), "{}", lines[2]);
+        assert!(lines[1].starts_with("0,3.0,0.5,") && lines[1].ends_with(",0,,0.0,1.5,NaN"), "{}", lines[1]);
+        assert!(lines[2].ends_with(",0,,0.0,0.0,1e-20"), "{}", lines[2]);
         // against E* = 2.5 the start has gap 1 and the next row (E - E*) / (E0 - E*) = 0.5
         let judged = String::from_utf8(iteration_csv(&with_extra, 2.5, Some(2.5)).unwrap()).unwrap();
         let lines: Vec<&str> = judged.lines().collect();
-        assert!(lines[1].ends_with(",0,1.0,1.5,NaN") && lines[2].ends_with(",0,0.5,0.0,1e-20"), "{judged}");
+        assert!(lines[1].ends_with(",0,1.0,0.0,1.5,NaN") && lines[2].ends_with(",0,0.5,0.0,0.0,1e-20"), "{judged}");
         let mut bad = with_extra.clone();
         bad[1].extra.pop();
         assert!(iteration_csv(&bad, 0.0, None).is_err());
@@ -300,20 +306,21 @@ mod tests {
         ];
         let text = String::from_utf8(iteration_csv(&rows, 2.5, None).unwrap()).unwrap();
         let lines: Vec<&str> = text.lines().collect();
-        assert!(lines[0].ends_with(",t_iter_s,t_cum_s,shift,ls_evals,gap"), "{}", lines[0]);
-        assert!(lines[1].ends_with(",0.0,0.0,,0,"), "{}", lines[1]);
-        assert!(lines[2].ends_with(",0.0,0.5,1e-10,2,"), "{}", lines[2]);
+        assert!(lines[0].ends_with(",t_iter_s,t_cum_s,shift,ls_evals,gap,t_record_s"), "{}", lines[0]);
+        assert!(lines[1].ends_with(",0.0,0.0,,0,,0.0"), "{}", lines[1]);
+        assert!(lines[2].ends_with(",0.0,0.5,1e-10,2,,0.0"), "{}", lines[2]);
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("r.csv");
         std::fs::write(&p, &text).unwrap();
         assert_eq!(read_iterations(&p, &[]).unwrap().rows, rows);
-        // an older file: no shift column
+        // an older file: no shift column (nor t_record_s, which came later)
         let old: String = text
             .lines()
+            .map(|l| l.trim_end_matches(",t_record_s").trim_end_matches(",0.0"))
             .map(|l| l.replace(",shift,", ",").replace(",,0", ",0").replace(",1e-10,", ",") + "\n")
             .collect();
         assert!(
-            !old.contains("shift") && old.lines().all(|l| l.split(',').count() == ITERATION_COLUMNS.len() - 1),
+            !old.contains("shift") && old.lines().all(|l| l.split(',').count() == ITERATION_COLUMNS.len() - 2),
             "{old}"
         );
         std::fs::write(&p, &old).unwrap();
@@ -324,6 +331,36 @@ mod tests {
         std::fs::write(&p, text.replace(",1e-10,", ",big,")).unwrap();
         let e = format!("{:#}", read_iterations(&p, &[]).unwrap_err());
         assert!(e.contains("line 3: column 15 `shift`: `big` is not a number or empty"), "{e}");
+    }
+
+    /// `t_record_s` round-trips as the last design column; a file written before it existed
+    /// reads it as 0 (nothing was timed apart).
+    #[test]
+    fn the_record_time_round_trips_and_is_0_in_older_files() {
+        let rows = vec![
+            IterationRecord { iter: 0, energy: 3.0, ..Default::default() },
+            IterationRecord {
+                iter: 1,
+                energy: 2.5,
+                t_iter_s: 0.5,
+                t_cum_s: 0.5,
+                t_record_s: 0.25,
+                ..Default::default()
+            },
+        ];
+        let text = String::from_utf8(iteration_csv(&rows, 2.5, None).unwrap()).unwrap();
+        assert!(text.lines().nth(2).unwrap().ends_with(",0.25"), "{text}");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("r.csv");
+        std::fs::write(&p, &text).unwrap();
+        assert_eq!(read_iterations(&p, &[]).unwrap().rows, rows);
+        let old: String =
+            text.lines().map(|l| l.rsplit_once(',').map_or(l, |(head, _)| head).to_string() + "\n").collect();
+        assert!(!old.contains("t_record_s"), "{old}");
+        std::fs::write(&p, &old).unwrap();
+        let back = read_iterations(&p, &[]).unwrap().rows;
+        assert_eq!(back.iter().map(|r| r.t_record_s).collect::<Vec<_>>(), [0.0, 0.0]);
+        assert_eq!(back[1].t_cum_s, 0.5);
     }
 
     #[test]

@@ -17,9 +17,10 @@ use std::path::{Path, PathBuf};
 /// iterations whose system needed more than the base Tikhonov shift, and of those whose
 /// system clamped SLIM weights; then the peak resident memory; then the harness's verdict:
 /// the start map, the reference minimum and where it came from, the final gap and the
-/// verdict. After them, for each target `tau` of the batch, `iters_to_<tau>` and
-/// `time_to_<tau>` ([`target_columns`]).
-pub const SUMMARY_COLUMNS: [&str; 38] = [
+/// verdict; then the count of the truncated solvers' steps whose CG stopped at its cap
+/// (appended: a file written before it reads it as empty). After them, for each target `tau`
+/// of the batch, `iters_to_<tau>` and `time_to_<tau>` ([`target_columns`]).
+pub const SUMMARY_COLUMNS: [&str; 39] = [
     "dataset",
     "task",
     "energy",
@@ -58,6 +59,7 @@ pub const SUMMARY_COLUMNS: [&str; 38] = [
     "ref_source",
     "final_gap",
     "verdict",
+    "cg_capped_iters",
 ];
 
 /// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
@@ -240,6 +242,12 @@ pub struct SummaryRow {
     /// The harness's verdict (`status` is `ok` exactly when it is `solved`).
     #[serde(default)]
     pub verdict: Option<Verdict>,
+    /// Iterations whose truncated step's CG stopped at `max_cg_iters` short of its forcing
+    /// term (the `cg_capped` column of `kp-newton-cg` and `kp-newton-cg-laplacian`): a safety
+    /// net that changes the method, like a shifted or clamped system. `None` for solvers
+    /// without the column.
+    #[serde(default)]
+    pub cg_capped_iters: Option<usize>,
     /// Iterations and time to each target, the loosest first.
     #[serde(skip)]
     pub to_targets: Vec<ToTarget>,
@@ -426,7 +434,7 @@ mod tests {
             row(Task::Authalic, Status::Failed, None),
             skipped,
         ];
-        (rows[0].shifted_iters, rows[0].clamped_iters) = (Some(2), Some(0));
+        (rows[0].shifted_iters, rows[0].clamped_iters, rows[0].cg_capped_iters) = (Some(2), Some(0), Some(5));
         write_summary(&dir.path().join("summary.csv"), &rows).unwrap();
         let text = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
         let cells: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
@@ -440,6 +448,45 @@ mod tests {
         std::fs::write(dir.path().join("summary.csv"), bad).unwrap();
         let e = read_summary(dir.path()).unwrap_err().to_string();
         assert!(e.contains("summary.csv: line 3: unknown stop reason 'timed_out'"), "{e}");
+    }
+
+    /// `cg_capped_iters` round-trips, after `verdict` and before the target columns; a summary
+    /// written before the column existed reads it as empty.
+    #[test]
+    fn cg_capped_iters_round_trips_and_an_older_file_reads_without_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let row = |solver: &str, capped| SummaryRow {
+            dataset: "sack_1k".into(),
+            energy: "sarap".into(),
+            solver: solver.into(),
+            status: Status::Ok,
+            cg_capped_iters: capped,
+            to_targets: vec![ToTarget { tau: 1e-6, iters: Some(4), time_s: Some(0.25) }],
+            ..Default::default()
+        };
+        let rows = vec![row("kp-newton-cg", Some(210)), row("kp-newton", None)];
+        let path = dir.path().join("summary.csv");
+        write_summary(&path, &rows).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+        let at = header.iter().position(|c| *c == "cg_capped_iters").unwrap();
+        assert_eq!((header[at - 1], header[at + 1]), ("verdict", "iters_to_1e-6"));
+        let cells: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
+        assert_eq!((cells[0][at], cells[1][at]), ("210", ""));
+        assert_eq!(read_summary(dir.path()).unwrap(), rows);
+        // the file as written before the column: every line without its cell
+        let older: String = text
+            .lines()
+            .map(|l| {
+                let mut c: Vec<&str> = l.split(',').collect();
+                c.remove(at);
+                c.join(",") + "\n"
+            })
+            .collect();
+        std::fs::write(&path, older).unwrap();
+        let back = read_summary(dir.path()).unwrap();
+        assert_eq!(back.iter().map(|r| r.cg_capped_iters).collect::<Vec<_>>(), [None, None]);
+        assert_eq!(back[0].to_targets, rows[0].to_targets);
     }
 
     #[test]

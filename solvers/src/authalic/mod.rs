@@ -606,6 +606,7 @@ impl Reporter<'_> {
             t_linesearch_s: tm.linesearch,
             t_iter_s: tm.iter,
             t_cum_s: self.t_cum,
+            t_record_s: 0.0,
             // No Newton system, no Tikhonov shift.
             shift: None,
             ls_evals: ex.ls_evals,

@@ -128,6 +128,22 @@ impl EnergyKind {
         }
     }
 
+    /// The coefficient `c` of the energy's Dirichlet part `c |J|_F^2 = 2c (x + y)`, the
+    /// quadratic part the constant proxy (`solver::proxy`) is the Hessian of: `1/2` for SD
+    /// (`(x + y)(1 + (x - y)^-2) = 1/2 (|J|^2 + |J^-1|^2)`), `1` for BARAP (`|J - R|^2 =
+    /// 2(x + y) - 4 sqrt(x) + 2`; its barrier's `k |J|` is quadratic too, but indefinite and
+    /// summed over the mesh a boundary term, the image's signed area: the proxy leaves it out
+    /// as it leaves out the `|J^-1|^2` barrier). `None` for the energies without such a part:
+    /// exp-SD (exponential), SARAP (quadratic in `sigma1` only), NH (no `|J|^2` term) and
+    /// BCONF (`|f_zbar|^2`).
+    pub fn dirichlet_part(&self) -> Option<f64> {
+        match self {
+            EnergyKind::Sd => Some(0.5),
+            EnergyKind::Barap { .. } => Some(1.0),
+            EnergyKind::ExpSd { .. } | EnergyKind::Sarap | EnergyKind::Nh { .. } | EnergyKind::Bconf { .. } => None,
+        }
+    }
+
     /// Stationary value at an isometry (`x = 1, y = 0`), used in tests and reports.
     pub fn isometry_value(&self) -> f64 {
         self.value(1.0, 0.0)

@@ -118,10 +118,14 @@ fn the_solvers_after_the_papers_bend_the_bar_to_kp_s_minimum() {
 }
 
 /// L-BFGS needs thousands of iterations where Newton needs 14 (the penalty's 2 lambda = 2e5
-/// against an elastic energy of order 1): the Laplacian variant, whose proxy carries the
-/// handles, still gets to KP's minimum.
+/// against an elastic energy of order 1). The Laplacian variant, whose proxy carries the
+/// handles, got to KP's minimum while its proxy was twice the Hessian of SD's quadratic part;
+/// with the proxy that Hessian (issue 35) it ends, after 8014 iterations, where the line
+/// search finds no step, at |grad| 3.3e-6 (from 1.9e6) and E = 2.3148 against KP's 2.0024:
+/// a stationary point above KP's minimum, what the harness's verdict calls another minimum.
+/// Pinned here so that a change of the path shows.
 #[test]
-fn lbfgs_with_the_laplacian_bends_the_bar_to_kp_s_minimum() {
+fn lbfgs_with_the_laplacian_bends_the_bar_to_a_stationary_point_above_kp_s() {
     let name = "planar_bar_2k";
     let mesh = generate(name).unwrap();
     let handles = generated_handles(name).unwrap();
@@ -134,6 +138,11 @@ fn lbfgs_with_the_laplacian_bends_the_bar_to_kp_s_minimum() {
     };
     let (kp, _) = run("kp-newton");
     let (out, rows) = run("lbfgs-laplacian");
-    assert_reaches("lbfgs-laplacian", &out, &rows, &kp);
+    let label =
+        format!("{:?} after {}, |grad| {:e}, E {}", out.stop_reason, out.iterations, out.grad_norm, out.final_energy);
+    assert!(rows.iter().all(|r| r.flips == 0), "{label}");
+    assert!(out.grad_norm < 1e-5 && out.grad_norm < 1e-11 * rows[0].grad_norm, "{label}");
+    let above = (out.final_energy - kp.final_energy) / kp.final_energy;
+    assert!((0.1..0.2).contains(&above), "{label} vs KP {}", kp.final_energy);
     assert!(out.iterations > 100 * kp.iterations, "{} vs KP {}", out.iterations, kp.iterations);
 }

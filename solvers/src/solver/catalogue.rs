@@ -200,7 +200,7 @@ fn never(_: &SolverOptions) -> bool {
 pub const SLIM_ENERGIES: [&str; 3] = ["sd", "exp-sd", "sarap"];
 
 /// The energies AQP is defined for: those whose quadratic part is the Dirichlet energy
-/// `|J|^2` the proxy is the Hessian of (up to a constant factor), the rest being the barrier
+/// `c |J|^2` the proxy is the Hessian of (`EnergyKind::dirichlet_part`), the rest being the barrier
 /// or rotation terms the proxy leaves out. The authors define the proxy for their isometric
 /// distortion `|J|^2 + |J^-1|^2` (our `sd` is half of it) and for ARAP `|J - R|^2`; our
 /// `barap` is ARAP plus the barrier `k (|J| + 1/|J|)`.

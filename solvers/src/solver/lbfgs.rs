@@ -7,8 +7,9 @@
 //! - [`InitialHessian::Scaled`]: `gamma I` with `gamma = s^T y / y^T y` of the newest pair
 //!   (1 before the first), `m = 10` (the SLIM repository's baseline);
 //! - [`InitialHessian::Laplacian`]: the solve with the constant proxy `A = Hessian of
-//!   sum_t a_t |J_t|^2 / sum_t a_t` (the cotan Laplacian, twice, on both coordinates) plus the
-//!   soft handles' `2 lambda`, factored once through our sparse Cholesky, `m = 5` (BCQN's
+//!   c sum_t a_t |J_t|^2 / sum_t a_t`, the energy's quadratic part (`c = 1/2` for SD, 1 for
+//!   BARAP, `solver::proxy::dirichlet_coefficient`) plus the soft handles' `2 lambda`,
+//!   factored once through our sparse Cholesky, `m = 5` (BCQN's
 //!   code, `mlbfgs_solver.m`, blend `b = 0`); `solver::proxy` builds it, with vertex 0
 //!   pinned for the free boundary (`param`).
 //!
@@ -254,15 +255,20 @@ pub fn lbfgs(
 
         let t0 = Instant::now();
         g_old.clone_from(&ev.grad);
-        if let Err(e) = problem.evaluate(&x, &mut ev) {
+        // the method needs the energy and gradient only: the inertia is counted for the row
+        if let Err(e) = problem.evaluate_without_inertia(&x, &mut ev) {
             break StopReason::NonFinite(e.to_string());
         }
         let t_eval = t0.elapsed().as_secs_f64();
         let s: Vec<f64> = x.iter().zip(&x_new).map(|(a, b)| a - b).collect();
         let y: Vec<f64> = ev.grad.iter().zip(&g_old).map(|(a, b)| a - b).collect();
         let skipped = !history.push(s, y);
-        let flips = problem.flips(&x);
         let t_iter = t_start.elapsed().as_secs_f64() + t_factor;
+        // Record-only work (IterationRecord::t_record_s): the inertia counts and the flips.
+        let t0 = Instant::now();
+        problem.count_inertia(&mut ev);
+        let flips = problem.flips(&x);
+        let t_record = t0.elapsed().as_secs_f64();
         t_solve += std::mem::take(&mut t_factor);
         t_cum += t_iter;
         iter += 1;
@@ -273,6 +279,7 @@ pub fn lbfgs(
             t_linesearch_s: t_ls,
             t_iter_s: t_iter,
             t_cum_s: t_cum,
+            t_record_s: t_record,
             shift,
             ls_evals,
             extra: LBFGS_COLUMNS

@@ -262,7 +262,9 @@ pub fn newton_with(
                 }
                 let eta = forcing.next(record.grad_norm);
                 match steps.solve(&values, &ev.grad, eta, &mut d) {
-                    Ok(cg) => cg_columns.extend([cg.iterations as f64, eta, cg.residual]),
+                    Ok(cg) => {
+                        cg_columns.extend([cg.iterations as f64, eta, cg.residual, f64::from(u8::from(cg.capped()))])
+                    }
                     Err(e) => {
                         break StopReason::LinearSolveFailed(format!("the preconditioner at iterate {iter}: {e}"))
                     }

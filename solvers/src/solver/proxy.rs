@@ -1,8 +1,11 @@
 //! The constant quadratic proxy shared by the first-order drivers (`lbfgs-laplacian`'s
-//! initial Hessian, `aqp`'s preconditioner): `A = Hessian of sum_t a_t |J_t|^2 / sum_t a_t`
-//! (the cotan Laplacian, twice, on both coordinates; AQP's `2 sum_t a_t T_t^T T_t` in our
-//! area normalization) plus the soft handles' `2 lambda`, factored once through our sparse
-//! Cholesky.
+//! initial Hessian, `aqp`'s preconditioner): `A = Hessian of c sum_t a_t |J_t|^2 / sum_t a_t`,
+//! the energy's quadratic part, `c |J|^2` its Dirichlet part ([`dirichlet_coefficient`]: 1/2
+//! for SD, half `|J|^2 + |J^-1|^2`; 1 for BARAP, `|J - R|^2 + ...`), plus the soft handles'
+//! `2 lambda`, factored once through our sparse Cholesky. It is AQP's `H` of `f = 1/2 x^T H x
+//! + g(x)` (the authors' `2 sum_t a_t T_t^T T_t` for their `|J|^2 + |J^-1|^2` and ARAP, both
+//! `c = 1`): with our half SD the proxy is halved with the energy, so that `A^-1 grad` is the
+//! same step as theirs (`2 c` times the cotan Laplacian on both coordinates).
 //!
 //! Without handles (`param`, free boundary) `A` has the translations in its kernel: vertex 0
 //! is pinned (its rows and columns replaced by the identity, its components of `A^-1 q` set
@@ -24,11 +27,20 @@ use crate::solver::newton::{next_shift, system_pattern, SolveError, MAX_REGULARI
 use nalgebra::Matrix6;
 use rayon::prelude::*;
 
+/// The coefficient `c` of the proxy's `c |J|^2`: the energy's Dirichlet part
+/// ([`EnergyKind::dirichlet_part`](crate::energy::EnergyKind::dirichlet_part)), so that the
+/// proxy is the Hessian of the energy's quadratic part. The energies without one (AQP refuses
+/// them; `lbfgs-laplacian` and `kp-newton-cg`'s preconditioner run on them) keep `c = 1`, the
+/// Dirichlet energy `|J|^2` itself, as before the proxy followed the energy.
+pub fn dirichlet_coefficient(problem: &MapProblem) -> f64 {
+    problem.energy.dirichlet_part().unwrap_or(1.0)
+}
+
 /// The lower triangle of the proxy on `pattern` (the Newton pattern of `problem`): per face
-/// `4 a_t / sum a M^T M` (`|J|_F^2 = 2 (|f_z|^2 + |f_zbar|^2) = 2 |M y|^2`), the handles'
+/// `4 c a_t / sum a M^T M` (`|J|_F^2 = 2 (|f_z|^2 + |f_zbar|^2) = 2 |M y|^2`), the handles'
 /// `2 lambda`, and the dofs of `pinned` replaced by the identity.
 pub fn laplacian_proxy(problem: &MapProblem, pattern: &Pattern, pinned: Option<usize>) -> Vec<f64> {
-    let w = 4.0 * problem.weight();
+    let w = 4.0 * dirichlet_coefficient(problem) * problem.weight();
     let blocks: Vec<Matrix6<f64>> = problem
         .ops
         .iter()
@@ -144,11 +156,11 @@ fn factorize_with_retries(solver: &mut SpdSolver, values: &[f64], linear: &Linea
 }
 
 /// The Dirichlet proxy's edge weights `-L_t[i][j]` of one coordinate, per face and edge
-/// (opposite each corner): `-8 a_t / sum a (d_i . d_j)`, `d` the Wirtinger row of each corner
-/// (`M^T M = 2 (d_i . d_j) (x) I_2`). The rows of `L_t` sum to zero (a constant has no
+/// (opposite each corner): `-8 c a_t / sum a (d_i . d_j)`, `d` the Wirtinger row of each
+/// corner (`M^T M = 2 (d_i . d_j) (x) I_2`). The rows of `L_t` sum to zero (a constant has no
 /// derivative), so the assembled diagonal is the negated row sum.
 fn dirichlet_weights(problem: &MapProblem, weights: &mut Vec<[f64; 3]>) {
-    let w = 8.0 * problem.weight();
+    let w = 8.0 * dirichlet_coefficient(problem) * problem.weight();
     weights.clear();
     weights.par_extend(problem.ops.par_iter().map(|op| {
         std::array::from_fn(|k| {
@@ -164,15 +176,17 @@ pub const STIFFNESS_FLOOR: f64 = 1e-8;
 
 /// The stiffness-weighted edge weights: each face's Dirichlet weights scaled by `s_t =
 /// trace(H_t) / trace(D_t)`, its system block's mean stiffness against the Dirichlet block
-/// `D_t = 4 a_t / sum a M^T M` (`trace D_t = 16 a_t / sum a sum |d_i|^2`), so that
-/// `s_t D_t` has `H_t`'s trace: the isotropic part of each element's projected Hessian.
+/// `D_t = 4 c a_t / sum a M^T M` (`trace D_t = 16 c a_t / sum a sum |d_i|^2`), so that
+/// `s_t D_t` has `H_t`'s trace: the isotropic part of each element's projected Hessian (the
+/// same whatever `c`).
 /// `scale` is scratch (the `s_t`), kept by the caller so that no iteration allocates.
 fn stiffness_weights(problem: &MapProblem, blocks: &[Lower6], weights: &mut Vec<[f64; 3]>, scale: &mut Vec<f64>) {
     let diag = [0, 2, 5, 9, 14, 20]; // LOWER's (a, a) entries
+    let c = dirichlet_coefficient(problem);
     scale.clear();
     scale.par_extend(problem.ops.par_iter().zip(blocks.par_iter()).map(|(op, b)| {
         let d2: f64 = (0..3).map(|i| op.d_re[i] * op.d_re[i] + op.d_im[i] * op.d_im[i]).sum();
-        let trace_d = 16.0 * problem.weight() * op.area * d2;
+        let trace_d = 16.0 * c * problem.weight() * op.area * d2;
         diag.iter().map(|&k| b[k]).sum::<f64>() / trace_d
     }));
     let mean = scale.iter().sum::<f64>() / scale.len().max(1) as f64;
@@ -348,18 +362,19 @@ impl ScalarProxy {
 mod tests {
     use super::*;
     use crate::energy::EnergyKind;
-    use crate::problem::{norm, Penalty};
+    use crate::problem::{norm, Evaluation, Penalty};
 
     fn dot(a: &[f64], b: &[f64]) -> f64 {
         a.iter().zip(b).map(|(x, y)| x * y).sum()
     }
 
-    /// `sum_t a_t |J_t|^2 / sum a` at `x`, plus the handle penalty when the problem has one.
+    /// `c sum_t a_t |J_t|^2 / sum a` at `x`, plus the handle penalty when the problem has one.
     fn dirichlet(pb: &MapProblem, x: &[f64]) -> f64 {
+        let c = dirichlet_coefficient(pb);
         let d = (0..pb.n_faces())
             .map(|t| {
                 let w = pb.ops[t].wirtinger(pb.target(x, t));
-                pb.ops[t].area * 2.0 * (w.x() + w.y())
+                c * pb.ops[t].area * 2.0 * (w.x() + w.y())
             })
             .sum::<f64>()
             / pb.total_area;
@@ -422,6 +437,88 @@ mod tests {
         assert_eq!(pattern.sym_mul(&p, &e0), e0);
     }
 
+    /// `grad Q(x)` of the part `Q` of the problem's energy homogeneous of degree 2 in the map,
+    /// from the energy's own gradient (its densities, area weights and penalty), not from any
+    /// formula of the proxy: `E(s x) = s^2 Q(x) + s P(x) + R + s^-2 B(x)` for SD (`B` the
+    /// `|J^-1|^2` barrier) and BARAP at `k = 0` (`P = -4 sum a sqrt(x) / sum a`), the penalty
+    /// adding to `Q`, `P` and `R`. So `g(s) = grad E(s x) / s = grad Q + s^-1 grad P + s^-4
+    /// grad B`, and Richardson's `2 g(2s) - g(s) = grad Q - 7/8 s^-4 grad B`: at `s = 1e3` the
+    /// barrier's trace is 1e-12 of its gradient.
+    fn quadratic_part_gradient(pb: &MapProblem, x: &[f64]) -> Vec<f64> {
+        let g = |s: f64| {
+            let xs: Vec<f64> = x.iter().map(|v| v * s).collect();
+            let mut ev = Evaluation::default();
+            pb.evaluate(&xs, &mut ev).unwrap();
+            ev.grad.iter().map(|g| g / s).collect::<Vec<f64>>()
+        };
+        let (s, twice) = (1e3, g(2e3));
+        g(s).iter().zip(&twice).map(|(a, b)| 2.0 * b - a).collect()
+    }
+
+    /// The audit's claim and its fix (issue 35): the proxy applied to `v` is the Hessian of the
+    /// energy's quadratic part applied to `v`, by central differences of that part's gradient
+    /// along `v` at the Tutte map of `bumpy_1k`: for SD `1/2 |J|^2` (half the proxy the
+    /// Dirichlet energy `|J|^2` gives, which was the proxy before), with and without handles;
+    /// for BARAP at `k = 0` the ARAP part's `|J|^2`. `Q` is quadratic, so the central difference
+    /// has no truncation error: what is left is the barrier's 1e-12 (above) and round-off,
+    /// about 1e-16 of the gradient over `h = 1e-4`, well inside 1e-8 of `|A v|`. At BARAP's
+    /// default `k` the barrier's `k |J|` adds `k` times the image's signed area to `Q`, whose
+    /// Hessian lives on the boundary: the proxy, which leaves it out, then matches on the
+    /// interior vertices only.
+    #[test]
+    fn the_proxy_is_the_hessian_of_the_energy_s_quadratic_part() {
+        use crate::init::{tutte, TutteBoundary};
+        let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
+        let x = tutte(&mesh, TutteBoundary::Uniform).unwrap();
+        let boundary: std::collections::BTreeSet<usize> =
+            crate::mesh::topology::boundary_loops(&mesh.faces, mesh.n_vertices()).concat().into_iter().collect();
+        let handles = Penalty { lambda: 1e3, handles: vec![(3, [0.1, 0.2]), (40, [-0.3, 0.0])] };
+        let h = 1e-4;
+        let cases = [
+            (EnergyKind::Sd, None, 0.5),
+            (EnergyKind::Sd, Some(handles), 0.5),
+            (EnergyKind::Barap { k: 0.0 }, None, 1.0),
+            (EnergyKind::Barap { k: 0.1 }, None, 1.0),
+        ];
+        for (energy, penalty, c) in cases {
+            let mut pb = MapProblem::new(&mesh, energy).unwrap();
+            pb.penalty = penalty;
+            assert_eq!(dirichlet_coefficient(&pb), c);
+            let pattern = system_pattern(&pb);
+            let a = laplacian_proxy(&pb, &pattern, None);
+            let n = pb.n_dofs();
+            for k in [37, 11] {
+                let v = wave(n, k);
+                let at = |sign: f64| -> Vec<f64> {
+                    let xs: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a + sign * h * b).collect();
+                    quadratic_part_gradient(&pb, &xs)
+                };
+                let (plus, minus) = (at(1.0), at(-1.0));
+                let fd: Vec<f64> = plus.iter().zip(&minus).map(|(p, m)| (p - m) / (2.0 * h)).collect();
+                let av = pattern.sym_mul(&a, &v);
+                let label = format!("{} k {k} handles {}", energy.name(), pb.penalty.is_some());
+                let interior = |i: &usize| !boundary.contains(&(i / 2));
+                let err = |keep: &dyn Fn(&usize) -> bool| {
+                    let diff: Vec<f64> = (0..n).filter(keep).map(|i| fd[i] - av[i]).collect();
+                    norm(&diff) / norm(&av)
+                };
+                if energy == (EnergyKind::Barap { k: 0.1 }) {
+                    assert!(err(&interior) < 1e-8, "{label}: interior {:e}", err(&interior));
+                    assert!(err(&|_| true) > 1e-4, "{label}: the barrier's area term is missing: {:e}", err(&|_| true));
+                } else {
+                    assert!(err(&|_| true) < 1e-8, "{label}: {:e}", err(&|_| true));
+                }
+                if energy == EnergyKind::Sd && pb.penalty.is_none() {
+                    // the proxy of the Dirichlet energy |J|^2 (BARAP's) is twice SD's Hessian
+                    let barap = MapProblem::new(&mesh, EnergyKind::Barap { k: 0.1 }).unwrap();
+                    let twice = pattern.sym_mul(&laplacian_proxy(&barap, &pattern, None), &v);
+                    let rel = norm(&twice.iter().zip(&fd).map(|(t, f)| t - 2.0 * f).collect::<Vec<_>>()) / norm(&twice);
+                    assert!(rel < 1e-8, "{label}: {rel:e}");
+                }
+            }
+        }
+    }
+
     /// Blocks that are multiples `c_t D_t` of the Dirichlet blocks are isotropic: the
     /// stiffness weights then reproduce them exactly, `L_w (x) I_2` is their assembly (and
     /// with every `c_t = 1` it is the constant proxy). A zero block is floored.
@@ -433,7 +530,7 @@ mod tests {
         let dirichlet = |t: usize| {
             let op = &pb.ops[t];
             let m = op.m();
-            m.transpose() * m * (4.0 * pb.weight() * op.area)
+            m.transpose() * m * (4.0 * dirichlet_coefficient(&pb) * pb.weight() * op.area)
         };
         let (lap, block) = scalar_pattern(&pb);
         for c in [|_: usize| 1.0, |t: usize| 0.5 + (t % 7) as f64] {

@@ -28,8 +28,13 @@ pub const GAMMA: f64 = 0.9;
 pub const CURVATURE_FLOOR: f64 = 1e-12;
 
 /// The extra columns of `kp-newton-cg`'s iteration CSVs: the CG iterations of the step, the
-/// forcing term it was solved to, and the relative residual `|P r| / |P g|` it reached.
-pub const CG_COLUMNS: [&str; 3] = ["cg_iters", "forcing", "cg_residual"];
+/// forcing term it was solved to, the relative residual `|P r| / |P g|` it reached, and
+/// whether its CG stopped at `max_cg_iters` short of the forcing term (1/0; the harness
+/// counts such rows as `cg_capped_iters`: a capped step is a safety net, not the method).
+pub const CG_COLUMNS: [&str; 4] = ["cg_iters", "forcing", "cg_residual", CG_CAPPED_COLUMN];
+
+/// The column of [`CG_COLUMNS`] that marks a step whose CG hit [`NewtonCgOptions::max_cg_iters`].
+pub const CG_CAPPED_COLUMN: &str = "cg_capped";
 
 /// The preconditioner of the truncated steps: `kp-newton-cg`'s, `kp-newton-cg-laplacian`'s.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,6 +57,13 @@ pub struct NewtonCgOptions {
     pub eta_max: f64,
     /// CG iterations per Newton step at most; the step is then what CG reached.
     pub max_cg_iters: usize,
+}
+
+impl CgReport {
+    /// The step is what CG reached at the iteration cap, not the forcing term's solve.
+    pub fn capped(&self) -> bool {
+        self.stop == CgStop::MaxIterations
+    }
 }
 
 impl Default for NewtonCgOptions {
@@ -314,7 +326,7 @@ mod tests {
         // an iteration cap returns what CG reached, still a descent direction
         let mut capped = steps(&problem, &pattern, 2);
         let rep = capped.solve(&values, &g, 1e-10, &mut d).unwrap();
-        assert_eq!((rep.stop, rep.iterations), (CgStop::MaxIterations, 2));
+        assert_eq!((rep.stop, rep.iterations, rep.capped()), (CgStop::MaxIterations, 2, true));
         assert!(rep.residual > 1e-10 && d.iter().zip(&g).map(|(a, b)| a * b).sum::<f64>() < 0.0);
     }
 
@@ -350,6 +362,7 @@ mod tests {
         for r in &rows[1..] {
             let (iters, eta, res) = (value(r, "cg_iters"), value(r, "forcing"), value(r, "cg_residual"));
             assert!(eta > 0.0 && eta <= 0.9 && iters >= 1.0 && res <= eta, "{label} {}: {iters} {eta} {res}", r.iter);
+            assert_eq!(value(r, CG_CAPPED_COLUMN), 0.0, "{label} {}", r.iter);
         }
         let gap = (out.final_energy - kp.final_energy).abs() / kp.final_energy;
         eprintln!("{label}: kp-newton-cg {} iterations, kp {}, rel {gap:.1e}", out.iterations, kp.iterations);
@@ -395,6 +408,27 @@ mod tests {
             assert_eq!(out.stop_reason, StopReason::GradientTolerance);
             assert_reaches(&format!("planar_bar_2k {energy:?}"), &out, &rec.rows, &kp, 1e-6);
         }
+    }
+
+    /// With `max_cg_iters = 1` on the sack in SARAP (where the default cap of 500 was hit in
+    /// 210 of 331 steps, issue 35) some rows are marked `cg_capped = 1`: exactly those whose
+    /// CG stopped at the cap with its residual above the forcing term.
+    #[test]
+    fn a_step_at_the_cg_cap_is_marked() {
+        let mesh = generate("sack_1k").unwrap();
+        let mut settings = ParamSettings::for_energy(&EnergyKind::Sarap);
+        settings.solver.stop.max_iters = 30;
+        settings.solver.options.newton_cg.max_cg_iters = 1;
+        let mut rec = Recorder::default();
+        solve_param(&mesh, EnergyKind::Sarap, "kp-newton-cg", &settings, &mut rec).unwrap();
+        let rows = rec.rows;
+        assert!(rows[0].extra_value(CG_CAPPED_COLUMN).unwrap().is_nan());
+        let capped: Vec<bool> = rows[1..].iter().map(|r| value(r, CG_CAPPED_COLUMN) == 1.0).collect();
+        for (r, &c) in rows[1..].iter().zip(&capped) {
+            assert!(value(r, CG_CAPPED_COLUMN) == 0.0 || c, "{}", r.iter);
+            assert_eq!(c, value(r, "cg_iters") == 1.0 && value(r, "cg_residual") > value(r, "forcing"), "{}", r.iter);
+        }
+        assert!(capped.iter().any(|&c| c), "{capped:?}");
     }
 
     /// The same bits on 1 and 3 threads (the proxy's factor and solves are, the products sum
