@@ -231,7 +231,8 @@ fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
            <span class=\"failed\">failed</span> with its error; <span class=\"skipped\">skipped</span>: not \
            run, the solver is not defined for the energy (the reason shown; left out of every aggregate and \
            ranking). “k shifted”: k iterations solved their Newton system with a Tikhonov shift above the \
-           base (regularized Newton); “k clamped”: k iterations clamped SLIM weights (the solver run \
+           base (regularized Newton); “k CG-capped”: k steps of a truncated solver stopped CG at its \
+           iteration cap short of the forcing term; “k clamped”: k iterations clamped SLIM weights (the solver run \
            outside the energies it is defined for; tables and profiles name it “slim (clamped)”).";
     if let Some(tau) = tightest_target(summaries) {
         let t = tau_text(tau);
@@ -343,6 +344,10 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
     if let Some(k) = s.shifted_iters.filter(|k| *k > 0) {
         let _ = write!(detail, ", {k} shifted");
         let _ = write!(more, "; {k} iterations solved with a Tikhonov shift above the base (regularized)");
+    }
+    if let Some(k) = s.cg_capped_iters.filter(|k| *k > 0) {
+        let _ = write!(detail, ", {k} CG-capped");
+        let _ = write!(more, "; {k} steps stopped CG at max_cg_iters short of its forcing term (truncated Newton)");
     }
     if let Some(k) = s.clamped_iters.filter(|k| *k > 0) {
         let _ = write!(detail, ", {k} clamped");
@@ -741,6 +746,7 @@ mod tests {
             (r.repeats, r.time_s_min, r.time_s_max) = (Some(5), Some(0.24), Some(0.31));
         }
         rows[0].shifted_iters = Some(2);
+        rows[0].cg_capped_iters = Some(4);
         rows.push(SummaryRow {
             dataset: "tiny".into(),
             task: crate::plan::Task::Param,
@@ -763,7 +769,8 @@ mod tests {
         assert!(html.contains("median 0.510 s over 3 samples, spread 3.9%"), "calibration stated");
         assert!(!html.contains("class=\"warn\""), "steady machine: no warning");
         // The time spread in the cell, the repeats in its tooltip, the shifted iterations in both.
-        assert!(html.contains("3 it, 0.250 s (0.240–0.310), 2 shifted"), "spread and shifts in the cell");
+        assert!(html.contains("0.250 s (0.240–0.310), 2 shifted, 4 CG-capped"), "spread, shifts, caps in the cell");
+        assert!(html.contains("4 steps stopped CG at max_cg_iters"), "caps in the tooltip");
         assert!(html.contains("time = median of 5 repeats, min–max 0.240 s–0.310 s"));
         assert!(html.contains("2 iterations solved with a Tikhonov shift above the base"));
         // The skipped pair: grey, with its reason, counted, and in the tables as skipped.
