@@ -85,7 +85,7 @@ pub fn aggregates_table(rows: &[SummaryRow], batch: &Batch) -> Option<Table> {
         rows: out,
         caption: format!(
             "Per energy over its datasets; runs = runs that were not skipped (skipped pairs are left out of \
-             every aggregate), solved = converged (status ok); shifted = runs with Newton systems solved with \
+             every aggregate), solved = status ok (the harness's verdict where the runs were judged); shifted = runs with Newton systems solved with \
              a Tikhonov shift above the base (regularized). sgm = (Π (v_i + s))^(1/n) − s over the runs, with \
              shift s = {ITERATION_SHIFT} iterations and, for {}. Unsolved runs (not converged or failed) count \
              at the cap, the Mittelmann convention: iterations at the energy's max_iters (meta.json \
