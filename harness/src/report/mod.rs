@@ -82,7 +82,7 @@ pub fn reached_target(r: &SummaryRow) -> Option<ToTarget> {
     r.to_targets.last().filter(|t| t.iters.is_some() && t.time_s.is_some()).copied()
 }
 
-/// The row as every table, aggregate and profile ranks it (issue 35): a judged run that
+/// The row as every table, aggregate and profile ranks it: a judged run that
 /// reached its tightest target counts the iterations and time to it, not to its own stop; the
 /// time's min–max over the repeats, `time_norm` and `ms_per_vertex` scale by the same ratio
 /// `time_to / time_s`. Any other run counts as it ran (an unsolved run enters the means at the

@@ -124,7 +124,7 @@ fn the_solvers_after_the_papers_bend_the_bar_to_kp_s_minimum() {
 /// L-BFGS needs thousands of iterations where Newton needs 14 (the penalty's 2 lambda = 2e5
 /// against an elastic energy of order 1). The Laplacian variant, whose proxy carries the
 /// handles, got to KP's minimum while its proxy was twice the Hessian of SD's quadratic part;
-/// with the proxy that Hessian (issue 35) it ends, after 8014 iterations, where the line
+/// with the proxy that Hessian it ends, after 8014 iterations, where the line
 /// search finds no step, at |grad| 3.3e-6 (from 1.9e6) and E = 2.3148 against KP's 2.0024:
 /// a stationary point above KP's minimum, what the harness's verdict calls another minimum.
 /// Pinned here so that a change of the path shows.

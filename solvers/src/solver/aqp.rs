@@ -311,7 +311,7 @@ mod tests {
         assert!(rel.abs() < 1e-5, "{} vs KP {}", out.final_energy, kp.final_energy);
     }
 
-    /// The record-only work is timed apart (issue 35): every row after 0 has its `t_record_s`
+    /// The record-only work is timed apart: every row after 0 has its `t_record_s`
     /// (aqp: the evaluation at `x` and the flips; lbfgs: the inertia counts and the flips),
     /// `t_cum_s` sums `t_iter_s` alone, the iteration's parts fit in its `t_iter_s`, and the
     /// solve's wall time holds the iterations and the record-only work.

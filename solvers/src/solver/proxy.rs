@@ -455,7 +455,7 @@ mod tests {
         g(s).iter().zip(&twice).map(|(a, b)| 2.0 * b - a).collect()
     }
 
-    /// The audit's claim and its fix (issue 35): the proxy applied to `v` is the Hessian of the
+    /// The audit's claim and its fix: the proxy applied to `v` is the Hessian of the
     /// energy's quadratic part applied to `v`, by central differences of that part's gradient
     /// along `v` at the Tutte map of `bumpy_1k`: for SD `1/2 |J|^2` (half the proxy the
     /// Dirichlet energy `|J|^2` gives, which was the proxy before), with and without handles;

@@ -411,7 +411,7 @@ mod tests {
     }
 
     /// With `max_cg_iters = 1` on the sack in SARAP (where the default cap of 500 was hit in
-    /// 210 of 331 steps, issue 35) some rows are marked `cg_capped = 1`: exactly those whose
+    /// 210 of 331 steps) some rows are marked `cg_capped = 1`: exactly those whose
     /// CG stopped at the cap with its residual above the forcing term.
     #[test]
     fn a_step_at_the_cg_cap_is_marked() {

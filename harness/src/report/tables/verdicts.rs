@@ -1,4 +1,4 @@
-//! The harness's verdicts per energy (issue 35): per solver, how many datasets it solved at
+//! The harness's verdicts per energy: per solver, how many datasets it solved at
 //! each target, and why the rest were not solved.
 
 use super::ranking::{self, lowest};
