@@ -312,13 +312,13 @@ mod tests {
     }
 
     /// The record-only work is timed apart: every row after 0 has its `t_record_s`
-    /// (aqp: the evaluation at `x` and the flips; lbfgs: the inertia counts and the flips),
-    /// `t_cum_s` sums `t_iter_s` alone, the iteration's parts fit in its `t_iter_s`, and the
-    /// solve's wall time holds the iterations and the record-only work.
+    /// (aqp: the evaluation at `x` and the flips; the others: the inertia counts and the
+    /// flips), `t_cum_s` sums `t_iter_s` alone, the iteration's parts fit in its `t_iter_s`,
+    /// and the solve's wall time holds the iterations and the record-only work.
     #[test]
     fn the_record_only_work_is_timed_apart() {
         let mesh = generate("bumpy_1k").unwrap();
-        for solver in ["aqp", "lbfgs", "lbfgs-laplacian"] {
+        for solver in ["aqp", "lbfgs", "lbfgs-laplacian", "kp-newton", "pn-trust-region", "kp-newton-cg"] {
             let settings = ParamSettings::for_energy(&EnergyKind::Sd);
             let mut rec = Recorder::default();
             let t0 = Instant::now();

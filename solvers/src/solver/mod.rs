@@ -47,9 +47,9 @@ pub struct IterationRecord {
     pub t_cum_s: f64,
     /// Work done only for this row and the stop rule, not for the method: for `aqp` the
     /// evaluation at `x` (its steps need `f` and its gradient at `y` only; the authors'
-    /// logging is outside their timed iterate), for `lbfgs` and `aqp` the inertia counts and
-    /// the flips. Not in `t_iter_s` or `t_cum_s`, and the harness leaves it out of the run's
-    /// `time_s`; 0 where a solver separates nothing.
+    /// logging is outside their timed iterate), for every `param`/`deform` solver the inertia
+    /// counts and the flips. Not in `t_iter_s` or `t_cum_s`, and the harness leaves it out of
+    /// the run's `time_s`; 0 where a solver separates nothing (row 0, the authalic solvers).
     pub t_record_s: f64,
     /// The Tikhonov shift (`LinearSettings::tikhonov`, added before and after Jacobi scaling)
     /// of the Newton system that produced this row: the base shift of the settings when its

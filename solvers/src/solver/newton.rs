@@ -7,7 +7,7 @@ use super::proxy::{ProxyError, ScalarProxy};
 use super::truncated::{Forcing, Preconditioner, TruncatedSolve, CG_COLUMNS};
 use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason, SystemView};
 use crate::assembly::{pack_lower, Lower6, Pattern, SymmetricRows};
-use crate::hessian::pn::{Filtered, TrustRegion};
+use crate::hessian::pn::TrustRegion;
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
@@ -209,8 +209,11 @@ pub fn newton_with(
         }
         let t_start = Instant::now();
 
-        let filtered = Filtered(filter);
-        let system: &dyn SystemBlock = if trust_region.is_some() { &filtered } else { strategy };
+        let adaptive = trust_region.map(|tr| tr.system(filter));
+        let system: &dyn SystemBlock = match &adaptive {
+            Some(a) => a,
+            None => strategy,
+        };
         project_blocks(problem, &ev, system, &mut blocks, &mut edge_blocks);
         let mut counters = system.counters(&ev.states);
         let mut t_project = t_start.elapsed().as_secs_f64();
@@ -303,13 +306,19 @@ pub fn newton_with(
         }
 
         let t0 = Instant::now();
-        if let Err(e) = problem.evaluate(&x, &mut ev) {
+        // The next system needs the states, energy and gradient; the inertia is counted for
+        // the row (the projections find their negative eigenvalues themselves).
+        if let Err(e) = problem.evaluate_without_inertia(&x, &mut ev) {
             // The line search only accepts finite energies, so this is a derivative overflow.
             break StopReason::NonFinite(e.to_string());
         }
         let t_eval = t0.elapsed().as_secs_f64();
-        let flips = problem.flips(&x);
         let t_iter = t_start.elapsed().as_secs_f64() + t_charged;
+        // Record-only work (IterationRecord::t_record_s): the inertia counts and the flips.
+        let t0 = Instant::now();
+        problem.count_inertia(&mut ev);
+        let flips = problem.flips(&x);
+        let t_record = t0.elapsed().as_secs_f64();
         t_cum += t_iter;
         iter += 1;
         record = IterationRecord {
@@ -319,6 +328,7 @@ pub fn newton_with(
             t_linesearch_s: t_ls,
             t_iter_s: t_iter,
             t_cum_s: t_cum,
+            t_record_s: t_record,
             shift: Some(shift),
             ls_evals,
             extra: names.iter().copied().zip(counters.into_iter().chain(cg_columns)).collect(),
