@@ -177,9 +177,10 @@ pub trait SystemBlock: Send + Sync {
         Vec::new()
     }
 
-    /// The trust-region rule of an adaptive filter (`pn-trust-region`): the driver then builds
-    /// each system with [`pn::Filtered`] in the mode the rule chose from the last step's model
-    /// fit, and writes the mode and the fit as the strategy's counters.
+    /// The trust-region rule of an adaptive filter (`pn-trust-region`, `fp-trust-region-6x6`):
+    /// the driver then builds each system with [`pn::TrustRegion::system`] in the mode the rule
+    /// chose from the last step's model fit, and writes the mode and the fit as the strategy's
+    /// counters.
     fn trust_region(&self) -> Option<pn::TrustRegion> {
         None
     }

@@ -12,8 +12,11 @@
 //! `rho = (E(x) - E(x + s)) / -(g^T s + s^T H s / 2)` with the *unfiltered* Hessian `H`; the
 //! next system clamps when `|rho - 1| < tau` (default 0.01) and uses abs otherwise, abs also
 //! at the first iteration and after a bad fit (a predicted decrease that is not clearly
-//! positive).
+//! positive). `pn-trust-region` switches between the two filters of `K`; `fp-trust-region-6x6`
+//! between clamping and abs of the 6x6 element Hessian in vertex coordinates ([`Space`]), which
+//! is the authors' method (TinyAD's per-element projection).
 
+use super::fp::{Fp6, Fp6Abs};
 use super::kp::project_k;
 use super::{k_eigen, k_matrix, triple_product, ElementState, SystemBlock};
 use crate::local::LocalOp;
@@ -90,16 +93,48 @@ pub const BAD_FIT_RTOL: f64 = 1e-12;
 /// (0 clamp, 1 abs) and the model fit `rho` of its step (NaN for a bad fit; both NaN in row 0).
 pub const TRUST_REGION_COLUMNS: [&str; 2] = ["filter", "rho"];
 
-/// `pn-trust-region`: the driver builds each system with [`Filtered`] in the mode that
-/// [`TrustRegion::next`] chose from the last step's fit.
+/// What a filter acts on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Space {
+    /// `K` through its analytic eigensystem ([`Filtered`], KP's metric).
+    K,
+    /// The 6x6 element Hessian, numerically ([`Fp6`] clamps, [`Fp6Abs`] takes |lambda|).
+    Element,
+}
+
+/// A system block filtered by `filter` in `space`.
+#[derive(Clone, Copy, Debug)]
+pub struct FilteredIn {
+    pub filter: Filter,
+    pub space: Space,
+}
+
+impl SystemBlock for FilteredIn {
+    fn block(&self, op: &LocalOp, s: &ElementState) -> Matrix6<f64> {
+        match (self.space, self.filter) {
+            (Space::K, f) => Filtered(f).block(op, s),
+            (Space::Element, Filter::Clamp) => Fp6.block(op, s),
+            (Space::Element, Filter::Abs) => Fp6Abs.block(op, s),
+        }
+    }
+}
+
+/// `pn-trust-region` and `fp-trust-region-6x6`: the driver builds each system with
+/// [`TrustRegion::system`] in the mode that [`TrustRegion::next`] chose from the last step's fit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrustRegion {
     pub tau: f64,
+    pub space: Space,
 }
 
 impl TrustRegion {
     /// The filter before any step has been taken.
     pub const FIRST: Filter = Filter::Abs;
+
+    /// The system block of the iteration whose filter is `filter`.
+    pub fn system(&self, filter: Filter) -> FilteredIn {
+        FilteredIn { filter, space: self.space }
+    }
 
     /// The filter after a step whose model fit was `rho` (NaN: a bad fit).
     pub fn next(&self, rho: f64) -> Filter {
@@ -123,7 +158,7 @@ impl TrustRegion {
 impl SystemBlock for TrustRegion {
     /// The first iteration's block; the driver switches per iteration ([`SystemBlock::trust_region`]).
     fn block(&self, op: &LocalOp, s: &ElementState) -> Matrix6<f64> {
-        Filtered(Self::FIRST).block(op, s)
+        self.system(Self::FIRST).block(op, s)
     }
 
     fn counter_names(&self) -> &'static [&'static str] {
@@ -203,7 +238,7 @@ mod tests {
 
     #[test]
     fn the_trust_region_rule_switches_on_the_model_fit() {
-        let tr = TrustRegion { tau: DEFAULT_TAU };
+        let tr = TrustRegion { tau: DEFAULT_TAU, space: Space::K };
         // a hand-made sequence of fits and the filter each one selects for the next system
         let fits = [f64::NAN, 0.5, 0.995, 1.0, 1.009, 1.011, 2.0, -1.0, 0.98, f64::INFINITY];
         let modes: Vec<Filter> = fits.iter().map(|&r| tr.next(r)).collect();
@@ -211,7 +246,7 @@ mod tests {
         assert_eq!(modes, [Abs, Abs, Clamp, Clamp, Clamp, Abs, Abs, Abs, Abs, Abs]);
         assert_eq!(TrustRegion::FIRST, Abs);
         // a looser tau clamps more often
-        assert_eq!(TrustRegion { tau: 0.5 }.next(0.6), Clamp);
+        assert_eq!(TrustRegion { tau: 0.5, space: Space::Element }.next(0.6), Clamp);
         // the fit: tiny, negative or non-finite predictions are bad fits
         assert_eq!(TrustRegion::fit(1.0, 2.0, 10.0), 0.5);
         assert!(TrustRegion::fit(1.0, 1e-12, 10.0).is_nan());
@@ -219,5 +254,27 @@ mod tests {
         assert!(TrustRegion::fit(1.0, f64::NAN, 10.0).is_nan());
         assert!(TrustRegion::fit(1.0, f64::INFINITY, 10.0).is_nan());
         assert_eq!((Clamp.code(), Abs.code()), (0.0, 1.0));
+    }
+
+    /// Each (space, filter) pair builds the block of the solver it stands for: `K`'s filters
+    /// are pn-abs's and KP's blocks, the element space's are FP6-abs's and FP6's.
+    #[test]
+    fn the_adaptive_system_is_the_filter_of_its_space() {
+        let mut rng = Lcg(71);
+        for e in all_energies() {
+            for _ in 0..100 {
+                let (op, _, s) = random_element(&mut rng, &e);
+                let of = |space, filter| TrustRegion { tau: DEFAULT_TAU, space }.system(filter).block(&op, &s);
+                assert_eq!(of(Space::K, Filter::Abs), Filtered(Filter::Abs).block(&op, &s));
+                assert_eq!(of(Space::K, Filter::Clamp), super::super::kp::Kp.block(&op, &s));
+                assert_eq!(of(Space::Element, Filter::Abs), Fp6Abs.block(&op, &s));
+                assert_eq!(of(Space::Element, Filter::Clamp), Fp6.block(&op, &s));
+            }
+            let (op, _, s) = random_element(&mut rng, &e);
+            for space in [Space::K, Space::Element] {
+                let tr = TrustRegion { tau: DEFAULT_TAU, space };
+                assert_eq!(tr.block(&op, &s), tr.system(TrustRegion::FIRST).block(&op, &s));
+            }
+        }
     }
 }

@@ -1,4 +1,4 @@
-//! The solvers that came after the three papers (issue 20) against `kp-newton`: each reaches
+//! The solvers that came after the three papers against `kp-newton`: each reaches
 //! KP's minimum without a flip, on generated and shared meshes, in `param` and `deform`.
 
 use crate::deform::{solve_deform, DeformSettings};
@@ -9,8 +9,9 @@ use crate::param::{solve_param, ParamSettings};
 use crate::solver::{IterationRecord, Outcome, Recorder, StopSettings};
 use crate::test_support::shared_mesh;
 
-/// The solvers of issue 20 that run on the Newton driver or a driver of their own.
-const AFTER_THE_PAPERS: [&str; 6] = ["pn-abs", "fp-abs-6x6", "pn-trust-region", "lbfgs", "lbfgs-laplacian", "aqp"];
+/// The solvers after the papers that run on the Newton driver or a driver of their own.
+const AFTER_THE_PAPERS: [&str; 7] =
+    ["pn-abs", "fp-abs-6x6", "pn-trust-region", "fp-trust-region-6x6", "lbfgs", "lbfgs-laplacian", "aqp"];
 
 fn param(mesh: &Mesh, solver: &str, max_iters: usize) -> (Outcome, Vec<IterationRecord>) {
     let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
@@ -64,29 +65,32 @@ fn abs_filtering_matches_its_numeric_check_and_is_monotone() {
     assert!(rows.windows(2).all(|w| w[1].energy <= w[0].energy));
 }
 
-/// The trust-region rule on a real run: abs first, the mode and fit recorded in every row,
-/// clamping once the model fits (close to the minimum, where Newton's model is good).
+/// The trust-region rule on a real run, filtering `K` and the element Hessian: abs first, the
+/// mode and fit recorded in every row, clamping once the model fits (close to the minimum,
+/// where Newton's model is good).
 #[test]
-fn the_trust_region_filter_records_its_modes_and_reaches_kp() {
+fn the_trust_region_filters_record_their_modes_and_reach_kp() {
     let mesh = generate("bumpy_1k").unwrap();
     let (kp, _) = param(&mesh, "kp-newton", 200);
-    let (out, rows) = param(&mesh, "pn-trust-region", 200);
-    assert_reaches("pn-trust-region", &out, &rows, &kp);
-    assert!(rows.windows(2).all(|w| w[1].energy <= w[0].energy));
-    let col = |r: &IterationRecord, name: &str| r.extra_value(name).unwrap();
-    let names: Vec<&str> = rows[0].extra.iter().map(|e| e.0).collect();
-    assert_eq!(names, ["filter", "rho"]);
-    assert!(col(&rows[0], "filter").is_nan() && col(&rows[0], "rho").is_nan());
-    assert_eq!(col(&rows[1], "filter"), 1.0, "the first system uses abs");
-    let tau = crate::hessian::pn::DEFAULT_TAU;
-    for w in rows[1..].windows(2) {
-        // each row's filter follows from the previous row's fit
-        let rho = col(&w[0], "rho");
-        let want = if (rho - 1.0).abs() < tau { 0.0 } else { 1.0 };
-        assert_eq!(col(&w[1], "filter"), want, "row {}: rho {rho}", w[1].iter);
+    for solver in ["pn-trust-region", "fp-trust-region-6x6"] {
+        let (out, rows) = param(&mesh, solver, 200);
+        assert_reaches(solver, &out, &rows, &kp);
+        assert!(rows.windows(2).all(|w| w[1].energy <= w[0].energy), "{solver}");
+        let col = |r: &IterationRecord, name: &str| r.extra_value(name).unwrap();
+        let names: Vec<&str> = rows[0].extra.iter().map(|e| e.0).collect();
+        assert_eq!(names, ["filter", "rho"]);
+        assert!(col(&rows[0], "filter").is_nan() && col(&rows[0], "rho").is_nan());
+        assert_eq!(col(&rows[1], "filter"), 1.0, "{solver}: the first system uses abs");
+        let tau = crate::hessian::pn::DEFAULT_TAU;
+        for w in rows[1..].windows(2) {
+            // each row's filter follows from the previous row's fit
+            let rho = col(&w[0], "rho");
+            let want = if (rho - 1.0).abs() < tau { 0.0 } else { 1.0 };
+            assert_eq!(col(&w[1], "filter"), want, "{solver} row {}: rho {rho}", w[1].iter);
+        }
+        let clamps = rows[1..].iter().filter(|r| col(r, "filter") == 0.0).count();
+        assert!(clamps > 0, "{solver}: never clamped in {} iterations", out.iterations);
     }
-    let clamps = rows[1..].iter().filter(|r| col(r, "filter") == 0.0).count();
-    assert!(clamps > 0, "never clamped in {} iterations", out.iterations);
 }
 
 #[test]
@@ -108,7 +112,7 @@ fn the_solvers_after_the_papers_bend_the_bar_to_kp_s_minimum() {
         // the minima still differ in the fourth digit: compare minima on the gradient.
         let stop = Some(StopSettings { grad_tol: 1e-7, energy_decrease_tol: 0.0, max_iters: 2000 });
         let (kp, _) = run("kp-newton", stop);
-        for solver in ["pn-abs", "fp-abs-6x6", "pn-trust-region"] {
+        for solver in ["pn-abs", "fp-abs-6x6", "pn-trust-region", "fp-trust-region-6x6"] {
             let (out, rows) = run(solver, stop);
             let label = format!("{solver} {energy:?}");
             assert!(out.stop_reason.is_converged(), "{label}: {:?}", out.stop_reason);

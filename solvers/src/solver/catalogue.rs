@@ -4,7 +4,7 @@
 //! strategy file plus one entry here.
 
 use crate::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
-use crate::hessian::pn::{Filter, Filtered, TrustRegion, TRUST_REGION_COLUMNS};
+use crate::hessian::pn::{Filter, Filtered, Space, TrustRegion, TRUST_REGION_COLUMNS};
 use crate::hessian::{
     akvf::Akvf, cm::Cm, fp::Fp4, fp::Fp6, fp::Fp6Abs, kp::Kp, none::Unprojected, slim::Slim, SystemBlock,
 };
@@ -65,11 +65,13 @@ pub struct SolverOptions {
     pub slim: SlimOptions,
     #[serde(rename = "pn-trust-region")]
     pub trust_region: TrustRegionOptions,
+    #[serde(rename = "fp-trust-region-6x6")]
+    pub fp_trust_region: TrustRegionOptions,
     #[serde(rename = "kp-newton-cg")]
     pub newton_cg: NewtonCgOptions,
 }
 
-/// `[solver.pn-trust-region]`.
+/// `[solver.pn-trust-region]` and `[solver.fp-trust-region-6x6]`.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TrustRegionOptions {
@@ -102,6 +104,7 @@ impl SolverOptions {
         SolverOptions {
             slim: if name == "slim" { self.slim } else { d.slim },
             trust_region: if name == "pn-trust-region" { self.trust_region } else { d.trust_region },
+            fp_trust_region: if name == "fp-trust-region-6x6" { self.fp_trust_region } else { d.fp_trust_region },
             newton_cg: if name == "kp-newton-cg" { self.newton_cg } else { d.newton_cg },
         }
     }
@@ -313,7 +316,18 @@ pub static SOLVERS: &[SolverEntry] = &[
             "pn-trust-region",
             "PN-TR",
             "trust-region eigenvalue filtering (Chen et al. 2024): abs or clamp per iteration from the model fit",
-            |_, o| spec(TrustRegion { tau: o.trust_region.tau }),
+            |_, o| spec(TrustRegion { tau: o.trust_region.tau, space: Space::K }),
+        )
+    },
+    SolverEntry {
+        options: &["tau"],
+        extra_columns: &TRUST_REGION_COLUMNS,
+        ..newton(
+            "fp-trust-region-6x6",
+            "FP6-TR",
+            "trust-region eigenvalue filtering as the authors' code: abs or clamp of the 6x6 element Hessians \
+             per iteration from the model fit",
+            |_, o| spec(TrustRegion { tau: o.fp_trust_region.tau, space: Space::Element }),
         )
     },
     planar(
@@ -594,26 +608,40 @@ mod tests {
         assert_eq!(slim.options, ["clamp_weights"]);
     }
 
-    /// `[solver.pn-trust-region] tau` reaches its strategy and no other solver's options.
+    /// `[solver.pn-trust-region] tau` and `[solver.fp-trust-region-6x6] tau` reach their own
+    /// strategy (in `K` and in the element space) and no other solver's options.
     #[test]
-    fn the_trust_region_threshold_is_pn_trust_region_s_option() {
-        let tr = find("pn-trust-region").unwrap();
-        assert_eq!(tr.options, ["tau"]);
-        assert_eq!(SolverOptions::default().trust_region.tau, 0.01);
-        let loose = SolverOptions { trust_region: TrustRegionOptions { tau: 0.5 }, ..SolverOptions::default() };
-        assert_eq!(loose.of("pn-trust-region"), loose);
-        assert_eq!(loose.of("kp-newton"), SolverOptions::default());
-        for (o, tau) in [(SolverOptions::default(), 0.01), (loose, 0.5)] {
-            let spec = tr.newton_spec(Task::Param, &EnergyKind::Sd, &o).unwrap();
-            assert_eq!(spec.block.trust_region(), Some(TrustRegion { tau }));
+    fn each_trust_region_threshold_is_its_own_solver_s_option() {
+        let loose = TrustRegionOptions { tau: 0.5 };
+        let cases = [
+            ("pn-trust-region", Space::K, SolverOptions { trust_region: loose, ..SolverOptions::default() }),
+            (
+                "fp-trust-region-6x6",
+                Space::Element,
+                SolverOptions { fp_trust_region: loose, ..SolverOptions::default() },
+            ),
+        ];
+        for (name, space, set) in cases {
+            let tr = find(name).unwrap();
+            assert_eq!(tr.options, ["tau"]);
+            assert_eq!(tr.extra_columns, TRUST_REGION_COLUMNS);
+            assert_eq!(set.of(name), set);
+            for other in SOLVERS.iter().filter(|s| s.name != name) {
+                assert_eq!(set.of(other.name), SolverOptions::default(), "{}", other.name);
+            }
+            for (o, tau) in [(SolverOptions::default(), 0.01), (set, 0.5)] {
+                let spec = tr.newton_spec(Task::Param, &EnergyKind::Sd, &o).unwrap();
+                assert_eq!(spec.block.trust_region(), Some(TrustRegion { tau, space }), "{name}");
+            }
         }
-        // only it adapts its filter
-        for s in SOLVERS.iter().filter(|s| s.name != "pn-trust-region") {
-            if let Ok(spec) = s.newton_spec(Task::Param, &EnergyKind::Sd, &loose) {
+        // only they adapt their filter
+        let both = SolverOptions { trust_region: loose, fp_trust_region: loose, ..SolverOptions::default() };
+        for s in SOLVERS.iter().filter(|s| !s.name.contains("trust-region")) {
+            if let Ok(spec) = s.newton_spec(Task::Param, &EnergyKind::Sd, &both) {
                 assert_eq!(spec.block.trust_region(), None, "{}", s.name);
             }
         }
-        let abs = find("pn-abs").unwrap().newton_spec(Task::Deform, &EnergyKind::Sd, &loose).unwrap();
+        let abs = find("pn-abs").unwrap().newton_spec(Task::Deform, &EnergyKind::Sd, &both).unwrap();
         assert!(abs.block.counter_names().is_empty());
     }
 

@@ -148,6 +148,9 @@ impl Config {
         if let Some(t) = self.solver.get("pn-trust-region").and_then(|p| p.tau) {
             o.trust_region.tau = t;
         }
+        if let Some(t) = self.solver.get("fp-trust-region-6x6").and_then(|p| p.tau) {
+            o.fp_trust_region.tau = t;
+        }
         if let Some(p) = self.solver.get("kp-newton-cg") {
             o.newton_cg.eta_max = p.eta_max.unwrap_or(o.newton_cg.eta_max);
             o.newton_cg.max_cg_iters = p.max_cg_iters.unwrap_or(o.newton_cg.max_cg_iters);

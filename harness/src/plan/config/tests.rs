@@ -233,6 +233,12 @@ fn the_trust_region_threshold_is_read_checked_and_reaches_its_solver() {
         let e = err(&format!("{MIN}[solver.pn-trust-region]\ntau = {bad}\n"));
         assert!(e.contains("[solver.pn-trust-region] tau = ") && e.contains("must be a positive number"), "{e}");
     }
+    // fp-trust-region-6x6's threshold is its own
+    let fp = parse(&format!("{MIN}[solver.fp-trust-region-6x6]\ntau = 0.2\n")).unwrap();
+    let options = fp.param_settings(&EnergyKind::Sd).solver.options;
+    assert_eq!((options.fp_trust_region.tau, options.trust_region.tau), (0.2, 0.01));
+    let e = err(&format!("{MIN}[solver.fp-trust-region-6x6]\ntau = 0.0\n"));
+    assert!(e.contains("[solver.fp-trust-region-6x6] tau = ") && e.contains("must be a positive number"), "{e}");
     let e = err(&format!("{MIN}[solver.kp-newton]\ntau = 0.05\n"));
     assert!(e.contains("[solver.kp-newton] has no option 'tau' (kp-newton has no options)"), "{e}");
     let e = err(&format!("{MIN}[solver.slim]\ntau = 0.05\n"));
