@@ -93,35 +93,10 @@ fn tick(log2_tau: f64, x_max: f64) -> String {
 fn render_profile(title: &str, profiles: &Profiles, solvers: &[&str]) -> Result<Vec<u8>> {
     let tau_max = profiles.tau_max();
     let x_max = tau_max.log2();
-    let curves: Vec<Series> = profiles
-        .profiles
-        .iter()
-        .map(|p| {
-            let steps = p.steps(tau_max);
-            let curve = Curve {
-                iter: steps.iter().map(|s| s.0).collect(),
-                gap: steps.iter().map(|s| s.1).collect(),
-                ..Default::default()
-            };
-            Series { solver: &p.solver, style: chart::style(solvers, &p.solver), converged: true, curve }
-        })
-        .collect();
-    render_framed(&curves, |chart_area| {
-        let points = iter_gap_points(&curves);
-        let mut builder = ChartBuilder::on(chart_area);
-        builder.caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(42).y_label_area_size(60);
-        // Room above 1 and below 0 so the markers on the edges are not clipped.
-        let mut chart = builder.build_cartesian_2d(-0.02 * x_max..x_max * 1.01, -0.03..1.05)?;
-        let x_label = |v: &f64| tick(*v, x_max);
-        let mut mesh = chart.configure_mesh();
-        mesh.x_desc("τ: within this factor of the best solver (log2 axis)")
-            .y_desc("fraction of datasets solved")
-            .x_label_formatter(&x_label)
-            .y_label_formatter(&|v| if (0.0..=1.0).contains(v) { format_linear(*v) } else { String::new() });
-        house_style(&mut mesh).draw()?;
-        draw_series(&mut chart, &curves, &points, x_max)?;
-        Ok(())
-    })
+    let steps = profiles.profiles.iter().map(|p| (p.solver.as_str(), p.steps(tau_max))).collect();
+    let x_label = |v: &f64| tick(*v, x_max);
+    let x_desc = "τ: within this factor of the best solver (log2 axis)";
+    render_fractions(title, x_desc, (0.0, x_max), &x_label, steps, solvers)
 }
 
 /// The label of a budget tick at `x` decades above 10^`d0`: only whole decades (0.01, 1, 1e5).
@@ -148,35 +123,46 @@ fn render_data_profile(
     solvers: &[&str],
 ) -> Result<Vec<u8>> {
     let d0 = lo.log10().floor();
-    let (x_min, x_max) = (lo.log10() - d0, hi.log10() - d0);
-    let curves: Vec<Series> = data
-        .profiles
-        .iter()
-        .map(|p| {
-            let steps = p.steps(lo, hi);
+    let shifted = |steps: Vec<(f64, f64)>| steps.into_iter().map(|(x, y)| (x - d0, y)).collect();
+    let steps = data.profiles.iter().map(|p| (p.solver.as_str(), shifted(p.steps(lo, hi)))).collect();
+    let x_label = |v: &f64| decade_tick(*v, d0);
+    render_fractions(title, x_desc, (lo.log10() - d0, hi.log10() - d0), &x_label, steps, solvers)
+}
+
+/// A profile chart: per solver, the fraction of datasets solved (y in [0, 1]) as steps over
+/// `x_min..x_max`, the x ticks labelled by `x_label`.
+fn render_fractions(
+    title: &str,
+    x_desc: &str,
+    (x_min, x_max): (f64, f64),
+    x_label: &dyn Fn(&f64) -> String,
+    steps: Vec<(&str, Vec<(f64, f64)>)>,
+    solvers: &[&str],
+) -> Result<Vec<u8>> {
+    let curves: Vec<Series> = steps
+        .into_iter()
+        .map(|(solver, steps)| {
             let curve = Curve {
-                iter: steps.iter().map(|s| s.0 - d0).collect(),
+                iter: steps.iter().map(|s| s.0).collect(),
                 gap: steps.iter().map(|s| s.1).collect(),
                 ..Default::default()
             };
-            Series { solver: &p.solver, style: chart::style(solvers, &p.solver), converged: true, curve }
+            Series { solver, style: chart::style(solvers, solver), converged: true, curve }
         })
         .collect();
     render_framed(&curves, |chart_area| {
         let points = iter_gap_points(&curves);
         let mut builder = ChartBuilder::on(chart_area);
         builder.caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(42).y_label_area_size(60);
+        // Room above 1 and below 0 and at both ends so the markers on the edges are not clipped.
         let pad = 0.02 * (x_max - x_min);
         let mut chart = builder.build_cartesian_2d(x_min - pad..x_max + pad, -0.03..1.05)?;
-        let x_label = |v: &f64| decade_tick(*v, d0);
+        let fraction = |v: &f64| if (0.0..=1.0).contains(v) { format_linear(*v) } else { String::new() };
         let mut mesh = chart.configure_mesh();
-        mesh.x_desc(x_desc).y_desc("fraction of datasets solved").x_label_formatter(&x_label).y_label_formatter(&|v| {
-            if (0.0..=1.0).contains(v) {
-                format_linear(*v)
-            } else {
-                String::new()
-            }
-        });
+        mesh.x_desc(x_desc)
+            .y_desc("fraction of datasets solved")
+            .x_label_formatter(x_label)
+            .y_label_formatter(&fraction);
         house_style(&mut mesh).draw()?;
         draw_series(&mut chart, &curves, &points, x_max)?;
         Ok(())
