@@ -28,7 +28,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb,start,ref_energy,ref_source,final_gap,verdict,cg_capped_iters,iters_to_1e-3,time_to_1e-3,iters_to_1e-6,time_to_1e-6");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb,start,ref_energy,ref_source,final_gap,verdict,cg_capped_iters,gap_scale,iters_to_1e-3,time_to_1e-3,iters_to_1e-6,time_to_1e-6");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];
@@ -57,6 +57,9 @@ path = "quad.obj"
     assert_eq!(good[col("start")], "tutte-scaled");
     assert_eq!(good[col("verdict")], "solved");
     assert!(["reference", "batch"].contains(&good[col("ref_source")].as_str()), "{good:?}");
+    // param's span is E0 - E*
+    let num = |name: &str| good[col(name)].parse::<f64>().unwrap();
+    assert_eq!(num("gap_scale"), num("init_energy") - num("ref_energy"));
     assert_eq!(it[0][16], "1.0");
     let last_gap: f64 = it.last().unwrap()[16].parse().unwrap();
     assert!(last_gap <= 1e-6 && good[col("final_gap")].parse::<f64>().unwrap() == last_gap, "{last_gap}");

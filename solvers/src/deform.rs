@@ -10,9 +10,10 @@ use crate::energy::EnergyKind;
 pub use crate::handle::Handle;
 pub use crate::map_task::MapError;
 use crate::map_task::{check_handles, checked_driver, map_problem};
-use crate::mesh::{Mesh, Task};
-use crate::problem::Penalty;
+use crate::mesh::{validate_for, Mesh, Task};
+use crate::problem::{MapProblem, Penalty};
 use crate::smoothness::Projection;
+use crate::solver::newton::SolveError;
 use crate::solver::{Observer, Outcome, Settings, StartMap, StopSettings};
 
 /// Settings of a `deform` run.
@@ -111,21 +112,8 @@ pub fn solve_deform(
     let driver = checked_driver(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
     check_handles(mesh, handles)?;
     let source_name = mesh.source.clone();
-    let n = mesh.n_vertices();
+    let (mut problem, _, x) = deform_problem(mesh, init, energy, driver.smoothness_projection(), settings)?;
     let (mid, s) = mesh.normalization();
-    let rest = mesh.normalized();
-    let x: Vec<f64> = rest.positions.iter().flat_map(|p| [p[0], p[1]]).collect();
-    let x = match init {
-        None => x,
-        Some(p) if p.len() != n => {
-            return Err(MapError::BadInit { source_name, detail: format!("{} points for {n} vertices", p.len()) })
-        }
-        Some(p) => match p.iter().position(|q| !q.iter().all(|c| c.is_finite())) {
-            Some(v) => return Err(MapError::BadInit { source_name, detail: format!("point {v} is not finite") }),
-            None => p.iter().flat_map(|q| [(q[0] - mid[0]) * s, (q[1] - mid[1]) * s]).collect(),
-        },
-    };
-    let mut problem = map_problem(&rest, energy, driver.smoothness_projection(), settings.smoothness)?;
     problem.penalty = Some(Penalty {
         lambda: settings.lambda,
         handles: handles.iter().map(|h| (h.vertex, [(h.target[0] - mid[0]) * s, (h.target[1] - mid[1]) * s])).collect(),
@@ -134,6 +122,66 @@ pub fn solve_deform(
         driver.solve(&problem, x, &settings.solver, observer).map_err(|err| MapError::Solve { source_name, err })?;
     outcome.start = Some(if init.is_some() { StartMap::Given } else { StartMap::Rest });
     Ok(outcome)
+}
+
+/// The elastic energy of a `deform` problem (its energy without the handles' penalty) at the
+/// rest pose and at the start. The penalty dominates the start's energy (`lambda = 1e5`
+/// against an elastic energy of order 1), so the judge measures how far a run is from the
+/// minimum on the scale of the shape's own change, `(E* - rest) + (start - rest)`, rather
+/// than on `E0 - E*` alone.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElasticEnergies {
+    pub rest: f64,
+    pub start: f64,
+}
+
+/// [`ElasticEnergies`] of the problem [`solve_deform`] builds from the same arguments.
+pub fn elastic_energies(
+    mesh: &Mesh,
+    init: Option<&[[f64; 2]]>,
+    energy: EnergyKind,
+    settings: &DeformSettings,
+) -> Result<ElasticEnergies, MapError> {
+    energy.check().map_err(MapError::Energy)?;
+    validate_for(mesh, Task::Deform).into_result()?;
+    let source_name = mesh.source.clone();
+    let (problem, rest, start) = deform_problem(mesh, init, energy, None, settings)?;
+    let mut ev = crate::problem::Evaluation::default();
+    let mut at = |x: &[f64]| {
+        problem
+            .evaluate_without_inertia(x, &mut ev)
+            .map(|_| ev.energy)
+            .map_err(|e| MapError::Solve { source_name: source_name.clone(), err: SolveError::InitialMap(e) })
+    };
+    Ok(ElasticEnergies { rest: at(&rest)?, start: at(&start)? })
+}
+
+/// The problem of a `deform` run without its penalty, the rest pose and the start (`init`
+/// normalized like the mesh, or the rest pose), all in the normalized frame.
+fn deform_problem(
+    mesh: &Mesh,
+    init: Option<&[[f64; 2]]>,
+    energy: EnergyKind,
+    own_projection: Option<Projection>,
+    settings: &DeformSettings,
+) -> Result<(MapProblem, Vec<f64>, Vec<f64>), MapError> {
+    let source_name = mesh.source.clone();
+    let n = mesh.n_vertices();
+    let (mid, s) = mesh.normalization();
+    let rest = mesh.normalized();
+    let x: Vec<f64> = rest.positions.iter().flat_map(|p| [p[0], p[1]]).collect();
+    let start = match init {
+        None => x.clone(),
+        Some(p) if p.len() != n => {
+            return Err(MapError::BadInit { source_name, detail: format!("{} points for {n} vertices", p.len()) })
+        }
+        Some(p) => match p.iter().position(|q| !q.iter().all(|c| c.is_finite())) {
+            Some(v) => return Err(MapError::BadInit { source_name, detail: format!("point {v} is not finite") }),
+            None => p.iter().flat_map(|q| [(q[0] - mid[0]) * s, (q[1] - mid[1]) * s]).collect(),
+        },
+    };
+    let problem = map_problem(&rest, energy, own_projection, settings.smoothness)?;
+    Ok((problem, x, start))
 }
 
 #[cfg(test)]
@@ -332,5 +380,43 @@ mod tests {
         flipped.faces.iter_mut().for_each(|f| f.swap(1, 2));
         let err = run(&flipped, &generated_handles("planar_bar_2k").unwrap());
         assert!(err.contains("clockwise"), "{err}");
+    }
+
+    /// The elastic energies in closed form at the rest pose (an isometry: SD 2 and NH 0 on the
+    /// area-1 mesh), and at a given start the solve's first energy less the handles' penalty
+    /// there (the released bar starts bent with its held end on its handles).
+    #[test]
+    fn elastic_energies_are_the_energy_without_the_penalty() {
+        use crate::generate::generated_init;
+        for name in ["planar_bar_2k", "planar_bar_release_2k"] {
+            let mesh = generate(name).unwrap();
+            let handles = generated_handles(name).unwrap();
+            let init = generated_init(name);
+            for (energy, at_rest) in [(EnergyKind::Sd, 2.0), (EnergyKind::Nh { mu: 0.2, kappa: 0.8 }, 0.0)] {
+                let e = elastic_energies(&mesh, init.as_deref(), energy, &settings()).unwrap();
+                assert!((e.rest - at_rest).abs() < 1e-12, "{name} {energy:?}: {}", e.rest);
+                let mut rec = Recorder::default();
+                let mut s = settings();
+                s.solver.stop.max_iters = 0;
+                solve_deform(&mesh, &handles, init.as_deref(), energy, "kp-newton", &s, &mut rec).unwrap();
+                let (problem, _, start) = deform_problem(&mesh, init.as_deref(), energy, None, &s).unwrap();
+                let (mid, sc) = mesh.normalization();
+                let penalty = Penalty {
+                    lambda: s.lambda,
+                    handles: handles
+                        .iter()
+                        .map(|h| (h.vertex, [(h.target[0] - mid[0]) * sc, (h.target[1] - mid[1]) * sc]))
+                        .collect(),
+                };
+                let e0 = rec.rows[0].energy;
+                assert!((e.start + penalty.value(&start) - e0).abs() <= 1e-12 * e0.abs().max(1.0), "{name} {energy:?}");
+                assert_eq!(problem.n_faces(), mesh.faces.len());
+                if init.is_none() {
+                    assert_eq!(e.start, e.rest, "{name}: the start is the rest pose");
+                } else {
+                    assert!(e.start > e.rest, "{name} {energy:?}: a bent start stores elastic energy");
+                }
+            }
+        }
     }
 }

@@ -51,7 +51,8 @@ pub fn judge_batch(
     for (dataset, energy) in groups {
         let members: Vec<usize> =
             (0..rows.len()).filter(|&i| rows[i].dataset == dataset && rows[i].energy == energy).collect();
-        let reference = references.iter().find(|g| g.dataset == dataset && g.energy == energy).and_then(|g| g.e_star);
+        let group = references.iter().find(|g| g.dataset == dataset && g.energy == energy);
+        let reference = group.and_then(|g| g.e_star);
         let best = members
             .iter()
             .filter(|&&i| series[i].is_some() && rows[i].flips == Some(0))
@@ -62,23 +63,26 @@ pub fn judge_batch(
             _ if best.is_finite() => (best, RefSource::Batch),
             _ => continue,
         };
+        let scale = group.and_then(|g| g.scale(e_star));
         for &i in &members {
             let Some((energies, t_cum)) = &series[i] else { continue };
             let r = &mut rows[i];
-            let (Some(&e0), Some(&last)) = (energies.first(), energies.last()) else { continue };
+            let (Some(&run_e0), Some(&last)) = (energies.first(), energies.last()) else { continue };
+            let e0 = convergence::judged_start(run_e0, e_star, scale);
             r.ref_energy = Some(e_star);
             r.ref_source = Some(source);
+            r.gap_scale = Some(e0 - e_star);
             let final_gap = convergence::gap(last, e0, e_star);
             r.final_gap = Some(final_gap);
             r.to_targets = targets
                 .iter()
                 .map(|&tau| {
-                    let k = convergence::first_reached(energies, e_star, tau);
+                    let k = convergence::first_reached(energies, e0, e_star, tau);
                     let time_s = k.zip(r.time_s).and_then(|(k, t)| convergence::time_to(t, t_cum, k));
                     ToTarget { tau, iters: k, time_s }
                 })
                 .collect();
-            let reached = convergence::first_reached(energies, e_star, tightest).is_some();
+            let reached = convergence::first_reached(energies, e0, e_star, tightest).is_some();
             let small_gradient = grad_tol(&r.energy).zip(r.grad_norm).is_some_and(|(tol, g)| tol > 0.0 && g <= tol);
             let v = verdict::judge(Facts {
                 reached,
@@ -117,7 +121,7 @@ mod tests {
             .map(|(i, &e)| IterationRecord { iter: i, energy: e, t_cum_s: i as f64, ..Default::default() })
             .collect();
         let path = iterations_csv(dir, &run_stem("d", "sd", s));
-        std::fs::write(path, iteration_csv(&rows, 0.0, None).unwrap()).unwrap();
+        std::fs::write(path, iteration_csv(&rows, 0.0, None, None).unwrap()).unwrap();
         SummaryRow {
             dataset: "d".into(),
             task: Task::Param,
@@ -142,6 +146,7 @@ mod tests {
             e_star: Some(e_star),
             origin: Origin::Store,
             note: None,
+            elastic: None,
         }]
     }
 
@@ -193,5 +198,38 @@ mod tests {
         let seen: Vec<_> = rows.iter().map(|r| r.verdict.unwrap()).collect();
         assert_eq!(seen, [Verdict::StoppedAboveTarget, Verdict::Solved, Verdict::OtherMinimum]);
         assert_eq!(rows[1].final_gap, Some(0.0));
+    }
+
+    /// A `deform` group is judged on the shape's own change: E0 = 1e5 (the handles'
+    /// penalty), E* = 2.2 with the rest pose and the start at elastic energy 2, so the span
+    /// is 0.2, not 1e5 - 2.2. A run 1e-5 above E* passes 1e-6 measured from E0 but only 1e-3
+    /// here; `gap_scale` records the span and `final_gap` is measured on it.
+    #[test]
+    fn a_deform_group_is_judged_on_the_shape_s_change() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        std::fs::create_dir(dir.join("runs")).unwrap();
+        let tol = |_: &str| Some(1e-6);
+        let judge = |elastic: Option<reference::Elastic>| {
+            let mut rows =
+                vec![ran(dir, "a", &[1e5, 3.0, 2.2 + 1e-5], true, 1e-7), ran(dir, "b", &[1e5, 2.2 + 1e-8], true, 1e-7)];
+            let mut refs = group(2.2);
+            refs[0].elastic = elastic;
+            judge_batch(dir, &mut rows, &refs, &[1e-3, 1e-6], tol).unwrap();
+            rows
+        };
+        let iters = |r: &SummaryRow| r.to_targets.iter().map(|t| t.iters).collect::<Vec<_>>();
+        let from_e0 = judge(None);
+        assert_eq!(from_e0[0].verdict, Some(Verdict::Solved));
+        // from E0 even the row at 3.0 (0.8 above E*) passes 1e-3
+        assert_eq!(iters(&from_e0[0]), [Some(1), Some(2)]);
+        assert!((from_e0[0].gap_scale.unwrap() - (1e5 - 2.2)).abs() < 1e-9);
+        let rows = judge(Some(reference::Elastic { rest: 2.0, start: 2.0 }));
+        assert!((rows[0].gap_scale.unwrap() - 0.2).abs() < 1e-12);
+        assert_eq!(rows[0].verdict, Some(Verdict::StoppedAboveTarget));
+        assert!((rows[0].final_gap.unwrap() - 1e-5 / 0.2).abs() < 1e-9);
+        assert_eq!(iters(&rows[0]), [Some(2), None]);
+        assert_eq!(rows[1].verdict, Some(Verdict::Solved));
+        assert_eq!(iters(&rows[1]), [Some(1), Some(1)]);
     }
 }

@@ -17,6 +17,8 @@ use crate::run::resume::{hash_dataset, Fnv};
 use crate::run_folder::write_atomic;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
+use solvers::deform::DeformSettings;
+use solvers::energy::EnergyKind;
 use solvers::solver::{Flow, IterationRecord, Observer, StopSettings};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -190,6 +192,26 @@ pub struct GroupReference {
     /// Why it is unavailable.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// `deform`: the elastic energies at the rest pose and at the start, which bound the span
+    /// the runs are judged on (`convergence::elastic_scale`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub elastic: Option<Elastic>,
+}
+
+/// A `deform` problem's elastic energy (the handles' penalty left out) at the rest pose and at
+/// the start ([`solvers::deform::elastic_energies`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Elastic {
+    pub rest: f64,
+    pub start: f64,
+}
+
+impl GroupReference {
+    /// The scale the group's runs are judged on besides `E0 - E*` (`deform` only), for the
+    /// reference `e_star` the batch settled on.
+    pub fn scale(&self, e_star: f64) -> Option<f64> {
+        self.elastic.and_then(|e| super::convergence::elastic_scale(e_star, e.rest, e.start))
+    }
 }
 
 /// The references of the groups of `runs` (param, deform): looked up, or computed and added
@@ -215,7 +237,17 @@ pub fn prepare(
             e_star: None,
             origin: Origin::Unavailable,
             note: None,
+            elastic: None,
         };
+        if let RunSettings::Deform { energy, settings } = &run.settings {
+            match elastic(plan, run, *energy, settings) {
+                Ok(e) => group.elastic = Some(e),
+                Err(e) => progress.notice(&format!(
+                    "{} {}: the elastic energies are not available ({e:#}); its runs are judged from E0",
+                    group.dataset, group.energy
+                )),
+            }
+        }
         let key = match key(plan, run) {
             Ok(Some(k)) => k,
             Ok(None) => continue,
@@ -259,6 +291,15 @@ pub fn prepare(
         out.push(group);
     }
     Ok(out)
+}
+
+/// The elastic energies of `run`'s `deform` problem.
+fn elastic(plan: &Plan, run: &PlannedRun, energy: EnergyKind, settings: &DeformSettings) -> Result<Elastic> {
+    let ds = plan.dataset(run);
+    let mesh = ds.load()?;
+    let init = ds.initial_map();
+    let e = solvers::deform::elastic_energies(&mesh, init.as_deref(), energy, settings)?;
+    Ok(Elastic { rest: e.rest, start: e.start })
 }
 
 /// Keeps the lowest energy of the tight solve's rows without flips; stops on an interrupt.

@@ -38,8 +38,8 @@ pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
 type TableFn = fn(&[SummaryRow]) -> Option<Table>;
 
 /// The per-iteration rows of each run of a (dataset, energy) group, by run stem, with the
-/// reference minimum the run is judged by.
-type Group = Vec<(String, Vec<solvers::solver::IterationRecord>, Option<f64>)>;
+/// reference minimum the run is judged by and the span of its gaps.
+type Group = Vec<(String, Vec<solvers::solver::IterationRecord>, (Option<f64>, Option<f64>))>;
 
 /// Every table that applies to these runs (as [`at_target`] ranks them), with its file stem:
 /// the paper-shaped mean tables first, the harness's verdicts and the corpus aggregates next to
@@ -158,7 +158,7 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     for s in summary.iter().filter(|s| finished(s)) {
         let stem = run_stem(&s.dataset, &s.energy, &s.solver);
         let rows = read_run(run_dir, s)?.rows;
-        groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows, s.ref_energy));
+        groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows, (s.ref_energy, s.gap_scale)));
     }
     for runs in groups.values() {
         let best = runs
@@ -169,9 +169,9 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
         if !best.is_finite() {
             continue;
         }
-        for (stem, rows, e_star) in runs {
+        for (stem, rows, (e_star, gap_scale)) in runs {
             let path = run_dir.join("runs").join(format!("{stem}.csv"));
-            let bytes = iteration_csv(rows, best, *e_star)?;
+            let bytes = iteration_csv(rows, best, *e_star, *gap_scale)?;
             if std::fs::read(&path).ok().as_deref() != Some(&bytes[..]) {
                 write_atomic(&path, &bytes)?;
             }

@@ -60,10 +60,16 @@ struct IterationRow {
 
 /// The per-iteration CSV of one run; `best` is the best final energy of the run's
 /// (dataset, energy) group over all solvers, `e_star` the reference minimum it is judged by
-/// (the `gap` column). A solver's extra columns ([`IterationRecord::extra`], named by the
-/// first row) follow the design.md ones.
-pub fn iteration_csv(rows: &[IterationRecord], best: f64, e_star: Option<f64>) -> Result<Vec<u8>> {
-    let e0 = rows.first().map(|r| r.energy);
+/// and `gap_scale` the span of its gaps (the `gap` column; `E0 - E*` when not given). A
+/// solver's extra columns ([`IterationRecord::extra`], named by the first row) follow the
+/// design.md ones.
+pub fn iteration_csv(
+    rows: &[IterationRecord],
+    best: f64,
+    e_star: Option<f64>,
+    gap_scale: Option<f64>,
+) -> Result<Vec<u8>> {
+    let span = e_star.zip(rows.first()).map(|(s, r0)| (s, gap_scale.unwrap_or(r0.energy - s)));
     let extra_names: Vec<&str> = rows.first().map(|r| r.extra.iter().map(|e| e.0).collect()).unwrap_or_default();
     let mut header = csv::Writer::from_writer(Vec::new());
     header.write_record(ITERATION_COLUMNS.iter().copied().chain(extra_names.iter().copied()))?;
@@ -100,7 +106,7 @@ pub fn iteration_csv(rows: &[IterationRecord], best: f64, e_star: Option<f64>) -
             t_cum_s: r.t_cum_s,
             shift: r.shift,
             ls_evals: r.ls_evals,
-            gap: e_star.zip(e0).map(|(s, e0)| crate::judge::convergence::gap(r.energy, e0, s)),
+            gap: span.map(|(s, span)| crate::judge::convergence::gap_on(r.energy, s, span)),
             t_record_s: r.t_record_s,
         })?);
         if !r.extra.is_empty() {
@@ -232,7 +238,7 @@ mod tests {
     #[test]
     fn headers_are_exactly_the_design_columns() {
         let rows = vec![IterationRecord { iter: 0, energy: 3.0, ..Default::default() }];
-        let text = String::from_utf8(iteration_csv(&rows, 2.5, None).unwrap()).unwrap();
+        let text = String::from_utf8(iteration_csv(&rows, 2.5, None, None).unwrap()).unwrap();
         let mut lines = text.lines();
         assert_eq!(lines.next().unwrap(), ITERATION_COLUMNS.join(","));
         assert!(lines.next().unwrap().starts_with("0,3.0,0.5,"));
@@ -240,19 +246,19 @@ mod tests {
             IterationRecord { iter: 0, energy: 3.0, extra: vec![("a", 1.5), ("b", f64::NAN)], ..Default::default() },
             IterationRecord { iter: 1, energy: 2.75, extra: vec![("a", 0.0), ("b", 1e-20)], ..Default::default() },
         ];
-        let text = String::from_utf8(iteration_csv(&with_extra, 2.5, None).unwrap()).unwrap();
+        let text = String::from_utf8(iteration_csv(&with_extra, 2.5, None, None).unwrap()).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], format!("{},a,b", ITERATION_COLUMNS.join(",")));
         assert!(lines[1].starts_with("0,3.0,0.5,") && lines[1].ends_with(",0,,0.0,1.5,NaN"), "{}", lines[1]);
         assert!(lines[2].ends_with(",0,,0.0,0.0,1e-20"), "{}", lines[2]);
         // against E* = 2.5 the start has gap 1 and the next row (E - E*) / (E0 - E*) = 0.5
-        let judged = String::from_utf8(iteration_csv(&with_extra, 2.5, Some(2.5)).unwrap()).unwrap();
+        let judged = String::from_utf8(iteration_csv(&with_extra, 2.5, Some(2.5), None).unwrap()).unwrap();
         let lines: Vec<&str> = judged.lines().collect();
         assert!(lines[1].ends_with(",0,1.0,0.0,1.5,NaN") && lines[2].ends_with(",0,0.5,0.0,0.0,1e-20"), "{judged}");
         let mut bad = with_extra.clone();
         bad[1].extra.pop();
-        assert!(iteration_csv(&bad, 0.0, None).is_err());
-        let empty = String::from_utf8(iteration_csv(&[], 0.0, None).unwrap()).unwrap();
+        assert!(iteration_csv(&bad, 0.0, None, None).is_err());
+        let empty = String::from_utf8(iteration_csv(&[], 0.0, None, None).unwrap()).unwrap();
         assert_eq!(empty.trim(), ITERATION_COLUMNS.join(","));
     }
 
@@ -279,7 +285,7 @@ mod tests {
         ];
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("r.csv");
-        std::fs::write(&p, crate::run_folder::iteration_csv(&rows, 2.0, None).unwrap()).unwrap();
+        std::fs::write(&p, crate::run_folder::iteration_csv(&rows, 2.0, None, None).unwrap()).unwrap();
         let back = read_iterations(&p, &["ascent", "wolfe"]).unwrap().rows;
         assert_eq!(back.len(), 2);
         assert_eq!(back[1], rows[1]);
@@ -304,7 +310,7 @@ mod tests {
                 ..Default::default()
             },
         ];
-        let text = String::from_utf8(iteration_csv(&rows, 2.5, None).unwrap()).unwrap();
+        let text = String::from_utf8(iteration_csv(&rows, 2.5, None, None).unwrap()).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert!(lines[0].ends_with(",t_iter_s,t_cum_s,shift,ls_evals,gap,t_record_s"), "{}", lines[0]);
         assert!(lines[1].ends_with(",0.0,0.0,,0,,0.0"), "{}", lines[1]);
@@ -348,7 +354,7 @@ mod tests {
                 ..Default::default()
             },
         ];
-        let text = String::from_utf8(iteration_csv(&rows, 2.5, None).unwrap()).unwrap();
+        let text = String::from_utf8(iteration_csv(&rows, 2.5, None, None).unwrap()).unwrap();
         assert!(text.lines().nth(2).unwrap().ends_with(",0.25"), "{text}");
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("r.csv");
@@ -370,7 +376,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir(dir.path().join("runs")).unwrap();
         let p = dir.path().join("runs/m__sd__cm.csv");
-        let good = String::from_utf8(crate::run_folder::iteration_csv(&rows, 1.0, None).unwrap()).unwrap();
+        let good = String::from_utf8(crate::run_folder::iteration_csv(&rows, 1.0, None, None).unwrap()).unwrap();
         let err = |text: &[u8]| {
             std::fs::write(&p, text).unwrap();
             let e = format!("{:#}", read_iterations(&p, &[]).unwrap_err());

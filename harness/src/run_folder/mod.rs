@@ -80,7 +80,7 @@ pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
         }
         // With this run's own best; `report::refresh` fills in the group's best at the end.
         let own_best = run.rows.iter().map(|x| x.energy).fold(f64::INFINITY, f64::min);
-        write_atomic(&iterations_csv(dir, run.stem), &iteration_csv(run.rows, own_best, None)?)?;
+        write_atomic(&iterations_csv(dir, run.stem), &iteration_csv(run.rows, own_best, None, None)?)?;
         if let Some(k) = run.key {
             sidecar::write(dir, run.stem, k, run.summary)?;
         }

@@ -56,7 +56,7 @@ pub fn write_partial<R: Serialize>(
     rows: &[IterationRecord],
 ) -> Result<()> {
     let [json, csv] = partial_paths(out_dir, stem);
-    write_atomic(&csv, &super::iteration_csv(rows, f64::NAN, None)?)?;
+    write_atomic(&csv, &super::iteration_csv(rows, f64::NAN, None, None)?)?;
     write_atomic(&json, serde_json::to_string_pretty(partial)?.as_bytes())
 }
 

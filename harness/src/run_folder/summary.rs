@@ -17,10 +17,11 @@ use std::path::{Path, PathBuf};
 /// iterations whose system needed more than the base Tikhonov shift, and of those whose
 /// system clamped SLIM weights; then the peak resident memory; then the harness's verdict:
 /// the start map, the reference minimum and where it came from, the final gap and the
-/// verdict; then the count of the truncated solvers' steps whose CG stopped at its cap
-/// (appended: a file written before it reads it as empty). After them, for each target `tau`
+/// verdict; then the count of the truncated solvers' steps whose CG stopped at its cap and
+/// the energy span the gaps are fractions of (appended: a file written before them reads
+/// them as empty). After them, for each target `tau`
 /// of the batch, `iters_to_<tau>` and `time_to_<tau>` ([`target_columns`]).
-pub const SUMMARY_COLUMNS: [&str; 39] = [
+pub const SUMMARY_COLUMNS: [&str; 40] = [
     "dataset",
     "task",
     "energy",
@@ -60,6 +61,7 @@ pub const SUMMARY_COLUMNS: [&str; 39] = [
     "final_gap",
     "verdict",
     "cg_capped_iters",
+    "gap_scale",
 ];
 
 /// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
@@ -236,7 +238,7 @@ pub struct SummaryRow {
     pub ref_energy: Option<f64>,
     #[serde(default)]
     pub ref_source: Option<RefSource>,
-    /// `(E_final - E*) / (E0 - E*)`.
+    /// `(E_final - E*) / gap_scale`.
     #[serde(default)]
     pub final_gap: Option<f64>,
     /// The harness's verdict (`status` is `ok` exactly when it is `solved`).
@@ -248,6 +250,11 @@ pub struct SummaryRow {
     /// without the column.
     #[serde(default)]
     pub cg_capped_iters: Option<usize>,
+    /// The span the gaps are fractions of: `final_gap = (E_final - E*) / gap_scale`, and the
+    /// convergence test at `tau` is `E - E* <= tau gap_scale`. `E0 - E*` (Moré and Wild), for
+    /// `deform` at most the shape's own change (`judge::convergence::judged_start`).
+    #[serde(default)]
+    pub gap_scale: Option<f64>,
     /// Iterations and time to each target, the loosest first.
     #[serde(skip)]
     pub to_targets: Vec<ToTarget>,
@@ -450,8 +457,8 @@ mod tests {
         assert!(e.contains("summary.csv: line 3: unknown stop reason 'timed_out'"), "{e}");
     }
 
-    /// `cg_capped_iters` round-trips, after `verdict` and before the target columns; a summary
-    /// written before the column existed reads it as empty.
+    /// `cg_capped_iters` round-trips, after `verdict` and before `gap_scale` and the target
+    /// columns; a summary written before the column existed reads it as empty.
     #[test]
     fn cg_capped_iters_round_trips_and_an_older_file_reads_without_it() {
         let dir = tempfile::tempdir().unwrap();
@@ -470,7 +477,7 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
         let at = header.iter().position(|c| *c == "cg_capped_iters").unwrap();
-        assert_eq!((header[at - 1], header[at + 1]), ("verdict", "iters_to_1e-6"));
+        assert_eq!((header[at - 1], header[at + 1], header[at + 2]), ("verdict", "gap_scale", "iters_to_1e-6"));
         let cells: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
         assert_eq!((cells[0][at], cells[1][at]), ("210", ""));
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
@@ -487,6 +494,32 @@ mod tests {
         let back = read_summary(dir.path()).unwrap();
         assert_eq!(back.iter().map(|r| r.cg_capped_iters).collect::<Vec<_>>(), [None, None]);
         assert_eq!(back[0].to_targets, rows[0].to_targets);
+    }
+
+    /// `gap_scale` round-trips as the last fixed column; a summary written before it existed
+    /// reads it as empty.
+    #[test]
+    fn gap_scale_round_trips_and_an_older_file_reads_without_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let row = |solver: &str, scale| SummaryRow {
+            dataset: "archer".into(),
+            task: Task::Deform,
+            energy: "sd".into(),
+            solver: solver.into(),
+            status: Status::Ok,
+            gap_scale: scale,
+            ..Default::default()
+        };
+        let rows = vec![row("kp-newton", Some(0.2103)), row("aqp", None)];
+        let path = dir.path().join("summary.csv");
+        write_summary(&path, &rows).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.lines().next().unwrap().ends_with(",cg_capped_iters,gap_scale"));
+        assert_eq!(read_summary(dir.path()).unwrap(), rows);
+        let older: String = text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n").collect();
+        std::fs::write(&path, older).unwrap();
+        let back = read_summary(dir.path()).unwrap();
+        assert_eq!(back.iter().map(|r| r.gap_scale).collect::<Vec<_>>(), [None, None]);
     }
 
     #[test]

@@ -61,11 +61,12 @@ pub(crate) fn tiny_run() -> (tempfile::TempDir, Vec<SummaryRow>) {
         SummaryRow { iterations: Some(2), ..summary("disk", "authalic", "aem-cg", "ok", "") },
     ];
     let write = |stem: &str, bytes: Vec<u8>| write_atomic(&p.join("runs").join(format!("{stem}.csv")), &bytes);
-    write("tiny__sd__kp-newton", iteration_csv(&records(&[10.0, 5.0, 4.5, 4.0], 40), 4.0, None).unwrap()).unwrap();
-    write("tiny__sd__slim", iteration_csv(&records(&[10.0, 7.0, 6.0, 5.5], 40), 4.0, None).unwrap()).unwrap();
-    write("tiny__sd__cm", iteration_csv(&records(&[10.0], 40), 10.0, None).unwrap()).unwrap();
+    write("tiny__sd__kp-newton", iteration_csv(&records(&[10.0, 5.0, 4.5, 4.0], 40), 4.0, None, None).unwrap())
+        .unwrap();
+    write("tiny__sd__slim", iteration_csv(&records(&[10.0, 7.0, 6.0, 5.5], 40), 4.0, None, None).unwrap()).unwrap();
+    write("tiny__sd__cm", iteration_csv(&records(&[10.0], 40), 10.0, None, None).unwrap()).unwrap();
     // A negative gap (the failed run's energy below the group best) must plot too.
-    write("disk__authalic__aem-cg", iteration_csv(&records(&[1.0, 0.5, 0.25], 5), 0.3, None).unwrap()).unwrap();
+    write("disk__authalic__aem-cg", iteration_csv(&records(&[1.0, 0.5, 0.25], 5), 0.3, None, None).unwrap()).unwrap();
     let mesh = solvers::generate::generate("flat_disk_1k").unwrap();
     let identity: Vec<f64> = mesh.positions.iter().flat_map(|q| [q[0], q[1]]).collect();
     let shear: Vec<f64> = mesh.positions.iter().flat_map(|q| [q[0] + 0.5 * q[1], q[1]]).collect();
