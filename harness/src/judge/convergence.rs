@@ -5,8 +5,7 @@
 //! that stop by different rules are compared at the same accuracy.
 //!
 //! A `deform` start carries the handles' penalty (`lambda = 1e5` against an elastic energy
-//! of order 1: `E0` is 1.9e5 on `archer` SD with `E*` = 2.21), so `E0 - E*` would make every
-//! target loose by the penalty's size. There the span is at most the shape's own change,
+//! of order 1), so `E0 - E*` would make every target loose by the penalty's size. There the span is at most the shape's own change,
 //! `(E* - E_rest) + (E_start - E_rest)` with `E_rest` and `E_start` the elastic energies
 //! (penalty left out) at the rest pose and at the start ([`judged_start`]).
 

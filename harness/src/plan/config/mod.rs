@@ -79,8 +79,8 @@ pub struct SolverParams {
     /// slim: also run the energies outside its definition (NH, BARAP, BCONF), clamping the
     /// weights that come out non-positive; default false (such runs are skipped).
     pub clamp_weights: Option<bool>,
-    /// pn-trust-region, fp-trust-region-6x6: clamp when the last step's model fit has `|rho - 1| < tau`, else
-    /// abs; default 0.01 (the authors'), a positive number.
+    /// pn-trust-region, fp-trust-region-6x6: clamp when the last step's model fit has
+    /// `|rho - 1| < tau`, else abs; default 0.01 (the authors'), a positive number.
     pub tau: Option<f64>,
     /// kp-newton-cg: the largest (and first) forcing term, the relative residual a truncated
     /// step is solved to at most; default 0.9, in (0, 1).
