@@ -273,8 +273,7 @@ fn shared_deform_batch(extra: &str) -> Option<(Vec<String>, Vec<Vec<String>>)> {
 
 #[test]
 fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
-    // Issue "Deformation task": SD and NH converge on every shape of the shared corpus with
-    // its handles, without flips.
+    // SD and NH converge on every shape of the shared corpus with its handles, without flips.
     shared_deform_batch("[energy.nh]\nmu = 0.2\nkappa = 0.8\n");
 }
 

@@ -116,7 +116,7 @@ fn times_are_flagged_outside_the_spread_or_beyond_asvs_factor_and_gated_only_on_
 }
 
 /// `check` against a baseline of A and `compare A B` judge a run whose final energy was NaN
-/// (not converged) and is finite now (ok) alike, and the reverse too (issue 41: `compare`
+/// (not converged) and is finite now (ok) alike, and the reverse too (`compare`
 /// called the first a regression, `check` an improvement, since the baseline wrote NaN as null).
 #[test]
 fn check_and_compare_share_the_rule_for_nan_energies() {
@@ -142,7 +142,7 @@ fn check_and_compare_share_the_rule_for_nan_energies() {
 }
 
 /// Negative and NaN times are a corrupt summary, refused by file, line and column; a zero
-/// time is no measurement: no ratio, never flagged (issue 41: a -35x "ratio", exit 0).
+/// time is no measurement: no ratio, never flagged (a -35x "ratio", exit 0).
 #[test]
 fn negative_and_nan_times_are_refused_and_zero_has_no_ratio() {
     let tmp = tempfile::tempdir().unwrap();

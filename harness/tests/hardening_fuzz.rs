@@ -1,4 +1,4 @@
-//! Fuzzing (issue 16): every input the fuzzer once crashed on (`fuzz/regressions/<target>/`) and
+//! Fuzzing: every input the fuzzer once crashed on (`fuzz/regressions/<target>/`) and
 //! every seed (`fuzz/seeds/<target>/`) goes through the same code as the fuzz target
 //! (`mapbench::fuzzing`), which must return, accepting or rejecting it, never panic.
 

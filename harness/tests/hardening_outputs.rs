@@ -1,4 +1,4 @@
-//! Output paths (issue 41): what a verb writes where its user said goes through a symlink,
+//! Output paths: what a verb writes where its user said goes through a symlink,
 //! FIFO or device instead of replacing it, `-` is standard output, and a run folder's own
 //! files are never overwritten.
 

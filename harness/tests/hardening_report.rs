@@ -1,4 +1,4 @@
-//! Run-folder hardening (issue 16, "Report and resume"): corrupt CSVs are refused by file and
+//! Run-folder hardening: corrupt CSVs are refused by file and
 //! line, `--resume` re-runs a run with a missing file, and a run whose
 //! files cannot be written fails alone.
 

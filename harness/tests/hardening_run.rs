@@ -1,4 +1,4 @@
-//! `run` hardening, second pass (issue 41): `--jobs` bounded like `threads_per_run`, output
+//! `run` hardening, second pass: `--jobs` bounded like `threads_per_run`, output
 //! folders of another batch refused, interrupted repeats kept for `--resume`.
 
 mod common;

@@ -1,4 +1,4 @@
-//! Signals (issue 41): SIGTERM, what Slurm sends at a job's time limit and on `scancel`, at
+//! Signals: SIGTERM, what Slurm sends at a job's time limit and on `scancel`, at
 //! any moment of a batch, METIS's orderings included, stops it cleanly: exit 143, the report
 //! written, `interrupted: true` in meta.json.
 
@@ -58,7 +58,7 @@ fn sigterm_during_metis_orderings_stops_cleanly_every_time() {
 
 /// Ctrl-C in round 2 of a `repeat = 3` batch: the message says per run how many repeats
 /// finished, `summary.csv` has no row for a run with missing repeats, and `--resume` runs
-/// exactly the missing repeats, ending with every run's three (issue 41: such runs showed
+/// exactly the missing repeats, ending with every run's three (such runs showed
 /// as ok with `repeats=1`, and `--resume` ran all of them again).
 #[test]
 fn an_interrupted_repeated_batch_keeps_its_repeats_and_resume_runs_only_the_missing_ones() {

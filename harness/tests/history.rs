@@ -1,4 +1,4 @@
-//! The history database end to end (issue 19): `run` and `merge` append their batch, the
+//! The history database end to end: `run` and `merge` append their batch, the
 //! `history` verb renders the trend page, `--no-history` writes nothing, a database this
 //! build cannot use costs the batch nothing but the exit code, and `sqlite3` reads the file.
 
@@ -199,7 +199,7 @@ fn thirty_simulated_batches() {
     assert_eq!(page.batches, 30);
 }
 
-/// What `run` says of the history is what happened (issue 41): a trend page that cannot be
+/// What `run` says of the history is what happened: a trend page that cannot be
 /// rendered is its own warning after "appended" (exit 0: the batch is in), meta.json records
 /// the outcome and the report links no page; a `--resume` of the complete folder is not
 /// appended again; a failed append leaves `history` null in meta.json.

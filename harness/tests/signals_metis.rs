@@ -1,7 +1,7 @@
 //! SIGTERM sent to the whole process while METIS orders a graph on another thread, 40 times:
 //! with the harness's signal handling (`mapbench::signals::watch`, what `run` installs first),
 //! every signal reaches the watcher and none reaches METIS's own handler, which crashed the
-//! process (issue 41: exit 139, `__longjmp` in the main thread). Its own `main`
+//! process (exit 139, `__longjmp` in the main thread). Its own `main`
 //! (`harness = false`): the mask must be set before any other thread starts.
 
 #[cfg(unix)]

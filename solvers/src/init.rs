@@ -115,12 +115,11 @@ pub fn tutte(mesh: &Mesh, boundary: TutteBoundary) -> Result<Vec<f64>, InitError
         }
         col_ptr.push(row_idx.len());
     }
-    // AMD, not METIS: one factorization does not pay METIS's analysis back (bumpy_1m: 2.4-2.6
-    // s of AMD analysis and 93.6M factor entries against 12.4-13.2 s and 68.4M).
+    // AMD, not METIS: one factorization does not pay back METIS's slower analysis, although
+    // METIS's factor is sparser.
     let mut solver = SpdSolver::from_csc(ni, col_ptr, row_idx, diag)?;
     let exact = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
-    // One factorization, both coordinates as the two columns of one solve (they were two
-    // factorizations of the same matrix: at 1M vertices 2.6 s each).
+    // One factorization, both coordinates as the two columns of one solve.
     solver.factorize(&vals, &exact)?;
     let mut uv = rhs_u;
     uv.extend_from_slice(&rhs_v);

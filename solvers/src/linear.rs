@@ -159,8 +159,8 @@ impl Analysis {
 /// is computed, so a second request for the same pattern waits instead of repeating it.
 type Slot = Arc<Mutex<Option<Arc<Analysis>>>>;
 
-/// Analyses shared by the runs on one mesh (issue "Performance": the symbolic factorization
-/// and ordering are reused across solvers on the same pattern). The caller owns it (the
+/// Analyses shared by the runs on one mesh (the symbolic factorization and ordering are
+/// reused across solvers on the same pattern). The caller owns it (the
 /// harness keeps one per loaded mesh and drops it with the mesh); a solver only looks up
 /// or fills an entry, so results never depend on whether an entry was there. Entries are
 /// keyed by a hash of the pattern, the ordering and the block size, and checked against all

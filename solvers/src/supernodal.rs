@@ -1,8 +1,8 @@
 //! The numeric supernodal Cholesky factorization, parallel over the elimination tree.
 //!
 //! faer's supernodal factorization visits the supernodes one after the other and can only
-//! parallelize the dense kernels inside each; on the 2D meshes' nested-dissection orderings
-//! most supernodes are small, so two threads gained 1.07–1.2x at 200k vertices (issue 21).
+//! parallelize the dense kernels inside each, and on the 2D meshes' nested-dissection
+//! orderings most supernodes are small (README "The parallel factorization").
 //! Two supernodes in disjoint subtrees of the supernodal elimination tree read only their
 //! own descendants and write only their own columns, so whole subtrees can be factorized
 //! at once. This module computes the same left-looking factorization as faer, into faer's

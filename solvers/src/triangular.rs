@@ -9,15 +9,13 @@
 //! (`x[rows] -= L[rows, s] x_s`); backward, one gather of those rows and a dot product per
 //! column in four partial sums (one running sum would wait on the adder's latency); the
 //! right-hand sides interleaved so that one value serves all of them while it is in a
-//! register. AEM-CG's preconditioner solves at 200k: 58-69 ms per iteration against 76-90 ms
-//! with faer's sequential solve and 90-104 ms with its parallel one (README, issue 21).
+//! register (README "The parallel factorization" measures it against faer's solves).
 //!
 //! Large factors are solved on the calling pool's threads: disjoint subtrees of the
 //! elimination tree run as tasks and the supernodes above them on one thread, with every
 //! row receiving the same operations in the same order as in the sequential solve ([`Tasks`]),
 //! so the result is the same bits on every call and for any pool (it differs from faer's in
-//! the rounding of the sums: `tests::equals_faers_solve`). AEM-CG's two columns at 1M: 0.19-0.21
-//! s on two threads against 0.28-0.34 s on one (issue 21).
+//! the rounding of the sums: `tests::equals_faers_solve`).
 
 use crate::supernodal::{s_pattern, s_range, Schedule};
 use faer::perm::PermRef;

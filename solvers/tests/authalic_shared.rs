@@ -1,4 +1,4 @@
-//! The AEM paper's Table 1 claim on the shared corpus (issue "Authalic task"): after 100
+//! The AEM paper's Table 1 claim on the shared corpus: after 100
 //! iterations AEM-CG has a lower area-ratio SD and authalic energy than the SEM fixed point,
 //! and no folded triangle.
 

@@ -1,4 +1,4 @@
-//! SLIM and AKVF on the shared pipeline (issue "SLIM and AKVF"): their directions come from
+//! SLIM and AKVF on the shared pipeline: their directions come from
 //! their proxy systems, then the same injective Armijo line search and stopping rules.
 
 use solvers::energy::EnergyKind;

@@ -1,5 +1,5 @@
 //! End to end: KP-Newton on SD over the generated corpus and, when `MAPBENCH_MESHES` points at
-//! the shared corpus, on camelhead, hilbert, bimba_5k and cow (issue: "Core numerics").
+//! the shared corpus, on camelhead, hilbert, bimba_5k and cow.
 
 use solvers::energy::EnergyKind;
 use solvers::generate::generate;

@@ -1,4 +1,4 @@
-//! The Hessian strategies as peers on one pipeline (issue "Every Hessian variant"):
+//! The Hessian strategies as peers on one pipeline:
 //! the invariants of design.md at the solver level.
 
 use solvers::energy::EnergyKind;
@@ -111,7 +111,7 @@ fn undefined_majorizer_is_an_error_not_a_fallback() {
 }
 
 /// Every Newton-type strategy on one mesh shares one symbolic analysis through a cache
-/// (issue "Performance": reused across solvers on the same pattern), with the same iterates
+/// (reused across solvers on the same pattern), with the same iterates
 /// as private analyses; a smoothness term changes the pattern and gets its own entry.
 #[test]
 fn solvers_on_one_mesh_share_the_analysis_and_take_the_same_steps() {

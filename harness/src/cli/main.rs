@@ -203,7 +203,7 @@ enum Command {
     },
 }
 
-/// Where `run` and `merge` append the batch (issue 19's history database).
+/// Where `run` and `merge` append the batch (the history database).
 #[derive(clap::Args)]
 struct HistoryArgs {
     /// The history database (default: the config's `history`, else reports/history.sqlite).

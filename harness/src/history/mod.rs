@@ -1,4 +1,4 @@
-//! The history of batches (issue 19): after every `run` and `merge` the batch is appended to
+//! The history of batches: after every `run` and `merge` the batch is appended to
 //! an SQLite database (`db`), read back from the finished run folder's `meta.json` and
 //! `summary.csv` so that both verbs share one path; `trend` renders the trend page of a
 //! config's batches (`mapbench history`, and after each append into [`trend_dir`]).

@@ -1,4 +1,4 @@
-//! Aggregates over the corpus of one energy (issue 18, "Aggregates across the corpus"), as
+//! Aggregates over the corpus of one energy, as
 //! pure functions of the summary rows: solved counts, shifted geometric means with unsolved
 //! runs at the cap (the Mittelmann convention), Dolan–Moré performance profiles and Moré–Wild
 //! data profiles. The aggregates table (`tables/aggregates.rs`) and the profile plots

@@ -61,8 +61,8 @@ pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
     out
 }
 
-/// The rows as tables and profiles name them: a run that clamped SLIM weights (issue 18:
-/// SLIM outside the energies it is defined for, opted in with `[solver.slim] clamp_weights`)
+/// The rows as tables and profiles name them: a run that clamped SLIM weights (SLIM outside
+/// the energies it is defined for, opted in with `[solver.slim] clamp_weights`)
 /// is another method than SLIM, so it is its own solver, `"<solver> (clamped)"`, there; its
 /// files keep the plain name.
 pub fn labelled(summary: &[SummaryRow]) -> Vec<SummaryRow> {

@@ -242,8 +242,8 @@ impl AuthalicProblem {
     }
 
     /// A solver of the Laplacian block `block` (`block_i` or `block_b`), analysed once. METIS
-    /// nested dissection: on `bumpy_200k` AMD's factor of `L_II` has 1.2x the entries (13.9M
-    /// vs 11.6M), and every iteration's preconditioner solve reads the factor whole (issue 21).
+    /// nested dissection: its factors are sparser than AMD's on large disks, and every
+    /// iteration's preconditioner solve reads the factor whole.
     pub fn block_solver(&self, block: &SubBlock) -> Result<SpdSolver, LinearError> {
         SpdSolver::from_csc_cached(
             block.n,

@@ -103,7 +103,7 @@ pub const NEG_EIG_RTOL: f64 = 1e-12;
 
 /// The eigenvalues of `K` in the order of [`k_eigen`], without its eigenvectors: the radial
 /// block `[[p, q], [q, r]]` from its mean and half-gap, no trigonometry. Every evaluation
-/// counts the inertia of every element, so this is on the per-iteration path (issue 21); the
+/// counts the inertia of every element, so this is on the per-iteration path; the
 /// values agree with [`k_eigen`]'s to round-off (`k_eigenvalues_match_the_eigensystem`).
 #[inline]
 pub fn k_eigenvalues(s: &ElementState) -> [f64; 4] {

@@ -354,7 +354,7 @@ mod tests {
 
     #[test]
     fn mean_tables_never_bold_failed_newton_and_tie_on_overlap() {
-        // The case: newton fails its factorization at once in every run (0
+        // newton fails its factorization at once in every run (0
         // iterations, the shortest time), cm and kp converge with overlapping spreads.
         let mut rows = vec![
             timed("a", "newton", 0, 0.01, 0.001, Status::NotConverged),

@@ -1,5 +1,5 @@
 //! The one rule by which every table marks a value as best (bold), so that a mark is a claim
-//! the data supports (issue 18, "Rankings that respect convergence and noise"):
+//! the data supports:
 //!
 //! - Only runs that reached the table's common stopping criterion compete: converged runs
 //!   (`status = ok`, [`comparable`]). A failed, not converged or skipped run is never best.
