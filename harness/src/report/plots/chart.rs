@@ -3,7 +3,6 @@
 
 use super::canvas::{encode_png, register_font};
 use super::colors::PALETTE;
-use super::curves::Curve;
 use anyhow::Result;
 use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
@@ -14,6 +13,31 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 pub(super) const CURVE_SIZE: (u32, u32) = (800, 500);
 /// Width of the legend column of curve plots.
 pub(super) const LEGEND_WIDTH: u32 = 190;
+
+/// The columns of a per-iteration CSV the plots use. Non-finite values are kept (and skipped
+/// when drawn) so a diverging run still shows its finite part.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Curve {
+    pub(super) iter: Vec<f64>,
+    pub(super) gap: Vec<f64>,
+    pub(super) time: Vec<f64>,
+    pub(super) neg_eig: Vec<f64>,
+    /// The group's best energy, `energy - energy_minus_best` of the first row.
+    pub(super) best: f64,
+}
+
+impl Curve {
+    pub(super) fn new(file: crate::run_folder::IterationFile) -> Curve {
+        let rows = &file.rows;
+        Curve {
+            iter: rows.iter().map(|r| r.iter as f64).collect(),
+            time: rows.iter().map(|r| r.t_cum_s).collect(),
+            neg_eig: rows.iter().map(|r| r.neg_eig as f64).collect(),
+            best: rows.first().zip(file.energy_minus_best.first()).map_or(f64::NAN, |(r, g)| r.energy - g),
+            gap: file.energy_minus_best,
+        }
+    }
+}
 
 /// One solver's curve in a plot.
 pub(super) struct Series<'a> {

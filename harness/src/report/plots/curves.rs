@@ -1,7 +1,7 @@
 //! Convergence curves of one (dataset, energy) group: energy gap vs iteration and vs time,
 //! #negative eigenvalues vs iteration (the complex-view paper's Figures 2-3).
 
-use super::chart::{self, draw_series, format_count, format_linear, house_style, render_framed, Series};
+use super::chart::{self, draw_series, format_count, format_linear, house_style, render_framed, Curve, Series};
 use super::{Plot, PlotKind};
 use crate::report::converged;
 use crate::run_folder::{write_atomic, SummaryRow};
@@ -40,31 +40,6 @@ pub(super) fn render_group(
             Ok(Plot { file, title, dataset: dataset.into(), energy: energy.into(), kind })
         })
         .collect::<Result<Vec<_>>>()
-}
-
-/// The columns of a per-iteration CSV the plots use. Non-finite values are kept (and skipped
-/// when drawn) so a diverging run still shows its finite part.
-#[derive(Clone, Debug, Default)]
-pub(super) struct Curve {
-    pub(super) iter: Vec<f64>,
-    pub(super) gap: Vec<f64>,
-    pub(super) time: Vec<f64>,
-    pub(super) neg_eig: Vec<f64>,
-    /// The group's best energy, `energy - energy_minus_best` of the first row.
-    pub(super) best: f64,
-}
-
-impl Curve {
-    fn new(file: crate::run_folder::IterationFile) -> Curve {
-        let rows = &file.rows;
-        Curve {
-            iter: rows.iter().map(|r| r.iter as f64).collect(),
-            time: rows.iter().map(|r| r.t_cum_s).collect(),
-            neg_eig: rows.iter().map(|r| r.neg_eig as f64).collect(),
-            best: rows.first().zip(file.energy_minus_best.first()).map_or(f64::NAN, |(r, g)| r.energy - g),
-            gap: file.energy_minus_best,
-        }
-    }
 }
 
 /// Log-axis floor for the energy gap: values at or below 0 (the best run's last point) are

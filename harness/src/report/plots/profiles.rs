@@ -4,8 +4,8 @@
 //! data profiles (`profile__<energy>__data.png`): [`crate::report::corpus::data_profiles`] of
 //! the time to the target on a log10 budget axis.
 
+use super::chart::Curve;
 use super::chart::{self, draw_series, format_linear, house_style, iter_gap_points, render_framed, Series};
-use super::curves::Curve;
 use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::corpus::{
     data_profiles, performance_profiles, DataProfiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME,

@@ -1,8 +1,8 @@
 //! Scaling plots over every dataset of an energy: time per iteration and iterations against
 //! the vertex count (the composite-majorization paper's Figure 6 shape).
 
+use super::chart::Curve;
 use super::chart::{draw_series, format_count, format_linear, house_style, iter_gap_points, render_framed, Series};
-use super::curves::Curve;
 use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::{converged, finished, is_authalic};
 use crate::run_folder::{write_atomic, SummaryRow};

@@ -3,8 +3,8 @@
 //! curve plots (legend column, markers per solver).
 
 use super::canvas::{encode_png, register_font};
+use super::chart::Curve;
 use super::chart::{draw_legend, draw_series, format_linear, house_style, style, Series, CURVE_SIZE, LEGEND_WIDTH};
-use super::curves::Curve;
 use anyhow::{bail, Result};
 use plotters::prelude::*;
 use plotters::style::FontTransform;
