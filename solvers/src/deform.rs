@@ -13,7 +13,7 @@ use crate::map_task::{check_handles, checked_driver, map_problem};
 use crate::mesh::{validate_for, Mesh, Task};
 use crate::problem::{MapProblem, Penalty};
 use crate::smoothness::Projection;
-use crate::solver::newton::SolveError;
+use crate::solver::SolveError;
 use crate::solver::{Observer, Outcome, Settings, StartMap, StopSettings};
 
 /// Settings of a `deform` run.

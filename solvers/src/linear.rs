@@ -44,6 +44,17 @@ impl Default for LinearSettings {
     }
 }
 
+/// How many times the Tikhonov shift is increased after a failed factorization (by the
+/// strategies that retry, [`crate::hessian::SystemBlock::retries_failed_factorization`], and
+/// the proxies' factorizations).
+pub const MAX_REGULARIZATION_RETRIES: usize = 3;
+
+/// The shift of the retry after a failed factorization with shift `tau`: x1000, at least
+/// 1e-8 (from the default 1e-10: 1e-7, 1e-4, 0.1).
+pub fn next_shift(tau: f64) -> f64 {
+    (tau * 1e3).max(1e-8)
+}
+
 /// The matrix the factorization sees (module doc): `scaled = S (A + tau I) S + tau I` with
 /// `S = diag(1/sqrt(a_ii + tau))` when `settings.jacobi`, else `A + tau I` and `S = I`.
 /// `A` is a lower-triangle CSC with diagonal slots `diag`.

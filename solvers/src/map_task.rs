@@ -11,7 +11,8 @@ use crate::smoothness::Projection;
 use crate::solver::aqp::aqp;
 use crate::solver::catalogue::{lookup, newton_spec, Method, SolverError, SolverOptions, SolverSpec};
 use crate::solver::lbfgs::{lbfgs, Variant};
-use crate::solver::newton::{newton_with, SolveError};
+use crate::solver::newton::newton_with;
+use crate::solver::SolveError;
 use crate::solver::{Observer, Outcome, Settings};
 
 /// Why a `param` or `deform` run could not start.

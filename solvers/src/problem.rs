@@ -4,6 +4,7 @@
 //! The energy is `sum_t A_t psi_t / sum_t A_t` (design.md): SD scores 2 at an isometry.
 //! Maps are stored as interleaved `[u0, v0, u1, v1, ...]`.
 
+use crate::assembly::Pattern;
 use crate::energy::EnergyKind;
 use crate::hessian::{count_negative, element_gradient, element_hessian, ElementState};
 use crate::local::{local_ops, signed_area, LocalOp};
@@ -99,6 +100,14 @@ pub struct EnergyScratch {
 }
 
 impl MapProblem {
+    /// The Newton system's pattern: faces, plus edge pairs with a smoothness term.
+    pub fn system_pattern(&self) -> Pattern {
+        match &self.smoothness {
+            Some(sm) => Pattern::with_edges(&self.faces, &sm.edge_vertices(), self.n_vertices),
+            None => Pattern::new(&self.faces, self.n_vertices),
+        }
+    }
+
     pub fn new(mesh: &Mesh, energy: EnergyKind) -> Result<Self, DegenerateFace> {
         let ops = local_ops(mesh).map_err(|face| DegenerateFace { source_name: mesh.source.clone(), face })?;
         let total_area = ops.iter().map(|o| o.area).sum();

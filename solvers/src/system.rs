@@ -10,7 +10,7 @@ use crate::mesh::Task;
 use crate::param::{solve_param, ParamSettings};
 use crate::problem::Evaluation;
 use crate::solver::catalogue::newton_spec;
-use crate::solver::newton::{project_blocks, scatter, system_pattern};
+use crate::solver::newton::{project_blocks, scatter};
 use crate::solver::{StopAt, SystemView};
 use std::fmt::Write as _;
 
@@ -46,7 +46,7 @@ pub fn param_system(
     problem
         .evaluate(&out.x, &mut ev)
         .map_err(|e| MapError::Energy(format!("{}: iterate {}: {e}", mesh.source, out.iterations)))?;
-    let pattern = system_pattern(&problem);
+    let pattern = problem.system_pattern();
     let (mut blocks, mut edge_blocks, mut values) = (Vec::new(), Vec::new(), Vec::new());
     project_blocks(&problem, &ev, spec.block.as_ref(), &mut blocks, &mut edge_blocks);
     scatter(&problem, &pattern, spec.block.as_ref(), &blocks, &edge_blocks, &mut values);

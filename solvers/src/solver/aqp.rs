@@ -42,7 +42,7 @@ use super::proxy::{Proxy, ProxyError};
 use super::{IterationRecord, Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
 use crate::problem::{norm, EnergyScratch, Evaluation, MapProblem};
-use crate::solver::newton::SolveError;
+use crate::solver::SolveError;
 use std::time::Instant;
 
 /// The condition number the momentum is set for (the authors' examples).

@@ -21,7 +21,7 @@ use super::proxy::{Proxy, ProxyError};
 use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
 use crate::problem::{norm, EnergyScratch, Evaluation, MapProblem};
-use crate::solver::newton::SolveError;
+use crate::solver::SolveError;
 use std::collections::VecDeque;
 use std::time::Instant;
 

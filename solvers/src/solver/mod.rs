@@ -186,6 +186,16 @@ impl Observer for Recorder {
     }
 }
 
+/// Errors that prevent a run from starting; once iterating, problems become a
+/// [`StopReason`] and the run returns the last accepted iterate.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum SolveError {
+    #[error("initial map: {0}")]
+    InitialMap(#[from] crate::problem::EvalError),
+    #[error("linear solver setup: {0}")]
+    Linear(#[from] crate::linear::LinearError),
+}
+
 /// Why a solver stopped. `as_str` is the `stop_reason` column.
 #[derive(Clone, Debug, PartialEq)]
 pub enum StopReason {

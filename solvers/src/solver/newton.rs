@@ -5,27 +5,17 @@
 
 use super::proxy::{ProxyError, ScalarProxy};
 use super::truncated::{Forcing, Preconditioner, TruncatedSolve, CG_COLUMNS};
-use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason, SystemView};
+use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, SolveError, StopReason, SystemView};
 use crate::assembly::{pack_lower, Lower6, Pattern, SymmetricRows};
 use crate::hessian::pn::TrustRegion;
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
-use crate::linear::{LinearError, LinearSettings, SpdSolver};
-use crate::problem::{EnergyScratch, EvalError, Evaluation, MapProblem};
+use crate::linear::{next_shift, LinearSettings, SpdSolver, MAX_REGULARIZATION_RETRIES};
+use crate::problem::{EnergyScratch, Evaluation, MapProblem};
 use crate::smoothness::{self, Matrix8};
 
 use rayon::prelude::*;
 use std::time::Instant;
-
-/// Errors that prevent a run from starting; once iterating, problems become a
-/// [`StopReason`] and the run returns the last accepted iterate.
-#[derive(Debug, thiserror::Error, Clone, PartialEq)]
-pub enum SolveError {
-    #[error("initial map: {0}")]
-    InitialMap(#[from] EvalError),
-    #[error("linear solver setup: {0}")]
-    Linear(#[from] LinearError),
-}
 
 /// Alias kept for readability at call sites.
 pub type NewtonSettings = Settings;
@@ -46,24 +36,6 @@ pub enum SystemSolve {
 enum Linear {
     Factorized(Box<SpdSolver>),
     Truncated(Box<TruncatedSolve>, Forcing),
-}
-
-/// How many times the Tikhonov shift is increased after a failed factorization (by the
-/// strategies that retry, [`SystemBlock::retries_failed_factorization`]).
-pub const MAX_REGULARIZATION_RETRIES: usize = 3;
-
-/// The shift of the retry after a failed factorization with shift `tau`: x1000, at least
-/// 1e-8 (from the default 1e-10: 1e-7, 1e-4, 0.1).
-pub fn next_shift(tau: f64) -> f64 {
-    (tau * 1e3).max(1e-8)
-}
-
-/// The Newton system's pattern for `problem`: faces, plus edge pairs with a smoothness term.
-pub fn system_pattern(problem: &MapProblem) -> Pattern {
-    match &problem.smoothness {
-        Some(sm) => Pattern::with_edges(&problem.faces, &sm.edge_vertices(), problem.n_vertices),
-        None => Pattern::new(&problem.faces, problem.n_vertices),
-    }
 }
 
 /// Per-element system blocks of `strategy` at the evaluated iterate (parallel; each block
@@ -134,7 +106,7 @@ pub fn newton_with(
     settings: &Settings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, SolveError> {
-    let pattern = system_pattern(problem);
+    let pattern = problem.system_pattern();
     let t_setup = Instant::now();
     let mut edge_blocks: Vec<Matrix8> = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
     let report = |s: &SpdSolver| AnalysisReport {

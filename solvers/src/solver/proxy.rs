@@ -20,10 +20,11 @@
 use super::{AnalysisReport, Settings, StopReason};
 use crate::assembly::{Lower6, Pattern};
 use crate::authalic::laplacian::{LaplacianPattern, SubBlock};
+use crate::linear::{next_shift, MAX_REGULARIZATION_RETRIES};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::problem::MapProblem;
 use crate::smoothness::Matrix8;
-use crate::solver::newton::{next_shift, system_pattern, SolveError, MAX_REGULARIZATION_RETRIES};
+use crate::solver::SolveError;
 use nalgebra::Matrix6;
 use rayon::prelude::*;
 
@@ -95,7 +96,7 @@ impl Proxy {
     /// Factor the proxy of `problem` once, with the Newton driver's retries on failure;
     /// `Err` carries the stop reason of a factorization that failed at every shift.
     pub(crate) fn new(problem: &MapProblem, linear: &LinearSettings, settings: &Settings) -> Result<Proxy, ProxyError> {
-        let pattern = system_pattern(problem);
+        let pattern = problem.system_pattern();
         let mut solver = SpdSolver::shared(&pattern, linear.ordering, settings.analyses.as_deref())
             .map_err(|e| ProxyError::Setup(e.into()))?;
         let analysis = AnalysisReport {
@@ -409,7 +410,7 @@ mod tests {
     fn the_proxy_is_the_hessian_of_the_dirichlet_energy_and_pins_vertex_0() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
         let mut pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
-        let pattern = system_pattern(&pb);
+        let pattern = pb.system_pattern();
         let n = pb.n_dofs();
         for penalty in [None, Some(Penalty { lambda: 1e3, handles: vec![(3, [0.1, 0.2]), (40, [-0.3, 0.0])] })] {
             pb.penalty = penalty;
@@ -484,7 +485,7 @@ mod tests {
             let mut pb = MapProblem::new(&mesh, energy).unwrap();
             pb.penalty = penalty;
             assert_eq!(dirichlet_coefficient(&pb), c);
-            let pattern = system_pattern(&pb);
+            let pattern = pb.system_pattern();
             let a = laplacian_proxy(&pb, &pattern, None);
             let n = pb.n_dofs();
             for k in [37, 11] {
@@ -526,7 +527,7 @@ mod tests {
     fn the_stiffness_weights_reproduce_isotropic_blocks() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
         let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
-        let pattern = system_pattern(&pb);
+        let pattern = pb.system_pattern();
         let dirichlet = |t: usize| {
             let op = &pb.ops[t];
             let m = op.m();
@@ -563,7 +564,7 @@ mod tests {
     fn the_scalar_proxy_is_the_proxy_of_each_coordinate() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
         let mut pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
-        let pattern = system_pattern(&pb);
+        let pattern = pb.system_pattern();
         for penalty in [None, Some(Penalty { lambda: 1e3, handles: vec![(3, [0.1, 0.2]), (40, [-0.3, 0.0])] })] {
             pb.penalty = penalty;
             let pinned = pinned_vertex(&pb);

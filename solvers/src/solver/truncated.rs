@@ -242,7 +242,7 @@ mod tests {
     use crate::mesh::Mesh;
     use crate::param::{solve_param, ParamSettings};
     use crate::problem::{Evaluation, MapProblem};
-    use crate::solver::newton::{project_blocks, scatter, system_pattern};
+    use crate::solver::newton::{project_blocks, scatter};
     use crate::solver::{IterationRecord, Outcome, Recorder, Settings, StopReason, StopSettings};
     use crate::test_support::shared_mesh;
 
@@ -281,7 +281,7 @@ mod tests {
         let x = tutte(&mesh, TutteBoundary::Uniform).unwrap();
         let mut ev = Evaluation::default();
         problem.evaluate(&x, &mut ev).unwrap();
-        let pattern = system_pattern(&problem);
+        let pattern = problem.system_pattern();
         let (mut blocks, mut edges, mut values) = (Vec::new(), Vec::new(), Vec::new());
         project_blocks(&problem, &ev, &Kp, &mut blocks, &mut edges);
         scatter(&problem, &pattern, &Kp, &blocks, &edges, &mut values);
