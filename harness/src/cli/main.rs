@@ -93,7 +93,7 @@ enum Command {
     /// iterations and time of each batch, and what changed since the previous batch.
     History {
         /// The database (default: reports/history.sqlite).
-        #[arg(long, default_value = mapbench::history::DEFAULT_PATH)]
+        #[arg(long, default_value = mapbench::plan::paths::DEFAULT_PATH)]
         db: PathBuf,
         /// Only this config's batches (default: every config, one section each).
         #[arg(long)]

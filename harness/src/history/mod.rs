@@ -6,17 +6,16 @@
 pub mod db;
 pub mod trend;
 
+use crate::paths::{absolute, relative_link};
+#[cfg(test)]
+use crate::plan::paths::resolve_path;
 pub use db::{BatchRow, HistoryDb, RunRow, Source, SCHEMA_VERSION};
 
 use crate::run_folder::{meta_json, read_summary, write_atomic, FolderError};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 use thiserror::Error;
-
-/// The database when neither the config (`history = "PATH"`) nor `--history` names one:
-/// relative to the current directory, like the default run folder `reports/<name>`.
-pub const DEFAULT_PATH: &str = "reports/history.sqlite";
 
 /// What can go wrong with the history; every error names the database or the file. The
 /// underlying error is part of the message (not a `source`), so it is printed once.
@@ -56,7 +55,7 @@ pub enum HistoryError {
 /// `--history PATH` / `--no-history`, applied over what the config resolved to.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum HistoryChoice {
-    /// The config's `history` key, else [`DEFAULT_PATH`].
+    /// The config's `history` key, else [`crate::plan::paths::DEFAULT_PATH`].
     #[default]
     FromConfig,
     Path(PathBuf),
@@ -82,15 +81,6 @@ impl HistoryChoice {
     }
 }
 
-/// The database a config names: its `history` key relative to the config's folder (as every
-/// path of a config), else [`DEFAULT_PATH`] relative to the current directory.
-pub fn resolve_path(key: Option<&Path>, config_dir: &Path) -> PathBuf {
-    match key {
-        Some(p) => config_dir.join(p),
-        None => PathBuf::from(DEFAULT_PATH),
-    }
-}
-
 /// Where `run` and `merge` render the trend page of `config` after appending to `db`:
 /// `<db folder>/<db stem>-trend/<config>/` (`reports/history-trend/param/` by default).
 pub fn trend_dir(db: &Path, config: &str) -> PathBuf {
@@ -106,7 +96,7 @@ pub fn config_hash(meta: &Value) -> String {
     if let Some(c) = config.as_object_mut() {
         c.remove("history");
     }
-    let mut h = crate::run::resume::Fnv::new();
+    let mut h = crate::hash::Fnv::new();
     for part in [&config, &meta["settings_per_energy"], &meta["plan"], &meta["only"], &meta["repeat"]] {
         h.bytes(part.to_string().as_bytes());
     }
@@ -311,33 +301,6 @@ impl Outcome {
     pub fn of_folder(run_dir: &Path) -> Option<Outcome> {
         serde_json::from_value(read_meta(run_dir).ok()?.get("history_outcome")?.clone()).ok()
     }
-}
-
-/// `path` made absolute against the current directory, `.` and `..` resolved lexically (the
-/// paths compared may not exist yet).
-pub fn absolute(path: &Path) -> PathBuf {
-    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    let mut out = PathBuf::new();
-    for c in abs.components() {
-        match c {
-            Component::CurDir => {}
-            Component::ParentDir => {
-                out.pop();
-            }
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-/// The relative link from the folder `from` to the file `to` (both made [`absolute`]).
-pub fn relative_link(from: &Path, to: &Path) -> String {
-    let (from, to) = (absolute(from), absolute(to));
-    let (a, b): (Vec<Component>, Vec<Component>) = (from.components().collect(), to.components().collect());
-    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
-    let mut parts: Vec<String> = vec!["..".to_string(); a.len() - common];
-    parts.extend(b[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()));
-    parts.join("/")
 }
 
 #[cfg(test)]

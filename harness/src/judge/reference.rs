@@ -10,10 +10,11 @@
 //! run folder; with `--no-history` a batch writes neither and keeps what it computed to
 //! itself (in `meta.json`).
 
-use crate::plan::config::LoadedConfig;
+use crate::hash::Fnv;
+pub use crate::plan::paths::{Stores, REFERENCES_FILE as FILE_NAME};
 use crate::plan::{Plan, PlannedRun, RunSettings, Task};
 use crate::run::progress::Progress;
-use crate::run::resume::{hash_dataset, Fnv};
+use crate::run::resume::hash_dataset;
 use crate::run_folder::write_atomic;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
@@ -30,37 +31,6 @@ pub const REFERENCE_VERSION: u32 = 1;
 
 /// The tight solve's rule.
 pub const TIGHT_STOP: StopSettings = StopSettings { grad_tol: 1e-10, energy_decrease_tol: 0.0, max_iters: 500 };
-
-/// The file name of a reference store.
-pub const FILE_NAME: &str = "references.json";
-
-/// Where references are read and written.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Stores {
-    /// Read only: the committed store beside the registry.
-    pub seed: Option<PathBuf>,
-    /// Read, and where computed references are added when `persist`.
-    pub store: PathBuf,
-    /// Computed references are written to `store` (off with `--no-history`).
-    pub persist: bool,
-}
-
-impl Stores {
-    /// The config's stores: `references.json` beside its registry, and its `references` key
-    /// (relative to the config's folder) or `references.json` beside the config's history
-    /// database (`history`, default `reports/history.sqlite`).
-    pub fn of(cfg: &LoadedConfig) -> Stores {
-        let seed = cfg.registry_path().and_then(|r| Some(r.parent()?.join(FILE_NAME)));
-        let store = match &cfg.config.references {
-            Some(p) => cfg.dir.join(p),
-            None => {
-                let history = crate::history::resolve_path(cfg.config.history.as_deref(), &cfg.dir);
-                history.parent().unwrap_or(Path::new("")).join(FILE_NAME)
-            }
-        };
-        Stores { seed, store, persist: true }
-    }
-}
 
 /// One reference minimum.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -367,6 +337,7 @@ fn compute(plan: &Plan, run: &PlannedRun, key: &str, interrupt: &AtomicBool) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plan::config::LoadedConfig;
 
     fn reference(key: &str, e: f64) -> Reference {
         Reference {

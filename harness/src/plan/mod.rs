@@ -5,6 +5,7 @@
 pub mod config;
 pub mod handles;
 pub mod names;
+pub mod paths;
 pub mod registry;
 pub mod select;
 pub mod settings;
@@ -74,7 +75,7 @@ pub struct Plan {
     /// authalic task, which its solvers' own rules judge.
     pub targets: Vec<f64>,
     /// Where reference minima are looked up and added (`param`, `deform`).
-    pub references: Option<crate::judge::reference::Stores>,
+    pub references: Option<paths::Stores>,
 }
 
 impl Plan {
@@ -121,11 +122,11 @@ impl Plan {
         let timeout = c.timeout_secs().with_context(invalid)?.map(Duration::from_secs_f64);
         let repeat = c.repeat.unwrap_or(1);
         config::check_repeat(repeat).with_context(invalid)?;
-        let history = Some(crate::history::resolve_path(c.history.as_deref(), &cfg.dir));
+        let history = Some(paths::resolve_path(c.history.as_deref(), &cfg.dir));
         let judged = c.task != Task::Authalic;
         let mut targets = if judged { c.targets.clone().unwrap_or(config::DEFAULT_TARGETS.to_vec()) } else { vec![] };
         targets.sort_by(|a, b| b.total_cmp(a));
-        let references = judged.then(|| crate::judge::reference::Stores::of(&cfg));
+        let references = judged.then(|| paths::Stores::of(&cfg));
         Ok(Plan {
             targets,
             references,

@@ -96,7 +96,7 @@ fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Value>, name: &str
     let _ = writeln!(
         h,
         "<p>History: <a href=\"{}\">trend of {} over its batches</a> (database <code>{}</code>)</p>",
-        href(&crate::history::relative_link(run_dir, page)),
+        href(&crate::paths::relative_link(run_dir, page)),
         esc(name),
         esc(&db.display().to_string())
     );

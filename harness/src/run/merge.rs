@@ -112,7 +112,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
     let history_db = {
         let config_dir =
             metas[0]["config_path"].as_str().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
-        history.apply(crate::history::resolve_path(config["history"].as_str().map(Path::new), config_dir))
+        history.apply(crate::plan::paths::resolve_path(config["history"].as_str().map(Path::new), config_dir))
     };
     // The whole folder is made in the staging folder, history outcome and report included,
     // and only then put in place; on any error the staging folder goes, and a batch appended
@@ -160,7 +160,7 @@ fn already_in(previous: Option<&Value>, db: Option<&Path>, merged_from: &Value) 
     }
     let outcome: Outcome = serde_json::from_value(previous.get("history_outcome")?.clone()).ok()?;
     let (was, batch_id, trend) = outcome.in_history()?;
-    (Some(was) == db.map(crate::history::absolute).as_deref())
+    (Some(was) == db.map(crate::paths::absolute).as_deref())
         .then(|| Decision::AlreadyIn { batch_id, trend: trend.cloned() })
 }
 
@@ -230,7 +230,7 @@ fn stage(
             .zip(metas)
             .map(|(d, m)| {
                 serde_json::json!({
-                    "dir": crate::history::absolute(d).display().to_string(), "shard": m["shard"], "host": m["host"],
+                    "dir": crate::paths::absolute(d).display().to_string(), "shard": m["shard"], "host": m["host"],
                     "git_revision": m["git_revision"], "git_dirty": m["git_dirty"],
                     "started_unix": m["started_unix"], "ended_unix": m["ended_unix"],
                     "interrupted": m["interrupted"], "calibration": m["calibration"],

@@ -12,7 +12,8 @@ mod one;
 mod repeats;
 
 use crate::calibration::Calibration;
-use crate::history::{absolute, Decision, Outcome};
+use crate::history::{Decision, Outcome};
+use crate::paths::absolute;
 use crate::plan::config::Maps;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};

@@ -3,38 +3,15 @@
 //! the solver, and the mesh and handle files' contents). A resumed batch reuses a run whose
 //! key matches and whose files (per-iteration CSV, map) are intact, and runs the others.
 
+use crate::hash::Fnv;
 use crate::plan::config::Maps;
 use crate::plan::handles::HandleSource;
 use crate::plan::registry::MeshSource;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::{map, read_run, sidecar, SummaryRow};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use solvers::solver::IterationRecord;
 use std::path::Path;
-
-/// 64-bit FNV-1a: stable across builds and platforms (unlike `DefaultHasher`); the history's
-/// config hash uses it too.
-pub(crate) struct Fnv(pub(crate) u64);
-
-impl Fnv {
-    pub(crate) fn new() -> Fnv {
-        Fnv(0xcbf29ce484222325)
-    }
-
-    pub(crate) fn bytes(&mut self, b: &[u8]) -> &mut Fnv {
-        for &x in b {
-            self.0 = (self.0 ^ u64::from(x)).wrapping_mul(0x100000001b3);
-        }
-        // Separator, so that ("ab", "c") and ("a", "bc") differ.
-        self.0 = (self.0 ^ 0xff).wrapping_mul(0x100000001b3);
-        self
-    }
-
-    fn file(&mut self, path: &Path) -> Result<&mut Fnv> {
-        let data = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-        Ok(self.bytes(&data))
-    }
-}
 
 /// The key of one run (hex): `code` identifies the code (version and git revision), then
 /// the run's resolved settings (task, energy parameters, stop, line search, linear, init,

@@ -57,18 +57,16 @@ pub fn legacy_obj_path(dir: &Path, stem: &str) -> PathBuf {
 
 /// FNV-1a over the mesh's positions (their bits) and faces: what ties a map to its mesh.
 pub fn checksum(positions: &[[f64; 3]], faces: &[[usize; 3]]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |x: u64| {
-        for b in x.to_le_bytes() {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
-    eat(positions.len() as u64);
-    positions.iter().flatten().for_each(|x| eat(x.to_bits()));
-    eat(faces.len() as u64);
-    faces.iter().flatten().for_each(|&v| eat(v as u64));
-    h
+    let mut h = crate::hash::Fnv::new();
+    h.word(positions.len() as u64);
+    positions.iter().flatten().for_each(|x| {
+        h.word(x.to_bits());
+    });
+    h.word(faces.len() as u64);
+    faces.iter().flatten().for_each(|&v| {
+        h.word(v as u64);
+    });
+    h.0
 }
 
 fn gzip(bytes: &[u8]) -> Vec<u8> {

@@ -129,7 +129,7 @@ fn owner_within(path: &Path, links: usize) -> Option<PathBuf> {
     // rest with `.` and `..` applied.
     let resolved = path.ancestors().find_map(|a| {
         let existing = if a.as_os_str().is_empty() { Path::new(".") } else { a };
-        Some(crate::history::absolute(&std::fs::canonicalize(existing).ok()?.join(path.strip_prefix(a).ok()?)))
+        Some(crate::paths::absolute(&std::fs::canonicalize(existing).ok()?.join(path.strip_prefix(a).ok()?)))
     })?;
     resolved.ancestors().skip(1).find_map(|dir| {
         let first = resolved.strip_prefix(dir).ok()?.components().next()?;
