@@ -17,6 +17,7 @@ pub mod sem;
 use crate::linear::{AnalysisCache, LinearError, LinearSettings, SpdSolver};
 use crate::mesh::topology::{boundary_loops, VertexCorners};
 use crate::mesh::{validate_for, Mesh, Task};
+pub(crate) use crate::problem::{dot, norm};
 use crate::solver::catalogue::{lookup, Method, SolverError, AUTHALIC_COLUMNS};
 use crate::solver::{IterationRecord, Observer, Outcome, StopReason, StopSettings};
 use laplacian::{stretch_weights, LaplacianPattern, SubBlock};
@@ -664,14 +665,6 @@ pub(crate) fn tolerance_stop(stop: &StopSettings, decrease: f64, grad_norm: f64)
         return Some(StopReason::EnergyDecrease);
     }
     None
-}
-
-pub(crate) fn norm(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
-pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Run the named authalic solver (of the catalogue) on `mesh` (validated here).

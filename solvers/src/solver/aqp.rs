@@ -41,7 +41,7 @@
 use super::proxy::{Proxy, ProxyError};
 use super::{IterationRecord, Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
-use crate::problem::{norm, EnergyScratch, Evaluation, MapProblem};
+use crate::problem::{dot, norm, EnergyScratch, Evaluation, MapProblem};
 use crate::solver::SolveError;
 use std::time::Instant;
 
@@ -65,10 +65,6 @@ pub const AQP_COLUMNS: [&str; 3] = ["momentum", "energy_y", "t_init"];
 pub fn theta(kappa: f64) -> f64 {
     let r = (1.0 / kappa).sqrt();
     (1.0 - r) / (1.0 + r)
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// AQP from `x0` (orientation preserving) with the shared stop rules (`settings.stop`).

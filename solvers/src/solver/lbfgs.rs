@@ -20,7 +20,7 @@
 use super::proxy::{Proxy, ProxyError};
 use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
-use crate::problem::{norm, EnergyScratch, Evaluation, MapProblem};
+use crate::problem::{dot, norm, EnergyScratch, Evaluation, MapProblem};
 use crate::solver::SolveError;
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -73,10 +73,6 @@ pub struct History {
     pairs: VecDeque<(Vec<f64>, Vec<f64>, f64)>,
     /// The two-loop's coefficients `alpha_i`, kept between calls.
     alpha: Vec<f64>,
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 impl History {

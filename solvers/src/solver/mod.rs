@@ -388,6 +388,17 @@ pub struct AnalysisReport {
     pub reused: bool,
 }
 
+impl AnalysisReport {
+    /// How `solver` obtained its analysis.
+    pub fn of(solver: &crate::linear::SpdSolver) -> AnalysisReport {
+        AnalysisReport {
+            seconds: solver.analysis().seconds(),
+            setup_seconds: solver.setup_seconds(),
+            reused: solver.analysis_reused(),
+        }
+    }
+}
+
 /// The map a run started from (`summary.csv`'s `start`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum StartMap {

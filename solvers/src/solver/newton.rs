@@ -109,11 +109,6 @@ pub fn newton_with(
     let pattern = problem.system_pattern();
     let t_setup = Instant::now();
     let mut edge_blocks: Vec<Matrix8> = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
-    let report = |s: &SpdSolver| AnalysisReport {
-        seconds: s.analysis().seconds(),
-        setup_seconds: s.setup_seconds(),
-        reused: s.analysis_reused(),
-    };
     // The constant preconditioner is built and factored once: that is part of the method's
     // cost and goes into iteration 1 (as AQP's proxy); the reweighted one is factored in
     // every iteration. Its analysis, like the factorized variant's, is the run's `analysis_s`.
@@ -121,7 +116,7 @@ pub fn newton_with(
     let (linear, analysis) = match solve {
         SystemSolve::Factorized => {
             let s = SpdSolver::shared(&pattern, settings.linear.ordering, settings.analyses.as_deref())?;
-            let analysis = report(&s);
+            let analysis = AnalysisReport::of(&s);
             (Ok(Linear::Factorized(Box::new(s))), analysis)
         }
         SystemSolve::Truncated(preconditioner) => {

@@ -99,11 +99,7 @@ impl Proxy {
         let pattern = problem.system_pattern();
         let mut solver = SpdSolver::shared(&pattern, linear.ordering, settings.analyses.as_deref())
             .map_err(|e| ProxyError::Setup(e.into()))?;
-        let analysis = AnalysisReport {
-            seconds: solver.analysis().seconds(),
-            setup_seconds: solver.setup_seconds(),
-            reused: solver.analysis_reused(),
-        };
+        let analysis = AnalysisReport::of(&solver);
         let pinned = pinned_vertex(problem);
         let values = laplacian_proxy(problem, &pattern, pinned);
         let shift = factorize_with_retries(&mut solver, &values, linear)?;
@@ -295,11 +291,7 @@ impl ScalarProxy {
             None => SpdSolver::from_csc_ordered(n, col_ptr.clone(), row_idx.clone(), diag, ordering, 1),
         }
         .map_err(|e| ProxyError::Setup(e.into()))?;
-        let analysis = AnalysisReport {
-            seconds: solver.analysis().seconds(),
-            setup_seconds: solver.setup_seconds(),
-            reused: solver.analysis_reused(),
-        };
+        let analysis = AnalysisReport::of(&solver);
         let shift = settings.linear.tikhonov;
         let (columns, weights, scale, full, values) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         Ok(ScalarProxy { solver, pinned, shift, analysis, columns, pattern, block, weights, scale, full, values })
@@ -363,11 +355,7 @@ impl ScalarProxy {
 mod tests {
     use super::*;
     use crate::energy::EnergyKind;
-    use crate::problem::{norm, Evaluation, Penalty};
-
-    fn dot(a: &[f64], b: &[f64]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| x * y).sum()
-    }
+    use crate::problem::{dot, norm, Evaluation, Penalty};
 
     /// `c sum_t a_t |J_t|^2 / sum a` at `x`, plus the handle penalty when the problem has one.
     fn dirichlet(pb: &MapProblem, x: &[f64]) -> f64 {

@@ -18,6 +18,7 @@
 use super::proxy::ScalarProxy;
 use crate::assembly::SymmetricRows;
 use crate::linear::LinearError;
+use crate::problem::dot;
 
 /// Eisenstat-Walker's `gamma` (choice 2 with exponent 2).
 pub const GAMMA: f64 = 0.9;
@@ -143,10 +144,6 @@ fn unpin(pinned: Option<usize>, v: &mut [f64]) {
     if let Some(p) = pinned {
         v[2 * p..2 * p + 2].fill(0.0);
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 impl TruncatedSolve {
