@@ -17,13 +17,15 @@ impl Fnv {
         Fnv(0xcbf29ce484222325)
     }
 
+    fn byte(&mut self, b: u8) {
+        self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x100000001b3);
+    }
+
     /// `b`, then a separator byte.
     pub fn bytes(&mut self, b: &[u8]) -> &mut Fnv {
-        for &x in b {
-            self.0 = (self.0 ^ u64::from(x)).wrapping_mul(0x100000001b3);
-        }
+        b.iter().for_each(|&x| self.byte(x));
         // Separator, so that ("ab", "c") and ("a", "bc") differ.
-        self.0 = (self.0 ^ 0xff).wrapping_mul(0x100000001b3);
+        self.byte(0xff);
         self
     }
 
@@ -35,9 +37,7 @@ impl Fnv {
 
     /// The 8 little-endian bytes of `x`, without a separator (fixed-width words need none).
     pub fn word(&mut self, x: u64) -> &mut Fnv {
-        for b in x.to_le_bytes() {
-            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x100000001b3);
-        }
+        x.to_le_bytes().into_iter().for_each(|b| self.byte(b));
         self
     }
 }

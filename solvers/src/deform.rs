@@ -113,11 +113,7 @@ pub fn solve_deform(
     check_handles(mesh, handles)?;
     let source_name = mesh.source.clone();
     let (mut problem, _, x) = deform_problem(mesh, init, energy, driver.smoothness_projection(), settings)?;
-    let (mid, s) = mesh.normalization();
-    problem.penalty = Some(Penalty {
-        lambda: settings.lambda,
-        handles: handles.iter().map(|h| (h.vertex, [(h.target[0] - mid[0]) * s, (h.target[1] - mid[1]) * s])).collect(),
-    });
+    problem.penalty = Some(penalty(mesh, handles, settings.lambda));
     let mut outcome =
         driver.solve(&problem, x, &settings.solver, observer).map_err(|err| MapError::Solve { source_name, err })?;
     outcome.start = Some(if init.is_some() { StartMap::Given } else { StartMap::Rest });
@@ -154,6 +150,15 @@ pub fn elastic_energies(
             .map_err(|e| MapError::Solve { source_name: source_name.clone(), err: SolveError::InitialMap(e) })
     };
     Ok(ElasticEnergies { rest: at(&rest)?, start: at(&start)? })
+}
+
+/// The handles' penalty with `lambda`, the targets normalized like the mesh.
+fn penalty(mesh: &Mesh, handles: &[Handle], lambda: f64) -> Penalty {
+    let (mid, s) = mesh.normalization();
+    Penalty {
+        lambda,
+        handles: handles.iter().map(|h| (h.vertex, [(h.target[0] - mid[0]) * s, (h.target[1] - mid[1]) * s])).collect(),
+    }
 }
 
 /// The problem of a `deform` run without its penalty, the rest pose and the start (`init`
@@ -400,16 +405,12 @@ mod tests {
                 s.solver.stop.max_iters = 0;
                 solve_deform(&mesh, &handles, init.as_deref(), energy, "kp-newton", &s, &mut rec).unwrap();
                 let (problem, _, start) = deform_problem(&mesh, init.as_deref(), energy, None, &s).unwrap();
-                let (mid, sc) = mesh.normalization();
-                let penalty = Penalty {
-                    lambda: s.lambda,
-                    handles: handles
-                        .iter()
-                        .map(|h| (h.vertex, [(h.target[0] - mid[0]) * sc, (h.target[1] - mid[1]) * sc]))
-                        .collect(),
-                };
                 let e0 = rec.rows[0].energy;
-                assert!((e.start + penalty.value(&start) - e0).abs() <= 1e-12 * e0.abs().max(1.0), "{name} {energy:?}");
+                assert!(
+                    (e.start + penalty(&mesh, &handles, s.lambda).value(&start) - e0).abs()
+                        <= 1e-12 * e0.abs().max(1.0),
+                    "{name} {energy:?}"
+                );
                 assert_eq!(problem.n_faces(), mesh.faces.len());
                 if init.is_none() {
                     assert_eq!(e.start, e.rest, "{name}: the start is the rest pose");

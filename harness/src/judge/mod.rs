@@ -138,6 +138,13 @@ mod tests {
         }
     }
 
+    /// An empty run folder (with its `runs/`) for [`ran`]'s files.
+    fn run_folder() -> tempfile::TempDir {
+        let tmp = tempfile::tempdir().unwrap();
+        std::fs::create_dir(tmp.path().join("runs")).unwrap();
+        tmp
+    }
+
     fn group(e_star: f64) -> Vec<GroupReference> {
         vec![GroupReference {
             dataset: "d".into(),
@@ -155,9 +162,8 @@ mod tests {
     /// from the start; a run below the reference lowers it for the batch.
     #[test]
     fn the_harness_decides_not_the_solvers_own_rule() {
-        let tmp = tempfile::tempdir().unwrap();
+        let tmp = run_folder();
         let dir = tmp.path();
-        std::fs::create_dir(dir.join("runs")).unwrap();
         let tol = |_: &str| Some(1e-3);
         let mut rows = vec![
             // E0 = 10, E* = 2: 1e-3 needs E <= 2.008, 1e-6 needs E <= 2.000008
@@ -206,9 +212,8 @@ mod tests {
     /// here; `gap_scale` records the span and `final_gap` is measured on it.
     #[test]
     fn a_deform_group_is_judged_on_the_shape_s_change() {
-        let tmp = tempfile::tempdir().unwrap();
+        let tmp = run_folder();
         let dir = tmp.path();
-        std::fs::create_dir(dir.join("runs")).unwrap();
         let tol = |_: &str| Some(1e-6);
         let judge = |elastic: Option<reference::Elastic>| {
             let mut rows =

@@ -11,7 +11,7 @@
 //! itself (in `meta.json`).
 
 use crate::hash::Fnv;
-pub use crate::plan::paths::{Stores, REFERENCES_FILE as FILE_NAME};
+use crate::plan::paths::Stores;
 use crate::plan::{Plan, PlannedRun, RunSettings, Task};
 use crate::run::progress::Progress;
 use crate::run::resume::hash_dataset;
