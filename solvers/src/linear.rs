@@ -55,6 +55,41 @@ pub fn next_shift(tau: f64) -> f64 {
     (tau * 1e3).max(1e-8)
 }
 
+/// `attempt` (a factorization, or a factorization and a solve) at the base shift of `base`
+/// and, while it fails, at up to `retries` larger ones ([`next_shift`]): the shift that
+/// succeeded, or the last failure with the shifts tried.
+pub fn with_shift_retries(
+    base: &LinearSettings,
+    retries: usize,
+    mut attempt: impl FnMut(&LinearSettings) -> Result<(), LinearError>,
+) -> Result<f64, ShiftsFailed> {
+    let mut lin = *base;
+    let mut result = attempt(&lin);
+    for _ in 0..retries {
+        if result.is_ok() {
+            break;
+        }
+        lin.tikhonov = next_shift(lin.tikhonov);
+        result = attempt(&lin);
+    }
+    result.map(|()| lin.tikhonov).map_err(|error| ShiftsFailed {
+        error,
+        first: base.tikhonov,
+        last: lin.tikhonov,
+        retried: retries > 0,
+    })
+}
+
+/// A factorization that failed at every shift [`with_shift_retries`] tried.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{error} ({})", if *.retried { format!("shifts {:e} to {:e}", .first, .last) } else { format!("shift {:e}, no retry", .first) })]
+pub struct ShiftsFailed {
+    pub error: LinearError,
+    pub first: f64,
+    pub last: f64,
+    pub retried: bool,
+}
+
 /// The matrix the factorization sees (module doc): `scaled = S (A + tau I) S + tau I` with
 /// `S = diag(1/sqrt(a_ii + tau))` when `settings.jacobi`, else `A + tau I` and `S = I`.
 /// `A` is a lower-triangle CSC with diagonal slots `diag`.

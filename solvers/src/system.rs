@@ -10,7 +10,7 @@ use crate::mesh::Task;
 use crate::param::{solve_param, ParamSettings};
 use crate::problem::Evaluation;
 use crate::solver::catalogue::newton_spec;
-use crate::solver::newton::{project_blocks, scatter};
+use crate::solver::newton_system::{project_blocks, scatter};
 use crate::solver::{StopAt, SystemView};
 use std::fmt::Write as _;
 

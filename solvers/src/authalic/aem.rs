@@ -17,10 +17,12 @@
 //! assumes (recorded for both variants, never enforced).
 
 use super::{
-    dot, norm, tolerance_stop, AuthalicOutcome, AuthalicProblem, AuthalicSettings, EvalBuffers, Extras, FoldGuard,
-    Reporter, Terms, Timings, EXACT,
+    dot, finished, norm, AuthalicIterate, AuthalicOutcome, AuthalicProblem, AuthalicSettings, EvalBuffers, Extras,
+    FoldGuard, Terms, EXACT,
 };
 use crate::linear::{LinearError, SpdSolver};
+use crate::solver::catalogue::AUTHALIC_COLUMNS;
+use crate::solver::executor::{execute, Method, Start, Step};
 use crate::solver::{Observer, StopReason};
 use std::time::Instant;
 
@@ -75,7 +77,7 @@ fn axpy_into(z: &[f64], a: f64, p: &[f64], out: &mut Vec<f64>) {
 }
 
 /// What the step rule of one iteration produced.
-struct Step {
+struct Trial {
     alpha: f64,
     z: Vec<f64>,
     extras: Extras,
@@ -88,106 +90,130 @@ pub fn aem_cg(
     safe: bool,
     observer: &mut dyn Observer,
 ) -> AuthalicOutcome {
-    let mut z = z0;
+    let mut buf = EvalBuffers::default();
+    let mut g = Vec::new();
+    let terms = problem.terms_and_gradient_into(&z0, &mut buf, &mut g);
+    let at = AuthalicIterate::new(problem, z0, terms, &g);
+    let method = Preconditioner::new(problem, &at.z)
+        .and_then(|mut precond| Ok((precond.apply(&g)?, precond)))
+        .map(|(h, precond)| AemCg {
+            settings,
+            safe,
+            precond,
+            p: h.iter().map(|v| -v).collect(),
+            hg: dot(&h, &g),
+            h,
+            g,
+            alpha_prev: settings.alpha0,
+            truncated: false,
+            buf,
+            trial: Vec::new(),
+            z_next: Vec::new(),
+            g_new: Vec::new(),
+            h_new: Vec::new(),
+        })
+        .map_err(linear_failed);
+    let start = Start { method, columns: AUTHALIC_COLUMNS.to_vec(), analysis: None, charged: 0.0 };
+    finished(execute(start, at, &settings.stop, observer))
+}
+
+fn linear_failed(e: LinearError) -> StopReason {
+    StopReason::LinearSolveFailed(format!("preconditioner: {e}"))
+}
+
+/// AEM-CG's state between iterations: the gradient `g` at the iterate, its preconditioned
+/// `h = M^-1 g`, the direction `p`, `h . g`, the last step length.
+struct AemCg<'a> {
+    settings: &'a AuthalicSettings,
+    safe: bool,
+    precond: Preconditioner,
+    g: Vec<f64>,
+    h: Vec<f64>,
+    p: Vec<f64>,
+    hg: f64,
+    alpha_prev: f64,
+    /// Set when the fold guard truncated the last step: conjugacy is lost, so restart.
+    truncated: bool,
     // Vectors of the size of z kept between iterations (fresh ones are faulted in and zeroed
     // each time): the evaluations' buffers, the trial point, the next iterate, gradient and
     // preconditioned gradient.
-    let mut buf = EvalBuffers::default();
-    let (mut trial, mut z_next, mut g_new, mut h_new) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut g = Vec::new();
-    let mut terms = problem.terms_and_gradient_into(&z, &mut buf, &mut g);
-    let mut gnorm = norm(&g);
-    let mut rep = Reporter { observer, t_cum: 0.0, init_energy: terms.energy, iterations: 0 };
-    if let Some(reason) = rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
-        return rep.finish(problem, &z, &terms, gnorm, reason);
-    }
-    let linear_failed = |e: LinearError| StopReason::LinearSolveFailed(format!("preconditioner: {e}"));
-    let mut precond = match Preconditioner::new(problem, &z) {
-        Ok(m) => m,
-        Err(e) => return rep.finish(problem, &z, &terms, gnorm, linear_failed(e)),
-    };
-    let mut h = match precond.apply(&g) {
-        Ok(h) => h,
-        Err(e) => return rep.finish(problem, &z, &terms, gnorm, linear_failed(e)),
-    };
-    let mut p: Vec<f64> = h.iter().map(|v| -v).collect();
-    let mut hg = dot(&h, &g);
-    let mut alpha_prev = settings.alpha0;
-    // Set when the fold guard truncated the last step: conjugacy is lost, so restart.
-    let mut truncated = false;
-    let stop = loop {
-        if rep.iterations >= settings.stop.max_iters {
-            break StopReason::MaxIterations;
-        }
+    buf: EvalBuffers,
+    trial: Vec<f64>,
+    z_next: Vec<f64>,
+    g_new: Vec<f64>,
+    h_new: Vec<f64>,
+}
+
+impl<'a> Method for AemCg<'a> {
+    type Iterate = AuthalicIterate<'a>;
+
+    fn step(&mut self, at: &mut AuthalicIterate<'a>, _: usize, _: &mut dyn Observer) -> Result<Step, StopReason> {
+        let AemCg { settings, safe, precond, g, h, p, hg, alpha_prev, truncated, buf, trial, z_next, g_new, h_new } =
+            self;
+        let problem = at.problem;
         let t_start = Instant::now();
-        let phi0 = terms.energy;
-        let step = if safe {
-            if truncated {
-                alpha_prev = settings.alpha0;
+        let phi0 = at.terms.energy;
+        let step = if *safe {
+            if *truncated {
+                *alpha_prev = settings.alpha0;
             }
-            match safe_step(problem, settings, &z, &terms, &mut p, &h, hg, &g, alpha_prev, truncated, &mut buf) {
-                Some(s) => s,
-                None => break StopReason::LineSearchFailed,
-            }
+            safe_step(problem, settings, &at.z, &at.terms, p, h, *hg, g, *alpha_prev, *truncated, buf)
+                .ok_or(StopReason::LineSearchFailed)?
         } else {
             // Eq. 18 with one evaluation at the previous step length.
-            let dphi0 = dot(&p, &g);
-            axpy_into(&z, alpha_prev, &p, &mut trial);
-            let phi_a = problem.terms_with(&trial, &mut buf).energy;
-            let alpha = -alpha_prev * alpha_prev * dphi0 / (2.0 * (phi_a - phi0 - alpha_prev * dphi0));
+            let dphi0 = dot(p, g);
+            axpy_into(&at.z, *alpha_prev, p, trial);
+            let phi_a = problem.terms_with(trial, buf).energy;
+            let alpha = -*alpha_prev * *alpha_prev * dphi0 / (2.0 * (phi_a - phi0 - *alpha_prev * dphi0));
             if !alpha.is_finite() {
-                break StopReason::NonFinite(format!(
+                return Err(StopReason::NonFinite(format!(
                     "quadratic step {alpha} (Phi(0) = {phi0}, Phi'(0) = {dphi0}, Phi({alpha_prev}) = {phi_a})"
-                ));
+                )));
             }
-            axpy_into(&z, alpha, &p, &mut z_next);
-            Step { alpha, z: std::mem::take(&mut z_next), extras: Extras { ls_evals: 1, ..Default::default() } }
+            axpy_into(&at.z, alpha, p, z_next);
+            Trial { alpha, z: std::mem::take(z_next), extras: Extras { ls_evals: 1, ..Default::default() } }
         };
         let t_ls = t_start.elapsed().as_secs_f64();
         let t0 = Instant::now();
-        let t_new = problem.terms_and_gradient_into(&step.z, &mut buf, &mut g_new);
+        let t_new = problem.terms_and_gradient_into(&step.z, buf, g_new);
         let t_assemble = t0.elapsed().as_secs_f64();
         if !(t_new.energy.is_finite() && g_new.iter().all(|v| v.is_finite())) {
-            break StopReason::NonFinite(format!("energy {} after step {}", t_new.energy, step.alpha));
+            return Err(StopReason::NonFinite(format!("energy {} after step {}", t_new.energy, step.alpha)));
         }
         let mut extras = step.extras;
-        truncated = extras.fold_rejects > 0;
-        let dphi0 = dot(&p, &g);
+        *truncated = extras.fold_rejects > 0;
+        let dphi0 = dot(p, g);
         extras.ascent = t_new.energy > phi0;
-        extras.wolfe = Some(dot(&g_new, &p).abs() <= settings.wolfe_c2 * dphi0.abs());
+        extras.wolfe = Some(dot(g_new, p).abs() <= settings.wolfe_c2 * dphi0.abs());
         // Preconditioned Fletcher-Reeves (Eq. 19b; Algorithm 1, lines 18-22).
         let t1 = Instant::now();
-        if let Err(e) = precond.apply_into(&g_new, &mut h_new) {
-            break linear_failed(e);
-        }
+        precond.apply_into(g_new, h_new).map_err(linear_failed)?;
         let t_solve = t1.elapsed().as_secs_f64();
-        let hg_new = dot(&h_new, &g_new);
-        let beta = hg_new / hg;
-        p.iter_mut().zip(&h_new).for_each(|(pk, hn)| *pk = -hn + beta * *pk);
-        std::mem::swap(&mut h, &mut h_new);
-        hg = hg_new;
-        std::mem::swap(&mut g, &mut g_new);
+        let hg_new = dot(h_new, g_new);
+        let beta = hg_new / *hg;
+        p.iter_mut().zip(h_new.iter()).for_each(|(pk, hn)| *pk = -hn + beta * *pk);
+        std::mem::swap(h, h_new);
+        *hg = hg_new;
+        std::mem::swap(g, g_new);
         // the old iterate's vector becomes the next step's
-        z_next = std::mem::replace(&mut z, step.z);
-        alpha_prev = step.alpha;
+        *z_next = std::mem::replace(&mut at.z, step.z);
+        *alpha_prev = step.alpha;
         let decrease = phi0 - t_new.energy;
-        terms = t_new;
-        gnorm = norm(&g);
-        let tm =
-            Timings { assemble: t_assemble, solve: t_solve, linesearch: t_ls, iter: t_start.elapsed().as_secs_f64() };
-        let iter = rep.iterations + 1;
-        if let Some(reason) = rep.report(iter, &terms, gnorm, step.alpha, tm, extras) {
-            break reason;
-        }
-        if let Some(s) = tolerance_stop(&settings.stop, decrease, gnorm) {
-            break s;
-        }
-    };
-    rep.finish(problem, &z, &terms, gnorm, stop)
+        at.terms = t_new;
+        at.grad_norm = norm(g);
+        Ok(Step {
+            step: step.alpha,
+            decrease: Some(decrease),
+            t_assemble,
+            t_solve,
+            t_linesearch: t_ls,
+            ls_evals: extras.ls_evals,
+            extra: extras.values(&at.terms),
+            ..Step::default()
+        })
+    }
 }
 
-/// The safeguarded step of `aem-cg-safe`; may replace `p` by `-h` (restart). `None` when
-/// no acceptable step exists even along `-h`.
 #[allow(clippy::too_many_arguments)]
 fn safe_step(
     problem: &AuthalicProblem,
@@ -201,7 +227,7 @@ fn safe_step(
     alpha_prev: f64,
     force_restart: bool,
     buf: &mut EvalBuffers,
-) -> Option<Step> {
+) -> Option<Trial> {
     let mut extras = Extras::default();
     let mut dphi0 = dot(p, g);
     let restart = |p: &mut Vec<f64>| {
@@ -237,7 +263,7 @@ fn safe_step(
                 FoldGuard::All => t.folded <= terms.folded,
             };
             if armijo && folds_ok {
-                return Some(Step { alpha, z: zt, extras });
+                return Some(Trial { alpha, z: zt, extras });
             }
             if !folds_ok {
                 extras.fold_rejects += 1;

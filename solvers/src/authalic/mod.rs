@@ -11,6 +11,7 @@
 //! energy `E_S = sum |f(tau)|^2 / |tau|` a polynomial and its gradient exact everywhere.
 
 pub mod aem;
+mod iterate;
 pub mod laplacian;
 pub mod sem;
 
@@ -18,8 +19,9 @@ use crate::linear::{AnalysisCache, LinearError, LinearSettings, SpdSolver};
 use crate::mesh::topology::{boundary_loops, VertexCorners};
 use crate::mesh::{validate_for, Mesh, Task};
 pub(crate) use crate::problem::{dot, norm};
-use crate::solver::catalogue::{lookup, Method, SolverError, AUTHALIC_COLUMNS};
-use crate::solver::{IterationRecord, Observer, Outcome, StopReason, StopSettings};
+use crate::solver::catalogue::{lookup, Method, SolverError};
+use crate::solver::{Observer, Outcome, StopSettings};
+pub(crate) use iterate::{finished, AuthalicIterate, Extras};
 use laplacian::{stretch_weights, LaplacianPattern, SubBlock};
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -544,128 +546,6 @@ impl AuthalicProblem {
 /// Solves of `L_II` and `L_BB` are plain (no Jacobi scaling, no shift): `L_S` at a valid map
 /// is a Laplacian with a Dirichlet boundary.
 const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
-
-/// What the step rule of one iteration did (the extra columns, [`AUTHALIC_COLUMNS`]).
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Extras {
-    pub ascent: bool,
-    pub wolfe: Option<bool>,
-    pub backtracks: usize,
-    pub restarted: bool,
-    pub fold_rejects: usize,
-    pub quad_fallback: bool,
-    /// Energy evaluations of the step rule.
-    pub ls_evals: usize,
-}
-
-/// Timings of one iteration, in seconds.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Timings {
-    pub assemble: f64,
-    pub solve: f64,
-    pub linesearch: f64,
-    /// The whole iteration.
-    pub iter: f64,
-}
-
-/// Builds rows and the outcome; shared by the three solvers.
-pub(crate) struct Reporter<'a> {
-    pub observer: &'a mut dyn Observer,
-    /// Sum of the iteration times so far.
-    pub t_cum: f64,
-    pub init_energy: f64,
-    pub iterations: usize,
-}
-
-impl Reporter<'_> {
-    /// Report the iterate `iter`; `Some` when the observer wants to stop, with the reason.
-    pub fn report(
-        &mut self,
-        iter: usize,
-        t: &Terms,
-        grad_norm: f64,
-        step: f64,
-        tm: Timings,
-        ex: Extras,
-    ) -> Option<StopReason> {
-        self.iterations = iter;
-        self.t_cum += tm.iter;
-        let b = |v: bool| f64::from(u8::from(v));
-        let record = IterationRecord {
-            iter,
-            energy: t.energy,
-            grad_norm,
-            step,
-            // Each face's term |f(tau)|^2 / |tau| of E_S has a Hessian with exactly two negative
-            // eigenvalues whenever |f(tau)| != 0 (see `element_hessian_inertia` test).
-            neg_eig: 2 * t.nonzero,
-            indefinite_elems: t.nonzero,
-            flips: t.folded,
-            t_assemble_s: tm.assemble,
-            t_project_s: 0.0,
-            t_solve_s: tm.solve,
-            t_linesearch_s: tm.linesearch,
-            t_iter_s: tm.iter,
-            t_cum_s: self.t_cum,
-            t_record_s: 0.0,
-            // No Newton system, no Tikhonov shift.
-            shift: None,
-            ls_evals: ex.ls_evals,
-            // In AUTHALIC_COLUMNS order.
-            extra: AUTHALIC_COLUMNS
-                .into_iter()
-                .zip([
-                    t.area,
-                    t.stretch,
-                    b(ex.ascent),
-                    ex.wolfe.map_or(f64::NAN, b),
-                    ex.backtracks as f64,
-                    b(ex.restarted),
-                    ex.fold_rejects as f64,
-                    b(ex.quad_fallback),
-                ])
-                .collect(),
-        };
-        self.observer.observe(&record).stop_reason()
-    }
-
-    pub fn finish(
-        self,
-        problem: &AuthalicProblem,
-        z: &[f64],
-        t: &Terms,
-        grad_norm: f64,
-        stop: StopReason,
-    ) -> AuthalicOutcome {
-        let x = problem.positions_of(z);
-        let metrics = problem.metrics(z);
-        AuthalicOutcome {
-            outcome: Outcome {
-                x,
-                iterations: self.iterations,
-                stop_reason: stop,
-                init_energy: self.init_energy,
-                final_energy: t.energy,
-                grad_norm,
-                flips: t.folded,
-                analysis: None,
-                start: Some(crate::solver::StartMap::ArclengthStretch),
-            },
-            metrics,
-        }
-    }
-}
-
-/// The `[stop]` tolerance rules (each off when its tolerance is 0).
-pub(crate) fn tolerance_stop(stop: &StopSettings, decrease: f64, grad_norm: f64) -> Option<StopReason> {
-    if stop.grad_tol > 0.0 && grad_norm <= stop.grad_tol {
-        return Some(StopReason::GradientTolerance);
-    }
-    if stop.energy_decrease_tol > 0.0 && decrease < stop.energy_decrease_tol {
-        return Some(StopReason::EnergyDecrease);
-    }
-    None
-}
 
 /// Run the named authalic solver (of the catalogue) on `mesh` (validated here).
 pub fn solve_authalic(

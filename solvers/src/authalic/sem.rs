@@ -10,8 +10,10 @@
 //! by iteration 5). With `sem_stop_on_increase` it stops and keeps the previous iterate
 //! instead, as the reference code SEMc does.
 
-use super::{norm, AuthalicOutcome, AuthalicProblem, AuthalicSettings, Extras, Reporter, Timings, EXACT};
+use super::{finished, norm, AuthalicIterate, AuthalicOutcome, AuthalicProblem, AuthalicSettings, Extras, EXACT};
 use crate::linear::{LinearError, SpdSolver};
+use crate::solver::catalogue::AUTHALIC_COLUMNS;
+use crate::solver::executor::{execute, Method, Start, Step};
 use crate::solver::{Observer, StopReason};
 use std::time::Instant;
 
@@ -21,70 +23,65 @@ pub fn sem(
     settings: &AuthalicSettings,
     observer: &mut dyn Observer,
 ) -> AuthalicOutcome {
-    let mut z = z0;
-    let (mut terms, g) = problem.terms_and_gradient(&z);
-    let mut gnorm = norm(&g);
-    let mut rep = Reporter { observer, t_cum: 0.0, init_energy: terms.energy, iterations: 0 };
-    if let Some(reason) = rep.report(0, &terms, gnorm, 0.0, Timings::default(), Extras::default()) {
-        return rep.finish(problem, &z, &terms, gnorm, reason);
-    }
+    let (terms, g) = problem.terms_and_gradient(&z0);
+    let at = AuthalicIterate::new(problem, z0, terms, &g);
     let solvers =
         problem.block_solver(&problem.block_i).and_then(|si| Ok((si, problem.block_solver(&problem.block_b)?)));
-    let (mut solver_i, mut solver_b) = match solvers {
-        Ok(s) => s,
-        Err(e) => return rep.finish(problem, &z, &terms, gnorm, StopReason::LinearSolveFailed(e.to_string())),
-    };
-    let mut values = Vec::new();
-    let stop = loop {
-        if rep.iterations >= settings.stop.max_iters {
-            break StopReason::MaxIterations;
-        }
+    let method = solvers
+        .map(|(solver_i, solver_b)| Sem { settings, solver_i, solver_b, values: Vec::new() })
+        .map_err(|e| StopReason::LinearSolveFailed(e.to_string()));
+    let start = Start { method, columns: AUTHALIC_COLUMNS.to_vec(), analysis: None, charged: 0.0 };
+    finished(execute(start, at, &settings.stop, observer))
+}
+
+/// SEM's factorizations of `L_II` and `L_BB` (one analysis each, refactored every step).
+struct Sem<'a> {
+    settings: &'a AuthalicSettings,
+    solver_i: SpdSolver,
+    solver_b: SpdSolver,
+    values: Vec<f64>,
+}
+
+impl<'a> Method for Sem<'a> {
+    type Iterate = AuthalicIterate<'a>;
+
+    fn step(&mut self, at: &mut AuthalicIterate<'a>, _: usize, _: &mut dyn Observer) -> Result<Step, StopReason> {
+        let problem = at.problem;
         let t_start = Instant::now();
-        let x = problem.positions_of(&z);
-        problem.laplacian(Some(&x), &mut values);
+        let x = problem.positions_of(&at.z);
+        problem.laplacian(Some(&x), &mut self.values);
         let t_assemble = t_start.elapsed().as_secs_f64();
         let t0 = Instant::now();
-        let x_new = match step(problem, &mut solver_i, &mut solver_b, &values, &x) {
-            Ok(x) => x,
-            Err(e) => break StopReason::LinearSolveFailed(e.to_string()),
-        };
+        let x_new = update(problem, &mut self.solver_i, &mut self.solver_b, &self.values, &x)
+            .map_err(|e| StopReason::LinearSolveFailed(e.to_string()))?;
         let t_solve = t0.elapsed().as_secs_f64();
         if let Some(i) = x_new.iter().position(|v| !v.is_finite()) {
-            break StopReason::NonFinite(format!("coordinate {i} of the SEM update"));
+            return Err(StopReason::NonFinite(format!("coordinate {i} of the SEM update")));
         }
         let t1 = Instant::now();
         let z_new = problem.vars_of(&x_new);
         let (t_new, g_new) = problem.terms_and_gradient(&z_new);
         let t_eval = t1.elapsed().as_secs_f64();
         if !t_new.energy.is_finite() {
-            break StopReason::NonFinite(format!("energy {} after the SEM update", t_new.energy));
+            return Err(StopReason::NonFinite(format!("energy {} after the SEM update", t_new.energy)));
         }
-        let ascent = t_new.energy > terms.energy;
-        if ascent && settings.sem_stop_on_increase {
-            break StopReason::EnergyIncreased;
+        let ascent = t_new.energy > at.terms.energy;
+        if ascent && self.settings.sem_stop_on_increase {
+            return Err(StopReason::EnergyIncreased);
         }
-        let decrease = terms.energy - t_new.energy;
+        let decrease = at.terms.energy - t_new.energy;
         // |x_new - x| in image coordinates (angles may unwrap differently).
         let step_len = norm(&x_new.iter().zip(&x).map(|(a, b)| a - b).collect::<Vec<_>>());
-        z = z_new;
-        terms = t_new;
-        gnorm = norm(&g_new);
-        let tm = Timings {
-            assemble: t_assemble + t_eval,
-            solve: t_solve,
-            linesearch: 0.0,
-            iter: t_start.elapsed().as_secs_f64(),
-        };
-        let iter = rep.iterations + 1;
-        let extras = Extras { ascent, ..Default::default() };
-        if let Some(reason) = rep.report(iter, &terms, gnorm, step_len, tm, extras) {
-            break reason;
-        }
-        if let Some(s) = super::tolerance_stop(&settings.stop, decrease, gnorm) {
-            break s;
-        }
-    };
-    rep.finish(problem, &z, &terms, gnorm, stop)
+        *at = AuthalicIterate::new(problem, z_new, t_new, &g_new);
+        Ok(Step {
+            step: step_len,
+            decrease: Some(decrease),
+            t_assemble: t_assemble + t_eval,
+            t_solve,
+            extra: Extras { ascent, ..Default::default() }.values(&at.terms),
+            ..Step::default()
+        })
+    }
 }
 
 /// One SEM update (Eq. 14a-e) from interleaved positions `x` with `L = L_S(x)` in `values`,
@@ -92,7 +89,7 @@ pub fn sem(
 /// of `x` (14b-e), then the interior for that boundary (14a). The returned map is therefore
 /// consistent (its interior solves the Dirichlet problem of its own boundary), as the initial
 /// map is; the paper's order (interior first) would leave the interior one boundary behind.
-fn step(
+fn update(
     problem: &AuthalicProblem,
     solver_i: &mut SpdSolver,
     solver_b: &mut SpdSolver,

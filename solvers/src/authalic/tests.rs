@@ -1,6 +1,8 @@
 use super::*;
 use crate::generate::generate;
+use crate::solver::catalogue::AUTHALIC_COLUMNS;
 use crate::solver::Recorder;
+use crate::solver::StopReason;
 use nalgebra::{Matrix6, SymmetricEigen};
 
 /// A deterministic pseudo-random sequence in [-1, 1].

@@ -38,8 +38,10 @@
 //! There is no restart and no monotonicity safeguard (the authors have none); a direction
 //! that is not a descent direction or a line search that finds no step ends the run.
 
+use super::executor::{execute, Method, Start, Step};
+use super::map_iterate::MapIterate;
 use super::proxy::{Proxy, ProxyError};
-use super::{IterationRecord, Observer, Outcome, Settings, StopReason};
+use super::{Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
 use crate::problem::{dot, norm, EnergyScratch, Evaluation, MapProblem};
 use crate::solver::SolveError;
@@ -81,131 +83,134 @@ pub fn aqp(
         Err(ProxyError::Failed(reason)) => Err(reason),
     };
     let analysis = proxy.as_ref().ok().map(|p| p.analysis);
-    let shift = proxy.as_ref().ok().map(|p| p.shift);
     // The numeric factorization is part of the method's cost: it goes into iteration 1.
-    let mut t_factor = (t_setup.elapsed().as_secs_f64() - analysis.map_or(0.0, |a| a.setup_seconds)).max(0.0);
+    let charged = (t_setup.elapsed().as_secs_f64() - analysis.map_or(0.0, |a| a.setup_seconds)).max(0.0);
+    let at = MapIterate::new(problem, x0)?;
+    let method = proxy.map(|proxy| Aqp {
+        settings,
+        shift: proxy.shift,
+        proxy,
+        theta: theta(KAPPA),
+        memory: STEP_MEMORY_LOG2.exp2(),
+        t_prev: 1.0 / STEP_MEMORY_LOG2.exp2(),
+        x_prev: at.x.clone(),
+        v: Vec::new(),
+        y: Vec::new(),
+        p: Vec::new(),
+        x_new: Vec::new(),
+        ev_y: Evaluation::default(),
+        scratch: EnergyScratch::default(),
+        t_x_eval: 0.0,
+    });
+    let start = Start { method, columns: AQP_COLUMNS.to_vec(), analysis, charged };
+    Ok(execute(start, at, &settings.stop, observer).outcome)
+}
 
-    let mut x = x0;
-    let mut ev = Evaluation::default();
-    problem.evaluate(&x, &mut ev)?;
-    let init_energy = ev.energy;
-    let mut record = IterationRecord::initial(problem, &x, &ev, &AQP_COLUMNS);
-    let mut halt = observer.observe(&record).stop_reason();
-    let mut proxy = match proxy {
-        Ok(p) => p,
-        Err(reason) => return Ok(Outcome::at(x, &record, init_energy, halt.unwrap_or(reason), analysis)),
-    };
+/// AQP's state between iterations.
+struct Aqp<'a> {
+    settings: &'a Settings,
+    proxy: Proxy,
+    shift: f64,
+    theta: f64,
+    /// `2^5.5`: the step memory's growth.
+    memory: f64,
+    /// The last accepted step length.
+    t_prev: f64,
+    x_prev: Vec<f64>,
+    v: Vec<f64>,
+    y: Vec<f64>,
+    p: Vec<f64>,
+    x_new: Vec<f64>,
+    ev_y: Evaluation,
+    scratch: EnergyScratch,
+    /// The last record-only evaluation at x (0 for the initial map's, outside every time).
+    t_x_eval: f64,
+}
 
-    let theta = theta(KAPPA);
-    let memory = STEP_MEMORY_LOG2.exp2();
-    let mut t_prev = 1.0 / memory;
-    let mut x_prev = x.clone();
-    let (mut v, mut y, mut p, mut x_new) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut ev_y = Evaluation::default();
-    let mut scratch = EnergyScratch::default();
-    let mut last_decrease = f64::INFINITY;
-    let mut t_cum = 0.0;
-    // The last record-only evaluation at x (0 for the initial map's, outside every time).
-    let mut t_x_eval = 0.0;
-    let mut iter = 0usize;
-    let stop = loop {
-        if let Some(reason) = halt.take() {
-            break reason;
-        }
-        if let Some(reason) = settings.stop.reached(record.grad_norm, last_decrease, iter) {
-            break reason;
-        }
-        let t_start = Instant::now();
+impl<'a> Method for Aqp<'a> {
+    type Iterate = MapIterate<'a>;
+
+    fn step(&mut self, at: &mut MapIterate<'a>, iter: usize, _: &mut dyn Observer) -> Result<Step, StopReason> {
+        let Aqp { settings, proxy, shift, theta, memory, t_prev, x_prev, v, y, p, x_new, ev_y, scratch, t_x_eval } =
+            self;
+        let problem = at.problem;
         let (mut t_eval, mut t_solve, mut t_ls) = (0.0, 0.0, 0.0);
 
         // 1. momentum: y = x + eta v, injective by the 0.5 t_max cap
         let t0 = Instant::now();
         v.clear();
-        v.extend(x.iter().zip(&x_prev).map(|(a, b)| a - b));
-        let eta = if norm(&v) > 0.0 { theta.min(STEP_FRACTION * max_injective_step(problem, &x, &v)) } else { 0.0 };
+        v.extend(at.x.iter().zip(x_prev.iter()).map(|(a, b)| a - b));
+        let eta = if norm(v) > 0.0 { theta.min(STEP_FRACTION * max_injective_step(problem, &at.x, v)) } else { 0.0 };
         t_ls += t0.elapsed().as_secs_f64();
         let moved = eta > 0.0;
         if moved {
             let t0 = Instant::now();
             y.clear();
-            y.extend(x.iter().zip(&v).map(|(a, b)| a + eta * b));
-            let evaluated = problem.evaluate(&y, &mut ev_y);
+            y.extend(at.x.iter().zip(v.iter()).map(|(a, b)| a + eta * b));
+            let evaluated = problem.evaluate(y, ev_y);
             t_eval += t0.elapsed().as_secs_f64();
             if let Err(e) = evaluated {
-                break StopReason::NonFinite(format!("at the momentum point of iterate {iter}: {e}"));
+                return Err(StopReason::NonFinite(format!("at the momentum point of iterate {iter}: {e}")));
             }
         }
-        let (y_at, at_y) = if moved { (&y, &ev_y) } else { (&x, &ev) };
+        let (y_at, at_y) = if moved { (&*y, &*ev_y) } else { (&at.x, &at.ev) };
         // y = x: the method uses the evaluation at x after all
-        let t_reused = if moved { 0.0 } else { std::mem::take(&mut t_x_eval) };
+        let t_reused = if moved { 0.0 } else { std::mem::take(t_x_eval) };
         t_eval += t_reused;
 
         // 2. the proxy direction at y
         let t0 = Instant::now();
         p.clone_from(&at_y.grad);
-        let solved = proxy.apply(&mut p);
+        let solved = proxy.apply(p);
         p.iter_mut().for_each(|q| *q = -*q);
         t_solve += t0.elapsed().as_secs_f64();
         if let Err(e) = solved {
-            break StopReason::LinearSolveFailed(format!("the Laplacian proxy at iterate {iter}: {e}"));
+            return Err(StopReason::LinearSolveFailed(format!("the Laplacian proxy at iterate {iter}: {e}")));
         }
-        let g_dot_p = dot(&at_y.grad, &p);
+        let g_dot_p = dot(&at_y.grad, p);
         if !(g_dot_p < 0.0) {
-            break StopReason::NotDescent;
+            return Err(StopReason::NotDescent);
         }
 
         // 3. the step from y: step memory, 0.5 t_max cap, Armijo against f(y)
         let t0 = Instant::now();
-        let t_mem = (t_prev * memory).min(1.0);
-        let t_init = t_mem.min(STEP_FRACTION * max_injective_step(problem, y_at, &p));
+        let t_mem = (*t_prev * *memory).min(1.0);
+        let t_init = t_mem.min(STEP_FRACTION * max_injective_step(problem, y_at, p));
         let (accepted, ls_evals) =
-            armijo(problem, y_at, &p, at_y.energy, g_dot_p, t_init, &settings.line_search, &mut x_new, &mut scratch);
+            armijo(problem, y_at, p, at_y.energy, g_dot_p, t_init, &settings.line_search, x_new, scratch);
         t_ls += t0.elapsed().as_secs_f64();
-        let Some(accepted) = accepted else {
-            break StopReason::LineSearchFailed;
-        };
+        let accepted = accepted.ok_or(StopReason::LineSearchFailed)?;
         let energy_y = at_y.energy;
 
         // 4. x_prev = x, x = y + t p
-        std::mem::swap(&mut x_prev, &mut x);
-        std::mem::swap(&mut x, &mut x_new);
-        t_prev = accepted.t;
-        let t_iter = t_start.elapsed().as_secs_f64() + t_factor + t_reused;
-        t_solve += std::mem::take(&mut t_factor);
+        std::mem::swap(x_prev, &mut at.x);
+        std::mem::swap(&mut at.x, x_new);
+        *t_prev = accepted.t;
 
         // 5. for the row and the stop rule only (t_record_s): f, its gradient and the inertia
-        // at x, and the flips
-        let e_old = ev.energy;
+        // at x
+        let e_old = at.ev.energy;
         let t0 = Instant::now();
-        if let Err(e) = problem.evaluate(&x, &mut ev) {
-            break StopReason::NonFinite(e.to_string());
+        if let Err(e) = problem.evaluate(&at.x, &mut at.ev) {
+            return Err(StopReason::NonFinite(e.to_string()));
         }
-        t_x_eval = t0.elapsed().as_secs_f64();
+        *t_x_eval = t0.elapsed().as_secs_f64();
         // A rise of f(x) is not a stall: the decrease rule sees the iterations without one.
-        let decrease = e_old - ev.energy;
-        if !(decrease < 0.0) {
-            last_decrease = decrease;
-        }
-        let flips = problem.flips(&x);
-        let t_record = t0.elapsed().as_secs_f64();
-        t_cum += t_iter;
-        iter += 1;
-        record = IterationRecord {
-            t_assemble_s: t_eval,
-            t_project_s: 0.0,
-            t_solve_s: t_solve,
-            t_linesearch_s: t_ls,
-            t_iter_s: t_iter,
-            t_cum_s: t_cum,
-            t_record_s: t_record,
-            shift,
+        let decrease = e_old - at.ev.energy;
+        Ok(Step {
+            step: accepted.t,
+            decrease: (!(decrease < 0.0)).then_some(decrease),
+            t_assemble: t_eval,
+            t_project: 0.0,
+            t_solve,
+            t_linesearch: t_ls,
+            t_record: *t_x_eval,
+            t_reused,
+            shift: Some(*shift),
             ls_evals,
-            extra: AQP_COLUMNS.iter().copied().zip([eta, energy_y, t_init]).collect(),
-            ..IterationRecord::of(iter, &ev, flips, accepted.t)
-        };
-        halt = observer.observe(&record).stop_reason();
-    };
-    Ok(Outcome::at(x, &record, init_energy, stop, analysis))
+            extra: vec![eta, energy_y, t_init],
+        })
+    }
 }
 
 #[cfg(test)]
@@ -216,7 +221,7 @@ mod tests {
     use crate::generate::{generate, generated_handles};
     use crate::mesh::Mesh;
     use crate::param::{solve_param, ParamSettings};
-    use crate::solver::{Recorder, StopSettings};
+    use crate::solver::{IterationRecord, Recorder, StopSettings};
     use crate::test_support::shared_mesh;
 
     #[test]

@@ -17,10 +17,12 @@
 //! indefinite); a direction that is not a descent direction, or along which the line search
 //! finds no step, is replaced by `-H0 g` with the history cleared (once per iteration).
 
+use super::executor::{execute, Method, Start, Step};
+use super::map_iterate::MapIterate;
 use super::proxy::{Proxy, ProxyError};
-use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, StopReason};
+use super::{AnalysisReport, Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
-use crate::problem::{dot, norm, EnergyScratch, Evaluation, MapProblem};
+use crate::problem::{dot, norm, EnergyScratch, MapProblem};
 use crate::solver::SolveError;
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -166,69 +168,72 @@ pub fn lbfgs(
     observer: &mut dyn Observer,
 ) -> Result<Outcome, SolveError> {
     let t_setup = Instant::now();
-    let (mut h0, mut setup_stop, analysis, shift) = match variant.h0 {
-        InitialHessian::Scaled => (H0::Scaled, None, None, None),
+    let (h0, analysis, shift) = match variant.h0 {
+        InitialHessian::Scaled => (Ok(H0::Scaled), None, None),
         InitialHessian::Laplacian => match Proxy::new(problem, &settings.linear, settings) {
             Ok(p) => {
                 let (a, s) = (p.analysis, p.shift);
-                (H0::Laplacian(Box::new(p)), None, Some(a), Some(s))
+                (Ok(H0::Laplacian(Box::new(p))), Some(a), Some(s))
             }
             Err(ProxyError::Setup(e)) => return Err(e),
-            Err(ProxyError::Failed(reason)) => (H0::Scaled, Some(reason), None, None),
+            Err(ProxyError::Failed(reason)) => (Err(reason), None, None),
         },
     };
     // The numeric factorization is part of the method's cost: it goes into iteration 1.
-    let t_factor = t_setup.elapsed().as_secs_f64() - analysis.map_or(0.0, |a: AnalysisReport| a.setup_seconds);
-    let mut t_factor = t_factor.max(0.0);
+    let charged =
+        (t_setup.elapsed().as_secs_f64() - analysis.map_or(0.0, |a: AnalysisReport| a.setup_seconds)).max(0.0);
+    let method = h0.map(|h0| Lbfgs {
+        settings,
+        h0,
+        history: History::new(variant.memory),
+        shift,
+        d: Vec::new(),
+        x_new: Vec::new(),
+        g_old: Vec::new(),
+        scratch: EnergyScratch::default(),
+    });
+    let start = Start { method, columns: LBFGS_COLUMNS.to_vec(), analysis, charged };
+    let at = MapIterate::new(problem, x0)?;
+    Ok(execute(start, at, &settings.stop, observer).outcome)
+}
 
-    let mut x = x0;
-    let mut ev = Evaluation::default();
-    problem.evaluate(&x, &mut ev)?;
-    let init_energy = ev.energy;
-    let mut record = IterationRecord::initial(problem, &x, &ev, &LBFGS_COLUMNS);
-    let mut halt = observer.observe(&record).stop_reason().or(setup_stop.take());
+/// The L-BFGS method's state between iterations.
+struct Lbfgs<'a> {
+    settings: &'a Settings,
+    h0: H0,
+    history: History,
+    /// The proxy's shift (the Laplacian variant's rows).
+    shift: Option<f64>,
+    d: Vec<f64>,
+    x_new: Vec<f64>,
+    g_old: Vec<f64>,
+    scratch: EnergyScratch,
+}
 
-    let mut history = History::new(variant.memory);
-    let (mut d, mut x_new, mut g_old) = (Vec::new(), Vec::new(), Vec::new());
-    let mut scratch = EnergyScratch::default();
-    let mut last_decrease = f64::INFINITY;
-    let mut t_cum = 0.0;
-    let mut iter = 0usize;
-    let stop = 'run: loop {
-        if let Some(reason) = halt.take() {
-            break reason;
-        }
-        if let Some(reason) = settings.stop.reached(record.grad_norm, last_decrease, iter) {
-            break reason;
-        }
-        let t_start = Instant::now();
+impl<'a> Method for Lbfgs<'a> {
+    type Iterate = MapIterate<'a>;
+
+    fn step(&mut self, at: &mut MapIterate<'a>, iter: usize, _: &mut dyn Observer) -> Result<Step, StopReason> {
+        let Lbfgs { settings, h0, history, shift, d, x_new, g_old, scratch } = self;
+        let problem = at.problem;
         let (mut t_solve, mut t_ls, mut ls_evals) = (0.0, 0.0, 0);
         let pairs = history.len();
         let mut reset = false;
         let accepted = loop {
             let t0 = Instant::now();
             let gamma = history.gamma();
-            let solved = history.direction(&ev.grad, |q| h0.apply(gamma, q), &mut d);
+            let solved = history.direction(&at.ev.grad, |q| h0.apply(gamma, q), d);
             t_solve += t0.elapsed().as_secs_f64();
             if let Err(e) = solved {
-                break 'run StopReason::LinearSolveFailed(format!("the Laplacian proxy at iterate {iter}: {e}"));
+                return Err(StopReason::LinearSolveFailed(format!("the Laplacian proxy at iterate {iter}: {e}")));
             }
             let t0 = Instant::now();
-            let g_dot_d = dot(&ev.grad, &d);
+            let g_dot_d = dot(&at.ev.grad, d);
             let found = if g_dot_d < 0.0 {
-                let t_max = max_injective_step(problem, &x, &d);
+                let t_max = max_injective_step(problem, &at.x, d);
                 let t_init = (settings.line_search.max_step_fraction * t_max).min(1.0);
-                let (acc, evals) = armijo(
-                    problem,
-                    &x,
-                    &d,
-                    ev.energy,
-                    g_dot_d,
-                    t_init,
-                    &settings.line_search,
-                    &mut x_new,
-                    &mut scratch,
-                );
+                let (acc, evals) =
+                    armijo(problem, &at.x, d, at.ev.energy, g_dot_d, t_init, &settings.line_search, x_new, scratch);
                 ls_evals += evals;
                 acc
             } else {
@@ -242,52 +247,30 @@ pub fn lbfgs(
                     history.clear();
                     reset = true;
                 }
-                None if g_dot_d < 0.0 => break 'run StopReason::LineSearchFailed,
-                None => break 'run StopReason::NotDescent,
+                None if g_dot_d < 0.0 => return Err(StopReason::LineSearchFailed),
+                None => return Err(StopReason::NotDescent),
             }
         };
-        std::mem::swap(&mut x, &mut x_new);
-        last_decrease = ev.energy - accepted.energy;
-
-        let t0 = Instant::now();
-        g_old.clone_from(&ev.grad);
-        // the method needs the energy and gradient only: the inertia is counted for the row
-        if let Err(e) = problem.evaluate_without_inertia(&x, &mut ev) {
-            break StopReason::NonFinite(e.to_string());
-        }
-        let t_eval = t0.elapsed().as_secs_f64();
-        let s: Vec<f64> = x.iter().zip(&x_new).map(|(a, b)| a - b).collect();
-        let y: Vec<f64> = ev.grad.iter().zip(&g_old).map(|(a, b)| a - b).collect();
+        std::mem::swap(&mut at.x, x_new);
+        let decrease = at.ev.energy - accepted.energy;
+        g_old.clone_from(&at.ev.grad);
+        let (t_eval, t_record) = at.evaluate_moved()?;
+        let s: Vec<f64> = at.x.iter().zip(x_new.iter()).map(|(a, b)| a - b).collect();
+        let y: Vec<f64> = at.ev.grad.iter().zip(g_old.iter()).map(|(a, b)| a - b).collect();
         let skipped = !history.push(s, y);
-        let t_iter = t_start.elapsed().as_secs_f64() + t_factor;
-        // Record-only work (IterationRecord::t_record_s): the inertia counts and the flips.
-        let t0 = Instant::now();
-        problem.count_inertia(&mut ev);
-        let flips = problem.flips(&x);
-        let t_record = t0.elapsed().as_secs_f64();
-        t_solve += std::mem::take(&mut t_factor);
-        t_cum += t_iter;
-        iter += 1;
-        record = IterationRecord {
-            t_assemble_s: t_eval,
-            t_project_s: 0.0,
-            t_solve_s: t_solve,
-            t_linesearch_s: t_ls,
-            t_iter_s: t_iter,
-            t_cum_s: t_cum,
-            t_record_s: t_record,
-            shift,
+        Ok(Step {
+            step: accepted.t,
+            decrease: Some(decrease),
+            t_assemble: t_eval,
+            t_solve,
+            t_linesearch: t_ls,
+            t_record,
+            shift: *shift,
             ls_evals,
-            extra: LBFGS_COLUMNS
-                .iter()
-                .copied()
-                .zip([if reset { 0 } else { pairs } as f64, f64::from(u8::from(skipped)), f64::from(u8::from(reset))])
-                .collect(),
-            ..IterationRecord::of(iter, &ev, flips, accepted.t)
-        };
-        halt = observer.observe(&record).stop_reason();
-    };
-    Ok(Outcome::at(x, &record, init_energy, stop, analysis))
+            extra: vec![if reset { 0 } else { pairs } as f64, f64::from(u8::from(skipped)), f64::from(u8::from(reset))],
+            ..Step::default()
+        })
+    }
 }
 
 #[cfg(test)]

@@ -7,8 +7,11 @@
 mod after_papers_tests;
 pub mod aqp;
 pub mod catalogue;
+pub mod executor;
 pub mod lbfgs;
+pub mod map_iterate;
 pub mod newton;
+pub mod newton_system;
 pub mod proxy;
 pub mod truncated;
 
@@ -318,13 +321,14 @@ pub struct StopSettings {
 }
 
 impl StopSettings {
-    /// The stop rules every planar-map driver checks before an iteration, in this order:
+    /// The stop rules the executor checks before an iteration, in this order:
     /// `|grad| <= grad_tol`, then the last accepted step's decrease `< energy_decrease_tol`
-    /// (`last_decrease` is infinite before the first step), then `iter >= max_iters`.
+    /// (`last_decrease` is infinite before the first step), then `iter >= max_iters`. A
+    /// tolerance of 0 turns its rule off (a rise of SEM's energy is no stall).
     pub fn reached(&self, grad_norm: f64, last_decrease: f64, iter: usize) -> Option<StopReason> {
-        if grad_norm <= self.grad_tol {
+        if self.grad_tol > 0.0 && grad_norm <= self.grad_tol {
             Some(StopReason::GradientTolerance)
-        } else if last_decrease < self.energy_decrease_tol {
+        } else if self.energy_decrease_tol > 0.0 && last_decrease < self.energy_decrease_tol {
             Some(StopReason::EnergyDecrease)
         } else if iter >= self.max_iters {
             Some(StopReason::MaxIterations)
@@ -513,6 +517,9 @@ mod tests {
         assert_eq!(s.reached(1.0, 1e-5, 9), None);
         // before the first step nothing has decreased: the decrease rule waits
         assert_eq!(StopSettings { energy_decrease_tol: 1e300, ..s }.reached(1.0, f64::INFINITY, 0), None);
+        // a zero tolerance is no rule: neither a zero gradient nor a rise stops the run
+        let off = StopSettings { grad_tol: 0.0, energy_decrease_tol: 0.0, max_iters: 10 };
+        assert_eq!((off.reached(0.0, -1.0, 9), off.reached(0.0, -1.0, 10)), (None, Some(StopReason::MaxIterations)));
     }
 
     #[test]

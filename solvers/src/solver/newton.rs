@@ -3,18 +3,15 @@
 //! injective step plus Armijo line search, repeat. "All methods share the same pipeline and
 //! we only replace the system matrix" (Section 6).
 
-use super::proxy::{ProxyError, ScalarProxy};
-use super::truncated::{Forcing, Preconditioner, TruncatedSolve, CG_COLUMNS};
-use super::{AnalysisReport, IterationRecord, Observer, Outcome, Settings, SolveError, StopReason, SystemView};
-use crate::assembly::{pack_lower, Lower6, Pattern, SymmetricRows};
-use crate::hessian::pn::TrustRegion;
+use super::executor::{execute, Method, Start, Step};
+use super::map_iterate::MapIterate;
+use super::newton_system::{Direction, SystemBuilder};
+use super::truncated::{Preconditioner, Truncated, CG_COLUMNS};
+use super::{AnalysisReport, Observer, Outcome, Settings, SolveError, StopReason};
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
-use crate::linear::{next_shift, LinearSettings, SpdSolver, MAX_REGULARIZATION_RETRIES};
-use crate::problem::{EnergyScratch, Evaluation, MapProblem};
-use crate::smoothness::{self, Matrix8};
-
-use rayon::prelude::*;
+use crate::linear::{with_shift_retries, LinearSettings, SpdSolver, MAX_REGULARIZATION_RETRIES};
+use crate::problem::{dot, norm, EnergyScratch, Evaluation, MapProblem};
 use std::time::Instant;
 
 /// Alias kept for readability at call sites.
@@ -29,61 +26,6 @@ pub enum SystemSolve {
     /// Truncated: preconditioned CG to an Eisenstat-Walker forcing term (`solver::truncated`),
     /// with the CG columns in the iteration CSVs.
     Truncated(Preconditioner),
-}
-
-/// The linear solver of a run: a factorization of the system, or the truncated steps with
-/// their forcing terms.
-enum Linear {
-    Factorized(Box<SpdSolver>),
-    Truncated(Box<TruncatedSolve>, Forcing),
-}
-
-/// Per-element system blocks of `strategy` at the evaluated iterate (parallel; each block
-/// depends only on its element), and the smoothness term's edge blocks projected as
-/// configured (Section 4.3).
-pub fn project_blocks(
-    problem: &MapProblem,
-    ev: &Evaluation,
-    strategy: &dyn SystemBlock,
-    blocks: &mut Vec<Lower6>,
-    edge_blocks: &mut Vec<Matrix8>,
-) {
-    let weight = problem.weight();
-    blocks.resize(problem.n_faces(), [0.0; 21]);
-    blocks.par_iter_mut().zip(ev.states.par_iter()).zip(problem.ops.par_iter()).for_each(|((b, s), op)| {
-        *b = pack_lower(&(strategy.block(op, s) * weight));
-    });
-    if let Some(sm) = &problem.smoothness {
-        edge_blocks.resize(sm.pairs.len(), Matrix8::zeros());
-        edge_blocks.par_iter_mut().enumerate().for_each(|(k, b)| {
-            let [i, j] = sm.pairs[k].faces;
-            *b = smoothness::block(sm.coefficient(k), &ev.states[i], &ev.states[j], &sm.ops[k], sm.projection);
-        });
-    }
-}
-
-/// The lower-triangle values of the system matrix on `pattern`: the blocks, the strategy's
-/// diagonal shift (SLIM's proximal term) and the handle penalty's diagonal.
-pub fn scatter(
-    problem: &MapProblem,
-    pattern: &Pattern,
-    strategy: &dyn SystemBlock,
-    blocks: &[Lower6],
-    edge_blocks: &[Matrix8],
-    values: &mut Vec<f64>,
-) {
-    pattern.assemble_with_edges(blocks, edge_blocks, values);
-    let shift = strategy.diagonal_shift();
-    if shift != 0.0 {
-        for &p in &pattern.diag {
-            values[p] += shift;
-        }
-    }
-    if let Some(pen) = &problem.penalty {
-        for (dof, h) in pen.diagonal() {
-            values[pattern.diag[dof]] += h;
-        }
-    }
 }
 
 /// [`newton_with`] factorizing every system.
@@ -106,204 +48,130 @@ pub fn newton_with(
     settings: &Settings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, SolveError> {
-    let pattern = problem.system_pattern();
-    let t_setup = Instant::now();
-    let mut edge_blocks: Vec<Matrix8> = vec![Matrix8::zeros(); pattern.edge_scatter.len()];
-    // The constant preconditioner is built and factored once: that is part of the method's
-    // cost and goes into iteration 1 (as AQP's proxy); the reweighted one is factored in
-    // every iteration. Its analysis, like the factorized variant's, is the run's `analysis_s`.
-    let mut t_factor = 0.0;
-    let (linear, analysis) = match solve {
+    let builder = SystemBuilder::new(problem, strategy);
+    let mut columns: Vec<&'static str> = strategy.counter_names().to_vec();
+    match solve {
         SystemSolve::Factorized => {
-            let s = SpdSolver::shared(&pattern, settings.linear.ordering, settings.analyses.as_deref())?;
-            let analysis = AnalysisReport::of(&s);
-            (Ok(Linear::Factorized(Box::new(s))), analysis)
+            let s = SpdSolver::shared(&builder.pattern, settings.linear.ordering, settings.analyses.as_deref())?;
+            let analysis = Some(AnalysisReport::of(&s));
+            let retries = if strategy.retries_failed_factorization() { MAX_REGULARIZATION_RETRIES } else { 0 };
+            let linear = Factorized { solver: Box::new(s), base: settings.linear, retries, rhs: Vec::new() };
+            let method = Ok(NewtonStep::new(builder, linear, settings));
+            run(Start { method, columns, analysis, charged: 0.0 }, problem, x0, settings, observer)
         }
         SystemSolve::Truncated(preconditioner) => {
-            let proxy = match preconditioner {
-                Preconditioner::Laplacian => ScalarProxy::new(problem, settings),
-                Preconditioner::Stiffness => ScalarProxy::analysed(problem, settings),
-            };
-            match proxy {
-                Ok(proxy) => {
-                    let analysis = proxy.analysis;
-                    t_factor = (t_setup.elapsed().as_secs_f64() - analysis.setup_seconds).max(0.0);
-                    let options = settings.options.newton_cg;
-                    let steps = TruncatedSolve::new(proxy, SymmetricRows::new(&pattern), options);
-                    let forcing = Forcing::new(options.eta_max, settings.stop.grad_tol);
-                    (Ok(Linear::Truncated(Box::new(steps), forcing)), analysis)
-                }
-                Err(ProxyError::Setup(e)) => return Err(e),
-                Err(ProxyError::Failed(reason)) => (Err(reason), AnalysisReport::default()),
-            }
+            columns.extend(CG_COLUMNS);
+            let (linear, analysis, charged) = Truncated::new(problem, &builder.pattern, preconditioner, settings)?;
+            let method = linear.map(|linear| NewtonStep::new(builder, linear, settings));
+            run(Start { method, columns, analysis, charged }, problem, x0, settings, observer)
         }
-    };
-    let mut names: Vec<&'static str> = strategy.counter_names().to_vec();
-    if matches!(solve, SystemSolve::Truncated(_)) {
-        names.extend(CG_COLUMNS);
     }
-    let mut x = x0;
-    let mut ev = Evaluation::default();
-    problem.evaluate(&x, &mut ev)?;
-    let init_energy = ev.energy;
-    // No system has been built at row 0: the strategy's counters are not defined yet.
-    let mut record = IterationRecord::initial(problem, &x, &ev, &names);
-    let mut halt = observer.observe(&record).stop_reason();
-    let mut linear = match linear {
-        Ok(l) => l,
-        Err(reason) => return Ok(Outcome::at(x, &record, init_energy, halt.unwrap_or(reason), Some(analysis))),
-    };
+}
 
-    let mut blocks: Vec<Lower6> = vec![[0.0; 21]; problem.n_faces()];
-    let mut values = Vec::new();
-    let mut x_new = Vec::with_capacity(x.len());
-    // Per-iteration buffers, allocated once: the right-hand side, the Newton direction and
-    // the line search's energy sums.
-    let (mut rhs, mut d) = (Vec::with_capacity(x.len()), Vec::with_capacity(x.len()));
-    let mut scratch = EnergyScratch::default();
-    let mut last_decrease = f64::INFINITY;
-    // An adaptive filter's state: the filter of the next system and the last step's model fit.
-    let trust_region = strategy.trust_region();
-    let mut filter = TrustRegion::FIRST;
-    let mut t_cum = 0.0;
-    let mut iter = 0usize;
-    let stop = loop {
-        if let Some(reason) = halt.take() {
-            break reason;
-        }
-        if let Some(reason) = settings.stop.reached(record.grad_norm, last_decrease, iter) {
-            break reason;
-        }
-        let t_start = Instant::now();
+/// `start`'s method from `x0` under `settings`' stop rules.
+fn run<'a, M: Method<Iterate = MapIterate<'a>>>(
+    start: Start<M>,
+    problem: &'a MapProblem,
+    x0: Vec<f64>,
+    settings: &Settings,
+    observer: &mut dyn Observer,
+) -> Result<Outcome, SolveError> {
+    let at = MapIterate::new(problem, x0)?;
+    Ok(execute(start, at, &settings.stop, observer).outcome)
+}
 
-        let adaptive = trust_region.map(|tr| tr.system(filter));
-        let system: &dyn SystemBlock = match &adaptive {
-            Some(a) => a,
-            None => strategy,
-        };
-        project_blocks(problem, &ev, system, &mut blocks, &mut edge_blocks);
-        let mut counters = system.counters(&ev.states);
-        let mut t_project = t_start.elapsed().as_secs_f64();
+/// A sparse Cholesky of every system, analysed once, with the strategy's shift retries.
+struct Factorized {
+    solver: Box<SpdSolver>,
+    base: LinearSettings,
+    retries: usize,
+    rhs: Vec<f64>,
+}
 
-        let t0 = Instant::now();
-        scatter(problem, &pattern, system, &blocks, &edge_blocks, &mut values);
-        let t_scatter = t0.elapsed().as_secs_f64();
+impl Direction for Factorized {
+    fn direction(
+        &mut self,
+        system: &SystemBuilder,
+        ev: &Evaluation,
+        _grad_norm: f64,
+        iter: usize,
+        d: &mut Vec<f64>,
+    ) -> Result<(f64, Vec<f64>), StopReason> {
+        let Factorized { solver, base, retries, rhs } = self;
+        rhs.clear();
+        rhs.extend(ev.grad.iter().map(|g| -g));
+        let shift = with_shift_retries(base, *retries, |lin| {
+            solver.factorize(&system.values, lin).and_then(|_| solver.solve_factored_into(rhs, d))
+        })
+        .map_err(|failed| StopReason::LinearSolveFailed(format!("the system at iterate {iter}: {failed}")))?;
+        Ok((shift, Vec::new()))
+    }
+}
 
-        observer.system(&SystemView {
-            iter,
-            col_ptr: &pattern.col_ptr,
-            row_idx: &pattern.row_idx,
-            diag: &pattern.diag,
-            values: &values,
-            grad: &ev.grad,
-            linear: &settings.linear,
-        });
-        let t0 = Instant::now();
-        let mut cg_columns = Vec::new();
-        let shift = match &mut linear {
-            Linear::Factorized(linear) => {
-                rhs.clear();
-                rhs.extend(ev.grad.iter().map(|g| -g));
-                let mut lin = LinearSettings { ..settings.linear };
-                let mut solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
-                let retries = if strategy.retries_failed_factorization() { MAX_REGULARIZATION_RETRIES } else { 0 };
-                for _ in 0..retries {
-                    if solved.is_ok() {
-                        break;
-                    }
-                    lin.tikhonov = next_shift(lin.tikhonov);
-                    solved = linear.factorize(&values, &lin).and_then(|_| linear.solve_factored_into(&rhs, &mut d));
-                }
-                if let Err(e) = solved {
-                    let tried = if retries == 0 {
-                        format!("shift {:e}, no retry", settings.linear.tikhonov)
-                    } else {
-                        format!("shifts {:e} to {:e}", settings.linear.tikhonov, lin.tikhonov)
-                    };
-                    break StopReason::LinearSolveFailed(format!("the system at iterate {iter}: {e} ({tried})"));
-                }
-                lin.tikhonov
-            }
-            Linear::Truncated(steps, forcing) => {
-                if solve == SystemSolve::Truncated(Preconditioner::Stiffness) {
-                    if let Err(reason) = steps.proxy.reweight(problem, &blocks, &settings.linear) {
-                        break reason;
-                    }
-                }
-                let eta = forcing.next(record.grad_norm);
-                match steps.solve(&values, &ev.grad, eta, &mut d) {
-                    Ok(cg) => {
-                        cg_columns.extend([cg.iterations as f64, eta, cg.residual, f64::from(u8::from(cg.capped()))])
-                    }
-                    Err(e) => {
-                        break StopReason::LinearSolveFailed(format!("the preconditioner at iterate {iter}: {e}"))
-                    }
-                }
-                // the system itself is not shifted; the preconditioner's factorization was
-                steps.proxy.shift
-            }
-        };
-        let t_charged = std::mem::take(&mut t_factor);
-        let t_solve = t0.elapsed().as_secs_f64() + t_charged;
+/// A Newton-type method: the system of `builder`, solved by `linear`, then the injective
+/// step and Armijo's line search (Algorithm 1).
+pub(crate) struct NewtonStep<'a, L> {
+    builder: SystemBuilder<'a>,
+    linear: L,
+    settings: &'a Settings,
+    d: Vec<f64>,
+    x_new: Vec<f64>,
+    scratch: EnergyScratch,
+}
+
+impl<'a, L: Direction> NewtonStep<'a, L> {
+    pub(crate) fn new(builder: SystemBuilder<'a>, linear: L, settings: &'a Settings) -> NewtonStep<'a, L> {
+        NewtonStep { builder, linear, settings, d: Vec::new(), x_new: Vec::new(), scratch: EnergyScratch::default() }
+    }
+}
+
+impl<'a, L: Direction> Method for NewtonStep<'a, L> {
+    type Iterate = MapIterate<'a>;
+
+    fn step(&mut self, at: &mut MapIterate<'a>, iter: usize, observer: &mut dyn Observer) -> Result<Step, StopReason> {
+        let NewtonStep { builder, linear, settings, d, x_new, scratch } = self;
+        let problem = at.problem;
+        let (counters, mut t_project, t_scatter) = builder.build(&at.ev);
+        observer.system(&builder.view(iter, &at.ev.grad, &settings.linear));
 
         let t0 = Instant::now();
-        let g_dot_d: f64 = ev.grad.iter().zip(&d).map(|(g, d)| g * d).sum();
+        let grad_norm = norm(&at.ev.grad);
+        let (shift, solve_columns) = linear.direction(builder, &at.ev, grad_norm, iter, d)?;
+        let t_solve = t0.elapsed().as_secs_f64();
+
+        let t0 = Instant::now();
+        let g_dot_d = dot(&at.ev.grad, d);
         if !(g_dot_d < 0.0) {
-            break StopReason::NotDescent;
+            return Err(StopReason::NotDescent);
         }
-        let t_max = max_injective_step(problem, &x, &d);
+        let t_max = max_injective_step(problem, &at.x, d);
         let t_init = (settings.line_search.max_step_fraction * t_max).min(1.0);
         let (accepted, ls_evals) =
-            armijo(problem, &x, &d, ev.energy, g_dot_d, t_init, &settings.line_search, &mut x_new, &mut scratch);
+            armijo(problem, &at.x, d, at.ev.energy, g_dot_d, t_init, &settings.line_search, x_new, scratch);
         let t_ls = t0.elapsed().as_secs_f64();
-        let Some(acc) = accepted else {
-            break StopReason::LineSearchFailed;
-        };
-        std::mem::swap(&mut x, &mut x_new);
-        last_decrease = ev.energy - acc.energy;
-        if let Some(tr) = &trust_region {
-            // The model fit of the step actually taken, s = t d, with the unfiltered Hessian
-            // at the old iterate (`ev` still holds it).
-            let t0 = Instant::now();
-            let predicted = -(acc.t * g_dot_d + 0.5 * acc.t * acc.t * problem.hessian_form(&ev, &d));
-            let fit = TrustRegion::fit(last_decrease, predicted, ev.energy);
-            counters = vec![filter.code(), fit];
-            filter = tr.next(fit);
-            t_project += t0.elapsed().as_secs_f64();
-        }
-
+        let acc = accepted.ok_or(StopReason::LineSearchFailed)?;
+        std::mem::swap(&mut at.x, x_new);
+        let decrease = at.ev.energy - acc.energy;
+        // The model fit of the step actually taken, with the unfiltered Hessian at the old
+        // iterate (`at.ev` still holds it).
         let t0 = Instant::now();
-        // The next system needs the states, energy and gradient; the inertia is counted for
-        // the row (the projections find their negative eigenvalues themselves).
-        if let Err(e) = problem.evaluate_without_inertia(&x, &mut ev) {
-            // The line search only accepts finite energies, so this is a derivative overflow.
-            break StopReason::NonFinite(e.to_string());
-        }
-        let t_eval = t0.elapsed().as_secs_f64();
-        let t_iter = t_start.elapsed().as_secs_f64() + t_charged;
-        // Record-only work (IterationRecord::t_record_s): the inertia counts and the flips.
-        let t0 = Instant::now();
-        problem.count_inertia(&mut ev);
-        let flips = problem.flips(&x);
-        let t_record = t0.elapsed().as_secs_f64();
-        t_cum += t_iter;
-        iter += 1;
-        record = IterationRecord {
-            t_assemble_s: t_eval + t_scatter,
-            t_project_s: t_project,
-            t_solve_s: t_solve,
-            t_linesearch_s: t_ls,
-            t_iter_s: t_iter,
-            t_cum_s: t_cum,
-            t_record_s: t_record,
+        let fitted = builder.fit(&at.ev, d, acc.t, g_dot_d, decrease);
+        t_project += t0.elapsed().as_secs_f64();
+        let (t_eval, t_record) = at.evaluate_moved()?;
+        Ok(Step {
+            step: acc.t,
+            decrease: Some(decrease),
+            t_assemble: t_eval + t_scatter,
+            t_project,
+            t_solve,
+            t_linesearch: t_ls,
+            t_record,
+            t_reused: 0.0,
             shift: Some(shift),
             ls_evals,
-            extra: names.iter().copied().zip(counters.into_iter().chain(cg_columns)).collect(),
-            ..IterationRecord::of(iter, &ev, flips, acc.t)
-        };
-        halt = observer.observe(&record).stop_reason();
-    };
-    Ok(Outcome::at(x, &record, init_energy, stop, Some(analysis)))
+            extra: fitted.unwrap_or(counters).into_iter().chain(solve_columns).collect(),
+        })
+    }
 }
 
 #[cfg(test)]
@@ -311,6 +179,7 @@ mod tests {
     use super::*;
     use crate::energy::EnergyKind;
     use crate::hessian::kp::Kp;
+    use crate::linear::next_shift;
     use crate::local::LocalOp;
     use crate::mesh::Mesh;
     use crate::solver::{Recorder, StopSettings};

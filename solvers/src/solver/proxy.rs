@@ -20,7 +20,7 @@
 use super::{AnalysisReport, Settings, StopReason};
 use crate::assembly::{Lower6, Pattern};
 use crate::authalic::laplacian::{LaplacianPattern, SubBlock};
-use crate::linear::{next_shift, MAX_REGULARIZATION_RETRIES};
+use crate::linear::{with_shift_retries, MAX_REGULARIZATION_RETRIES};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::problem::MapProblem;
 use crate::smoothness::Matrix8;
@@ -134,22 +134,8 @@ fn pinned_vertex(problem: &MapProblem) -> Option<usize> {
 /// Factorize `values` with the Newton driver's retries at larger shifts; the shift that
 /// succeeded, or the stop reason when none did.
 fn factorize_with_retries(solver: &mut SpdSolver, values: &[f64], linear: &LinearSettings) -> Result<f64, ProxyError> {
-    let mut lin = *linear;
-    let mut result = solver.factorize(values, &lin);
-    for _ in 0..MAX_REGULARIZATION_RETRIES {
-        if result.is_ok() {
-            break;
-        }
-        lin.tikhonov = next_shift(lin.tikhonov);
-        result = solver.factorize(values, &lin);
-    }
-    match result {
-        Ok(()) => Ok(lin.tikhonov),
-        Err(e) => Err(ProxyError::Failed(StopReason::LinearSolveFailed(format!(
-            "the Laplacian proxy: {e} (shifts {:e} to {:e})",
-            linear.tikhonov, lin.tikhonov
-        )))),
-    }
+    with_shift_retries(linear, MAX_REGULARIZATION_RETRIES, |lin| solver.factorize(values, lin))
+        .map_err(|failed| ProxyError::Failed(StopReason::LinearSolveFailed(format!("the Laplacian proxy: {failed}"))))
 }
 
 /// The Dirichlet proxy's edge weights `-L_t[i][j]` of one coordinate, per face and edge

@@ -15,10 +15,13 @@
 //! (no sudden tightening), capped by `eta_max`, and at least `0.5 grad_tol / |g_k|` (no
 //! oversolving on the last step); `gamma = 0.9`, `eta_0 = eta_max = 0.9`.
 
-use super::proxy::ScalarProxy;
-use crate::assembly::SymmetricRows;
-use crate::linear::LinearError;
-use crate::problem::dot;
+use super::newton_system::{Direction, SystemBuilder};
+use super::proxy::{ProxyError, ScalarProxy};
+use super::{AnalysisReport, Settings, SolveError, StopReason};
+use crate::assembly::{Pattern, SymmetricRows};
+use crate::linear::{LinearError, LinearSettings};
+use crate::problem::{dot, Evaluation, MapProblem};
+use std::time::Instant;
 
 /// Eisenstat-Walker's `gamma` (choice 2 with exponent 2).
 pub const GAMMA: f64 = 0.9;
@@ -227,6 +230,74 @@ impl TruncatedSolve {
     }
 }
 
+/// The truncated steps of a run: CG on the system with the preconditioner, to the forcing
+/// terms ([`CG_COLUMNS`] for each row).
+pub(crate) struct Truncated<'a> {
+    problem: &'a MapProblem,
+    steps: TruncatedSolve,
+    forcing: Forcing,
+    preconditioner: Preconditioner,
+    linear: LinearSettings,
+}
+
+/// A truncated method ready, or why it cannot start; the analysis; the setup charged to
+/// iteration 1.
+type TruncatedStart<'a> = (Result<Truncated<'a>, StopReason>, Option<AnalysisReport>, f64);
+
+impl<'a> Truncated<'a> {
+    /// The preconditioner built and factored on `problem`: that is part of the method's cost
+    /// (charged to iteration 1, as AQP's proxy); its analysis, like the factorized variant's,
+    /// is the run's `analysis_s`.
+    pub(crate) fn new(
+        problem: &'a MapProblem,
+        pattern: &Pattern,
+        preconditioner: Preconditioner,
+        settings: &Settings,
+    ) -> Result<TruncatedStart<'a>, SolveError> {
+        let t_setup = Instant::now();
+        let proxy = match preconditioner {
+            Preconditioner::Laplacian => ScalarProxy::new(problem, settings),
+            Preconditioner::Stiffness => ScalarProxy::analysed(problem, settings),
+        };
+        match proxy {
+            Ok(proxy) => {
+                let analysis = proxy.analysis;
+                let charged = (t_setup.elapsed().as_secs_f64() - analysis.setup_seconds).max(0.0);
+                let options = settings.options.newton_cg;
+                let steps = TruncatedSolve::new(proxy, SymmetricRows::new(pattern), options);
+                let forcing = Forcing::new(options.eta_max, settings.stop.grad_tol);
+                let truncated = Truncated { problem, steps, forcing, preconditioner, linear: settings.linear };
+                Ok((Ok(truncated), Some(analysis), charged))
+            }
+            Err(ProxyError::Setup(e)) => Err(e),
+            Err(ProxyError::Failed(reason)) => Ok((Err(reason), Some(AnalysisReport::default()), 0.0)),
+        }
+    }
+}
+
+impl Direction for Truncated<'_> {
+    fn direction(
+        &mut self,
+        system: &SystemBuilder,
+        ev: &Evaluation,
+        grad_norm: f64,
+        iter: usize,
+        d: &mut Vec<f64>,
+    ) -> Result<(f64, Vec<f64>), StopReason> {
+        if self.preconditioner == Preconditioner::Stiffness {
+            self.steps.proxy.reweight(self.problem, &system.blocks, &self.linear)?;
+        }
+        let eta = self.forcing.next(grad_norm);
+        let cg = self
+            .steps
+            .solve(&system.values, &ev.grad, eta, d)
+            .map_err(|e| StopReason::LinearSolveFailed(format!("the preconditioner at iterate {iter}: {e}")))?;
+        // the system itself is not shifted; the preconditioner's factorization was
+        let columns = vec![cg.iterations as f64, eta, cg.residual, f64::from(u8::from(cg.capped()))];
+        Ok((self.steps.proxy.shift, columns))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -239,7 +310,7 @@ mod tests {
     use crate::mesh::Mesh;
     use crate::param::{solve_param, ParamSettings};
     use crate::problem::{Evaluation, MapProblem};
-    use crate::solver::newton::{project_blocks, scatter};
+    use crate::solver::newton_system::{project_blocks, scatter};
     use crate::solver::{IterationRecord, Outcome, Recorder, Settings, StopReason, StopSettings};
     use crate::test_support::shared_mesh;
 
