@@ -9,7 +9,7 @@
 use crate::energy::EnergyKind;
 pub use crate::handle::Handle;
 pub use crate::map_task::MapError;
-use crate::map_task::{check_handles, checked_driver, map_problem};
+use crate::map_task::{check_handles, checked_solver, map_problem};
 use crate::mesh::{validate_for, Mesh, Task};
 use crate::problem::{MapProblem, Penalty};
 use crate::smoothness::Projection;
@@ -109,7 +109,7 @@ pub fn solve_deform(
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
     // Planarity and the rest pose's orientation included.
-    let driver = checked_driver(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
+    let driver = checked_solver(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
     check_handles(mesh, handles)?;
     let source_name = mesh.source.clone();
     let (mut problem, _, x) = deform_problem(mesh, init, energy, driver.smoothness_projection(), settings)?;

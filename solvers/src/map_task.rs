@@ -8,12 +8,9 @@ use crate::init::InitError;
 use crate::mesh::{validate_for, Mesh, MeshError, Task};
 use crate::problem::{DegenerateFace, MapProblem};
 use crate::smoothness::Projection;
-use crate::solver::aqp::aqp;
-use crate::solver::catalogue::{lookup, newton_spec, Method, SolverError, SolverOptions, SolverSpec};
-use crate::solver::lbfgs::{lbfgs, Variant};
-use crate::solver::newton::newton_with;
-use crate::solver::SolveError;
-use crate::solver::{Observer, Outcome, Settings};
+use crate::solver::catalogue::{planar_solver, SolverError};
+use crate::solver::planar::PlanarSolver;
+use crate::solver::{RawOptions, SolveError};
 
 /// Why a `param` or `deform` run could not start.
 #[derive(Debug, thiserror::Error)]
@@ -40,81 +37,20 @@ pub enum MapError {
     Solve { source_name: String, err: SolveError },
 }
 
-/// The catalogue's `solver` for `task` and `energy` with `options`, once the energy's parameters and the
-/// mesh (validated for `task`) are known to be usable. In this order: a misspelt solver is
-/// reported before anything about the mesh.
-pub(crate) fn checked_spec(
+/// The catalogue's `solver` for `task` and `energy` with its `options`, once the energy's
+/// parameters and the mesh (validated for `task`) are known to be usable. In this order: a
+/// misspelt solver is reported before anything about the mesh.
+pub(crate) fn checked_solver(
     mesh: &Mesh,
     task: Task,
     energy: &EnergyKind,
     solver: &str,
-    options: &SolverOptions,
-) -> Result<SolverSpec, MapError> {
-    let spec = newton_spec(solver, task, energy, options)?;
+    options: &RawOptions,
+) -> Result<Box<dyn PlanarSolver>, MapError> {
+    let built = planar_solver(solver, task, energy, options)?;
     energy.check().map_err(MapError::Energy)?;
     validate_for(mesh, task).into_result()?;
-    Ok(spec)
-}
-
-/// How a `param`/`deform` run solves: the shared Newton driver with a system strategy, or
-/// a driver of its own.
-pub(crate) enum Driver {
-    Newton(SolverSpec),
-    Lbfgs(Variant),
-    /// The Accelerated Quadratic Proxy (its constants are the authors').
-    Aqp,
-}
-
-impl Driver {
-    /// The solver's own projection of the smoothness term's blocks, if it has one.
-    pub(crate) fn smoothness_projection(&self) -> Option<Projection> {
-        match self {
-            Driver::Newton(spec) => spec.smoothness_projection,
-            Driver::Lbfgs(_) | Driver::Aqp => None,
-        }
-    }
-
-    /// Run from `x0`.
-    pub(crate) fn solve(
-        &self,
-        problem: &MapProblem,
-        x0: Vec<f64>,
-        settings: &Settings,
-        observer: &mut dyn Observer,
-    ) -> Result<Outcome, SolveError> {
-        match self {
-            Driver::Newton(spec) => newton_with(problem, x0, spec.block.as_ref(), spec.solve, settings, observer),
-            Driver::Lbfgs(variant) => lbfgs(problem, x0, *variant, settings, observer),
-            Driver::Aqp => aqp(problem, x0, settings, observer),
-        }
-    }
-}
-
-/// [`checked_spec`] for any `param`/`deform` solver: its driver.
-pub(crate) fn checked_driver(
-    mesh: &Mesh,
-    task: Task,
-    energy: &EnergyKind,
-    solver: &str,
-    options: &SolverOptions,
-) -> Result<Driver, MapError> {
-    let entry = lookup(solver, task)?;
-    match entry.method {
-        Method::Aqp => {
-            if let Some(why) = entry.skip_reason(task, energy, options) {
-                return Err(SolverError::Unsupported(why).into());
-            }
-            energy.check().map_err(MapError::Energy)?;
-            validate_for(mesh, task).into_result()?;
-            Ok(Driver::Aqp)
-        }
-        Method::Lbfgs { laplacian } => {
-            energy.check().map_err(MapError::Energy)?;
-            validate_for(mesh, task).into_result()?;
-            Ok(Driver::Lbfgs(Variant::new(laplacian)))
-        }
-        _ => checked_spec(mesh, task, energy, solver, options).map(Driver::Newton),
-    }
+    Ok(built)
 }
 
 /// The problem on the normalized mesh `rest`, with the smoothness term projected as the

@@ -4,7 +4,7 @@
 use crate::energy::EnergyKind;
 use crate::init::{global_scale, tutte, TutteBoundary};
 pub use crate::map_task::MapError;
-use crate::map_task::{checked_driver, map_problem};
+use crate::map_task::{checked_solver, map_problem};
 use crate::mesh::{Mesh, Task};
 use crate::problem::MapProblem;
 use crate::smoothness::Projection;
@@ -54,7 +54,7 @@ pub fn solve_param(
     settings: &ParamSettings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
-    let driver = checked_driver(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
+    let driver = checked_solver(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
     let mesh = mesh.normalized();
     let problem = map_problem(&mesh, energy, driver.smoothness_projection(), settings.smoothness)?;
     let own = lookup(solver, Task::Param)?.start;
@@ -105,7 +105,7 @@ mod tests {
     /// with the scaling rule, except the one that declares its own (`kp-newton-noscale`).
     #[test]
     fn every_solver_starts_from_the_common_map_unless_it_declares_its_own() {
-        use crate::solver::catalogue::{names_for, SolverOptions};
+        use crate::solver::catalogue::names_for;
         let mesh = generate("bumpy_1k").unwrap();
         for (energy, scaled) in [(EnergyKind::Sd, StartMap::TutteScaled), (EnergyKind::Sarap, StartMap::Tutte)] {
             let mut settings = ParamSettings::for_energy(&energy);
@@ -113,7 +113,7 @@ mod tests {
             let mut starts = Vec::new();
             for name in names_for(Task::Param) {
                 let entry = lookup(name, Task::Param).unwrap();
-                if entry.skip_reason(Task::Param, &energy, &SolverOptions::default()).is_some() {
+                if entry.skip_reason(Task::Param, &energy, &crate::solver::RawOptions::new()).is_some() {
                     continue;
                 }
                 let mut rec = Recorder::default();

@@ -9,7 +9,7 @@ use crate::mesh::Mesh;
 use crate::mesh::Task;
 use crate::param::{solve_param, ParamSettings};
 use crate::problem::Evaluation;
-use crate::solver::catalogue::newton_spec;
+use crate::solver::catalogue::lookup;
 use crate::solver::newton_system::{project_blocks, scatter};
 use crate::solver::{StopAt, SystemView};
 use std::fmt::Write as _;
@@ -38,7 +38,7 @@ pub fn param_system(
     iteration: usize,
 ) -> Result<NewtonSystem, MapError> {
     let out = solve_param(mesh, energy, solver, settings, &mut StopAt(iteration))?;
-    let spec = newton_spec(solver, Task::Param, &energy, &settings.solver.options)?;
+    let spec = lookup(solver, Task::Param)?.newton_spec(Task::Param, &energy, &settings.solver.options)?;
     let mesh = mesh.normalized();
     // The run's own problem, smoothness term included: the matrix it factorizes.
     let problem = map_problem(&mesh, energy, spec.smoothness_projection, settings.smoothness)?;

@@ -102,7 +102,7 @@ impl Plan {
                 for solver in &c.solvers {
                     let stem = names::run_stem(&ds.name, energy, solver);
                     if only.is_empty() || only.iter().any(|g| glob_match(g, &stem)) {
-                        let settings = settings.for_solver(solver);
+                        let settings = settings.for_solver(solver, &c.solver);
                         runs.push(PlannedRun {
                             dataset: d,
                             energy: energy.clone(),
@@ -248,11 +248,10 @@ mod tests {
         let options = |stem: &str| {
             let run = p.runs.iter().find(|r| r.stem == stem).unwrap();
             let RunSettings::Param { settings, .. } = &run.settings else { panic!() };
-            settings.solver.options.slim.clamp_weights
+            settings.solver.options.get("clamp_weights").and_then(|v| v.as_bool()) == Some(true)
         };
         assert!(options("a__nh__slim") && !options("a__nh__kp-newton") && !options("a__nh__cm"));
-        let per_energy = energy_settings(&p.config).unwrap();
-        assert!(per_energy[1].1.key_text().contains("\"clamp_weights\":true"), "{}", per_energy[1].1.key_text());
+        assert!(p.runs[1].settings.key_text().contains("\"clamp_weights\":true"), "{}", p.runs[1].settings.key_text());
         let key = |stem: &str| p.runs.iter().find(|r| r.stem == stem).unwrap().settings.key_text();
         let before = plan(text, &[]).unwrap();
         let key_before = |stem: &str| before.runs.iter().find(|r| r.stem == stem).unwrap().settings.key_text();

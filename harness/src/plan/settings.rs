@@ -6,7 +6,8 @@ use solvers::deform::DeformSettings;
 use solvers::energy::EnergyKind;
 use solvers::mesh::Task;
 use solvers::param::ParamSettings;
-use solvers::solver::StopSettings;
+use solvers::solver::{RawOptions, StopSettings};
+use std::collections::BTreeMap;
 
 /// The fully resolved settings of one run: what the solver gets, defaults and overrides
 /// applied, smoothness term included.
@@ -36,14 +37,15 @@ impl RunSettings {
         }
     }
 
-    /// The settings of a run of `solver`: the solver options reduced to that solver's own
-    /// (`SolverOptions::of`), so another solver's `[solver.<name>]` section does not change
-    /// this run's `--resume` key.
-    pub fn for_solver(&self, solver: &str) -> RunSettings {
+    /// The settings of a run of `solver`, with that solver's own `[solver.<name>]` table of
+    /// `options` (null without one): another solver's section does not change this run's
+    /// `--resume` key.
+    pub fn for_solver(&self, solver: &str, options: &BTreeMap<String, RawOptions>) -> RunSettings {
         let mut s = self.clone();
+        let own = options.get(solver).cloned().unwrap_or_default();
         match &mut s {
-            RunSettings::Param { settings, .. } => settings.solver.options = settings.solver.options.of(solver),
-            RunSettings::Deform { settings, .. } => settings.solver.options = settings.solver.options.of(solver),
+            RunSettings::Param { settings, .. } => settings.solver.options = own,
+            RunSettings::Deform { settings, .. } => settings.solver.options = own,
             RunSettings::Authalic(_) => {}
         }
         s

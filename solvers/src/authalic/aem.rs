@@ -18,10 +18,9 @@
 
 use super::{
     dot, finished, norm, AuthalicIterate, AuthalicOutcome, AuthalicProblem, AuthalicSettings, EvalBuffers, Extras,
-    FoldGuard, Terms, EXACT,
+    FoldGuard, Terms, AUTHALIC_COLUMNS, EXACT,
 };
 use crate::linear::{LinearError, SpdSolver};
-use crate::solver::catalogue::AUTHALIC_COLUMNS;
 use crate::solver::executor::{execute, Method, Start, Step};
 use crate::solver::{Observer, StopReason};
 use std::time::Instant;

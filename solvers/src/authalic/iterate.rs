@@ -46,9 +46,12 @@ impl Iterate for AuthalicIterate<'_> {
     }
 }
 
+/// The extra columns of the authalic solvers (they share one iterate, so all of them write
+/// all of them): image area and stretch energy, then what the step rule did.
+pub const AUTHALIC_COLUMNS: [&str; 8] =
+    ["image_area", "stretch_energy", "ascent", "wolfe", "backtracks", "restarted", "fold_rejects", "quad_fallback"];
+
 /// What the step rule of one iteration did (the extra columns, [`AUTHALIC_COLUMNS`]).
-///
-/// [`AUTHALIC_COLUMNS`]: crate::solver::catalogue::AUTHALIC_COLUMNS
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Extras {
     pub ascent: bool,

@@ -14,16 +14,19 @@ pub mod aem;
 mod iterate;
 pub mod laplacian;
 pub mod sem;
+mod solve;
 
 use crate::linear::{AnalysisCache, LinearError, LinearSettings, SpdSolver};
 use crate::mesh::topology::{boundary_loops, VertexCorners};
 use crate::mesh::{validate_for, Mesh, Task};
 pub(crate) use crate::problem::{dot, norm};
-use crate::solver::catalogue::{lookup, Method, SolverError};
-use crate::solver::{Observer, Outcome, StopSettings};
+use crate::solver::solver_error::SolverError;
+use crate::solver::{Outcome, StopSettings};
+pub use iterate::AUTHALIC_COLUMNS;
 pub(crate) use iterate::{finished, AuthalicIterate, Extras};
 use laplacian::{stretch_weights, LaplacianPattern, SubBlock};
 use rayon::prelude::*;
+pub use solve::solve_authalic;
 use std::f64::consts::PI;
 
 /// Faces per parallel chunk (fixed: sums do not depend on the thread count).
@@ -546,28 +549,6 @@ impl AuthalicProblem {
 /// Solves of `L_II` and `L_BB` are plain (no Jacobi scaling, no shift): `L_S` at a valid map
 /// is a Laplacian with a Dirichlet boundary.
 const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
-
-/// Run the named authalic solver (of the catalogue) on `mesh` (validated here).
-pub fn solve_authalic(
-    mesh: &Mesh,
-    solver: &str,
-    settings: &AuthalicSettings,
-    observer: &mut dyn Observer,
-) -> Result<AuthalicOutcome, AuthalicError> {
-    let entry = lookup(solver, Task::Authalic)?;
-    // `None` is SEM, `Some(safe)` AEM-CG; decided before the mesh is looked at.
-    let aem_safe = match entry.method {
-        Method::Sem => None,
-        Method::AemCg { safe } => Some(safe),
-        Method::Newton(_) | Method::Lbfgs { .. } | Method::Aqp => return Err(entry.wrong_task(Task::Authalic).into()),
-    };
-    let problem = AuthalicProblem::new(mesh)?;
-    let z0 = problem.initial_map(settings.init_steps)?;
-    Ok(match aem_safe {
-        None => sem::sem(&problem, z0, settings, observer),
-        Some(safe) => aem::aem_cg(&problem, z0, settings, safe, observer),
-    })
-}
 
 #[cfg(test)]
 mod tests;

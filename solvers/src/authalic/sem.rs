@@ -10,9 +10,11 @@
 //! by iteration 5). With `sem_stop_on_increase` it stops and keeps the previous iterate
 //! instead, as the reference code SEMc does.
 
-use super::{finished, norm, AuthalicIterate, AuthalicOutcome, AuthalicProblem, AuthalicSettings, Extras, EXACT};
+use super::{
+    finished, norm, AuthalicIterate, AuthalicOutcome, AuthalicProblem, AuthalicSettings, Extras, AUTHALIC_COLUMNS,
+    EXACT,
+};
 use crate::linear::{LinearError, SpdSolver};
-use crate::solver::catalogue::AUTHALIC_COLUMNS;
 use crate::solver::executor::{execute, Method, Start, Step};
 use crate::solver::{Observer, StopReason};
 use std::time::Instant;

@@ -40,6 +40,7 @@
 
 use super::executor::{execute, Method, Start, Step};
 use super::map_iterate::MapIterate;
+use super::planar::PlanarSolver;
 use super::proxy::{Proxy, ProxyError};
 use super::{Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
@@ -86,7 +87,7 @@ pub fn aqp(
     // The numeric factorization is part of the method's cost: it goes into iteration 1.
     let charged = (t_setup.elapsed().as_secs_f64() - analysis.map_or(0.0, |a| a.setup_seconds)).max(0.0);
     let at = MapIterate::new(problem, x0)?;
-    let method = proxy.map(|proxy| Aqp {
+    let method = proxy.map(|proxy| AqpStep {
         settings,
         shift: proxy.shift,
         proxy,
@@ -106,8 +107,23 @@ pub fn aqp(
     Ok(execute(start, at, &settings.stop, observer).outcome)
 }
 
+/// AQP as its catalogue entry builds it (its constants are the authors').
+pub struct Aqp;
+
+impl PlanarSolver for Aqp {
+    fn solve(
+        &self,
+        problem: &MapProblem,
+        x0: Vec<f64>,
+        settings: &Settings,
+        observer: &mut dyn Observer,
+    ) -> Result<Outcome, SolveError> {
+        aqp(problem, x0, settings, observer)
+    }
+}
+
 /// AQP's state between iterations.
-struct Aqp<'a> {
+struct AqpStep<'a> {
     settings: &'a Settings,
     proxy: Proxy,
     shift: f64,
@@ -127,11 +143,11 @@ struct Aqp<'a> {
     t_x_eval: f64,
 }
 
-impl<'a> Method for Aqp<'a> {
+impl<'a> Method for AqpStep<'a> {
     type Iterate = MapIterate<'a>;
 
     fn step(&mut self, at: &mut MapIterate<'a>, iter: usize, _: &mut dyn Observer) -> Result<Step, StopReason> {
-        let Aqp { settings, proxy, shift, theta, memory, t_prev, x_prev, v, y, p, x_new, ev_y, scratch, t_x_eval } =
+        let AqpStep { settings, proxy, shift, theta, memory, t_prev, x_prev, v, y, p, x_new, ev_y, scratch, t_x_eval } =
             self;
         let problem = at.problem;
         let (mut t_eval, mut t_solve, mut t_ls) = (0.0, 0.0, 0.0);

@@ -19,6 +19,7 @@
 
 use super::executor::{execute, Method, Start, Step};
 use super::map_iterate::MapIterate;
+use super::planar::PlanarSolver;
 use super::proxy::{Proxy, ProxyError};
 use super::{AnalysisReport, Observer, Outcome, Settings, StopReason};
 use crate::line_search::{armijo, max_injective_step};
@@ -195,6 +196,18 @@ pub fn lbfgs(
     let start = Start { method, columns: LBFGS_COLUMNS.to_vec(), analysis, charged };
     let at = MapIterate::new(problem, x0)?;
     Ok(execute(start, at, &settings.stop, observer).outcome)
+}
+
+impl PlanarSolver for Variant {
+    fn solve(
+        &self,
+        problem: &MapProblem,
+        x0: Vec<f64>,
+        settings: &Settings,
+        observer: &mut dyn Observer,
+    ) -> Result<Outcome, SolveError> {
+        lbfgs(problem, x0, *self, settings, observer)
+    }
 }
 
 /// The L-BFGS method's state between iterations.

@@ -12,12 +12,17 @@ pub mod lbfgs;
 pub mod map_iterate;
 pub mod newton;
 pub mod newton_system;
+pub mod options;
+pub mod planar;
 pub mod proxy;
+pub mod solver_error;
 pub mod truncated;
 
 pub use crate::line_search::LineSearchSettings;
-pub use catalogue::{SlimOptions, SolverEntry, SolverError, SolverOptions, SolverSpec, SOLVERS};
+pub use catalogue::{SlimOptions, SolverEntry, SolverError, SOLVERS};
+pub use newton::SolverSpec;
 pub use newton::{newton, NewtonSettings};
+pub use options::RawOptions;
 
 use crate::linear::{AnalysisCache, LinearSettings};
 use std::sync::Arc;
@@ -372,8 +377,9 @@ pub struct Settings {
     pub stop: StopSettings,
     pub line_search: LineSearchSettings,
     pub linear: LinearSettings,
-    /// The options of individual solvers (`[solver.<name>]`), e.g. SLIM's weight clamping.
-    pub options: SolverOptions,
+    /// The run's solver's own options (`[solver.<name>]`) as given, e.g. SLIM's weight
+    /// clamping; its catalogue entry reads them (null: none given).
+    pub options: RawOptions,
     /// Symbolic analyses shared with the other runs on the same mesh (`None`: analyse
     /// privately). Sharing never changes results, only the setup time.
     #[serde(skip)]

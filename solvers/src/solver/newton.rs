@@ -6,26 +6,43 @@
 use super::executor::{execute, Method, Start, Step};
 use super::map_iterate::MapIterate;
 use super::newton_system::{Direction, SystemBuilder};
-use super::truncated::{Preconditioner, Truncated, CG_COLUMNS};
+use super::truncated::{NewtonCgOptions, Preconditioner, Truncated, CG_COLUMNS};
 use super::{AnalysisReport, Observer, Outcome, Settings, SolveError, StopReason};
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{with_shift_retries, LinearSettings, SpdSolver, MAX_REGULARIZATION_RETRIES};
 use crate::problem::{dot, norm, EnergyScratch, Evaluation, MapProblem};
+use crate::smoothness::Projection;
 use std::time::Instant;
 
 /// Alias kept for readability at call sites.
 pub type NewtonSettings = Settings;
 
 /// How the driver solves each Newton system.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum SystemSolve {
     /// Sparse Cholesky of the system, analysed once and factorized every iteration.
     #[default]
     Factorized,
     /// Truncated: preconditioned CG to an Eisenstat-Walker forcing term (`solver::truncated`),
     /// with the CG columns in the iteration CSVs.
-    Truncated(Preconditioner),
+    Truncated(Preconditioner, NewtonCgOptions),
+}
+
+/// A Newton-type solver built for one energy: its system-matrix strategy and solve.
+pub struct SolverSpec {
+    pub block: Box<dyn SystemBlock>,
+    /// Overrides how the smoothness term's 8x8 blocks are projected.
+    pub smoothness_projection: Option<Projection>,
+    /// How each Newton system is solved.
+    pub solve: SystemSolve,
+}
+
+impl SolverSpec {
+    /// `block`'s systems, factorized.
+    pub fn factorized(block: impl SystemBlock + 'static) -> SolverSpec {
+        SolverSpec { block: Box::new(block), smoothness_projection: None, solve: SystemSolve::Factorized }
+    }
 }
 
 /// [`newton_with`] factorizing every system.
@@ -59,9 +76,10 @@ pub fn newton_with(
             let method = Ok(NewtonStep::new(builder, linear, settings));
             run(Start { method, columns, analysis, charged: 0.0 }, problem, x0, settings, observer)
         }
-        SystemSolve::Truncated(preconditioner) => {
+        SystemSolve::Truncated(preconditioner, options) => {
             columns.extend(CG_COLUMNS);
-            let (linear, analysis, charged) = Truncated::new(problem, &builder.pattern, preconditioner, settings)?;
+            let (linear, analysis, charged) =
+                Truncated::new(problem, &builder.pattern, preconditioner, options, settings)?;
             let method = linear.map(|linear| NewtonStep::new(builder, linear, settings));
             run(Start { method, columns, analysis, charged }, problem, x0, settings, observer)
         }

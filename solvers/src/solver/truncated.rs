@@ -16,6 +16,7 @@
 //! oversolving on the last step); `gamma = 0.9`, `eta_0 = eta_max = 0.9`.
 
 use super::newton_system::{Direction, SystemBuilder};
+use super::options::Options;
 use super::proxy::{ProxyError, ScalarProxy};
 use super::{AnalysisReport, Settings, SolveError, StopReason};
 use crate::assembly::{Pattern, SymmetricRows};
@@ -73,6 +74,18 @@ impl CgReport {
 impl Default for NewtonCgOptions {
     fn default() -> Self {
         NewtonCgOptions { eta_max: 0.9, max_cg_iters: 500 }
+    }
+}
+
+impl Options for NewtonCgOptions {
+    fn check(&self) -> Result<(), String> {
+        if !(self.eta_max > 0.0 && self.eta_max < 1.0) {
+            return Err(format!("eta_max = {}: it must be in (0, 1) (default 0.9)", self.eta_max));
+        }
+        if self.max_cg_iters == 0 {
+            return Err("max_cg_iters = 0: it must be at least 1 (default 500)".to_string());
+        }
+        Ok(())
     }
 }
 
@@ -252,6 +265,7 @@ impl<'a> Truncated<'a> {
         problem: &'a MapProblem,
         pattern: &Pattern,
         preconditioner: Preconditioner,
+        options: NewtonCgOptions,
         settings: &Settings,
     ) -> Result<TruncatedStart<'a>, SolveError> {
         let t_setup = Instant::now();
@@ -263,7 +277,6 @@ impl<'a> Truncated<'a> {
             Ok(proxy) => {
                 let analysis = proxy.analysis;
                 let charged = (t_setup.elapsed().as_secs_f64() - analysis.setup_seconds).max(0.0);
-                let options = settings.options.newton_cg;
                 let steps = TruncatedSolve::new(proxy, SymmetricRows::new(pattern), options);
                 let forcing = Forcing::new(options.eta_max, settings.stop.grad_tol);
                 let truncated = Truncated { problem, steps, forcing, preconditioner, linear: settings.linear };
@@ -486,7 +499,7 @@ mod tests {
         let mesh = generate("sack_1k").unwrap();
         let mut settings = ParamSettings::for_energy(&EnergyKind::Sarap);
         settings.solver.stop.max_iters = 30;
-        settings.solver.options.newton_cg.max_cg_iters = 1;
+        settings.solver.options = "max_cg_iters = 1".parse().unwrap();
         let mut rec = Recorder::default();
         solve_param(&mesh, EnergyKind::Sarap, "kp-newton-cg", &settings, &mut rec).unwrap();
         let rows = rec.rows;

@@ -1,7 +1,7 @@
 //! What serde cannot check in a config: names, the solvers of the task (the catalogue),
 //! parameters that do not belong to an energy or a task, out-of-range values.
 
-use super::{available_cores, check_repeat, check_threads_per_run, Config, InitConfig, SolverParams, Task};
+use super::{available_cores, check_repeat, check_threads_per_run, Config, InitConfig, Task};
 use anyhow::{bail, Context, Result};
 use solvers::energy::{AUTHALIC_ENERGY, ENERGY_NAMES};
 use solvers::solver::catalogue::{self, names_for, SolverError};
@@ -152,36 +152,12 @@ impl Config {
         Ok(())
     }
 
-    /// Every `[solver.<name>]` names a solver of this config's task, and sets only options
-    /// that solver has.
+    /// Every `[solver.<name>]` names a solver of this config's task and reads as that
+    /// solver's options (its keys only, its checks).
     fn check_solver_options(&self) -> Result<()> {
-        for (name, params) in &self.solver {
+        for (name, options) in &self.solver {
             let entry = catalogue::lookup(name, self.task).map_err(|e| anyhow::anyhow!("[solver.{name}]: {e}"))?;
-            let SolverParams { clamp_weights, tau, eta_max, max_cg_iters } = params;
-            for (key, set) in [
-                ("clamp_weights", clamp_weights.is_some()),
-                ("tau", tau.is_some()),
-                ("eta_max", eta_max.is_some()),
-                ("max_cg_iters", max_cg_iters.is_some()),
-            ] {
-                if set && !entry.options.contains(&key) {
-                    let has = if entry.options.is_empty() {
-                        format!("{name} has no options")
-                    } else {
-                        format!("its options: {}", entry.options.join(", "))
-                    };
-                    bail!("[solver.{name}] has no option '{key}' ({has})");
-                }
-            }
-            if let Some(t) = tau.filter(|t| !(t.is_finite() && *t > 0.0)) {
-                bail!("[solver.{name}] tau = {t}: it must be a positive number (default 0.01)");
-            }
-            if let Some(e) = eta_max.filter(|e| !(*e > 0.0 && *e < 1.0)) {
-                bail!("[solver.{name}] eta_max = {e}: it must be in (0, 1) (default 0.9)");
-            }
-            if max_cg_iters == &Some(0) {
-                bail!("[solver.{name}] max_cg_iters = 0: it must be at least 1 (default 500)");
-            }
+            entry.check_options(options)?;
         }
         Ok(())
     }

@@ -7,7 +7,7 @@ use solvers::authalic::AuthalicSettings;
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
 use solvers::smoothness::Projection;
-use solvers::solver::{LineSearchSettings, StopOverrides};
+use solvers::solver::{LineSearchSettings, RawOptions, StopOverrides};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -71,24 +71,6 @@ pub struct EnergyParams {
     pub smoothness_projection: Option<Projection>,
 }
 
-/// Options of one solver (`[solver.<name>]`); which keys apply depends on the solver (its
-/// catalogue entry's `options`).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SolverParams {
-    /// slim: also run the energies outside its definition (NH, BARAP, BCONF), clamping the
-    /// weights that come out non-positive; default false (such runs are skipped).
-    pub clamp_weights: Option<bool>,
-    /// pn-trust-region, fp-trust-region-6x6: clamp when the last step's model fit has
-    /// `|rho - 1| < tau`, else abs; default 0.01 (the authors'), a positive number.
-    pub tau: Option<f64>,
-    /// kp-newton-cg: the largest (and first) forcing term, the relative residual a truncated
-    /// step is solved to at most; default 0.9, in (0, 1).
-    pub eta_max: Option<f64>,
-    /// kp-newton-cg: CG iterations per Newton step at most; default 500, at least 1.
-    pub max_cg_iters: Option<usize>,
-}
-
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
@@ -122,9 +104,10 @@ pub struct Config {
     pub init: InitConfig,
     #[serde(default)]
     pub energy: BTreeMap<String, EnergyParams>,
-    /// `[solver.<name>]`: options of individual solvers (a solver of the config's task).
+    /// `[solver.<name>]`: options of individual solvers (a solver of the config's task), as
+    /// given: each solver's catalogue entry reads its own table.
     #[serde(default)]
-    pub solver: BTreeMap<String, SolverParams>,
+    pub solver: BTreeMap<String, RawOptions>,
     /// `[authalic]`, straight into `AuthalicSettings` (the paper's protocol for the keys not
     /// given; its stop rule comes from `[stop]`).
     pub authalic: Option<AuthalicSettings>,

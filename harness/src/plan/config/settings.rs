@@ -9,7 +9,7 @@ use solvers::deform::DeformSettings;
 use solvers::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
 use solvers::param::ParamSettings;
 use solvers::smoothness::Projection;
-use solvers::solver::{Settings, SolverOptions};
+use solvers::solver::Settings;
 
 impl Config {
     /// The energies of the runs: the configured ones, or the authalic task's one energy.
@@ -129,32 +129,11 @@ impl Config {
         s
     }
 
-    /// `[stop]` over the default stop rule, the `[line_search]` and `[linear]` sections, and
-    /// the `[solver.<name>]` options.
+    /// `[stop]` over the default stop rule, the `[line_search]` and `[linear]` sections (the
+    /// `[solver.<name>]` options are each run's: `RunSettings::for_solver`).
     fn solver_overrides(&self, s: &mut Settings) {
         s.stop = self.stop.over(s.stop);
         s.line_search = self.line_search.unwrap_or(s.line_search);
         s.linear = self.linear.unwrap_or(s.linear);
-        s.options = self.solver_options();
-    }
-
-    /// The `[solver.<name>]` sections as the solvers' options (their defaults for the keys not
-    /// given).
-    pub(super) fn solver_options(&self) -> SolverOptions {
-        let mut o = SolverOptions::default();
-        if let Some(c) = self.solver.get("slim").and_then(|p| p.clamp_weights) {
-            o.slim.clamp_weights = c;
-        }
-        if let Some(t) = self.solver.get("pn-trust-region").and_then(|p| p.tau) {
-            o.trust_region.tau = t;
-        }
-        if let Some(t) = self.solver.get("fp-trust-region-6x6").and_then(|p| p.tau) {
-            o.fp_trust_region.tau = t;
-        }
-        if let Some(p) = self.solver.get("kp-newton-cg") {
-            o.newton_cg.eta_max = p.eta_max.unwrap_or(o.newton_cg.eta_max);
-            o.newton_cg.max_cg_iters = p.max_cg_iters.unwrap_or(o.newton_cg.max_cg_iters);
-        }
-        o
     }
 }
