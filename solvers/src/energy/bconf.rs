@@ -6,6 +6,10 @@ use super::Modifiers;
 /// The paper's experiments use k = 0.1.
 pub const DEFAULT_K: f64 = 0.1;
 
+pub(super) fn default_k() -> f64 {
+    DEFAULT_K
+}
+
 #[inline]
 pub fn value(x: f64, y: f64, k: f64) -> f64 {
     let d = x - y;

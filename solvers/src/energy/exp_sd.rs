@@ -7,6 +7,10 @@ use super::{sd, Modifiers};
 /// default is mild; set `[energy.exp-sd] s` in the config.
 pub const DEFAULT_S: f64 = 0.1;
 
+pub(super) fn default_s() -> f64 {
+    DEFAULT_S
+}
+
 #[inline]
 pub fn value(x: f64, y: f64, s: f64) -> f64 {
     (s * sd::value(x, y)).exp()

@@ -25,22 +25,38 @@ pub struct Modifiers {
     pub b3: f64,
 }
 
-/// An energy with its parameters.
+/// An energy with its parameters. Read from a table (`name` and the parameters, the
+/// defaults for those not given, [`EnergyKind::from_table`]); another energy's parameter is
+/// refused.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "name", rename_all = "kebab-case")]
+#[serde(tag = "name", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum EnergyKind {
     /// Symmetric Dirichlet, half convention: `(x + y)(1 + (x - y)^-2)`, 2 at an isometry.
     Sd,
     /// `exp(s * psi_SD)` with the half SD in the exponent (reference code's convention).
-    ExpSd { s: f64 },
+    ExpSd {
+        #[serde(default = "exp_sd::default_s")]
+        s: f64,
+    },
     /// Symmetric ARAP `(sigma1 - 1)^2 + (1/sigma2 - 1)^2`.
     Sarap,
     /// Neo-Hookean `mu 2y/(x-y) + kappa/2 (x - y - 1)^2`.
-    Nh { mu: f64, kappa: f64 },
+    Nh {
+        #[serde(default = "nh::default_mu")]
+        mu: f64,
+        #[serde(default = "nh::default_kappa")]
+        kappa: f64,
+    },
     /// Barrier ARAP `2(x + y - 2 sqrt(x) + 1) + k (|J| + 1/|J|)`.
-    Barap { k: f64 },
+    Barap {
+        #[serde(default = "barap::default_k")]
+        k: f64,
+    },
     /// Barrier conformal `y + k (|J| + 1/|J|)`.
-    Bconf { k: f64 },
+    Bconf {
+        #[serde(default = "bconf::default_k")]
+        k: f64,
+    },
 }
 
 /// The one energy of the `authalic` task (the name in CSVs and configs): the normalized
@@ -62,6 +78,22 @@ impl EnergyKind {
             "bconf" => EnergyKind::Bconf { k: bconf::DEFAULT_K },
             _ => return None,
         })
+    }
+
+    /// The energy `name` with the parameters of `table` (a config's `[energy.<name>]`
+    /// without its smoothness keys), the defaults for the others; checked
+    /// ([`EnergyKind::check`]).
+    pub fn from_table(name: &str, table: &toml::Table) -> Result<EnergyKind, String> {
+        let mut named = table.clone();
+        named.insert("name".to_string(), toml::Value::String(name.to_string()));
+        let kind = EnergyKind::deserialize(toml::Value::Table(named)).map_err(|e| e.to_string().trim().to_string())?;
+        // serde lets the variants without parameters ignore any: refuse them here
+        let own = toml::Value::try_from(kind).map_err(|e| e.to_string())?;
+        if let Some(key) = table.keys().find(|k| own.get(k.as_str()).is_none()) {
+            return Err(format!("unknown field `{key}`: {name} has no parameters"));
+        }
+        kind.check()?;
+        Ok(kind)
     }
 
     pub fn name(&self) -> &'static str {
@@ -172,6 +204,22 @@ pub(crate) fn from_singular_values(x: f64, y: f64, psi: f64, hd: [f64; 5]) -> Mo
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    #[test]
+    fn a_table_reads_as_its_energy_with_the_defaults_and_refuses_other_parameters() {
+        let table = |t: &str| t.parse::<toml::Table>().unwrap();
+        for name in ENERGY_NAMES {
+            assert_eq!(EnergyKind::from_table(name, &table("")), Ok(EnergyKind::default_for(name).unwrap()));
+        }
+        assert_eq!(EnergyKind::from_table("nh", &table("mu = 0.5")), Ok(EnergyKind::Nh { mu: 0.5, kappa: 0.8 }));
+        assert_eq!(EnergyKind::from_table("bconf", &table("k = 0.5")), Ok(EnergyKind::Bconf { k: 0.5 }));
+        let err = |n: &str, t: &str| EnergyKind::from_table(n, &table(t)).unwrap_err();
+        assert_eq!(err("barap", "s = 1.0"), "unknown field `s`, expected `k`");
+        assert_eq!(err("sd", "k = 1.0"), "unknown field `k`: sd has no parameters");
+        assert_eq!(err("exp-sd", "s = -1.0"), "energy exp-sd: s = -1 must be positive");
+        assert!(err("nh", "mu = \"x\"").contains("invalid type"));
+        assert!(err("sdd", "").starts_with("unknown variant `sdd`"));
+    }
 
     /// Deterministic pseudo-random numbers for tests (64-bit LCG).
     pub struct Lcg(pub u64);

@@ -5,7 +5,15 @@ use super::Modifiers;
 /// Defaults with `mu / kappa = 0.25` as in the complex-view paper's Figure 4 and
 /// `mu + kappa = 1` as the reference code's single-parameter form.
 pub const DEFAULT_MU: f64 = 0.2;
+
+pub(super) fn default_mu() -> f64 {
+    DEFAULT_MU
+}
 pub const DEFAULT_KAPPA: f64 = 0.8;
+
+pub(super) fn default_kappa() -> f64 {
+    DEFAULT_KAPPA
+}
 
 #[inline]
 pub fn value(x: f64, y: f64, mu: f64, kappa: f64) -> f64 {

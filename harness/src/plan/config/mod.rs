@@ -51,24 +51,21 @@ pub struct DeformConfig {
     pub lambda: Option<f64>,
 }
 
-/// Parameters of one energy (`[energy.<name>]`); which keys apply depends on the energy.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// The smoothness keys of an `[energy.<name>]` table (any energy); the other keys are the
+/// energy's parameters (`EnergyKind::from_table`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct EnergyParams {
-    /// exp-sd exponent weight.
-    pub s: Option<f64>,
-    /// nh shear modulus.
-    pub mu: Option<f64>,
-    /// nh bulk modulus.
-    pub kappa: Option<f64>,
-    /// barap / bconf barrier weight.
-    pub k: Option<f64>,
-    /// Weight `w` of the smoothness term `w sum_e l_e (psi_i - psi_j)^2` (Section 4.3), any
-    /// energy; default 0 (off).
+pub struct SmoothnessKeys {
+    /// Weight `w` of the smoothness term `w sum_e l_e (psi_i - psi_j)^2` (Section 4.3);
+    /// default 0 (off).
     pub smoothness: Option<f64>,
     /// `analytic` (default, Appendix B), `numeric` (8x8 eigen-decomposition), or `exact`
     /// (no projection, a diagnostic: the system may be indefinite).
     pub smoothness_projection: Option<Projection>,
+}
+
+impl SmoothnessKeys {
+    pub const KEYS: [&'static str; 2] = ["smoothness", "smoothness_projection"];
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -103,7 +100,7 @@ pub struct Config {
     #[serde(default)]
     pub init: InitConfig,
     #[serde(default)]
-    pub energy: BTreeMap<String, EnergyParams>,
+    pub energy: BTreeMap<String, toml::Table>,
     /// `[solver.<name>]`: options of individual solvers (a solver of the config's task), as
     /// given: each solver's catalogue entry reads its own table.
     #[serde(default)]

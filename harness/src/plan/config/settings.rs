@@ -1,9 +1,10 @@
 //! The one place where config sections become solver settings: the task's defaults (the
 //! solvers' own `Default`s), the config's overrides, the energy's parameters.
 
-use super::{Config, Task};
+use super::{Config, SmoothnessKeys, Task};
 use crate::plan::settings::RunSettings;
 use anyhow::{bail, Context, Result};
+use serde::Deserialize;
 use solvers::authalic::AuthalicSettings;
 use solvers::deform::DeformSettings;
 use solvers::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
@@ -31,56 +32,27 @@ impl Config {
 
     /// The energy `name` with the config's parameters applied over the defaults.
     pub fn energy_kind(&self, name: &str) -> Result<EnergyKind> {
-        let mut kind = EnergyKind::default_for(name)
+        EnergyKind::default_for(name)
             .with_context(|| format!("unknown energy '{name}' (known: {})", ENERGY_NAMES.join(", ")))?;
-        if let Some(p) = self.energy.get(name) {
-            let not_for = |key: &str| anyhow::anyhow!("[energy.{name}] has no parameter '{key}'");
-            match &mut kind {
-                EnergyKind::Sd | EnergyKind::Sarap => {
-                    for (key, v) in [("s", p.s), ("mu", p.mu), ("kappa", p.kappa), ("k", p.k)] {
-                        if v.is_some() {
-                            return Err(not_for(key));
-                        }
-                    }
-                }
-                EnergyKind::ExpSd { s } => {
-                    for (key, v) in [("mu", p.mu), ("kappa", p.kappa), ("k", p.k)] {
-                        if v.is_some() {
-                            return Err(not_for(key));
-                        }
-                    }
-                    *s = p.s.unwrap_or(*s);
-                }
-                EnergyKind::Nh { mu, kappa } => {
-                    for (key, v) in [("s", p.s), ("k", p.k)] {
-                        if v.is_some() {
-                            return Err(not_for(key));
-                        }
-                    }
-                    *mu = p.mu.unwrap_or(*mu);
-                    *kappa = p.kappa.unwrap_or(*kappa);
-                }
-                EnergyKind::Barap { k } | EnergyKind::Bconf { k } => {
-                    for (key, v) in [("s", p.s), ("mu", p.mu), ("kappa", p.kappa)] {
-                        if v.is_some() {
-                            return Err(not_for(key));
-                        }
-                    }
-                    *k = p.k.unwrap_or(*k);
-                }
+        let (parameters, smoothness) = self.energy_table(name)?;
+        let kind = EnergyKind::from_table(name, &parameters).map_err(|e| anyhow::anyhow!("[energy.{name}] {e}"))?;
+        match (smoothness.smoothness, smoothness.smoothness_projection) {
+            (Some(w), _) if !(w >= 0.0 && w.is_finite()) => {
+                bail!("[energy.{name}] smoothness = {w} must be non-negative and finite")
             }
-        }
-        kind.check().map_err(anyhow::Error::msg)?;
-        if let Some(p) = self.energy.get(name) {
-            match (p.smoothness, p.smoothness_projection) {
-                (Some(w), _) if !(w >= 0.0 && w.is_finite()) => {
-                    bail!("[energy.{name}] smoothness = {w} must be non-negative and finite")
-                }
-                (None, Some(_)) => bail!("[energy.{name}] smoothness_projection needs smoothness = <weight>"),
-                _ => {}
-            }
+            (None, Some(_)) => bail!("[energy.{name}] smoothness_projection needs smoothness = <weight>"),
+            _ => {}
         }
         Ok(kind)
+    }
+
+    /// `[energy.<name>]` split into the energy's parameters and the smoothness keys.
+    fn energy_table(&self, name: &str) -> Result<(toml::Table, SmoothnessKeys)> {
+        let mut parameters = self.energy.get(name).cloned().unwrap_or_default();
+        let smoothness: toml::Table = SmoothnessKeys::KEYS.iter().filter_map(|k| parameters.remove_entry(*k)).collect();
+        let keys = SmoothnessKeys::deserialize(toml::Value::Table(smoothness))
+            .map_err(|e| anyhow::anyhow!("[energy.{name}] {}", e.to_string().trim()))?;
+        Ok((parameters, keys))
     }
 
     /// The resolved settings of the runs of energy `name` (the one place where config sections
@@ -106,7 +78,7 @@ impl Config {
 
     /// The smoothness term of energy `name`: weight and projection, `None` when off.
     pub(super) fn smoothness_for(&self, name: &str) -> Option<(f64, Projection)> {
-        let p = self.energy.get(name)?;
+        let (_, p) = self.energy_table(name).ok()?;
         p.smoothness.filter(|w| *w > 0.0).map(|w| (w, p.smoothness_projection.unwrap_or_default()))
     }
 

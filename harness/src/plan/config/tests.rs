@@ -189,7 +189,12 @@ fn bad_configs_name_what_is_wrong() {
     assert!(err(&format!("{MIN}[stop]\ngrad_tol = 1e-3\nmax_iter = 3\n")).contains("max_iter"));
     assert!(err(&MIN.replace("kp-newton", "kp-newtonn")).contains("unknown solver 'kp-newtonn'"));
     assert!(err(&MIN.replace("\"sd\"", "\"arap\"")).contains("unknown energy 'arap'"));
-    assert!(err(&format!("{MIN}[energy.sd]\nk = 1.0\n")).contains("[energy.sd] has no parameter 'k'"));
+    assert!(
+        err(&format!("{MIN}[energy.sd]\nk = 1.0\n")).contains("[energy.sd] unknown field `k`: sd has no parameters")
+    );
+    let e = err(&format!("{MIN}[energy.nh]\nk = 1.0\n"));
+    assert!(e.contains("[energy.nh] unknown field `k`, expected `mu` or `kappa`"), "{e}");
+    assert!(err(&format!("{MIN}[energy.nh]\nsmoothness = \"x\"\n")).contains("[energy.nh] invalid type"));
     assert!(err(&format!("{MIN}[energy.bconf]\nk = -1.0\n")).contains("k = -1"));
     assert!(err(&format!("{MIN}[energy.foo]\nk = 1.0\n")).contains("[energy.foo]: unknown energy"));
     assert!(err(&format!("{MIN}[line_search]\nshrink = 1.5\n")).contains("shrink"));
