@@ -51,22 +51,7 @@ pub fn tutte(mesh: &Mesh, boundary: TutteBoundary) -> Result<Vec<f64>, InitError
     }
     let mut x = vec![0.0; 2 * n];
     let mut is_boundary = vec![false; n];
-    // Cumulative parameter along the loop in [0, 1).
-    let params: Vec<f64> = match boundary {
-        TutteBoundary::Uniform => (0..nb).map(|k| k as f64 / nb as f64).collect(),
-        TutteBoundary::Arclength => {
-            let len = |a: usize, b: usize| {
-                let (p, q) = (mesh.positions[a], mesh.positions[b]);
-                ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-            };
-            let mut acc = vec![0.0; nb];
-            for k in 1..nb {
-                acc[k] = acc[k - 1] + len(bl[k - 1], bl[k]);
-            }
-            let total = acc[nb - 1] + len(bl[nb - 1], bl[0]);
-            acc.iter().map(|a| a / total).collect()
-        }
-    };
+    let params = loop_parameters(mesh, bl, boundary);
     let r = (1.0 / std::f64::consts::PI).sqrt();
     for (k, &v) in bl.iter().enumerate() {
         let th = 2.0 * std::f64::consts::PI * params[k];
@@ -129,17 +114,43 @@ pub fn tutte(mesh: &Mesh, boundary: TutteBoundary) -> Result<Vec<f64>, InitError
         x[2 * vert] = u[i];
         x[2 * vert + 1] = v[i];
     }
-    let flipped = (0..mesh.n_faces())
+    let flipped = flipped_faces(mesh, &x);
+    if flipped > 0 {
+        return Err(InitError::Flipped(flipped));
+    }
+    Ok(x)
+}
+
+/// Each boundary vertex's parameter along the loop `bl`, in `[0, 1)`: uniform or by arc
+/// length.
+fn loop_parameters(mesh: &Mesh, bl: &[usize], boundary: TutteBoundary) -> Vec<f64> {
+    let nb = bl.len();
+    match boundary {
+        TutteBoundary::Uniform => (0..nb).map(|k| k as f64 / nb as f64).collect(),
+        TutteBoundary::Arclength => {
+            let len = |a: usize, b: usize| {
+                let (p, q) = (mesh.positions[a], mesh.positions[b]);
+                ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+            };
+            let mut acc = vec![0.0; nb];
+            for k in 1..nb {
+                acc[k] = acc[k - 1] + len(bl[k - 1], bl[k]);
+            }
+            let total = acc[nb - 1] + len(bl[nb - 1], bl[0]);
+            acc.iter().map(|a| a / total).collect()
+        }
+    }
+}
+
+/// The faces of `mesh` that the map `x` inverts or collapses.
+fn flipped_faces(mesh: &Mesh, x: &[f64]) -> usize {
+    (0..mesh.n_faces())
         .filter(|&t| {
             let f = mesh.faces[t];
             let p = f.map(|k| [x[2 * k], x[2 * k + 1]]);
             crate::local::signed_area(p) <= 0.0
         })
-        .count();
-    if flipped > 0 {
-        return Err(InitError::Flipped(flipped));
-    }
-    Ok(x)
+        .count()
 }
 
 /// Smallest factor `s` that makes the element's `K` PSD when the map is scaled by `s`, for

@@ -191,27 +191,7 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
         }
     }
 
-    // Duplicates: same vertex set in any order; the first occurrence stays in the topology.
-    // Grouped by the smallest vertex, each group sorted by the other two, then the face.
-    let (_, keyed) = topology::grouped(n, || {
-        (0..mesh.n_faces()).filter(|&f| is_proper(&mesh.faces[f], n)).map(|f| {
-            let mut k = mesh.faces[f];
-            k.sort_unstable();
-            (k[0], (k, f))
-        })
-    });
-    let mut is_repeat = vec![false; mesh.n_faces()];
-    let mut dups = Vec::new();
-    let mut first = 0;
-    for w in 1..keyed.len() {
-        if keyed[w].0 != keyed[first].0 {
-            first = w;
-        } else {
-            is_repeat[keyed[w].1] = true;
-            dups.push(Problem::DuplicateFace { face: keyed[w].1, other: keyed[first].1 });
-        }
-    }
-    dups.sort_by_key(|p| if let Problem::DuplicateFace { face, .. } = p { *face } else { 0 });
+    let (is_repeat, dups) = duplicate_faces(mesh, n);
     problems.extend(dups);
 
     let mut referenced = vec![false; n];
@@ -266,6 +246,32 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
         components,
         problems,
     }
+}
+
+/// Repeats of an earlier face (the same vertex set in any order), as a flag per face and the
+/// problems in face order; the first occurrence stays in the topology.
+fn duplicate_faces(mesh: &Mesh, n: usize) -> (Vec<bool>, Vec<Problem>) {
+    // Grouped by the smallest vertex, each group sorted by the other two, then the face.
+    let (_, keyed) = topology::grouped(n, || {
+        (0..mesh.n_faces()).filter(|&f| is_proper(&mesh.faces[f], n)).map(|f| {
+            let mut k = mesh.faces[f];
+            k.sort_unstable();
+            (k[0], (k, f))
+        })
+    });
+    let mut is_repeat = vec![false; mesh.n_faces()];
+    let mut dups = Vec::new();
+    let mut first = 0;
+    for w in 1..keyed.len() {
+        if keyed[w].0 != keyed[first].0 {
+            first = w;
+        } else {
+            is_repeat[keyed[w].1] = true;
+            dups.push(Problem::DuplicateFace { face: keyed[w].1, other: keyed[first].1 });
+        }
+    }
+    dups.sort_by_key(|p| if let Problem::DuplicateFace { face, .. } = p { *face } else { 0 });
+    (is_repeat, dups)
 }
 
 /// The first axis whose coordinates span more than an `f64` holds, or so little that areas
