@@ -28,9 +28,8 @@ const PARALLEL_MIN_VALUES: usize = 1 << 19;
 
 /// A parallel task is a subtree with at most `1 / (TASKS_PER_THREAD * threads)` of the
 /// factor's values: small enough to balance the threads, large enough that the supernodes
-/// above all tasks (solved on one thread) stay a small share. On `L_II` of `bumpy_1m` with
-/// two threads: 4 tasks of 23-24% each and 5.6% above them; 1, 3 and 6 per thread measured
-/// the same within the noise (the two threads share the memory bandwidth: 1.5x one thread).
+/// above all tasks (solved on one thread) stay a small share. Other counts per thread
+/// measured the same within the noise: the threads share the memory bandwidth.
 const TASKS_PER_THREAD: usize = 2;
 
 /// Scratch of the solves, kept by the caller between calls.

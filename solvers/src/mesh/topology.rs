@@ -14,8 +14,8 @@ pub fn is_proper(f: &[usize; 3], n: usize) -> bool {
 
 /// `items` grouped by key (every key `< n`), each group sorted: a CSR `(start, values)` with
 /// the group of key `k` at `values[start[k]..start[k + 1]]`. The same order as one sort of
-/// all `(key, value)` pairs, at O(items + n) plus the sorts of the (small) groups: on a
-/// 1M-vertex mesh one sort of the half-edges took most of `validate`'s 3 s.
+/// all `(key, value)` pairs, at O(items + n) plus the sorts of the (small) groups: on the
+/// million-vertex meshes one sort of all half-edges was most of `validate`'s time.
 ///
 /// `items` must yield the same sequence on both calls (a count pass, then a fill pass).
 ///
