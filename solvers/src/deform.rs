@@ -109,13 +109,13 @@ pub fn solve_deform(
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
     // Planarity and the rest pose's orientation included.
-    let driver = checked_solver(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
+    let built = checked_solver(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
     check_handles(mesh, handles)?;
     let source_name = mesh.source.clone();
-    let (mut problem, _, x) = deform_problem(mesh, init, energy, driver.smoothness_projection(), settings)?;
+    let (mut problem, _, x) = deform_problem(mesh, init, energy, built.smoothness_projection(), settings)?;
     problem.penalty = Some(penalty(mesh, handles, settings.lambda));
     let mut outcome =
-        driver.solve(&problem, x, &settings.solver, observer).map_err(|err| MapError::Solve { source_name, err })?;
+        built.solve(&problem, x, &settings.solver, observer).map_err(|err| MapError::Solve { source_name, err })?;
     outcome.start = Some(if init.is_some() { StartMap::Given } else { StartMap::Rest });
     Ok(outcome)
 }

@@ -54,12 +54,12 @@ pub fn solve_param(
     settings: &ParamSettings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
-    let driver = checked_solver(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
+    let built = checked_solver(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
     let mesh = mesh.normalized();
-    let problem = map_problem(&mesh, energy, driver.smoothness_projection(), settings.smoothness)?;
+    let problem = map_problem(&mesh, energy, built.smoothness_projection(), settings.smoothness)?;
     let own = lookup(solver, Task::Param)?.start;
     let (x, start) = start_map(&mesh, &problem, own, settings)?;
-    let mut outcome = driver
+    let mut outcome = built
         .solve(&problem, x, &settings.solver, observer)
         .map_err(|err| MapError::Solve { source_name: mesh.source.clone(), err })?;
     outcome.start = Some(start);

@@ -78,20 +78,6 @@ impl IterationRecord {
         self.extra.iter().find(|e| e.0 == name).map(|e| e.1)
     }
 
-    /// Row 0: the initial state `ev` of `x`, with the solver's extra columns `extra` not yet
-    /// defined (NaN: no step has been taken).
-    pub fn initial(
-        problem: &crate::problem::MapProblem,
-        x: &[f64],
-        ev: &crate::problem::Evaluation,
-        extra: &[&'static str],
-    ) -> IterationRecord {
-        IterationRecord {
-            extra: extra.iter().map(|&n| (n, f64::NAN)).collect(),
-            ..IterationRecord::of(0, ev, problem.flips(x), 0.0)
-        }
-    }
-
     /// Row `iter`: the iterate evaluated in `ev` with `flips` inverted elements, reached by a
     /// step of length `step`; timings, shift, `ls_evals` and extras to be filled in.
     pub fn of(iter: usize, ev: &crate::problem::Evaluation, flips: usize, step: f64) -> IterationRecord {
