@@ -7,9 +7,9 @@
 
 use super::rules::{self, Change, Record, TimeChange};
 use crate::report::tables::ranking::Timed;
+use crate::run_folder::meta::Meta;
 use crate::run_folder::{self, SummaryRow};
 use anyhow::{bail, Context, Result};
-use serde_json::Value;
 use std::collections::{BTreeMap, HashSet};
 use std::path::Path;
 
@@ -47,7 +47,7 @@ pub struct Side {
     pub name: String,
     pub rows: Vec<SummaryRow>,
     /// `None` when the folder has no `meta.json`.
-    pub meta: Option<Value>,
+    pub meta: Option<Meta>,
 }
 
 impl Side {
@@ -61,13 +61,7 @@ impl Side {
                 bail!("{}: run {} appears twice", summary.display(), Record::from(r).label());
             }
         }
-        let path = run_folder::meta_json(dir);
-        let meta = if path.exists() {
-            let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-            Some(serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))?)
-        } else {
-            None
-        };
+        let meta = if run_folder::meta_json(dir).exists() { Some(Meta::read(dir)?) } else { None };
         Ok(Side { name: dir.display().to_string(), rows, meta })
     }
 }

@@ -1,18 +1,35 @@
 //! Which settings and provenance of two batches' `meta.json` differ.
 
 use super::SettingDiff;
+use crate::run_folder::meta::Meta;
+use serde::Serialize;
 use serde_json::Value;
 use std::collections::BTreeMap;
 
-/// The `meta.json` keys of how a batch ran that change results or times; the rest of
-/// `meta.json` is provenance or derived (`plan` is the list of runs, `stop_per_energy`
-/// repeats `settings_per_energy`).
-const RUN_KEYS: [&str; 7] = ["repeat", "jobs", "threads_per_run", "linear_ordering", "only", "shard", "meshes_dir"];
+/// The `meta.json` keys of how a batch ran that change results or times, with their values
+/// (`None`: no value); the rest of `meta.json` is provenance or derived (`plan` is the list
+/// of runs, `stop_per_energy` repeats `settings_per_energy`).
+fn run_keys(m: &Meta) -> [(&'static str, Option<Value>); 7] {
+    [
+        ("repeat", json(&m.repeat)),
+        ("jobs", json(&m.jobs)),
+        ("threads_per_run", json(&m.threads_per_run)),
+        ("linear_ordering", json(&m.linear_ordering)),
+        ("only", json(&m.only)),
+        ("shard", json(&m.shard)),
+        ("meshes_dir", json(&m.meshes_dir)),
+    ]
+}
 
-/// What differs between two `meta.json`: the keys of [`RUN_KEYS`], the config as written
+/// A field as JSON, so that every value prints the way `meta.json` holds it.
+fn json<T: Serialize>(v: &Option<T>) -> Option<Value> {
+    v.as_ref().and_then(|v| serde_json::to_value(v).ok())
+}
+
+/// What differs between two `meta.json`: the keys of [`run_keys`], the config as written
 /// (`config.*`, `(unset)` where a side leaves a key to its default) and the settings each
 /// energy resolved to (`settings[energies].*`, one line for the energies that differ alike).
-pub fn settings_diff(a: &Value, b: &Value) -> Vec<SettingDiff> {
+pub fn settings_diff(a: &Meta, b: &Meta) -> Vec<SettingDiff> {
     let mut out = Vec::new();
     let mut diff = |setting: String, va: Option<&String>, vb: Option<&String>| {
         if va != vb {
@@ -20,18 +37,19 @@ pub fn settings_diff(a: &Value, b: &Value) -> Vec<SettingDiff> {
             out.push(SettingDiff { setting, a: show(va), b: show(vb) });
         }
     };
-    for k in RUN_KEYS {
-        let (fa, fb) = (flat(a.get(k), k), flat(b.get(k), k));
+    for ((k, va), (_, vb)) in run_keys(a).into_iter().zip(run_keys(b)) {
+        let (fa, fb) = (flat(va.as_ref(), k), flat(vb.as_ref(), k));
         for s in union(&fa, &fb) {
             diff(s.clone(), fa.get(&s), fb.get(&s));
         }
     }
-    let (ca, cb) = (flat(a.get("config"), "config"), flat(b.get("config"), "config"));
+    let config = |m: &Meta| (!m.config.is_null()).then(|| m.config.clone());
+    let (ca, cb) = (flat(config(a).as_ref(), "config"), flat(config(b).as_ref(), "config"));
     for s in union(&ca, &cb) {
         diff(s.clone(), ca.get(&s), cb.get(&s));
     }
     // Per energy, grouped: (setting, A, B) -> the energies where it differs so.
-    let per_energy = |m: &Value| m.get("settings_per_energy").and_then(Value::as_object).cloned().unwrap_or_default();
+    let per_energy = |m: &Meta| m.settings_per_energy.clone().unwrap_or_default();
     let (ea, eb) = (per_energy(a), per_energy(b));
     let mut grouped: BTreeMap<(String, Option<String>, Option<String>), Vec<String>> = BTreeMap::new();
     let energies: std::collections::BTreeSet<&String> = ea.keys().chain(eb.keys()).collect();
@@ -89,19 +107,34 @@ fn union(a: &BTreeMap<String, String>, b: &BTreeMap<String, String>) -> Vec<Stri
 }
 
 /// Where and how each batch ran, from `meta.json`: the lines either side has.
-pub(super) fn provenance(a: Option<&Value>, b: Option<&Value>) -> Vec<(String, String, String)> {
-    let revision = |m: Option<&Value>| {
+pub(super) fn provenance(a: Option<&Meta>, b: Option<&Meta>) -> Vec<(String, String, String)> {
+    let revision = |m: Option<&Meta>| {
         let m = m?;
-        let rev = m.get("git_revision")?.as_str()?;
-        let dirty = m.get("git_dirty").and_then(Value::as_bool) == Some(true);
+        let rev = m.git_revision.as_ref()?;
+        let dirty = m.git_dirty == Some(true);
         // By characters: a hand-edited meta.json need not be ASCII.
         let short: String = rev.chars().take(12).collect();
         Some(format!("{short}{}", if dirty { " (dirty)" } else { "" }))
     };
-    let field = |m: Option<&Value>, k: &str| match m?.get(k)? {
+    let shown = |v: Option<Value>| match v? {
         Value::Null => None,
-        Value::String(s) => Some(s.clone()),
+        Value::String(s) => Some(s),
         v => Some(v.to_string()),
+    };
+    let fields = |m: Option<&Meta>| {
+        let Some(m) = m else { return [(); 9].map(|_| None) };
+        [
+            json(&m.host),
+            json(&m.cores),
+            json(&m.mapbench_version),
+            json(&m.rustc),
+            json(&m.started_unix),
+            json(&m.calibration_median_s),
+            json(&m.calibration_spread),
+            json(&m.interrupted),
+            json(&m.resume),
+        ]
+        .map(shown)
     };
     let mut out = Vec::new();
     let mut line = |what: &str, va: Option<String>, vb: Option<String>| {
@@ -111,7 +144,7 @@ pub(super) fn provenance(a: Option<&Value>, b: Option<&Value>) -> Vec<(String, S
         }
     };
     line("git revision", revision(a), revision(b));
-    for k in [
+    let keys = [
         "host",
         "cores",
         "mapbench_version",
@@ -121,8 +154,9 @@ pub(super) fn provenance(a: Option<&Value>, b: Option<&Value>) -> Vec<(String, S
         "calibration_spread",
         "interrupted",
         "resume",
-    ] {
-        line(k, field(a, k), field(b, k));
+    ];
+    for ((k, va), vb) in keys.into_iter().zip(fields(a)).zip(fields(b)) {
+        line(k, va, vb);
     }
     out
 }

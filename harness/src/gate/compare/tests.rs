@@ -1,5 +1,6 @@
 use super::*;
 use crate::plan::Task;
+use crate::run_folder::meta::Meta;
 use crate::run_folder::Status;
 use serde_json::json;
 
@@ -23,18 +24,19 @@ fn row(dataset: &str, solver: &str, iterations: usize, t: (f64, f64, f64), repea
     }
 }
 
-fn meta(max_iters: usize, repeat: usize) -> Value {
+fn meta(max_iters: usize, repeat: usize) -> Meta {
     let energy = |e: &str| json!({"param": {"energy": {"name": e}, "settings": {"solver": {"stop": {"max_iters": max_iters, "grad_tol": 1e-3}}}}});
     // The config as written: `[stop]` only when the batch set it.
     let mut config = json!({"name": "n", "datasets": ["d"]});
     if max_iters != 1000 {
         config["stop"] = json!({"max_iters": max_iters});
     }
-    json!({
+    serde_json::from_value(json!({
         "config": config,
         "settings_per_energy": {"sd": energy("sd"), "bconf": energy("bconf")},
         "repeat": repeat, "jobs": 1, "git_revision": "0123456789abcdef0123", "git_dirty": true, "host": "h",
-    })
+    }))
+    .unwrap()
 }
 
 fn side(name: &str, rows: Vec<SummaryRow>) -> Side {
@@ -157,7 +159,7 @@ fn differing_settings_head_the_output() {
     assert!(to_markdown(&c).contains("Not compared: a folder has no meta.json."));
     // An energy in one batch only is one line, not one per key.
     let mut m = meta(1000, 3);
-    m["settings_per_energy"].as_object_mut().unwrap().remove("bconf");
+    m.settings_per_energy.as_mut().unwrap().remove("bconf");
     let d = settings_diff(&meta(1000, 3), &m);
     assert_eq!(d, [SettingDiff { setting: "settings[bconf]".into(), a: "(in the batch)".into(), b: "(unset)".into() }]);
 }
@@ -165,7 +167,7 @@ fn differing_settings_head_the_output() {
 #[test]
 fn html_is_one_escaped_page_and_markdown_cells_keep_their_pipes() {
     let mut a = side("A<&>|", vec![row("d", "kp", 10, SPREAD, 3)]);
-    a.meta.as_mut().unwrap()["config"]["name"] = json!("x|<y>");
+    a.meta.as_mut().unwrap().config["name"] = json!("x|<y>");
     let b = side("B", vec![row("d", "kp", 12, SPREAD, 3)]);
     let c = compare(&a, &b, Options::default());
     let html = to_html(&c);
@@ -194,7 +196,7 @@ fn a_folder_listing_a_run_twice_is_refused_naming_the_file() {
 /// Found by review: the revision was cut at byte 12, a panic inside a multi-byte character.
 #[test]
 fn a_non_ascii_revision_is_shortened_by_characters() {
-    let m = json!({"git_revision": "ééééééééééééééé"});
+    let m = Meta { git_revision: Some("ééééééééééééééé".into()), ..Meta::default() };
     let p = provenance(Some(&m), None);
     assert_eq!(p[0], ("git revision".to_string(), "éééééééééééé".to_string(), "-".to_string()));
 }

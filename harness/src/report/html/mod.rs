@@ -8,9 +8,9 @@
 use crate::report::batch::Batch;
 use crate::report::plots::Plot;
 use crate::report::tables::Table;
+use crate::run_folder::meta::Meta;
 use crate::run_folder::{write_atomic, Status, SummaryRow};
-use anyhow::{Context, Result};
-use serde_json::Value;
+use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -61,11 +61,10 @@ pub fn write_index(
     batch: &Batch,
 ) -> Result<()> {
     let meta = read_meta(run_dir)?;
-    let cfg = meta.as_ref().and_then(|m| m.get("config"));
-    let name = cfg.and_then(|c| c.get("name")).and_then(Value::as_str).unwrap_or("run");
-    let task = cfg
-        .and_then(|c| c.get("task"))
-        .and_then(Value::as_str)
+    let name = meta.as_ref().and_then(Meta::config_name).unwrap_or("run");
+    let task = meta
+        .as_ref()
+        .and_then(|m| m.config_str("task"))
         .map(str::to_string)
         .or_else(|| summaries.first().map(|s| s.task.as_str().to_string()))
         .unwrap_or_default();
@@ -96,10 +95,8 @@ pub fn write_index(
 /// The link to the trend page of this config's history, when the batch was appended to one
 /// and the page rendered (`meta.json`'s `history_outcome`, set by `run` and `merge` before the
 /// report); relative, so the folders can move together.
-fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Value>, name: &str) {
-    let outcome =
-        meta.and_then(|m| serde_json::from_value::<crate::history::Outcome>(m.get("history_outcome")?.clone()).ok());
-    let Some(outcome) = outcome else {
+fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Meta>, name: &str) {
+    let Some(outcome) = meta.and_then(|m| m.history_outcome.as_ref()) else {
         return;
     };
     let Some((db, _, Some(page))) = outcome.in_history() else { return };
@@ -113,14 +110,11 @@ fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Value>, name: &str
 }
 
 /// `meta.json`, or `None` when the folder has none (e.g. written by an older version).
-fn read_meta(run_dir: &Path) -> Result<Option<Value>> {
-    let path = run_dir.join("meta.json");
-    if !path.exists() {
+fn read_meta(run_dir: &Path) -> Result<Option<Meta>> {
+    if !crate::run_folder::meta_json(run_dir).exists() {
         return Ok(None);
     }
-    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let v = serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))?;
-    Ok(Some(v))
+    Ok(Some(Meta::read(run_dir)?))
 }
 
 /// HTML-escape text for element content and quoted attribute values.

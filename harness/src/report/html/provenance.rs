@@ -1,7 +1,7 @@
 //! Provenance from `meta.json`, and the UTC dates it shows.
 
 use super::esc;
-use serde_json::Value;
+use crate::run_folder::meta::{shown, Meta};
 use std::fmt::Write as _;
 
 /// Unix seconds as `YYYY-MM-DD hh:mm:ss UTC` (civil-from-days, no date crate needed).
@@ -20,20 +20,15 @@ pub(crate) fn utc(secs: u64) -> String {
     format!("{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC", rem / 3600, rem % 3600 / 60, rem % 60)
 }
 
-pub(super) fn provenance_section(h: &mut String, meta: Option<&Value>) {
+pub(super) fn provenance_section(h: &mut String, meta: Option<&Meta>) {
     *h += "<h2 id=\"provenance\">Provenance</h2>\n";
     let Some(m) = meta else {
         *h += "<p>No meta.json in this folder.</p>\n";
         return;
     };
-    let text = |k: &str| match m.get(k) {
-        None | Some(Value::Null) => None,
-        Some(Value::String(s)) => Some(s.clone()),
-        Some(v) => Some(v.to_string()),
-    };
     let mut rows: Vec<(&str, String)> = Vec::new();
-    if let Some(rev) = text("git_revision") {
-        let dirty = match m.get("git_dirty").and_then(Value::as_bool) {
+    if let Some(rev) = shown(&m.git_revision) {
+        let dirty = match m.git_dirty {
             Some(true) => " (dirty: uncommitted changes)",
             Some(false) => " (clean)",
             None => "",
@@ -42,31 +37,30 @@ pub(super) fn provenance_section(h: &mut String, meta: Option<&Value>) {
     } else {
         rows.push(("git revision", "unknown (not a git checkout)".into()));
     }
-    for (label, key) in [
-        ("mapbench version", "mapbench_version"),
-        ("rustc", "rustc"),
-        ("crates", "crates"),
-        ("config file", "config_path"),
-        ("host", "host"),
-        ("cores", "cores"),
-        ("--jobs", "jobs"),
-        ("threads per run", "threads_per_run"),
-        ("linear ordering", "linear_ordering"),
-        ("shard", "shard"),
-        ("meshes folder", "meshes_dir"),
-        ("--only", "only"),
-        ("--resume", "resume"),
-        ("interrupted", "interrupted"),
+    for (label, value) in [
+        ("mapbench version", shown(&m.mapbench_version)),
+        ("rustc", shown(&m.rustc)),
+        ("crates", shown(&m.crates)),
+        ("config file", shown(&m.config_path)),
+        ("host", shown(&m.host)),
+        ("cores", shown(&m.cores)),
+        ("--jobs", shown(&m.jobs)),
+        ("threads per run", shown(&m.threads_per_run)),
+        ("linear ordering", shown(&m.linear_ordering)),
+        ("shard", shown(&m.shard)),
+        ("meshes folder", shown(&m.meshes_dir)),
+        ("--only", shown(&m.only)),
+        ("--resume", shown(&m.resume)),
+        ("interrupted", shown(&m.interrupted)),
     ] {
-        if let Some(v) = text(key) {
+        if let Some(v) = value {
             rows.push((label, v));
         }
     }
-    let secs = |k: &str| m.get(k).and_then(Value::as_u64);
-    if let Some(s) = secs("started_unix") {
+    if let Some(s) = m.started_unix {
         rows.push(("started", utc(s)));
     }
-    match (secs("started_unix"), secs("ended_unix")) {
+    match (m.started_unix, m.ended_unix) {
         (Some(s), Some(e)) => rows.push(("ended", format!("{} ({} s)", utc(e), e.saturating_sub(s)))),
         (_, None) => rows.push(("ended", "not recorded (interrupted or still running)".into())),
         _ => {}
