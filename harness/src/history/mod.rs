@@ -292,14 +292,14 @@ impl Outcome {
     fn write_into(&self, folder: &Path) -> Result<(), HistoryError> {
         let mut meta = read_meta(folder)?;
         meta.history = self.meta_history();
-        meta.history_outcome = Some(self.clone());
+        meta.history_outcome = serde_json::to_value(self).ok();
         Ok(meta.write(folder)?)
     }
 
     /// The outcome a run folder's `meta.json` records (`None`: no meta, or a batch from
     /// before outcomes were recorded).
     pub fn of_folder(run_dir: &Path) -> Option<Outcome> {
-        read_meta(run_dir).ok()?.history_outcome
+        serde_json::from_value(read_meta(run_dir).ok()?.history_outcome?).ok()
     }
 }
 

@@ -151,7 +151,7 @@ fn already_in(previous: Option<&Meta>, db: Option<&Path>, merged_from: &[MergedS
     if previous.merged_from.as_deref() != Some(merged_from) {
         return None;
     }
-    let outcome = previous.history_outcome.as_ref()?;
+    let outcome: Outcome = serde_json::from_value(previous.history_outcome.clone()?).ok()?;
     let (was, batch_id, trend) = outcome.in_history()?;
     (Some(was) == db.map(crate::paths::absolute).as_deref())
         .then(|| Decision::AlreadyIn { batch_id, trend: trend.cloned() })
@@ -202,9 +202,11 @@ fn stage(
     *rows = runs.iter().map(|r| r.row.clone()).collect();
     let mut references: Vec<GroupReference> = Vec::new();
     for m in metas {
-        for g in m.references.iter().flatten() {
+        let theirs: Vec<GroupReference> =
+            m.references.clone().and_then(|r| serde_json::from_value(r).ok()).unwrap_or_default();
+        for g in theirs {
             if !references.iter().any(|r| r.dataset == g.dataset && r.energy == g.energy) {
-                references.push(g.clone());
+                references.push(g);
             }
         }
     }
@@ -216,7 +218,7 @@ fn stage(
     keep::prune(staging, Maps::of_meta(&metas[0]), rows);
     let mut meta = metas[0].clone();
     meta.shard = None;
-    meta.references = Some(references);
+    meta.references = Some(serde_json::to_value(&references)?);
     let merged_from: Vec<MergedShard> = shards
         .iter()
         .zip(metas)

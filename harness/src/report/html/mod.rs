@@ -96,7 +96,8 @@ pub fn write_index(
 /// and the page rendered (`meta.json`'s `history_outcome`, set by `run` and `merge` before the
 /// report); relative, so the folders can move together.
 fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Meta>, name: &str) {
-    let Some(outcome) = meta.and_then(|m| m.history_outcome.as_ref()) else {
+    let outcome = meta.and_then(|m| m.history_outcome.clone());
+    let Some(outcome) = outcome.and_then(|o| serde_json::from_value::<crate::history::Outcome>(o).ok()) else {
         return;
     };
     let Some((db, _, Some(page))) = outcome.in_history() else { return };

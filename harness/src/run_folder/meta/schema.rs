@@ -5,8 +5,6 @@
 //! means. The keys keep the names and order (sorted) they always had on disk.
 
 use crate::calibration::Calibration;
-use crate::history::Outcome;
-use crate::judge::reference::GroupReference;
 use crate::run_folder::keep::Maps;
 use crate::run_folder::write_atomic;
 use serde::{Deserialize, Serialize};
@@ -60,8 +58,9 @@ pub struct Meta {
     pub git_revision: Option<String>,
     /// The history database the batch is in (`None`: not, or not yet).
     pub history: Option<String>,
-    /// What became of the batch in the history, set once the batch is over.
-    pub history_outcome: Option<Outcome>,
+    /// What became of the batch in the history, set once the batch is over: a
+    /// `history::Outcome`, which the history reads (the layers above own its type).
+    pub history_outcome: Option<Value>,
     pub host: Option<String>,
     pub interrupted: Option<bool>,
     pub jobs: Option<usize>,
@@ -77,8 +76,8 @@ pub struct Meta {
     pub only: Option<Vec<String>>,
     /// The planned runs (`--only` applied), in the batch's order.
     pub plan: Option<Vec<String>>,
-    /// The reference minimum of each (dataset, energy) group.
-    pub references: Option<Vec<GroupReference>>,
+    /// The reference minimum of each (dataset, energy) group: `judge::reference::GroupReference`s.
+    pub references: Option<Value>,
     pub repeat: Option<usize>,
     pub resume: Option<bool>,
     pub rustc: Option<String>,

@@ -1,6 +1,7 @@
 use super::*;
 use crate::run_folder::keep::Maps;
 use serde_json::{json, Value};
+use std::path::Path;
 
 /// A `meta.json` as the code before the schema number wrote it (an authalic batch,
 /// its plan cut to two runs).
