@@ -320,83 +320,17 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let interrupt = Arc::new(AtomicBool::new(false));
             let signal = signals::on_interrupt(interrupt.clone());
             config::check_jobs(jobs, config::available_cores())?;
-            let mut plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
-            if let Some(r) = repeat {
-                mapbench::plan::config::check_repeat(r).context("--repeat")?;
-                plan.repeat = r;
-            }
-            let choice = history.choice();
-            plan.history = plan.history.take().and_then(|p| choice.apply(p));
-            if choice == HistoryChoice::Off {
-                // Nothing outside the run folder: the references it computes stay its own.
-                plan.references.iter_mut().for_each(|r| r.persist = false);
-            }
-            if shard.is_some() && plan.history.take().is_some() {
-                eprintln!("note: a --shard batch is not appended to the history; `merge` appends the whole batch");
-            }
+            let plan = run_plan(&config, &only, repeat, &history.choice(), shard.is_some())?;
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
             let opts = run::RunOptions { resume, jobs, shard, force, interrupt };
             let progress = progress::for_stderr();
             let report = run::run_batch(&plan, &out, &opts, progress.as_ref())?;
-            eprintln!(
-                "{} runs: {} ok, {} not converged, {} failed{}{}; results in {}",
-                report.runs,
-                report.ok,
-                report.not_converged,
-                report.failed,
-                if report.skipped > 0 { format!(", {} skipped", report.skipped) } else { String::new() },
-                match (report.interrupted - report.partial.len(), report.partial.len()) {
-                    (0, 0) => String::new(),
-                    (n, 0) => format!(", {n} not run (interrupted)"),
-                    (n, p) => format!(", {p} cut short in their repeats and {n} not run (interrupted)"),
-                },
-                report.out_dir.display()
-            );
+            say_batch(&report);
             let written = say_history(&report.history);
             // A signal at any moment, after the last run too (the batch is then complete).
-            let signalled = signal.load(Ordering::SeqCst);
-            Ok(if signalled != 0 {
-                // The shell's convention: 128 + the signal (130 Ctrl-C, 143 SIGTERM).
-                ExitCode::from(128 + signalled.clamp(1, 127) as u8)
-            } else if !written {
-                ExitCode::from(2)
-            } else if report.failed > 0 {
-                ExitCode::from(1)
-            } else {
-                ExitCode::SUCCESS
-            })
+            Ok(run_exit(signal.load(Ordering::SeqCst), written, report.failed))
         }
-        Command::References { config, only, store } => {
-            let interrupt = Arc::new(AtomicBool::new(false));
-            let signal = signals::on_interrupt(interrupt.clone());
-            let mut plan = Plan::resolve(LoadedConfig::load(&config)?, &only)?;
-            let Some(stores) = plan.references.as_mut() else {
-                anyhow::bail!("{}: an authalic config has no reference minima", config.display());
-            };
-            if let Some(p) = store {
-                stores.store = p;
-            }
-            let store = stores.store.clone();
-            for n in &plan.notices {
-                eprintln!("{n}");
-            }
-            let runs: Vec<&mapbench::plan::PlannedRun> = plan.runs.iter().collect();
-            let progress = progress::for_stderr();
-            let groups = mapbench::judge::reference::prepare(&plan, &runs, progress.as_ref(), &interrupt)?;
-            progress.finish();
-            println!("dataset\tenergy\te_star\torigin\tkey");
-            for g in &groups {
-                let e = g.e_star.map_or_else(|| "-".to_string(), |e| format!("{e:.15e}"));
-                println!("{}\t{}\t{e}\t{:?}\t{}", g.dataset, g.energy, g.origin, g.key.as_deref().unwrap_or("-"));
-            }
-            let missing = groups.iter().filter(|g| g.e_star.is_none()).count();
-            eprintln!("{} references in {} ({missing} not available)", groups.len(), store.display());
-            let signalled = signal.load(Ordering::SeqCst);
-            if signalled != 0 {
-                return Ok(ExitCode::from(128 + signalled.clamp(1, 127) as u8));
-            }
-            Ok(if missing > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
-        }
+        Command::References { config, only, store } => references(&config, &only, store),
         Command::ExportSystem { config, out, only, iteration } => {
             let cfg = LoadedConfig::load(&config)?;
             // Before the registry: a config of another task is refused for what it is.
@@ -423,46 +357,14 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             out(format_args!("{}\n", serde_json::to_string(&t)?))?;
             Ok(ExitCode::SUCCESS)
         }
-        Command::Map { run_dir, runs, obj, out } => {
-            let obj = obj.map(Output::from);
-            let dest = match (&obj, &out) {
-                (Some(f), _) => export::maps::Dest::File(f),
-                (None, Some(d)) => export::maps::Dest::Folder(d),
-                (None, None) => anyhow::bail!("give --obj FILE or --out DIR"),
-            };
-            let done = export::maps::export_maps(&run_dir, &runs, dest)?;
-            for p in &done.written {
-                eprintln!("{p}");
-            }
-            if !done.missing.is_empty() {
-                eprintln!("no stored map for {}: {}", done.missing.join(", "), export::maps::missing_hint(&run_dir));
-                return Ok(ExitCode::from(2));
-            }
-            Ok(ExitCode::SUCCESS)
-        }
+        Command::Map { run_dir, runs, obj, out } => map(&run_dir, &runs, obj, out.as_deref()),
         Command::Report { run_dir } => {
             let rows = run_folder::read_summary(&run_dir)?;
             report::refresh(&run_dir, &rows)?;
             eprintln!("report of {} runs in {}", rows.len(), run_dir.display());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Merge { shards, out, force, history } => {
-            let m = merge::merge(&shards, out.as_deref(), &history.choice(), force)?;
-            if !m.missing.is_empty() {
-                eprintln!(
-                    "warning: {} planned runs are in no shard (first: {}); the report covers the rest",
-                    m.missing.len(),
-                    m.missing[0]
-                );
-            }
-            for d in &m.interrupted {
-                eprintln!("warning: shard {} was interrupted (`run --resume` completes it)", d.display());
-            }
-            eprintln!("merged {} runs from {} shards into {}", m.runs, shards.len(), m.out_dir.display());
-            let written = say_history(&m.history);
-            let complete = m.missing.is_empty() && m.interrupted.is_empty();
-            Ok(if complete && written { ExitCode::SUCCESS } else { ExitCode::from(2) })
-        }
+        Command::Merge { shards, out, force, history } => merge(&shards, out.as_deref(), force, &history.choice()),
         Command::History { db, config, last, out } => {
             if last == Some(0) {
                 anyhow::bail!("--last must be at least 1");
@@ -480,21 +382,8 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(ExitCode::from(cmp.exit_code()))
         }
         Command::Compare { run_a, run_b, html, energy_rtol, iterations_tolerance, time_regressions } => {
-            let html = html.map(Output::from);
-            if let Some(h) = &html {
-                h.check()?;
-            }
             let options = compare::Options { energy_rtol, iterations_tolerance, time_regressions };
-            let cmp = compare::compare_folders(&run_a, &run_b, options)?;
-            // `--html -`: the page on standard output instead of the Markdown.
-            if html.as_ref() != Some(&Output::Stdout) {
-                out(format_args!("{}", compare::to_markdown(&cmp)))?;
-            }
-            if let Some(h) = html {
-                h.write(compare::to_html(&cmp).as_bytes())?;
-                eprintln!("wrote the comparison page to {h}");
-            }
-            Ok(ExitCode::from(cmp.exit_code()))
+            compare_folders(&run_a, &run_b, html, options)
         }
         Command::Baseline { run_dir, write } => {
             let write = Output::from(write);
@@ -515,44 +404,199 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             out(format_args!("{report}\n"))?;
             Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
         }
-        Command::List { what, registry } => {
-            match what {
-                // Every task's solvers, from the one catalogue.
-                ListWhat::Solvers => {
-                    for s in solvers::solver::catalogue::SOLVERS {
-                        let tasks: Vec<&str> = s.tasks.iter().map(|t| t.as_str()).collect();
-                        out(format_args!(
-                            "{:<20} tasks={:<14} energies={}\n",
-                            s.name,
-                            tasks.join(","),
-                            s.energies.join(",")
-                        ))?;
-                        out(format_args!("{:<20} {}\n", "", s.description))?;
-                    }
-                }
-                ListWhat::Energies => {
-                    for s in solvers::energy::ENERGY_NAMES {
-                        out(format_args!("{s}\n"))?;
-                    }
-                }
-                ListWhat::Datasets => {
-                    let reg = registry::Registry::load(&registry)
-                        .with_context(|| "run from the repository root or pass --registry FILE")?;
-                    for e in &reg.dataset {
-                        let src = e.generator.as_ref().map(|g| format!("generated:{g}")).unwrap_or_else(|| {
-                            format!("${}/{}", registry::MESHES_ENV, e.file.as_deref().unwrap_or_default())
-                        });
-                        out(format_args!(
-                            "{:<20} {:<36} tasks={} tags={}\n",
-                            e.name,
-                            src,
-                            e.tasks.join(","),
-                            e.tags.join(",")
-                        ))?;
-                    }
-                }
+        Command::List { what, registry } => list(what, &registry),
+    }
+}
+
+/// The plan of `run`: the config resolved with `--only`, `--repeat` and the history choice.
+fn run_plan(
+    config: &std::path::Path,
+    only: &[String],
+    repeat: Option<usize>,
+    choice: &HistoryChoice,
+    sharded: bool,
+) -> Result<Plan> {
+    let mut plan = Plan::resolve(LoadedConfig::load(config)?, only)?;
+    if let Some(r) = repeat {
+        mapbench::plan::config::check_repeat(r).context("--repeat")?;
+        plan.repeat = r;
+    }
+    plan.history = plan.history.take().and_then(|p| choice.apply(p));
+    if *choice == HistoryChoice::Off {
+        // Nothing outside the run folder: the references it computes stay its own.
+        plan.references.iter_mut().for_each(|r| r.persist = false);
+    }
+    if sharded && plan.history.take().is_some() {
+        eprintln!("note: a --shard batch is not appended to the history; `merge` appends the whole batch");
+    }
+    Ok(plan)
+}
+
+/// The line `run` ends with: how the batch's runs ended and where the results are.
+fn say_batch(report: &run::BatchReport) {
+    eprintln!(
+        "{} runs: {} ok, {} not converged, {} failed{}{}; results in {}",
+        report.runs,
+        report.ok,
+        report.not_converged,
+        report.failed,
+        if report.skipped > 0 { format!(", {} skipped", report.skipped) } else { String::new() },
+        match (report.interrupted - report.partial.len(), report.partial.len()) {
+            (0, 0) => String::new(),
+            (n, 0) => format!(", {n} not run (interrupted)"),
+            (n, p) => format!(", {p} cut short in their repeats and {n} not run (interrupted)"),
+        },
+        report.out_dir.display()
+    );
+}
+
+/// `references`: compute the reference minima no store holds yet and list them.
+fn references(config: &std::path::Path, only: &[String], store: Option<PathBuf>) -> Result<ExitCode> {
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let signal = signals::on_interrupt(interrupt.clone());
+    let mut plan = Plan::resolve(LoadedConfig::load(config)?, only)?;
+    let Some(stores) = plan.references.as_mut() else {
+        anyhow::bail!("{}: an authalic config has no reference minima", config.display());
+    };
+    if let Some(p) = store {
+        stores.store = p;
+    }
+    let store = stores.store.clone();
+    for n in &plan.notices {
+        eprintln!("{n}");
+    }
+    let runs: Vec<&mapbench::plan::PlannedRun> = plan.runs.iter().collect();
+    let progress = progress::for_stderr();
+    let groups = mapbench::judge::reference::prepare(&plan, &runs, progress.as_ref(), &interrupt)?;
+    progress.finish();
+    println!("dataset\tenergy\te_star\torigin\tkey");
+    for g in &groups {
+        let e = g.e_star.map_or_else(|| "-".to_string(), |e| format!("{e:.15e}"));
+        println!("{}\t{}\t{e}\t{:?}\t{}", g.dataset, g.energy, g.origin, g.key.as_deref().unwrap_or("-"));
+    }
+    let missing = groups.iter().filter(|g| g.e_star.is_none()).count();
+    eprintln!("{} references in {} ({missing} not available)", groups.len(), store.display());
+    let signalled = signal.load(Ordering::SeqCst);
+    if signalled != 0 {
+        return Ok(ExitCode::from(128 + signalled.clamp(1, 127) as u8));
+    }
+    Ok(if missing > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+/// `list`: the solvers, energies or datasets.
+fn list(what: ListWhat, registry: &std::path::Path) -> Result<ExitCode> {
+    match what {
+        // Every task's solvers, from the one catalogue.
+        ListWhat::Solvers => {
+            for s in solvers::solver::catalogue::SOLVERS {
+                let tasks: Vec<&str> = s.tasks.iter().map(|t| t.as_str()).collect();
+                out(format_args!("{:<20} tasks={:<14} energies={}\n", s.name, tasks.join(","), s.energies.join(",")))?;
+                out(format_args!("{:<20} {}\n", "", s.description))?;
             }
-            Ok(ExitCode::SUCCESS)
         }
+        ListWhat::Energies => {
+            for s in solvers::energy::ENERGY_NAMES {
+                out(format_args!("{s}\n"))?;
+            }
+        }
+        ListWhat::Datasets => {
+            let reg = registry::Registry::load(registry)
+                .with_context(|| "run from the repository root or pass --registry FILE")?;
+            for e in &reg.dataset {
+                let src =
+                    e.generator.as_ref().map(|g| format!("generated:{g}")).unwrap_or_else(|| {
+                        format!("${}/{}", registry::MESHES_ENV, e.file.as_deref().unwrap_or_default())
+                    });
+                out(format_args!(
+                    "{:<20} {:<36} tasks={} tags={}\n",
+                    e.name,
+                    src,
+                    e.tasks.join(","),
+                    e.tags.join(",")
+                ))?;
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `map`: a run folder's stored final maps as OBJ.
+fn map(
+    run_dir: &std::path::Path,
+    runs: &[String],
+    obj: Option<PathBuf>,
+    out: Option<&std::path::Path>,
+) -> Result<ExitCode> {
+    let obj = obj.map(Output::from);
+    let dest = match (&obj, &out) {
+        (Some(f), _) => export::maps::Dest::File(f),
+        (None, Some(d)) => export::maps::Dest::Folder(d),
+        (None, None) => anyhow::bail!("give --obj FILE or --out DIR"),
+    };
+    let done = export::maps::export_maps(run_dir, runs, dest)?;
+    for p in &done.written {
+        eprintln!("{p}");
+    }
+    if !done.missing.is_empty() {
+        eprintln!("no stored map for {}: {}", done.missing.join(", "), export::maps::missing_hint(run_dir));
+        return Ok(ExitCode::from(2));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `merge`: shard folders of one batch into one folder.
+fn merge(shards: &[PathBuf], out: Option<&std::path::Path>, force: bool, history: &HistoryChoice) -> Result<ExitCode> {
+    let m = merge::merge(shards, out, history, force)?;
+    if !m.missing.is_empty() {
+        eprintln!(
+            "warning: {} planned runs are in no shard (first: {}); the report covers the rest",
+            m.missing.len(),
+            m.missing[0]
+        );
+    }
+    for d in &m.interrupted {
+        eprintln!("warning: shard {} was interrupted (`run --resume` completes it)", d.display());
+    }
+    eprintln!("merged {} runs from {} shards into {}", m.runs, shards.len(), m.out_dir.display());
+    let written = say_history(&m.history);
+    let complete = m.missing.is_empty() && m.interrupted.is_empty();
+    Ok(if complete && written { ExitCode::SUCCESS } else { ExitCode::from(2) })
+}
+
+/// `compare`: what changed from one run folder to another, as Markdown and optionally HTML.
+fn compare_folders(
+    run_a: &std::path::Path,
+    run_b: &std::path::Path,
+    html: Option<PathBuf>,
+    options: compare::Options,
+) -> Result<ExitCode> {
+    let html = html.map(Output::from);
+    if let Some(h) = &html {
+        h.check()?;
+    }
+    let cmp = compare::compare_folders(run_a, run_b, options)?;
+    // `--html -`: the page on standard output instead of the Markdown.
+    if html.as_ref() != Some(&Output::Stdout) {
+        out(format_args!("{}", compare::to_markdown(&cmp)))?;
+    }
+    if let Some(h) = html {
+        h.write(compare::to_html(&cmp).as_bytes())?;
+        eprintln!("wrote the comparison page to {h}");
+    }
+    Ok(ExitCode::from(cmp.exit_code()))
+}
+
+/// The exit code of `run`: a signal first, then a result not written to the history, then
+/// a failed run.
+fn run_exit(signalled: i32, written: bool, failed: usize) -> ExitCode {
+    if signalled != 0 {
+        // The shell's convention: 128 + the signal (130 Ctrl-C, 143 SIGTERM).
+        ExitCode::from(128 + signalled.clamp(1, 127) as u8)
+    } else if !written {
+        ExitCode::from(2)
+    } else if failed > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
     }
 }

@@ -87,11 +87,7 @@ pub fn export_maps(run_dir: &Path, runs: &[String], dest: Dest) -> Result<Export
 
 /// The line that tells a user how to get the maps a folder did not keep.
 pub fn missing_hint(run_dir: &Path) -> String {
-    let kept = std::fs::read_to_string(crate::run_folder::meta_json(run_dir))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .map(|m| Maps::of_meta(&m).as_str())
-        .unwrap_or("?");
+    let kept = crate::run_folder::meta::Meta::read(run_dir).ok().map(|m| Maps::of_meta(&m).as_str()).unwrap_or("?");
     format!(
         "the folder keeps maps = \"{kept}\"; runs reproduce their iterates exactly, so set maps = \"all\" and run \
          the config again with --only RUN (into another --out folder) to get the map"

@@ -11,7 +11,8 @@ use crate::paths::{absolute, relative_link};
 use crate::plan::paths::resolve_path;
 pub use db::{BatchRow, HistoryDb, RunRow, Source, SCHEMA_VERSION};
 
-use crate::run_folder::{meta_json, read_summary, write_atomic, FolderError};
+use crate::run_folder::meta::{Meta, MetaError};
+use crate::run_folder::{meta_json, read_summary, FolderError};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -48,6 +49,8 @@ pub enum HistoryError {
     Meta { path: PathBuf, what: String },
     #[error(transparent)]
     Folder(#[from] FolderError),
+    #[error(transparent)]
+    MetaFile(#[from] MetaError),
     #[error("trend page {}: {err:#}", path.display())]
     Render { path: PathBuf, err: anyhow::Error },
 }
@@ -91,46 +94,53 @@ pub fn trend_dir(db: &Path, config: &str) -> PathBuf {
 /// The hash of what a batch ran (16 hex digits of FNV-1a): the config as read without its
 /// `history` key, each energy's resolved settings, the planned runs and the repeat count,
 /// all from `meta.json` (serde_json keeps object keys sorted, so the text is canonical).
-pub fn config_hash(meta: &Value) -> String {
-    let mut config = meta.get("config").cloned().unwrap_or(Value::Null);
+pub fn config_hash(meta: &Meta) -> String {
+    let mut config = meta.config.clone();
     if let Some(c) = config.as_object_mut() {
         c.remove("history");
     }
+    let value = |part: Result<Value, serde_json::Error>| part.unwrap_or(Value::Null);
+    let parts = [
+        config,
+        value(serde_json::to_value(&meta.settings_per_energy)),
+        value(serde_json::to_value(&meta.plan)),
+        value(serde_json::to_value(&meta.only)),
+        value(serde_json::to_value(meta.repeat)),
+    ];
     let mut h = crate::hash::Fnv::new();
-    for part in [&config, &meta["settings_per_energy"], &meta["plan"], &meta["only"], &meta["repeat"]] {
+    for part in &parts {
         h.bytes(part.to_string().as_bytes());
     }
     format!("{:016x}", h.0)
 }
 
 /// The `batches` row of a run folder, from its `meta.json`.
-pub fn batch_row(run_dir: &Path, meta: &Value) -> Result<BatchRow, HistoryError> {
+pub fn batch_row(run_dir: &Path, meta: &Meta) -> Result<BatchRow, HistoryError> {
     let path = meta_json(run_dir);
-    let config_name = meta["config"]["name"]
-        .as_str()
+    let config_name = meta
+        .config_name()
         .ok_or_else(|| HistoryError::Meta { path: path.clone(), what: "no config.name".into() })?
         .to_string();
-    let int = |k: &str| meta.get(k).and_then(Value::as_i64);
-    let real = |k: &str| meta.get(k).and_then(Value::as_f64);
-    let text = |k: &str| meta.get(k).and_then(Value::as_str).map(str::to_string);
-    let source = if meta.get("merged_from").is_some_and(Value::is_array) { Source::Merge } else { Source::Run };
+    let int = |n: Option<usize>| n.and_then(|n| i64::try_from(n).ok());
+    let unix = |n: Option<u64>| n.and_then(|n| i64::try_from(n).ok());
+    let source = if meta.merged_from.is_some() { Source::Merge } else { Source::Run };
     let recorded =
         std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs() as i64).unwrap_or(0);
     Ok(BatchRow {
         id: 0,
         config_hash: config_hash(meta),
         config_name,
-        started_unix: int("started_unix"),
-        ended_unix: int("ended_unix"),
-        git_revision: text("git_revision"),
-        git_dirty: meta.get("git_dirty").and_then(Value::as_bool),
-        host: text("host"),
-        cores: int("cores"),
-        jobs: int("jobs"),
-        threads_per_run: int("threads_per_run"),
-        repeats: int("repeat"),
-        calibration_median_s: real("calibration_median_s"),
-        calibration_spread: real("calibration_spread"),
+        started_unix: unix(meta.started_unix),
+        ended_unix: unix(meta.ended_unix),
+        git_revision: meta.git_revision.clone(),
+        git_dirty: meta.git_dirty,
+        host: meta.host.clone(),
+        cores: int(meta.cores),
+        jobs: int(meta.jobs),
+        threads_per_run: int(meta.threads_per_run),
+        repeats: int(meta.repeat),
+        calibration_median_s: meta.calibration_median_s,
+        calibration_spread: meta.calibration_spread,
         run_dir: absolute(run_dir).display().to_string(),
         recorded_unix: recorded,
         source,
@@ -138,14 +148,8 @@ pub fn batch_row(run_dir: &Path, meta: &Value) -> Result<BatchRow, HistoryError>
 }
 
 /// A run folder's `meta.json`.
-pub fn read_meta(run_dir: &Path) -> Result<Value, HistoryError> {
-    let path = meta_json(run_dir);
-    let text = std::fs::read_to_string(&path).map_err(|err| HistoryError::Io {
-        path: path.clone(),
-        what: "cannot read",
-        err,
-    })?;
-    serde_json::from_str(&text).map_err(|e| HistoryError::Meta { path, what: format!("invalid JSON: {e}") })
+pub fn read_meta(run_dir: &Path) -> Result<Meta, HistoryError> {
+    Ok(Meta::read(run_dir)?)
 }
 
 /// What [`record`] did.
@@ -280,26 +284,22 @@ impl Outcome {
     }
 
     /// The `history` key of `meta.json`: the database when the batch is in it.
-    pub fn meta_history(&self) -> Value {
-        self.in_history().map_or(Value::Null, |(db, ..)| db.display().to_string().into())
+    pub fn meta_history(&self) -> Option<String> {
+        self.in_history().map(|(db, ..)| db.display().to_string())
     }
 
     /// Set `history` and `history_outcome` in `folder`'s `meta.json`.
     fn write_into(&self, folder: &Path) -> Result<(), HistoryError> {
-        let path = meta_json(folder);
         let mut meta = read_meta(folder)?;
-        meta["history"] = self.meta_history();
-        meta["history_outcome"] = serde_json::to_value(self).unwrap_or(Value::Null);
-        let text = serde_json::to_string_pretty(&meta)
-            .map_err(|e| HistoryError::Meta { path: path.clone(), what: e.to_string() })?;
-        write_atomic(&path, text.as_bytes())
-            .map_err(|e| HistoryError::Meta { path: path.clone(), what: format!("cannot write: {e:#}") })
+        meta.history = self.meta_history();
+        meta.history_outcome = serde_json::to_value(self).ok();
+        Ok(meta.write(folder)?)
     }
 
     /// The outcome a run folder's `meta.json` records (`None`: no meta, or a batch from
     /// before outcomes were recorded).
     pub fn of_folder(run_dir: &Path) -> Option<Outcome> {
-        serde_json::from_value(read_meta(run_dir).ok()?.get("history_outcome")?.clone()).ok()
+        serde_json::from_value(read_meta(run_dir).ok()?.history_outcome?).ok()
     }
 }
 

@@ -4,8 +4,7 @@
 //! without `meta.json`, or written before these keys existed, still renders.
 
 use crate::calibration::Calibration;
-use crate::run_folder::meta::read_calibration;
-use serde_json::Value;
+use crate::run_folder::meta::Meta;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -24,28 +23,15 @@ impl Batch {
     /// Read from `run_dir/meta.json`; missing or unreadable keys stay `None`/empty (the
     /// tables then fall back to what the summary shows and say so).
     pub fn read(run_dir: &Path) -> Batch {
-        let meta = std::fs::read_to_string(crate::run_folder::meta_json(run_dir))
-            .ok()
-            .and_then(|t| serde_json::from_str::<Value>(&t).ok());
-        let mut batch = meta.as_ref().map(Batch::from_meta).unwrap_or_default();
-        batch.calibration = read_calibration(run_dir);
-        batch
+        Meta::read(run_dir).map(|m| Batch::from_meta(&m)).unwrap_or_default()
     }
 
-    /// The caps of a parsed `meta.json` (not the calibration, see [`Batch::read`]).
-    pub fn from_meta(meta: &Value) -> Batch {
-        let max_iters = meta
-            .get("stop_per_energy")
-            .and_then(Value::as_object)
-            .map(|m| {
-                m.iter()
-                    .filter_map(|(e, s)| Some((e.clone(), usize::try_from(s.get("max_iters")?.as_u64()?).ok()?)))
-                    .collect()
-            })
-            .unwrap_or_default();
-        let timeout_s =
-            meta.get("config").and_then(|c| c.get("timeout")).and_then(Value::as_str).and_then(timeout_secs);
-        Batch { max_iters, timeout_s, calibration: None }
+    /// The caps and calibration of a parsed `meta.json`.
+    pub fn from_meta(meta: &Meta) -> Batch {
+        let max_iters =
+            meta.stop_per_energy.iter().flatten().filter_map(|(e, s)| Some((e.clone(), s.max_iters?))).collect();
+        let timeout_s = meta.config_str("timeout").and_then(timeout_secs);
+        Batch { max_iters, timeout_s, calibration: meta.calibration.clone() }
     }
 
     /// The batch's median calibration time, when it has a positive one.
@@ -82,7 +68,8 @@ mod tests {
         assert_eq!(b.calibration_s(), Some(0.5));
         assert!(b.calibration.unwrap().unsteady());
         // A timeout the config would refuse is no cap.
-        let b = Batch::from_meta(&serde_json::json!({ "config": { "timeout": "soon" } }));
+        let meta = serde_json::from_value(serde_json::json!({ "config": { "timeout": "soon" } })).unwrap();
+        let b = Batch::from_meta(&meta);
         assert_eq!(b.timeout_s, None);
     }
 }

@@ -11,13 +11,13 @@ use crate::history::{Decision, HistoryChoice, Outcome};
 use crate::judge::reference::GroupReference;
 use crate::run_folder::keep::{self, Maps};
 use crate::run_folder::map::{self, legacy_obj_path, mesh_path, uv_path};
+use crate::run_folder::meta::{MergedShard, Meta};
 use crate::run_folder::reuse::{self, Identity, Reuse};
 use crate::run_folder::{
-    iterations_csv, meta_json, read_run, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary,
-    SummaryRow, OWN_ENTRIES,
+    iterations_csv, read_run, read_summary, run_stem, sidecar, summary_csv, write_atomic, write_summary, SummaryRow,
+    OWN_ENTRIES,
 };
 use anyhow::{bail, Context, Result};
-use serde_json::Value;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -34,10 +34,8 @@ pub struct Merged {
     pub history: Outcome,
 }
 
-fn read_meta(dir: &Path) -> Result<Value> {
-    let path = meta_json(dir);
-    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", path.display()))
+fn read_meta(dir: &Path) -> Result<Meta> {
+    Ok(Meta::read(dir)?)
 }
 
 /// One run of a shard, checked: where it is, its row and its place in the batch's plan.
@@ -53,10 +51,10 @@ struct ShardRun<'a> {
 /// An output folder of another batch is refused unless `force`.
 pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, force: bool) -> Result<Merged> {
     let Some(first) = shards.first() else { bail!("merge needs at least one shard folder") };
-    let metas: Vec<Value> = shards.iter().map(|d| read_meta(d)).collect::<Result<_>>()?;
-    let (config, plan) = (&metas[0]["config"], &metas[0]["plan"]);
+    let metas: Vec<Meta> = shards.iter().map(|d| read_meta(d)).collect::<Result<_>>()?;
+    let (config, plan) = (&metas[0].config, &metas[0].plan);
     for (dir, m) in shards.iter().zip(&metas).skip(1) {
-        if &m["config"] != config || &m["plan"] != plan || m["repeat"] != metas[0]["repeat"] {
+        if &m.config != config || &m.plan != plan || m.repeat != metas[0].repeat {
             bail!(
                 "{}: was run from a different config, --only or --repeat than {} (merge shards of one batch)",
                 dir.display(),
@@ -102,17 +100,12 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
     runs.sort_by_key(|r| r.index);
     let missing: Vec<String> =
         identity.plan.iter().filter(|s| !from.contains_key(s.as_str())).map(|s| s.to_string()).collect();
-    let interrupted: Vec<PathBuf> = shards
-        .iter()
-        .zip(&metas)
-        .filter(|(_, m)| m["interrupted"] == Value::Bool(true))
-        .map(|(d, _)| d.clone())
-        .collect();
+    let interrupted: Vec<PathBuf> =
+        shards.iter().zip(&metas).filter(|(_, m)| m.interrupted == Some(true)).map(|(d, _)| d.clone()).collect();
 
     let history_db = {
-        let config_dir =
-            metas[0]["config_path"].as_str().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
-        history.apply(crate::plan::paths::resolve_path(config["history"].as_str().map(Path::new), config_dir))
+        let config_dir = metas[0].config_path.as_deref().map(Path::new).and_then(Path::parent).unwrap_or(Path::new(""));
+        history.apply(crate::plan::paths::resolve_path(metas[0].config_str("history").map(Path::new), config_dir))
     };
     // The whole folder is made in the staging folder, history outcome and report included,
     // and only then put in place; on any error the staging folder goes, and a batch appended
@@ -153,12 +146,12 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
 
 /// [`Decision::AlreadyIn`] when the folder's earlier merge (`previous`, its `meta.json`) was
 /// of the same shards (the same `merged_from`) and its batch is in `db`.
-fn already_in(previous: Option<&Value>, db: Option<&Path>, merged_from: &Value) -> Option<Decision> {
+fn already_in(previous: Option<&Meta>, db: Option<&Path>, merged_from: &[MergedShard]) -> Option<Decision> {
     let previous = previous?;
-    if &previous["merged_from"] != merged_from {
+    if previous.merged_from.as_deref() != Some(merged_from) {
         return None;
     }
-    let outcome: Outcome = serde_json::from_value(previous.get("history_outcome")?.clone()).ok()?;
+    let outcome: Outcome = serde_json::from_value(previous.history_outcome.clone()?).ok()?;
     let (was, batch_id, trend) = outcome.in_history()?;
     (Some(was) == db.map(crate::paths::absolute).as_deref())
         .then(|| Decision::AlreadyIn { batch_id, trend: trend.cloned() })
@@ -188,10 +181,10 @@ fn staging_dir(out: &Path) -> Result<PathBuf> {
 fn stage(
     staging: &Path,
     runs: &[ShardRun],
-    metas: &[Value],
+    metas: &[Meta],
     shards: &[PathBuf],
     rows: &mut Vec<SummaryRow>,
-) -> Result<Value> {
+) -> Result<Vec<MergedShard>> {
     let mut meshes_copied: std::collections::HashSet<&str> = Default::default();
     for r in runs {
         // The dataset's mesh copy is the same in every shard (the runs' keys hash the mesh).
@@ -209,58 +202,58 @@ fn stage(
     *rows = runs.iter().map(|r| r.row.clone()).collect();
     let mut references: Vec<GroupReference> = Vec::new();
     for m in metas {
-        for g in serde_json::from_value::<Vec<GroupReference>>(m["references"].clone()).unwrap_or_default() {
+        let theirs: Vec<GroupReference> =
+            m.references.clone().and_then(|r| serde_json::from_value(r).ok()).unwrap_or_default();
+        for g in theirs {
             if !references.iter().any(|r| r.dataset == g.dataset && r.energy == g.energy) {
                 references.push(g);
             }
         }
     }
-    let targets: Vec<f64> = serde_json::from_value(metas[0]["targets"].clone()).unwrap_or_default();
-    let grad_tol = |energy: &str| metas[0]["stop_per_energy"][energy]["grad_tol"].as_f64();
+    let targets: Vec<f64> = metas[0].targets.clone().unwrap_or_default();
+    let grad_tol = |energy: &str| metas[0].stop_per_energy.as_ref()?.get(energy)?.grad_tol;
     crate::judge::judge_batch(staging, rows, &references, &targets, grad_tol)?;
     write_summary(&summary_csv(staging), rows)?;
     // Each shard kept its own best per group; the merged folder keeps the batch's.
     keep::prune(staging, Maps::of_meta(&metas[0]), rows);
     let mut meta = metas[0].clone();
-    meta["shard"] = Value::Null;
-    meta["references"] = serde_json::to_value(&references)?;
-    meta["merged_from"] = Value::Array(
-        shards
-            .iter()
-            .zip(metas)
-            .map(|(d, m)| {
-                serde_json::json!({
-                    "dir": crate::paths::absolute(d).display().to_string(), "shard": m["shard"], "host": m["host"],
-                    "git_revision": m["git_revision"], "git_dirty": m["git_dirty"],
-                    "started_unix": m["started_unix"], "ended_unix": m["ended_unix"],
-                    "interrupted": m["interrupted"], "calibration": m["calibration"],
-                })
-            })
-            .collect(),
-    );
-    let starts = metas.iter().filter_map(|m| m["started_unix"].as_u64());
-    let ends: Vec<Option<u64>> = metas.iter().map(|m| m["ended_unix"].as_u64()).collect();
-    meta["started_unix"] = starts.min().into();
-    meta["ended_unix"] =
-        if ends.iter().all(Option::is_some) { ends.iter().flatten().max().copied().into() } else { Value::Null };
-    meta["interrupted"] = metas.iter().any(|m| m["interrupted"] == Value::Bool(true)).into();
+    meta.shard = None;
+    meta.references = Some(serde_json::to_value(&references)?);
+    let merged_from: Vec<MergedShard> = shards
+        .iter()
+        .zip(metas)
+        .map(|(d, m)| MergedShard {
+            calibration: m.calibration.clone(),
+            dir: crate::paths::absolute(d).display().to_string(),
+            ended_unix: m.ended_unix,
+            git_dirty: m.git_dirty,
+            git_revision: m.git_revision.clone(),
+            host: m.host.clone(),
+            interrupted: m.interrupted,
+            shard: m.shard.clone(),
+            started_unix: m.started_unix,
+        })
+        .collect();
+    meta.merged_from = Some(merged_from.clone());
+    let ends: Vec<Option<u64>> = metas.iter().map(|m| m.ended_unix).collect();
+    meta.started_unix = metas.iter().filter_map(|m| m.started_unix).min();
+    meta.ended_unix = if ends.iter().all(Option::is_some) { ends.iter().flatten().max().copied() } else { None };
+    meta.interrupted = Some(metas.iter().any(|m| m.interrupted == Some(true)));
     // Set by the history's outcome once the folder is in place.
-    meta["history"] = Value::Null;
-    meta["history_outcome"] = Value::Null;
+    meta.history = None;
+    meta.history_outcome = None;
     // Every shard's runs keep the time_norm of their own shard's calibration; the merged
     // folder's calibration holds all the samples, so its spread shows how far the shards'
     // machines (or moments) differed.
     let mut calibration = Calibration::new();
-    for m in metas {
-        if let Ok(c) = serde_json::from_value::<Calibration>(m["calibration"].clone()) {
-            calibration.samples_s.extend(c.samples_s);
-        }
+    for c in metas.iter().filter_map(|m| m.calibration.as_ref()) {
+        calibration.samples_s.extend(c.samples_s.iter().copied());
     }
-    meta["calibration"] = serde_json::to_value(&calibration)?;
-    meta["calibration_median_s"] = calibration.median_s().into();
-    meta["calibration_spread"] = calibration.spread().into();
-    write_atomic(&meta_json(staging), serde_json::to_string_pretty(&meta)?.as_bytes())?;
-    Ok(meta["merged_from"].clone())
+    meta.calibration_median_s = calibration.median_s();
+    meta.calibration_spread = calibration.spread();
+    meta.calibration = Some(calibration);
+    meta.write(staging)?;
+    Ok(merged_from)
 }
 
 /// Move the staged folder to `out`: a rename when `out` is new; else `out`'s own entries (an

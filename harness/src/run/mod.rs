@@ -4,6 +4,7 @@
 
 pub mod merge;
 pub mod progress;
+mod record;
 pub mod resume;
 
 mod memory;
@@ -17,7 +18,6 @@ use crate::paths::absolute;
 use crate::plan::config::Maps;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
-use crate::run_folder::meta::{code_id, Meta};
 use crate::run_folder::reuse::{self, Identity, Reuse};
 use crate::run_folder::{sidecar, summary_csv, write_run, MapBytes, RunFiles, Status, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
@@ -25,6 +25,7 @@ use memory::Monitor;
 use meshes::MeshCache;
 use one::{run_one, RunContext, RunResult};
 use progress::Progress;
+use record::{code_id, BatchRecord};
 use repeats::Repeats;
 use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
@@ -149,7 +150,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         plan.threads_per_run.unwrap_or_else(|| default_threads(opts.jobs.unwrap_or(cores), cores, mine.len()));
     // A resumed folder whose batch is already in the history is not appended twice.
     let previous = opts.resume.then(|| Outcome::of_folder(out_dir)).flatten();
-    let meta = Meta {
+    let meta = BatchRecord {
         plan,
         shard: opts.shard,
         resume: opts.resume,

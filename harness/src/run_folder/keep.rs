@@ -3,6 +3,7 @@
 //! folder; by default one map per (dataset, energy) is kept, the one the report shows.
 
 use super::map::{legacy_obj_path, mesh_path, uv_path};
+use super::meta::Meta;
 use super::{run_stem, Status, SummaryRow};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -31,8 +32,8 @@ impl Maps {
 
     /// The policy a run folder was written with (`meta.json`'s `maps`); folders written
     /// before the key kept every map.
-    pub fn of_meta(meta: &serde_json::Value) -> Maps {
-        meta.get("maps").and_then(|v| serde_json::from_value(v.clone()).ok()).unwrap_or(Maps::All)
+    pub fn of_meta(meta: &Meta) -> Maps {
+        meta.maps.unwrap_or(Maps::All)
     }
 }
 
@@ -183,10 +184,11 @@ mod tests {
 
     #[test]
     fn the_policy_of_a_folder_comes_from_meta_json() {
-        assert_eq!(Maps::of_meta(&serde_json::json!({"maps": "none"})), Maps::None);
-        assert_eq!(Maps::of_meta(&serde_json::json!({"maps": "best"})), Maps::Best);
+        let of = |v: serde_json::Value| Maps::of_meta(&serde_json::from_value(v).unwrap());
+        assert_eq!(of(serde_json::json!({"maps": "none"})), Maps::None);
+        assert_eq!(of(serde_json::json!({"maps": "best"})), Maps::Best);
         // Before the key: every map was kept.
-        assert_eq!(Maps::of_meta(&serde_json::json!({"config": {}})), Maps::All);
+        assert_eq!(of(serde_json::json!({"config": {}})), Maps::All);
     }
 
     #[test]

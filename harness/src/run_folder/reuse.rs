@@ -4,9 +4,9 @@
 //! stay beside the new ones and `index.html` would list them; `--force` cleans it (the files
 //! of [`OWN_ENTRIES`] only). A non-empty folder mapbench did not write is never touched.
 
-use super::{is_run_folder, meta_json, OWN_ENTRIES};
+use super::meta::Meta;
+use super::{is_run_folder, OWN_ENTRIES};
 use anyhow::{bail, Context, Result};
-use serde_json::Value;
 use std::path::Path;
 
 /// What makes a run folder one batch's.
@@ -21,14 +21,8 @@ pub struct Identity {
 
 impl Identity {
     /// The identity `meta.json` records (`None`: a meta.json without one).
-    pub fn of_meta(meta: &Value) -> Option<Identity> {
-        let plan: Option<Vec<String>> =
-            meta.get("plan")?.as_array()?.iter().map(|s| s.as_str().map(str::to_string)).collect();
-        Some(Identity {
-            config: meta.get("config")?.get("name")?.as_str()?.to_string(),
-            plan: plan?,
-            shard: meta.get("shard").and_then(Value::as_str).map(str::to_string),
-        })
+    pub fn of_meta(meta: &Meta) -> Option<Identity> {
+        Some(Identity { config: meta.config_name()?.to_string(), plan: meta.plan.clone()?, shard: meta.shard.clone() })
     }
 
     /// How `other` (the folder's batch) differs from this one, in words.
@@ -81,10 +75,7 @@ pub fn check(dir: &Path, mine: &Identity, force: bool) -> Result<Reuse> {
             dir.display()
         );
     }
-    let theirs = std::fs::read_to_string(meta_json(dir))
-        .ok()
-        .and_then(|t| serde_json::from_str::<Value>(&t).ok())
-        .and_then(|m| Identity::of_meta(&m));
+    let theirs = Meta::read(dir).ok().and_then(|m| Identity::of_meta(&m));
     if theirs.as_ref() == Some(mine) {
         return Ok(Reuse::Same);
     }
@@ -130,6 +121,7 @@ pub fn clean(dir: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::run_folder::meta_json;
 
     fn identity(config: &str, plan: &[&str], shard: Option<&str>) -> Identity {
         Identity {

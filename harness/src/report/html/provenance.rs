@@ -1,0 +1,76 @@
+//! Provenance from `meta.json`, and the UTC dates it shows.
+
+use super::esc;
+use crate::run_folder::meta::{shown, Meta};
+use std::fmt::Write as _;
+
+/// Unix seconds as `YYYY-MM-DD hh:mm:ss UTC` (civil-from-days, no date crate needed).
+pub(crate) fn utc(secs: u64) -> String {
+    let days = (secs / 86_400) as i64;
+    let rem = secs % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!("{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC", rem / 3600, rem % 3600 / 60, rem % 60)
+}
+
+pub(super) fn provenance_section(h: &mut String, meta: Option<&Meta>) {
+    *h += "<h2 id=\"provenance\">Provenance</h2>\n";
+    let Some(m) = meta else {
+        *h += "<p>No meta.json in this folder.</p>\n";
+        return;
+    };
+    let mut rows: Vec<(&str, String)> = Vec::new();
+    if let Some(rev) = shown(&m.git_revision) {
+        let dirty = match m.git_dirty {
+            Some(true) => " (dirty: uncommitted changes)",
+            Some(false) => " (clean)",
+            None => "",
+        };
+        rows.push(("git revision", format!("{rev}{dirty}")));
+    } else {
+        rows.push(("git revision", "unknown (not a git checkout)".into()));
+    }
+    for (label, value) in [
+        ("mapbench version", shown(&m.mapbench_version)),
+        ("rustc", shown(&m.rustc)),
+        ("crates", shown(&m.crates)),
+        ("config file", shown(&m.config_path)),
+        ("host", shown(&m.host)),
+        ("cores", shown(&m.cores)),
+        ("--jobs", shown(&m.jobs)),
+        ("threads per run", shown(&m.threads_per_run)),
+        ("linear ordering", shown(&m.linear_ordering)),
+        ("shard", shown(&m.shard)),
+        ("meshes folder", shown(&m.meshes_dir)),
+        ("--only", shown(&m.only)),
+        ("--resume", shown(&m.resume)),
+        ("interrupted", shown(&m.interrupted)),
+    ] {
+        if let Some(v) = value {
+            rows.push((label, v));
+        }
+    }
+    if let Some(s) = m.started_unix {
+        rows.push(("started", utc(s)));
+    }
+    match (m.started_unix, m.ended_unix) {
+        (Some(s), Some(e)) => rows.push(("ended", format!("{} ({} s)", utc(e), e.saturating_sub(s)))),
+        (_, None) => rows.push(("ended", "not recorded (interrupted or still running)".into())),
+        _ => {}
+    }
+    *h += "<dl>\n";
+    for (k, v) in rows {
+        let _ = writeln!(h, "<dt>{}</dt><dd>{}</dd>", esc(k), esc(&v));
+    }
+    *h += "</dl>\n";
+    if let Ok(pretty) = serde_json::to_string_pretty(m) {
+        let _ = writeln!(h, "<details><summary>meta.json</summary><pre>{}</pre></details>", esc(&pretty));
+    }
+}

@@ -1,0 +1,123 @@
+//! What a batch writes into its folder's `meta.json`: the plan and provenance of the batch.
+
+use crate::calibration::Calibration;
+use crate::history::Outcome;
+use crate::judge::reference::GroupReference;
+use crate::plan::select::Shard;
+use crate::plan::{Plan, RunSettings};
+use crate::run_folder::meta::{Meta, MetaError, Stop, VERSION};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// What a batch knows about itself while it runs; [`BatchRecord::write`] turns it into the
+/// folder's [`Meta`].
+pub struct BatchRecord<'a> {
+    pub plan: &'a Plan,
+    pub shard: Option<Shard>,
+    pub resume: bool,
+    pub jobs: usize,
+    pub threads: usize,
+    pub started: SystemTime,
+    /// What became of the folder's batch in the history, until this one's is known: a
+    /// resumed folder's earlier outcome (its batch may be in the history), else nothing.
+    pub history: Option<Outcome>,
+    /// The reference minimum of each (dataset, energy) group of the batch (`merge` judges
+    /// the merged batch by them).
+    pub references: Vec<GroupReference>,
+}
+
+impl BatchRecord<'_> {
+    pub fn write(
+        &self,
+        out_dir: &Path,
+        ended: Option<SystemTime>,
+        interrupted: bool,
+        calibration: &Calibration,
+    ) -> Result<(), MetaError> {
+        self.meta(ended, interrupted, calibration)?.write(out_dir)
+    }
+
+    fn meta(&self, ended: Option<SystemTime>, interrupted: bool, calibration: &Calibration) -> Result<Meta, MetaError> {
+        let plan = self.plan;
+        let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+        let (rev, dirty) = git_revision(&plan.config.dir);
+        let settings_error =
+            |e: &dyn std::fmt::Display| MetaError::Settings { path: plan.config.path.clone(), what: e.to_string() };
+        // Every energy of the config, whatever `--only` kept.
+        let per_energy = crate::plan::energy_settings(&plan.config).map_err(|e| settings_error(&e))?;
+        let ordering = per_energy
+            .iter()
+            .find_map(|(_, s)| match s {
+                RunSettings::Param { settings, .. } => Some(settings.solver.linear.ordering),
+                RunSettings::Deform { settings, .. } => Some(settings.solver.linear.ordering),
+                RunSettings::Authalic(_) => None,
+            })
+            .unwrap_or_default();
+        let mut settings_per_energy = BTreeMap::new();
+        for (e, s) in &per_energy {
+            settings_per_energy.insert(e.clone(), serde_json::to_value(s).map_err(|e| settings_error(&e))?);
+        }
+        let stop_per_energy = per_energy.iter().map(|(e, s)| (e.clone(), Stop::from(s.stop()))).collect();
+        Ok(Meta {
+            version: Some(VERSION),
+            calibration: Some(calibration.clone()),
+            calibration_median_s: calibration.median_s(),
+            calibration_spread: calibration.spread(),
+            config: serde_json::to_value(&plan.config.raw).map_err(|e| settings_error(&e))?,
+            config_path: Some(plan.config.path.display().to_string()),
+            cores: Some(std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)),
+            crates: Some(env!("MAPBENCH_CRATES").into()),
+            ended_unix: ended.map(secs),
+            git_dirty: dirty,
+            git_revision: rev,
+            history: self.history.as_ref().and_then(Outcome::meta_history),
+            history_outcome: self.history.as_ref().and_then(|o| serde_json::to_value(o).ok()),
+            host: std::env::var("HOSTNAME")
+                .ok()
+                .or_else(|| std::fs::read_to_string("/etc/hostname").ok().map(|s| s.trim().to_string())),
+            interrupted: Some(interrupted),
+            jobs: Some(self.jobs),
+            linear_ordering: Some(ordering.as_str().into()),
+            mapbench_version: Some(env!("CARGO_PKG_VERSION").into()),
+            maps: Some(plan.maps),
+            merged_from: None,
+            meshes_dir: std::env::var(crate::plan::registry::MESHES_ENV).ok(),
+            only: Some(plan.only.clone()),
+            plan: Some(plan.runs.iter().map(|p| p.stem.clone()).collect()),
+            references: serde_json::to_value(&self.references).ok(),
+            repeat: Some(plan.repeat),
+            resume: Some(self.resume),
+            rustc: Some(env!("MAPBENCH_RUSTC").into()),
+            settings_per_energy: Some(settings_per_energy),
+            shard: self.shard.map(|s| s.to_string()),
+            started_unix: Some(secs(self.started)),
+            stop_per_energy: Some(stop_per_energy),
+            targets: Some(plan.targets.clone()),
+            threads_per_run: Some(self.threads),
+        })
+    }
+}
+
+/// What identifies the code of a batch in its runs' `--resume` keys: version and git revision.
+pub fn code_id(dir: &Path) -> String {
+    let (rev, dirty) = git_revision(dir);
+    format!("mapbench {} {} dirty={dirty:?}", env!("CARGO_PKG_VERSION"), rev.unwrap_or_default())
+}
+
+/// The git revision of the folder holding the config, and whether the tree is dirty.
+fn git_revision(dir: &Path) -> (Option<String>, Option<bool>) {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .current_dir(dir)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    let rev = git(&["rev-parse", "HEAD"]);
+    let dirty =
+        rev.as_ref().and_then(|_| git(&["status", "--porcelain", "--untracked-files=no"])).map(|s| !s.is_empty());
+    (rev, dirty)
+}
