@@ -7,6 +7,7 @@ pub mod progress;
 mod record;
 pub mod resume;
 
+mod finish;
 mod memory;
 mod meshes;
 mod one;
@@ -19,8 +20,9 @@ use crate::plan::config::Maps;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::reuse::{self, Identity, Reuse};
-use crate::run_folder::{sidecar, summary_csv, write_run, MapBytes, RunFiles, Status, SummaryRow, SummaryWriter};
+use crate::run_folder::{sidecar, summary_csv, Status, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
+use finish::{batch_notices, judge_and_write, Finisher};
 use memory::Monitor;
 use meshes::MeshCache;
 use one::{run_one, RunContext, RunResult};
@@ -136,21 +138,13 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         .collect();
     let cores = crate::plan::config::available_cores();
     crate::plan::config::check_jobs(opts.jobs, cores)?;
-    let identity = Identity {
-        config: plan.config.config.name.clone(),
-        plan: plan.runs.iter().map(|p| p.stem.clone()).collect(),
-        shard: opts.shard.map(|s| s.to_string()),
-    };
-    if reuse::check(out_dir, &identity, opts.force)? == Reuse::Another {
-        reuse::clean(out_dir)?;
-        progress.notice(&format!("--force: deleted the results of another batch in {}", out_dir.display()));
-    }
+    claim_folder(plan, out_dir, opts, progress)?;
     let jobs = opts.jobs.unwrap_or(cores).clamp(1, mine.len().max(1));
     let threads =
         plan.threads_per_run.unwrap_or_else(|| default_threads(opts.jobs.unwrap_or(cores), cores, mine.len()));
     // A resumed folder whose batch is already in the history is not appended twice.
     let previous = opts.resume.then(|| Outcome::of_folder(out_dir)).flatten();
-    let meta = BatchRecord {
+    let mut meta = BatchRecord {
         plan,
         shard: opts.shard,
         resume: opts.resume,
@@ -165,16 +159,15 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     let mut calibration = Calibration::new();
     std::fs::create_dir_all(out_dir).with_context(|| format!("{}: cannot create", out_dir.display()))?;
     meta.write(out_dir, None, false, &calibration)?;
-    let mut summary = SummaryWriter::create(&summary_csv(out_dir))?;
+    let summary = SummaryWriter::create(&summary_csv(out_dir))?;
     std::fs::create_dir_all(crate::run_folder::runs_dir(out_dir))
         .with_context(|| format!("{}: cannot create", out_dir.display()))?;
     // The reference minima the runs are judged by, before any run (computing a missing one
     // is a tight solve, timed by nobody).
-    let mut meta = meta;
     meta.references = crate::judge::reference::prepare(plan, &mine, progress, &opts.interrupt)?;
     calibrate(&mut calibration, jobs, threads, progress);
     meta.write(out_dir, None, false, &calibration)?;
-    let mut report =
+    let report =
         BatchReport { skipped_datasets: plan.notices.clone(), out_dir: out_dir.to_path_buf(), ..Default::default() };
     let code = code_id(&plan.config.dir);
     let total = mine.len();
@@ -183,167 +176,26 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     }
     progress.start(total * plan.repeat, jobs);
     let mut slots: Vec<Option<Slot>> = (0..total).map(|_| None).collect();
-    // Each finished run, whether it was resumed, and the key of the sidecar this batch wrote.
-    let mut finished: Vec<(usize, SummaryRow, bool, Option<String>)> = Vec::new();
-    // Datasets whose mesh copy this batch has written (once each, with its first map).
-    let mut meshes_written: Vec<usize> = Vec::new();
-    let mut finish = |i: usize, worker: usize, slot: Slot, report: &mut BatchReport| -> Result<()> {
-        let Slot { mut first, resumed, key, repeats } = slot;
-        if let Some(r) = repeats {
-            r.apply(&mut first);
-        }
-        let p = mine[i];
-        // A run whose files cannot be written (a folder in the way, a name the OS refuses)
-        // fails alone, like any other failed run; without a sidecar `--resume` retries it.
-        let sidecar_key = key.as_deref().filter(|_| !resumed);
-        let files = RunFiles {
-            stem: &p.stem,
-            summary: &first.summary,
-            rows: &first.rows,
-            map: first.map_uv.as_deref().map(|uv| MapBytes {
-                dataset: &first.summary.dataset,
-                uv,
-                mesh: first.mesh_file.as_deref().filter(|_| !meshes_written.contains(&p.dataset)).map(|m| m.as_slice()),
-            }),
-            key: sidecar_key,
-        };
-        let written = write_run(out_dir, &files);
-        if written.is_ok() && files.map.as_ref().is_some_and(|m| m.mesh.is_some()) {
-            meshes_written.push(p.dataset);
-        }
-        let wrote = sidecar_key.filter(|_| written.is_ok()).map(str::to_string);
-        if sidecar_key.is_none() && !resumed {
-            // A previous batch's sidecar must not vouch for these files.
-            let _ = std::fs::remove_file(sidecar::path(out_dir, &p.stem));
-        }
-        if let Err(e) = written {
-            let s = &first.summary;
-            first.summary = SummaryRow {
-                dataset: s.dataset.clone(),
-                task: s.task,
-                energy: s.energy.clone(),
-                solver: s.solver.clone(),
-                vertices: s.vertices,
-                faces: s.faces,
-                status: Status::Failed,
-                error: format!("{e:#}"),
-                ..Default::default()
-            };
-        }
-        let s = &first.summary;
-        let line = run_line(finished.len() + 1, total, s, resumed);
-        progress.run_finished(worker, &line);
-        match s.status {
-            Status::Ok => report.ok += 1,
-            Status::NotConverged => report.not_converged += 1,
-            Status::Failed => report.failed += 1,
-            Status::Skipped => report.skipped += 1,
-        }
-        report.runs += 1;
-        report.resumed += usize::from(resumed);
-        summary.append(s)?;
-        finished.push((i, first.summary, resumed, wrote));
-        Ok(())
-    };
+    let mut done =
+        Finisher { out_dir, mine: &mine, progress, summary, finished: Vec::new(), meshes_written: Vec::new(), report };
     for round in 0..plan.repeat {
         if opts.interrupt.load(Ordering::Relaxed) {
             break;
         }
-        // Round 0 runs everything; round r the runs whose next repeat is r + 1 (a run whose
-        // repeats an earlier batch began waits for the round of its next one).
-        let todo: Vec<Todo> = if round == 0 {
-            (0..total).map(|index| Todo { index, stop_at: None, keep_map: plan.maps != Maps::None }).collect()
-        } else {
-            slots
-                .iter()
-                .enumerate()
-                .filter_map(|(index, s)| {
-                    let s = s.as_ref().filter(|s| s.next_in(round))?;
-                    let keep_map = s.first.map_uv.is_none() && plan.maps != Maps::None;
-                    Some(Todo { index, stop_at: replay_to(&s.first), keep_map })
-                })
-                .collect()
-        };
+        let todo = round_todo(round, &slots, total, plan.maps);
         if todo.is_empty() {
             continue;
         }
         if round > 0 {
             calibrate(&mut calibration, jobs, threads, progress);
         }
-        let outcome = run_round(plan, out_dir, &mine, &todo, opts, progress, jobs, threads, &code, round, |done| {
-            let Done { index: i, worker, result, origin, key } = done;
-            if result.interrupted {
-                return Ok(());
-            }
-            let stem = &mine[i].stem;
-            let ran = matches!(origin, Origin::Ran);
-            let slot = match (slots[i].take(), origin) {
-                (None, Origin::Resumed) => Slot { first: result, resumed: true, key, repeats: None },
-                (None, Origin::Restored(repeats)) => {
-                    // Those repeats were solved in the earlier batch.
-                    progress.fewer_solves(repeats.count());
-                    progress.notice(&format!("  {stem}: {} of {} repeats resumed", repeats.count(), plan.repeat));
-                    Slot { first: result, resumed: false, key, repeats: Some(repeats) }
-                }
-                (None, Origin::Ran) => {
-                    let repeats = (plan.repeat > 1 && Repeats::wanted(&result)).then(|| Repeats::new(&result));
-                    Slot { first: result, resumed: false, key, repeats }
-                }
-                (Some(mut slot), _) => {
-                    if let Some(r) = slot.repeats.as_mut() {
-                        r.add(&slot.first, &result);
-                    }
-                    // A run resumed from its partial repeats gets its map from this repeat.
-                    if slot.first.map_uv.is_none() && result.map_uv.is_some() {
-                        (slot.first.map_uv, slot.first.mesh_file) = (result.map_uv, result.mesh_file);
-                    }
-                    slot
-                }
-            };
-            if slot.repeats.is_none() && plan.repeat > 1 {
-                // Failed, skipped and resumed runs are not repeated: fewer solves to go.
-                progress.fewer_solves(plan.repeat - 1);
-            }
-            if slot.complete(plan.repeat) {
-                // A repeat that did not reproduce the first ends the run: its other repeats
-                // will not run.
-                if let Some(r) = slot.repeats.as_ref().filter(|r| r.mismatched()) {
-                    progress.fewer_solves(plan.repeat.saturating_sub(r.count() + 1));
-                }
-                finish(i, worker, slot, &mut report)?;
-            } else {
-                if let Some(r) = slot.repeats.as_ref().filter(|_| ran) {
-                    let t = r.last_time().map_or("-".to_string(), |t| format!("{t:.3} s"));
-                    progress.run_finished(worker, &format!("  repeat {}/{} {stem}: {t}", r.count(), plan.repeat));
-                }
-                slots[i] = Some(slot);
-            }
-            Ok(())
-        });
-        outcome?;
+        let workers = Workers { plan, out_dir, mine: &mine, opts, progress, jobs, threads, code: &code };
+        run_round(&workers, &todo, round, |d| match absorb(&mut slots, d, plan, &mine, progress) {
+            Some((i, worker, slot)) => done.finish(i, worker, slot),
+            None => Ok(()),
+        })?;
     }
-    // Runs whose repeats an interrupt cut short: their repeats so far are kept for
-    // `--resume` (no summary row: they did not finish); a run whose repeats disagreed
-    // has its result (failed) whatever is missing.
-    for (i, slot) in slots.iter_mut().enumerate() {
-        let Some(slot) = slot.take() else { continue };
-        if slot.complete(plan.repeat) {
-            finish(i, 0, slot, &mut report)?;
-            continue;
-        }
-        let stem = &mine[i].stem;
-        let Slot { first, key, repeats, .. } = slot;
-        let Some(repeats) = repeats else { continue };
-        // An earlier batch's sidecar must not vouch for this run.
-        let _ = std::fs::remove_file(sidecar::path(out_dir, stem));
-        report.partial.push((stem.clone(), repeats.count()));
-        if let Some(key) = key {
-            let partial = sidecar::Partial { key, summary: first.summary, repeats };
-            if let Err(e) = sidecar::write_partial(out_dir, stem, &partial, &first.rows) {
-                progress.notice(&format!("{stem}: its repeats so far cannot be kept for --resume: {e:#}"));
-            }
-        }
-    }
+    done.keep_partials(&mut slots, plan.repeat)?;
     progress.finish();
     // A stopped batch ends without the last sample (Slurm kills a job some seconds after its
     // SIGTERM). It is interrupted when runs are missing: a signal after the last run cuts
@@ -351,87 +203,15 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     if !opts.interrupt.load(Ordering::Relaxed) {
         calibrate(&mut calibration, jobs, threads, progress);
     }
+    let Finisher { finished, mut report, .. } = done;
     report.interrupted = total - report.runs;
-    let interrupted = report.interrupted > 0;
-    if interrupted {
-        let partial = match report.partial.len() {
-            0 => String::new(),
-            n => format!(
-                "{n} cut short in their repeats ({}; kept for `--resume`), ",
-                report.partial.iter().map(|(s, k)| format!("{s} {k}/{}", plan.repeat)).collect::<Vec<_>>().join(", ")
-            ),
-        };
-        progress.notice(&format!(
-            "interrupted: {} runs finished and written, {partial}{} not run (`--resume` runs them)",
-            report.runs,
-            report.interrupted - report.partial.len()
-        ));
-    }
-    if calibration.unsteady() {
-        progress.notice(&format!(
-            "the calibration samples spread by {:.0}% (over {:.0}%): the machine changed speed during the batch",
-            100.0 * calibration.spread().unwrap_or(0.0),
-            100.0 * crate::calibration::SPREAD_WARNING
-        ));
-    }
-    // summary.csv in canonical order, whatever order the workers finished in, with the runs
-    // measured here normalized by this batch's calibration (a resumed run keeps its own, or
-    // none: it was timed in another batch, on a machine this calibration did not see).
-    finished.sort_by_key(|(i, ..)| *i);
-    let mut judged: Vec<SummaryRow> = finished.iter().map(|(_, s, ..)| s.clone()).collect();
-    let stop_of = |energy: &str| plan.runs.iter().find(|p| p.energy == energy).map(|p| p.settings.stop().grad_tol);
-    crate::judge::judge_batch(out_dir, &mut judged, &meta.references, &plan.targets, stop_of)?;
-    if let Some(line) = verdict_line(&judged, &plan.targets) {
-        progress.notice(&line);
-    }
-    (report.ok, report.not_converged) = (0, 0);
-    for ((_, s, ..), j) in finished.iter_mut().zip(judged) {
-        match j.status {
-            Status::Ok => report.ok += 1,
-            Status::NotConverged => report.not_converged += 1,
-            Status::Failed | Status::Skipped => {}
-        }
-        *s = j;
-    }
-    let mut rows: Vec<SummaryRow> = Vec::with_capacity(finished.len());
-    for (i, mut s, resumed, wrote) in finished {
-        if !resumed && s.time_norm.is_none() {
-            s.time_norm = s.time_s.and_then(|t| calibration.normalize(t));
-            if let Some(key) = wrote {
-                sidecar::write(out_dir, &mine[i].stem, &key, &s)?;
-            }
-        }
-        rows.push(s);
-    }
-    crate::run_folder::write_summary(&summary_csv(out_dir), &rows)?;
-    // Every map was written as its run finished; now that the groups are complete, drop those
-    // `maps` does not keep (`best`: all but one per dataset and energy).
-    let missing = crate::run_folder::keep::prune(out_dir, plan.maps, &rows);
-    if !missing.is_empty() {
-        progress.notice(&format!(
-            "maps = \"{}\" keeps the maps of {} runs whose map this folder does not have (resumed from a batch \
-             that did not keep it): {}",
-            plan.maps.as_str(),
-            missing.len(),
-            missing.join(", ")
-        ));
-    }
+    batch_notices(&report, plan.repeat, &calibration, progress);
+    let rows = judge_and_write(plan, out_dir, &mine, &meta, &calibration, finished, &mut report, progress)?;
     // meta.json before the report, which states its calibration samples, then the history,
     // which reads the finished folder and records its outcome in meta.json for the report.
+    let interrupted = report.interrupted > 0;
     meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
-    let decision = if interrupted {
-        Decision::Skip("the batch was interrupted: its means would read as a change of the code".into())
-    } else {
-        match previous.as_ref().and_then(Outcome::in_history) {
-            Some((db, batch_id, trend))
-                if report.resumed == report.runs && plan.history.as_deref().map(absolute).as_deref() == Some(db) =>
-            {
-                Decision::AlreadyIn { batch_id, trend: trend.cloned() }
-            }
-            _ => Decision::Append,
-        }
-    };
-    report.history = Outcome::conclude(plan.history.as_deref(), out_dir, out_dir, decision)?;
+    report.history = record_history(plan, out_dir, previous.as_ref(), &report)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
     // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
     // CPU) must not fan the plots out to every core of the node.
@@ -441,6 +221,115 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         Err(_) => crate::report::refresh(out_dir, &rows)?,
     }
     Ok(report)
+}
+
+/// `out_dir` for this batch: refused when it holds another batch's results, unless
+/// `--force` (then they are deleted).
+fn claim_folder(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn Progress) -> Result<()> {
+    let identity = Identity {
+        config: plan.config.config.name.clone(),
+        plan: plan.runs.iter().map(|p| p.stem.clone()).collect(),
+        shard: opts.shard.map(|s| s.to_string()),
+    };
+    if reuse::check(out_dir, &identity, opts.force)? == Reuse::Another {
+        reuse::clean(out_dir)?;
+        progress.notice(&format!("--force: deleted the results of another batch in {}", out_dir.display()));
+    }
+    Ok(())
+}
+
+/// The work of round `round`: round 0 runs everything; round r the runs whose next repeat
+/// is r + 1 (a run whose repeats an earlier batch began waits for the round of its next one).
+fn round_todo(round: usize, slots: &[Option<Slot>], total: usize, maps: Maps) -> Vec<Todo> {
+    if round == 0 {
+        return (0..total).map(|index| Todo { index, stop_at: None, keep_map: maps != Maps::None }).collect();
+    }
+    slots
+        .iter()
+        .enumerate()
+        .filter_map(|(index, s)| {
+            let s = s.as_ref().filter(|s| s.next_in(round))?;
+            let keep_map = s.first.map_uv.is_none() && maps != Maps::None;
+            Some(Todo { index, stop_at: replay_to(&s.first), keep_map })
+        })
+        .collect()
+}
+
+/// The batch into the history database, unless it was interrupted (its means would read as
+/// a change of the code) or, resumed whole, is in it already.
+fn record_history(plan: &Plan, out_dir: &Path, previous: Option<&Outcome>, report: &BatchReport) -> Result<Outcome> {
+    let decision = if report.interrupted > 0 {
+        Decision::Skip("the batch was interrupted: its means would read as a change of the code".into())
+    } else {
+        match previous.and_then(Outcome::in_history) {
+            Some((db, batch_id, trend))
+                if report.resumed == report.runs && plan.history.as_deref().map(absolute).as_deref() == Some(db) =>
+            {
+                Decision::AlreadyIn { batch_id, trend: trend.cloned() }
+            }
+            _ => Decision::Append,
+        }
+    };
+    Ok(Outcome::conclude(plan.history.as_deref(), out_dir, out_dir, decision)?)
+}
+
+/// One result of a round into its run's slot: the run's slot when its last repeat is in
+/// (with the worker that ran it), to be finished; `None` while repeats are to come, or for
+/// a run an interrupt abandoned.
+fn absorb(
+    slots: &mut [Option<Slot>],
+    done: Done,
+    plan: &Plan,
+    mine: &[&PlannedRun],
+    progress: &dyn Progress,
+) -> Option<(usize, usize, Slot)> {
+    let Done { index: i, worker, result, origin, key } = done;
+    if result.interrupted {
+        return None;
+    }
+    let stem = &mine[i].stem;
+    let ran = matches!(origin, Origin::Ran);
+    let slot = match (slots[i].take(), origin) {
+        (None, Origin::Resumed) => Slot { first: result, resumed: true, key, repeats: None },
+        (None, Origin::Restored(repeats)) => {
+            // Those repeats were solved in the earlier batch.
+            progress.fewer_solves(repeats.count());
+            progress.notice(&format!("  {stem}: {} of {} repeats resumed", repeats.count(), plan.repeat));
+            Slot { first: result, resumed: false, key, repeats: Some(repeats) }
+        }
+        (None, Origin::Ran) => {
+            let repeats = (plan.repeat > 1 && Repeats::wanted(&result)).then(|| Repeats::new(&result));
+            Slot { first: result, resumed: false, key, repeats }
+        }
+        (Some(mut slot), _) => {
+            if let Some(r) = slot.repeats.as_mut() {
+                r.add(&slot.first, &result);
+            }
+            // A run resumed from its partial repeats gets its map from this repeat.
+            if slot.first.map_uv.is_none() && result.map_uv.is_some() {
+                (slot.first.map_uv, slot.first.mesh_file) = (result.map_uv, result.mesh_file);
+            }
+            slot
+        }
+    };
+    if slot.repeats.is_none() && plan.repeat > 1 {
+        // Failed, skipped and resumed runs are not repeated: fewer solves to go.
+        progress.fewer_solves(plan.repeat - 1);
+    }
+    if slot.complete(plan.repeat) {
+        // A repeat that did not reproduce the first ends the run: its other repeats will not
+        // run.
+        if let Some(r) = slot.repeats.as_ref().filter(|r| r.mismatched()) {
+            progress.fewer_solves(plan.repeat.saturating_sub(r.count() + 1));
+        }
+        return Some((i, worker, slot));
+    }
+    if let Some(r) = slot.repeats.as_ref().filter(|_| ran) {
+        let t = r.last_time().map_or("-".to_string(), |t| format!("{t:.3} s"));
+        progress.run_finished(worker, &format!("  repeat {}/{} {stem}: {t}", r.count(), plan.repeat));
+    }
+    slots[i] = Some(slot);
+    None
 }
 
 /// Threads per run when the config does not say: the cores the batch may use (`--jobs`, at
@@ -456,22 +345,23 @@ fn replay_to(first: &RunResult) -> Option<usize> {
     matches!(first.summary.stop_reason, Some(StopReason::Timeout)).then_some(first.summary.iterations).flatten()
 }
 
-/// One round: the runs `todo` on `jobs` workers; the calling thread hands each result to
-/// `done` as it arrives.
-#[allow(clippy::too_many_arguments)]
-fn run_round(
-    plan: &Plan,
-    out_dir: &Path,
-    mine: &[&PlannedRun],
-    todo: &[Todo],
-    opts: &RunOptions,
-    progress: &dyn Progress,
+/// What every worker of a batch shares.
+struct Workers<'a> {
+    plan: &'a Plan,
+    out_dir: &'a Path,
+    mine: &'a [&'a PlannedRun],
+    opts: &'a RunOptions,
+    progress: &'a dyn Progress,
     jobs: usize,
     threads: usize,
-    code: &str,
-    round: usize,
-    mut done: impl FnMut(Done) -> Result<()>,
-) -> Result<()> {
+    /// The code's identity in the run keys.
+    code: &'a str,
+}
+
+/// One round: the runs `todo` on `jobs` workers; the calling thread hands each result to
+/// `done` as it arrives.
+fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done) -> Result<()>) -> Result<()> {
+    let Workers { plan, out_dir, mine, opts, progress, jobs, threads, code } = *w;
     let meshes = MeshCache::new(todo.iter().map(|t| mine[t.index].dataset), plan.datasets.len());
     let next = AtomicUsize::new(0);
     let (tx, rx) = mpsc::channel::<Done>();

@@ -101,6 +101,34 @@ fn sections(cmp: &FolderComparison) -> Vec<Section> {
     if !improvements.is_empty() {
         out.push(Section::Table(table("Improvements", &change_columns, improvements, "")));
     }
+    out.extend(time_changes(cmp));
+    out.push(runs_in_both(cmp));
+    for (title, rows) in [("Only in A", &cmp.only_a), ("Only in B", &cmp.only_b)] {
+        if !rows.is_empty() {
+            out.push(Section::Table(table(
+                title,
+                &["dataset", "task", "energy", "solver", "iterations", "status"],
+                rows.iter()
+                    .map(|r| {
+                        vec![
+                            r.dataset.clone(),
+                            r.task.as_str().into(),
+                            r.energy.clone(),
+                            r.solver.clone(),
+                            r.iterations.map_or("-".to_string(), |x| x.to_string()),
+                            r.status.to_string(),
+                        ]
+                    })
+                    .collect(),
+                "",
+            )));
+        }
+    }
+    out
+}
+
+/// The runs whose time moved beyond the noise rule, if any.
+fn time_changes(cmp: &FolderComparison) -> Option<Section> {
     let timed: Vec<Vec<String>> = cmp
         .pairs
         .iter()
@@ -122,16 +150,15 @@ fn sections(cmp: &FolderComparison) -> Vec<Section> {
             ])
         })
         .collect();
-    if !timed.is_empty() {
-        let title =
-            if cmp.options.time_regressions { "Time changes (slower gated)" } else { "Time changes (not gated)" };
-        out.push(Section::Table(table(
-            title,
-            &["run", "A", "B", "ratio", "change", "rule"],
-            timed,
-            cmp.unit.describe(),
-        )));
+    if timed.is_empty() {
+        return None;
     }
+    let title = if cmp.options.time_regressions { "Time changes (slower gated)" } else { "Time changes (not gated)" };
+    Some(Section::Table(table(title, &["run", "A", "B", "ratio", "change", "rule"], timed, cmp.unit.describe())))
+}
+
+/// Every run in both folders, side by side, its regressions in bold.
+fn runs_in_both(cmp: &FolderComparison) -> Section {
     let mut runs = table(
         "Runs in both folders",
         &[
@@ -194,32 +221,10 @@ fn sections(cmp: &FolderComparison) -> Vec<Section> {
         ]);
     }
     if runs.rows.is_empty() {
-        out.push(Section::Text { title: "Runs in both folders".into(), text: "None: nothing to compare.".into() });
+        Section::Text { title: "Runs in both folders".into(), text: "None: nothing to compare.".into() }
     } else {
-        out.push(Section::Table(runs));
+        Section::Table(runs)
     }
-    for (title, rows) in [("Only in A", &cmp.only_a), ("Only in B", &cmp.only_b)] {
-        if !rows.is_empty() {
-            out.push(Section::Table(table(
-                title,
-                &["dataset", "task", "energy", "solver", "iterations", "status"],
-                rows.iter()
-                    .map(|r| {
-                        vec![
-                            r.dataset.clone(),
-                            r.task.as_str().into(),
-                            r.energy.clone(),
-                            r.solver.clone(),
-                            r.iterations.map_or("-".to_string(), |x| x.to_string()),
-                            r.status.to_string(),
-                        ]
-                    })
-                    .collect(),
-                "",
-            )));
-        }
-    }
-    out
 }
 
 fn ratio(t: &TimePair) -> String {
