@@ -11,7 +11,7 @@ use nalgebra::Matrix6;
 use rayon::prelude::*;
 use solvers::assembly::Pattern;
 use solvers::authalic::AuthalicProblem;
-use solvers::energy::EnergyKind;
+use solvers::energy::{EnergyKind, Sd};
 use solvers::generate::generate;
 use solvers::hessian::{kp::Kp, SystemBlock};
 use solvers::init::{tutte, TutteBoundary};
@@ -24,7 +24,7 @@ use std::hint::black_box;
 fn bench(c: &mut Criterion) {
     for (label, name) in [("5k", "bumpy_5k"), ("50k", "bumpy_50k")] {
         let mesh = generate(name).expect("generated mesh").normalized();
-        let problem = MapProblem::new(&mesh, EnergyKind::Sd).expect("no degenerate faces");
+        let problem = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).expect("no degenerate faces");
         let x = tutte(&mesh, TutteBoundary::Uniform).expect("Tutte embedding");
         let mut ev = Evaluation::default();
         problem.evaluate(&x, &mut ev).expect("Tutte map is in the domain");

@@ -192,6 +192,7 @@ fn deform_problem(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::energy::{Nh, Sd};
     use crate::generate::{generate, generated_handles};
     use crate::problem::MapProblem;
     use crate::solver::Recorder;
@@ -229,9 +230,9 @@ mod tests {
             // SLIM is first order (hundreds of iterations on NH): SD is enough to show that its
             // proxy system carries the soft handles.
             let energies: &[EnergyKind] = if solver == "slim" {
-                &[EnergyKind::Sd]
+                &[EnergyKind::Sd(Sd)]
             } else {
-                &[EnergyKind::Sd, EnergyKind::Nh { mu: 0.2, kappa: 0.8 }]
+                &[EnergyKind::Sd(Sd), EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 })]
             };
             for &energy in energies {
                 let mut rec = Recorder::default();
@@ -249,7 +250,7 @@ mod tests {
     #[test]
     fn the_smoothness_term_enters_energy_and_gradient_consistently() {
         let mesh = generate("planar_limbs_2k").unwrap().normalized();
-        let problem = MapProblem::new(&mesh, EnergyKind::Nh { mu: 0.2, kappa: 0.8 }).unwrap().with_smoothness(
+        let problem = MapProblem::new(&mesh, EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 })).unwrap().with_smoothness(
             &mesh,
             0.25,
             crate::smoothness::Projection::Analytic,
@@ -266,7 +267,7 @@ mod tests {
         let mut ev = crate::problem::Evaluation::default();
         problem.evaluate(&x, &mut ev).unwrap();
         assert!((ev.energy - problem.energy(&x)).abs() < 1e-12 * ev.energy);
-        let without = MapProblem::new(&mesh, EnergyKind::Nh { mu: 0.2, kappa: 0.8 }).unwrap();
+        let without = MapProblem::new(&mesh, EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 })).unwrap();
         assert!(ev.energy > without.energy(&x), "the term is positive away from equal densities");
         let h = 1e-7;
         for i in (0..x.len()).step_by(97) {
@@ -286,7 +287,7 @@ mod tests {
         for proj in [crate::smoothness::Projection::Analytic, crate::smoothness::Projection::Numeric] {
             let s = DeformSettings { smoothness: Some((0.25, proj)), ..settings() };
             let mut rec = Recorder::default();
-            let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd, "kp-newton", &s, &mut rec).unwrap();
+            let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd(Sd), "kp-newton", &s, &mut rec).unwrap();
             assert!(out.stop_reason.is_converged(), "{proj:?}: {:?}", out.stop_reason);
             assert!(rec.rows.windows(2).all(|w| w[1].energy <= w[0].energy), "{proj:?}");
             assert!(rec.rows.iter().all(|r| r.flips == 0), "{proj:?}");
@@ -296,8 +297,9 @@ mod tests {
         assert!((energies[0] - energies[1]).abs() < 1e-4 * energies[0], "{energies:?}");
         // the eig8 solver overrides the configured projection
         let s = DeformSettings { smoothness: Some((0.25, crate::smoothness::Projection::Analytic)), ..settings() };
-        let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd, "kp-newton-eig8", &s, &mut Recorder::default())
-            .unwrap();
+        let out =
+            solve_deform(&mesh, &handles, None, EnergyKind::Sd(Sd), "kp-newton-eig8", &s, &mut Recorder::default())
+                .unwrap();
         assert!((out.final_energy - energies[1]).abs() < 1e-9 * energies[1]);
     }
 
@@ -315,7 +317,7 @@ mod tests {
         tight.solver.stop.energy_decrease_tol = 0.0;
         tight.solver.stop.grad_tol = 1e-6;
         let init = crate::generate::generated_init(name).unwrap();
-        for energy in [EnergyKind::Sd, EnergyKind::Nh { mu: 0.2, kappa: 0.8 }] {
+        for energy in [EnergyKind::Sd(Sd), EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 })] {
             let e_min = energy.value(1.0, 0.0);
             let mut rec = Recorder::default();
             let out = solve_deform(&mesh, &handles, Some(&init), energy, "kp-newton", &tight, &mut rec).unwrap();
@@ -341,7 +343,7 @@ mod tests {
             &mesh,
             &handles,
             Some(&short),
-            EnergyKind::Sd,
+            EnergyKind::Sd(Sd),
             "kp-newton",
             &settings(),
             &mut Recorder::default(),
@@ -360,7 +362,7 @@ mod tests {
                 h.iter().filter(|h| h.target == [mesh.positions[h.vertex][0], mesh.positions[h.vertex][1]]).count();
             assert!(held > 10 && held < h.len(), "{rule}");
             let mut rec = Recorder::default();
-            let out = solve_deform(&mesh, &h, None, EnergyKind::Sd, "kp-newton", &settings(), &mut rec).unwrap();
+            let out = solve_deform(&mesh, &h, None, EnergyKind::Sd(Sd), "kp-newton", &settings(), &mut rec).unwrap();
             assert!(out.stop_reason.is_converged() && rec.rows.iter().all(|r| r.flips == 0), "{rule}");
         }
         assert!(rule_handles(&mesh, "bend").unwrap_err().contains("unknown handles rule 'bend'"));
@@ -370,7 +372,7 @@ mod tests {
     fn bad_inputs_are_typed_errors() {
         let mesh = generate("planar_bar_2k").unwrap();
         let run = |m: &Mesh, h: &[Handle]| {
-            solve_deform(m, h, None, EnergyKind::Sd, "kp-newton", &settings(), &mut Recorder::default())
+            solve_deform(m, h, None, EnergyKind::Sd(Sd), "kp-newton", &settings(), &mut Recorder::default())
                 .unwrap_err()
                 .to_string()
         };
@@ -397,7 +399,7 @@ mod tests {
             let mesh = generate(name).unwrap();
             let handles = generated_handles(name).unwrap();
             let init = generated_init(name);
-            for (energy, at_rest) in [(EnergyKind::Sd, 2.0), (EnergyKind::Nh { mu: 0.2, kappa: 0.8 }, 0.0)] {
+            for (energy, at_rest) in [(EnergyKind::Sd(Sd), 2.0), (EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 }), 0.0)] {
                 let e = elastic_energies(&mesh, init.as_deref(), energy, &settings()).unwrap();
                 assert!((e.rest - at_rest).abs() < 1e-12, "{name} {energy:?}: {}", e.rest);
                 let mut rec = Recorder::default();

@@ -156,50 +156,7 @@ fn flipped_faces(mesh: &Mesh, x: &[f64]) -> usize {
 /// Smallest factor `s` that makes the element's `K` PSD when the map is scaled by `s`, for
 /// the energies where only `2 a1` can be negative (Section 4.2); `None` for the others.
 pub fn element_psd_scale(energy: &EnergyKind, s: &ElementState) -> Option<f64> {
-    let (x, y) = (s.x(), s.y());
-    let d = x - y;
-    match *energy {
-        // a1(s) = 1 - (x + 3y)(x - y)^-3 s^-4 >= 0
-        EnergyKind::Sd => Some(((x + 3.0 * y) / (d * d * d)).powf(0.25)),
-        // a1(s) = k (1 - (s^2 d)^-2) >= 0
-        EnergyKind::Bconf { .. } => Some(1.0 / d.sqrt()),
-        // a1(s) >= 0  <=>  (k + 2) s^4 - 2 x^-1/2 s^3 - k d^-2 >= 0: one positive root.
-        EnergyKind::Barap { k } => Some(barap_scale(k, x, d)),
-        _ => None,
-    }
-}
-
-/// The unique positive root of `p(s) = (k + 2) s^4 - 2 x^-1/2 s^3 - k d^-2` (p(0) < 0, and p
-/// has a single positive critical point), by bracketing and bisection-safeguarded Newton.
-fn barap_scale(k: f64, x: f64, d: f64) -> f64 {
-    let a = k + 2.0;
-    let b = 2.0 / x.sqrt();
-    let c = k / (d * d);
-    let p = |s: f64| ((a * s - b) * s * s) * s - c;
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    while p(hi) < 0.0 {
-        lo = hi;
-        hi *= 2.0;
-    }
-    let mut s = hi;
-    for _ in 0..200 {
-        let ps = p(s);
-        if ps > 0.0 {
-            hi = s;
-        } else {
-            lo = s;
-        }
-        let dp = (4.0 * a * s - 3.0 * b) * s * s;
-        let mut next = s - ps / dp;
-        if !(next > lo && next < hi && next.is_finite()) {
-            next = 0.5 * (lo + hi);
-        }
-        if (next - s).abs() <= 1e-15 * s {
-            return next;
-        }
-        s = next;
-    }
-    s
+    energy.psd_scale(s.x(), s.y())
 }
 
 /// The global scale of Section 4.2: sort the per-element PSD scales, walk from the middle of
@@ -233,6 +190,7 @@ pub fn global_scale(problem: &MapProblem, x: &[f64], jump: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::energy::{Barap, Bconf, Sarap, Sd};
     use crate::generate::generate;
     use crate::hessian::count_negative;
     use crate::problem::Evaluation;
@@ -243,7 +201,7 @@ mod tests {
             let mesh = generate(name).unwrap().normalized();
             for b in [TutteBoundary::Uniform, TutteBoundary::Arclength] {
                 let x = tutte(&mesh, b).unwrap();
-                let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+                let pb = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
                 assert_eq!(pb.flips(&x), 0, "{name}");
                 assert!(pb.energy(&x).is_finite());
                 let loops = boundary_loops(&mesh.faces, mesh.n_vertices());
@@ -267,9 +225,12 @@ mod tests {
     fn element_scale_is_the_smallest_psd_scale() {
         use crate::energy::tests::{random_xy, Lcg};
         let mut rng = Lcg(41);
-        for e in
-            [EnergyKind::Sd, EnergyKind::Bconf { k: 0.1 }, EnergyKind::Barap { k: 0.1 }, EnergyKind::Barap { k: 2.0 }]
-        {
+        for e in [
+            EnergyKind::Sd(Sd),
+            EnergyKind::Bconf(Bconf { k: 0.1 }),
+            EnergyKind::Barap(Barap { k: 0.1 }),
+            EnergyKind::Barap(Barap { k: 2.0 }),
+        ] {
             for _ in 0..500 {
                 let (x, y) = random_xy(&mut rng);
                 let (x, y) = (0.05 * x, 0.05 * y); // shrunken: mostly indefinite
@@ -291,7 +252,7 @@ mod tests {
         // the rule returns the maximum, the smallest scale with every element Hessian PSD.
         let mesh = generate("cap_2k").unwrap().normalized();
         let x = tutte(&mesh, TutteBoundary::Uniform).unwrap();
-        let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let pb = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let s = global_scale(&pb, &x, 0.1).unwrap();
         let scaled: Vec<f64> = x.iter().map(|v| v * s * (1.0 + 1e-9)).collect();
         let mut ev = Evaluation::default();
@@ -309,7 +270,7 @@ mod tests {
         // The flat disk's uniform-angle boundary gives a few outlying scales (a jump of 0.13).
         let mesh = generate("flat_disk_1k").unwrap().normalized();
         let x = tutte(&mesh, TutteBoundary::Uniform).unwrap();
-        let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let pb = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let mut scales: Vec<f64> = (0..pb.n_faces())
             .map(|t| {
                 let w = pb.ops[t].wirtinger(pb.target(&x, t));
@@ -326,6 +287,6 @@ mod tests {
             assert!(scales[j] - scales[j - 1] <= 0.1);
         }
         assert!(i < scales.len() - 1 && scales[i] - scales[i - 1] > 0.1, "no jump found");
-        assert_eq!(global_scale(&MapProblem::new(&mesh, EnergyKind::Sarap).unwrap(), &x, 0.1), None);
+        assert_eq!(global_scale(&MapProblem::new(&mesh, EnergyKind::Sarap(Sarap)).unwrap(), &x, 0.1), None);
     }
 }

@@ -114,7 +114,7 @@ pub fn armijo(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sd};
     use crate::mesh::Mesh;
 
     fn close(a: f64, b: f64) -> bool {
@@ -142,7 +142,7 @@ mod tests {
 
     fn triangle() -> MapProblem {
         let mesh = Mesh::new("tri", vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]]);
-        MapProblem::new(&mesh, EnergyKind::Sd).unwrap()
+        MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap()
     }
 
     #[test]

@@ -22,11 +22,10 @@ pub struct ParamSettings {
     pub smoothness: Option<(f64, Projection)>,
 }
 
-/// design.md defaults: `|grad| <= 1e-3`, SARAP on energy decrease `< 1e-8` (its gradient
-/// indicator fails near conformal maps, Section 6.1), 1000 iterations.
+/// design.md defaults: `|grad| <= 1e-3`, 1000 iterations, and the energy's own decrease
+/// rule if it has one (SARAP's, [`Density::energy_decrease_tol`]).
 pub fn default_stop(energy: &EnergyKind) -> StopSettings {
-    let d = StopSettings::default();
-    StopSettings { energy_decrease_tol: if matches!(energy, EnergyKind::Sarap) { 1e-8 } else { 0.0 }, ..d }
+    StopSettings { energy_decrease_tol: energy.energy_decrease_tol(), ..StopSettings::default() }
 }
 
 /// Jump threshold of the global-scaling heuristic in the paper (Section 4.2).
@@ -93,11 +92,12 @@ pub fn start_map(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::energy::{Sarap, Sd};
     use crate::generate::generate;
     use crate::solver::Recorder;
 
     fn run(mesh: &Mesh) -> Result<Outcome, MapError> {
-        let energy = EnergyKind::Sd;
+        let energy = EnergyKind::Sd(Sd);
         solve_param(mesh, energy, "kp-newton", &ParamSettings::for_energy(&energy), &mut Recorder::default())
     }
 
@@ -107,7 +107,9 @@ mod tests {
     fn every_solver_starts_from_the_common_map_unless_it_declares_its_own() {
         use crate::solver::catalogue::names_for;
         let mesh = generate("bumpy_1k").unwrap();
-        for (energy, scaled) in [(EnergyKind::Sd, StartMap::TutteScaled), (EnergyKind::Sarap, StartMap::Tutte)] {
+        for (energy, scaled) in
+            [(EnergyKind::Sd(Sd), StartMap::TutteScaled), (EnergyKind::Sarap(Sarap), StartMap::Tutte)]
+        {
             let mut settings = ParamSettings::for_energy(&energy);
             settings.solver.stop.max_iters = 1;
             let mut starts = Vec::new();
@@ -169,9 +171,9 @@ mod tests {
         use crate::hessian::{none::Unprojected, ElementState, SystemBlock};
         use crate::solver::{newton::newton, StopReason};
         let mesh = generate("bumpy_1k").unwrap();
-        let settings = ParamSettings::for_energy(&EnergyKind::Sd);
+        let settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
         let mut rec = Recorder::default();
-        let out = solve_param(&mesh, EnergyKind::Sd, "newton", &settings, &mut rec).unwrap();
+        let out = solve_param(&mesh, EnergyKind::Sd(Sd), "newton", &settings, &mut rec).unwrap();
         assert!(matches!(out.stop_reason, StopReason::LinearSolveFailed(_)), "{:?}", out.stop_reason);
         let detail = out.stop_reason.detail().unwrap();
         assert!(
@@ -190,7 +192,7 @@ mod tests {
             }
         }
         let normalized = mesh.normalized();
-        let problem = crate::problem::MapProblem::new(&normalized, EnergyKind::Sd).unwrap();
+        let problem = crate::problem::MapProblem::new(&normalized, EnergyKind::Sd(Sd)).unwrap();
         // From the unscaled Tutte map (1064 indefinite element Hessians, not positive
         // definite at iterate 0) the retry goes on to convergence; from the common start it
         // too fails, at iterate 1, with shifts up to 1e-1.

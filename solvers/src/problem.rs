@@ -407,6 +407,7 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
 mod tests {
     use super::*;
     use crate::energy::tests::{all_energies, Lcg};
+    use crate::energy::Sd;
 
     fn grid(n: usize) -> Mesh {
         let mut p = Vec::new();
@@ -521,7 +522,7 @@ mod tests {
     #[test]
     fn inverted_map_has_infinite_energy_and_typed_error() {
         let mesh = grid(2);
-        let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let pb = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let mut x: Vec<f64> = mesh.positions.iter().flat_map(|p| [p[0], p[1]]).collect();
         x[2 * 4] = 2.0; // push the centre vertex far out: folds triangles
         assert_eq!(pb.energy(&x), f64::INFINITY);

@@ -281,7 +281,7 @@ pub fn block(c: f64, si: &ElementState, sj: &ElementState, m: &Matrix8, projecti
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::energy::EnergyKind;
+    use crate::energy::{Barap, Bconf, EnergyKind, Nh, Sd};
     use crate::hessian::ElementState;
 
     fn lcg(seed: u64) -> impl FnMut() -> f64 {
@@ -325,10 +325,10 @@ mod tests {
     }
 
     const ENERGIES: [EnergyKind; 4] = [
-        EnergyKind::Sd,
-        EnergyKind::Nh { mu: 0.2, kappa: 0.8 },
-        EnergyKind::Bconf { k: 0.1 },
-        EnergyKind::Barap { k: 0.1 },
+        EnergyKind::Sd(Sd),
+        EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 }),
+        EnergyKind::Bconf(Bconf { k: 0.1 }),
+        EnergyKind::Barap(Barap { k: 0.1 }),
     ];
 
     #[test]

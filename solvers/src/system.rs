@@ -117,6 +117,7 @@ impl NewtonSystem {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::energy::Sd;
     use crate::linear::{LinearSettings, SpdSolver};
     use crate::ordering::Ordering;
 
@@ -146,7 +147,7 @@ mod tests {
     #[test]
     fn the_exported_system_is_bit_for_bit_the_one_the_run_factorizes() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
-        let e = EnergyKind::Sd;
+        let e = EnergyKind::Sd(Sd);
         let mut smooth = ParamSettings::for_energy(&e);
         smooth.smoothness = Some((0.25, crate::smoothness::Projection::Analytic));
         let mut nnz = Vec::new();
@@ -164,7 +165,7 @@ mod tests {
     #[test]
     fn the_exported_system_is_the_one_newton_solves() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
-        let e = EnergyKind::Sd;
+        let e = EnergyKind::Sd(Sd);
         let settings = ParamSettings::for_energy(&e);
         let sys = param_system(&mesh, e, "kp-newton", &settings, 2).unwrap();
         assert_eq!(sys.iteration, 2);
@@ -190,7 +191,7 @@ mod tests {
     #[test]
     fn the_exported_system_carries_the_smoothness_term() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
-        let e = EnergyKind::Sd;
+        let e = EnergyKind::Sd(Sd);
         let plain = param_system(&mesh, e, "kp-newton", &ParamSettings::for_energy(&e), 0).unwrap();
         let settings = ParamSettings {
             smoothness: Some((0.25, crate::smoothness::Projection::Analytic)),

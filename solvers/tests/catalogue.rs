@@ -2,7 +2,7 @@
 //! columns it declares, and the tasks refuse each other's solvers by name.
 
 use solvers::authalic::{solve_authalic, AuthalicSettings};
-use solvers::energy::EnergyKind;
+use solvers::energy::{EnergyKind, Sd};
 use solvers::generate::{generate, generated_handles};
 use solvers::mesh::Task;
 use solvers::param::{solve_param, ParamSettings};
@@ -18,9 +18,9 @@ fn every_solver_writes_exactly_the_extra_columns_it_declares() {
             let settings = AuthalicSettings { stop, ..Default::default() };
             solve_authalic(&disk, entry.name, &settings, &mut rec).unwrap();
         } else {
-            let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+            let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
             settings.solver.stop.max_iters = 2;
-            solve_param(&disk, EnergyKind::Sd, entry.name, &settings, &mut rec).unwrap();
+            solve_param(&disk, EnergyKind::Sd(Sd), entry.name, &settings, &mut rec).unwrap();
         }
         // Unprojected newton may stop at its first failed factorization (row 0 only); every
         // solver that declares extra columns must show them on an iteration row too.
@@ -35,7 +35,7 @@ fn every_solver_writes_exactly_the_extra_columns_it_declares() {
 
 #[test]
 fn param_and_deform_refuse_an_authalic_solver_by_name() {
-    let e = EnergyKind::Sd;
+    let e = EnergyKind::Sd(Sd);
     let disk = generate("bumpy_1k").unwrap();
     let err = solve_param(&disk, e, "sem", &ParamSettings::for_energy(&e), &mut Recorder::default()).unwrap_err();
     assert!(err.to_string().starts_with("'sem' is an authalic solver: task param runs kp-newton, "), "{err}");

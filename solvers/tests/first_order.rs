@@ -1,14 +1,14 @@
 //! SLIM and AKVF on the shared pipeline: their directions come from
 //! their proxy systems, then the same injective Armijo line search and stopping rules.
 
-use solvers::energy::EnergyKind;
+use solvers::energy::{EnergyKind, Sd};
 use solvers::generate::generate;
 use solvers::mesh::{load_obj, Mesh};
 use solvers::param::{solve_param, ParamSettings};
 use solvers::solver::{Outcome, Recorder};
 
 fn run(mesh: &Mesh, solver: &str) -> (Outcome, Recorder) {
-    let e = EnergyKind::Sd;
+    let e = EnergyKind::Sd(Sd);
     let settings = ParamSettings::for_energy(&e);
     let mut rec = Recorder::default();
     let out = solve_param(mesh, e, solver, &settings, &mut rec).unwrap_or_else(|err| panic!("{solver}: {err}"));

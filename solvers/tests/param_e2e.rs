@@ -1,7 +1,7 @@
 //! End to end: KP-Newton on SD over the generated corpus and, when `MAPBENCH_MESHES` points at
 //! the shared corpus, on camelhead, hilbert, bimba_5k and cow.
 
-use solvers::energy::EnergyKind;
+use solvers::energy::{EnergyKind, Sd};
 use solvers::generate::generate;
 use solvers::mesh::{load_obj, Mesh};
 use solvers::param::{solve_param, ParamSettings};
@@ -9,7 +9,7 @@ use solvers::solver::{Recorder, StopReason};
 
 /// Runs KP-Newton with SD and checks the invariants of design.md; returns (iters, energy, s).
 fn check_sd_run(mesh: &Mesh) -> (usize, f64, f64) {
-    let e = EnergyKind::Sd;
+    let e = EnergyKind::Sd(Sd);
     let mut rec = Recorder::default();
     let out = solve_param(mesh, e, "kp-newton", &ParamSettings::for_energy(&e), &mut rec).unwrap();
     assert_eq!(out.stop_reason, StopReason::GradientTolerance, "{}: {:?}", mesh.source, out.stop_reason);
@@ -66,7 +66,7 @@ fn kp_newton_sd_on_shared_corpus() {
 #[test]
 fn identical_runs_are_deterministic() {
     let mesh = generate("bumpy_1k").unwrap();
-    let e = EnergyKind::Sd;
+    let e = EnergyKind::Sd(Sd);
     let run = || {
         let mut rec = Recorder::default();
         solve_param(&mesh, e, "kp-newton", &ParamSettings::for_energy(&e), &mut rec).unwrap();

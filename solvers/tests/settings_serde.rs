@@ -76,8 +76,8 @@ fn enum_settings_take_their_kebab_case_names() {
 
 #[test]
 fn run_settings_serialize_without_the_runtime_cache() {
-    use solvers::energy::EnergyKind;
-    let mut p = solvers::param::ParamSettings::for_energy(&EnergyKind::Sarap);
+    use solvers::energy::{EnergyKind, Sarap};
+    let mut p = solvers::param::ParamSettings::for_energy(&EnergyKind::Sarap(Sarap));
     p.solver.analyses = Some(std::sync::Arc::new(solvers::linear::AnalysisCache::new()));
     let text = toml::to_string(&p).unwrap();
     assert!(

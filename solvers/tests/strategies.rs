@@ -1,7 +1,7 @@
 //! The Hessian strategies as peers on one pipeline:
 //! the invariants of design.md at the solver level.
 
-use solvers::energy::EnergyKind;
+use solvers::energy::{Barap, Bconf, EnergyKind, Nh, Sarap, Sd};
 use solvers::generate::generate;
 use solvers::mesh::{load_obj, Mesh};
 use solvers::param::{solve_param, ParamSettings};
@@ -38,7 +38,7 @@ fn fp4_and_fp6_take_the_same_path() {
     // FP4 and FP6 agree to round-off per element; on the long, thin hilbert mesh that
     // round-off grows into 46 vs 48 iterations, so it is not part of this check.
     for mesh in meshes(&["bimba_5k"]) {
-        for energy in [EnergyKind::Sd, EnergyKind::Nh { mu: 0.2, kappa: 0.8 }] {
+        for energy in [EnergyKind::Sd(Sd), EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 })] {
             let (a, ra) = run(&mesh, energy, "fp-newton-4x4");
             let (b, rb) = run(&mesh, energy, "fp-newton-6x6");
             let label = format!("{} {}", mesh.source, energy.name());
@@ -59,7 +59,7 @@ fn cm_and_kp_are_identical_where_their_hessians_agree() {
     // hilbert: long and thin, where round-off differences between KP and CM grew into
     // different iteration counts before KP used CM's arithmetic for the cone term.
     for mesh in meshes(&["bimba_5k", "hilbert"]) {
-        for energy in [EnergyKind::Sd, EnergyKind::Bconf { k: 0.1 }, EnergyKind::Barap { k: 0.1 }] {
+        for energy in [EnergyKind::Sd(Sd), EnergyKind::Bconf(Bconf { k: 0.1 }), EnergyKind::Barap(Barap { k: 0.1 })] {
             let (a, ra) = run(&mesh, energy, "cm");
             let (b, rb) = run(&mesh, energy, "kp-newton");
             let label = format!("{} {}", mesh.source, energy.name());
@@ -79,7 +79,7 @@ fn cm_and_kp_both_converge_on_nh_and_sarap() {
     // (hess h is diagonal in the singular values, so clamping K drops exactly CM's concave part;
     // see `hessian::cm::tests::cm_equals_kp_for_sarap`).
     let mesh = generate("cap_2k").unwrap();
-    for energy in [EnergyKind::Nh { mu: 0.2, kappa: 0.8 }, EnergyKind::Sarap] {
+    for energy in [EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 }), EnergyKind::Sarap(Sarap)] {
         let (a, ra) = run(&mesh, energy, "cm");
         let (b, rb) = run(&mesh, energy, "kp-newton");
         let label = energy.name();
@@ -95,7 +95,7 @@ fn cm_and_kp_both_converge_on_nh_and_sarap() {
 fn unprojected_newton_ends_with_a_recorded_reason() {
     // Plain Newton may stop on an indefinite system; whatever happens is an Outcome, not a panic.
     for mesh in meshes(&["bimba_5k"]) {
-        let (out, rec) = run(&mesh, EnergyKind::Sd, "newton");
+        let (out, rec) = run(&mesh, EnergyKind::Sd(Sd), "newton");
         assert_eq!(rec.rows.len(), out.iterations + 1);
         check_descent("newton", &rec);
         eprintln!("{} newton: {} iterations, {}", mesh.source, out.iterations, out.stop_reason.as_str());
@@ -105,7 +105,7 @@ fn unprojected_newton_ends_with_a_recorded_reason() {
 #[test]
 fn undefined_majorizer_is_an_error_not_a_fallback() {
     let mesh = generate("bumpy_1k").unwrap();
-    let e = EnergyKind::Bconf { k: 1.5 };
+    let e = EnergyKind::Bconf(Bconf { k: 1.5 });
     let err = solve_param(&mesh, e, "cm", &ParamSettings::for_energy(&e), &mut Recorder::default()).unwrap_err();
     assert!(err.to_string().contains("k <= 1"), "{err}");
 }
@@ -122,7 +122,7 @@ fn solvers_on_one_mesh_share_the_analysis_and_take_the_same_steps() {
     };
     let mut computed = 0;
     let bconf = EnergyKind::default_for("bconf").unwrap();
-    let sd = EnergyKind::Sd;
+    let sd = EnergyKind::Sd(Sd);
     let runs = [(sd, "kp-newton"), (sd, "fp-newton-4x4"), (sd, "cm"), (sd, "slim"), (sd, "akvf"), (bconf, "kp-newton")];
     for (energy, solver) in runs {
         let (private, private_rec) = run(&mesh, energy, solver);
@@ -136,10 +136,10 @@ fn solvers_on_one_mesh_share_the_analysis_and_take_the_same_steps() {
         computed += usize::from(!shared.analysis.unwrap().reused);
     }
     assert_eq!((computed, cache.len()), (1, 1));
-    let mut s = ParamSettings::for_energy(&EnergyKind::Sd);
+    let mut s = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
     s.solver.analyses = Some(cache.clone());
     s.smoothness = Some((1e-3, solvers::smoothness::Projection::Analytic));
-    let out = solve_param(&mesh, EnergyKind::Sd, "kp-newton", &s, &mut Recorder::default()).unwrap();
+    let out = solve_param(&mesh, EnergyKind::Sd(Sd), "kp-newton", &s, &mut Recorder::default()).unwrap();
     assert!(!out.analysis.unwrap().reused);
     assert_eq!(cache.len(), 2);
 }

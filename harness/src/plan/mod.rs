@@ -153,7 +153,7 @@ impl Plan {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use solvers::energy::EnergyKind;
+    use solvers::energy::{EnergyKind, Sd};
     use std::path::Path;
 
     fn plan(text: &str, only: &[&str]) -> Result<Plan> {
@@ -184,7 +184,7 @@ mod tests {
             ]
         );
         let RunSettings::Param { energy, settings } = &p.runs[0].settings else { panic!("{:?}", p.runs[0]) };
-        assert_eq!(*energy, EnergyKind::Sd);
+        assert_eq!(*energy, EnergyKind::Sd(Sd));
         assert_eq!(settings.smoothness, Some((0.25, solvers::smoothness::Projection::Analytic)));
         assert_eq!(settings.solver.stop.max_iters, 7);
         let RunSettings::Param { settings, .. } = &p.runs[2].settings else { panic!() };

@@ -5,13 +5,6 @@
 //!
 //! Every energy here is a barrier: the density is `+inf` when `det J = x - y <= 0`.
 
-pub mod barap;
-pub mod bconf;
-pub mod exp_sd;
-pub mod nh;
-pub mod sarap;
-pub mod sd;
-
 use serde::{Deserialize, Serialize};
 
 /// Density value and its first and second derivatives in `(x, y)`.
@@ -25,155 +18,193 @@ pub struct Modifiers {
     pub b3: f64,
 }
 
-/// An energy with its parameters. Read from a table (`name` and the parameters, the
-/// defaults for those not given, [`EnergyKind::from_table`]); another energy's parameter is
-/// refused.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "name", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum EnergyKind {
-    /// Symmetric Dirichlet, half convention: `(x + y)(1 + (x - y)^-2)`, 2 at an isometry.
-    Sd,
-    /// `exp(s * psi_SD)` with the half SD in the exponent (reference code's convention).
-    ExpSd {
-        #[serde(default = "exp_sd::default_s")]
-        s: f64,
-    },
-    /// Symmetric ARAP `(sigma1 - 1)^2 + (1/sigma2 - 1)^2`.
+/// What an energy's file implements: its parameters (a serde type with
+/// `#[serde(default, deny_unknown_fields)]` whose `Default` is the documented defaults), its
+/// density and what the solvers need to know of it. [`EnergyKind`] calls these on the
+/// domain `x > y` only.
+pub trait Density {
+    /// `psi(x, y)`.
+    fn value(&self, x: f64, y: f64) -> f64;
+
+    /// `psi` and its modifiers (Table 2).
+    fn modifiers(&self, x: f64, y: f64) -> Modifiers;
+
+    /// The parameters' ranges: `Err("<key> = <value> must ...")`.
+    fn check(&self) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// The convex-concave split of `h(sigma1, sigma2)` CM majorizes with, or why none is
+    /// defined for these parameters.
+    fn convex_split(&self) -> Result<ConvexSplit, String>;
+
+    /// The coefficient `c` of a Dirichlet part `c |J|_F^2 = 2c (x + y)`, the quadratic part
+    /// the constant proxy (`solver::proxy`) is the Hessian of; `None` without one (an
+    /// exponential, a part in one singular value only, no `|J|^2` term).
+    fn dirichlet_part(&self) -> Option<f64> {
+        None
+    }
+
+    /// The smallest factor `s` that makes the element's `K` PSD when the map is scaled by
+    /// `s`, for the energies where only `2 a1` can be negative (Section 4.2); `None`: the
+    /// global scaling does not apply.
+    fn psd_scale(&self, _x: f64, _y: f64) -> Option<f64> {
+        None
+    }
+
+    /// The energy's own stop rule on a small relative energy decrease (0: none).
+    fn energy_decrease_tol(&self) -> f64 {
+        0.0
+    }
+}
+
+/// The convex-concave split of an energy `h(sigma1, sigma2)` that CM uses (complex-view paper,
+/// Section 5, Appendix C).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConvexSplit {
+    /// `h(sigma1, sigma2)` is convex: only the cone terms are clamped.
+    Convex,
+    /// SARAP: `(1/v - 1)^2` is concave for `v > 1.5`, its concave part moves to `h-`.
     Sarap,
-    /// Neo-Hookean `mu 2y/(x-y) + kappa/2 (x - y - 1)^2`.
-    Nh {
-        #[serde(default = "nh::default_mu")]
-        mu: f64,
-        #[serde(default = "nh::default_kappa")]
-        kappa: f64,
-    },
-    /// Barrier ARAP `2(x + y - 2 sqrt(x) + 1) + k (|J| + 1/|J|)`.
-    Barap {
-        #[serde(default = "barap::default_k")]
-        k: f64,
-    },
-    /// Barrier conformal `y + k (|J| + 1/|J|)`.
-    Bconf {
-        #[serde(default = "bconf::default_k")]
-        k: f64,
-    },
+    /// Neo-Hookean with the `(||J||_F, det J)` composition.
+    NeoHookean { mu: f64, kappa: f64 },
+}
+
+/// `Ok` when `v` is positive and finite, else `"<key> = <v> <why>"`.
+pub(crate) fn positive(key: &str, v: f64, why: &str) -> Result<(), String> {
+    if v > 0.0 && v.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{key} = {v} {why}"))
+    }
+}
+
+/// The energies: a variant, its name in configs and CSVs, and its file's type. Adding an
+/// energy is its file and one line here.
+macro_rules! energies {
+    ($($variant:ident($name:literal, $module:ident::$ty:ident),)*) => {
+        $(pub mod $module;)*
+        $(pub use $module::$ty;)*
+
+        /// An energy with its parameters. Read from a table (`name` and the parameters, the
+        /// defaults for those not given, [`EnergyKind::from_table`]); another energy's
+        /// parameter is refused.
+        #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+        #[serde(tag = "name")]
+        pub enum EnergyKind {
+            $(#[serde(rename = $name)] $variant($ty),)*
+        }
+
+        /// All energy names, in the order of the paper's Table 1.
+        pub const ENERGY_NAMES: &[&str] = &[$($name),*];
+
+        impl EnergyKind {
+            /// The energy with its documented default parameters.
+            pub fn default_for(name: &str) -> Option<EnergyKind> {
+                match name {
+                    $($name => Some(EnergyKind::$variant($ty::default())),)*
+                    _ => None,
+                }
+            }
+
+            pub fn name(&self) -> &'static str {
+                match self {
+                    $(EnergyKind::$variant(_) => $name,)*
+                }
+            }
+
+            fn density(&self) -> &dyn Density {
+                match self {
+                    $(EnergyKind::$variant(e) => e,)*
+                }
+            }
+
+            /// Density value; `+inf` outside the domain `x > y` (inverted or degenerate).
+            #[inline]
+            pub fn value(&self, x: f64, y: f64) -> f64 {
+                if !(x - y > 0.0) {
+                    return f64::INFINITY;
+                }
+                let v = match self {
+                    $(EnergyKind::$variant(e) => e.value(x, y),)*
+                };
+                if v.is_nan() {
+                    f64::INFINITY
+                } else {
+                    v
+                }
+            }
+
+            /// Value and modifiers; `None` outside the domain `x > y`.
+            #[inline]
+            pub fn modifiers(&self, x: f64, y: f64) -> Option<Modifiers> {
+                if !(x - y > 0.0) {
+                    return None;
+                }
+                Some(match self {
+                    $(EnergyKind::$variant(e) => e.modifiers(x, y),)*
+                })
+            }
+        }
+    };
+}
+
+energies! {
+    Sd("sd", sd::Sd),
+    ExpSd("exp-sd", exp_sd::ExpSd),
+    Sarap("sarap", sarap::Sarap),
+    Nh("nh", nh::Nh),
+    Barap("barap", barap::Barap),
+    Bconf("bconf", bconf::Bconf),
 }
 
 /// The one energy of the `authalic` task (the name in CSVs and configs): the normalized
 /// authalic energy of Liu and Yueh, not a density of `f_z`, `f_zbar` like the others.
 pub const AUTHALIC_ENERGY: &str = "authalic";
 
-/// All energy names, in the order of the paper's Table 1.
-pub const ENERGY_NAMES: [&str; 6] = ["sd", "exp-sd", "sarap", "nh", "barap", "bconf"];
-
 impl EnergyKind {
-    /// The energy with its documented default parameters.
-    pub fn default_for(name: &str) -> Option<EnergyKind> {
-        Some(match name {
-            "sd" => EnergyKind::Sd,
-            "exp-sd" => EnergyKind::ExpSd { s: exp_sd::DEFAULT_S },
-            "sarap" => EnergyKind::Sarap,
-            "nh" => EnergyKind::Nh { mu: nh::DEFAULT_MU, kappa: nh::DEFAULT_KAPPA },
-            "barap" => EnergyKind::Barap { k: barap::DEFAULT_K },
-            "bconf" => EnergyKind::Bconf { k: bconf::DEFAULT_K },
-            _ => return None,
-        })
-    }
-
     /// The energy `name` with the parameters of `table` (a config's `[energy.<name>]`
     /// without its smoothness keys), the defaults for the others; checked
     /// ([`EnergyKind::check`]).
     pub fn from_table(name: &str, table: &toml::Table) -> Result<EnergyKind, String> {
+        // an energy without parameters serializes as its name alone; serde would refuse a key
+        // with "invalid type: map"
+        let own = EnergyKind::default_for(name).and_then(|e| toml::Value::try_from(e).ok());
+        if own.is_some_and(|own| own.as_table().is_some_and(|t| t.len() == 1)) {
+            if let Some(key) = table.keys().next() {
+                return Err(format!("unknown field `{key}`: {name} has no parameters"));
+            }
+        }
         let mut named = table.clone();
         named.insert("name".to_string(), toml::Value::String(name.to_string()));
         let kind = EnergyKind::deserialize(toml::Value::Table(named)).map_err(|e| e.to_string().trim().to_string())?;
-        // serde lets the variants without parameters ignore any: refuse them here
-        let own = toml::Value::try_from(kind).map_err(|e| e.to_string())?;
-        if let Some(key) = table.keys().find(|k| own.get(k.as_str()).is_none()) {
-            return Err(format!("unknown field `{key}`: {name} has no parameters"));
-        }
         kind.check()?;
         Ok(kind)
     }
 
-    pub fn name(&self) -> &'static str {
-        match self {
-            EnergyKind::Sd => "sd",
-            EnergyKind::ExpSd { .. } => "exp-sd",
-            EnergyKind::Sarap => "sarap",
-            EnergyKind::Nh { .. } => "nh",
-            EnergyKind::Barap { .. } => "barap",
-            EnergyKind::Bconf { .. } => "bconf",
-        }
-    }
-
-    /// Density value; `+inf` outside the domain `x > y` (inverted or degenerate).
-    #[inline]
-    pub fn value(&self, x: f64, y: f64) -> f64 {
-        if !(x - y > 0.0) {
-            return f64::INFINITY;
-        }
-        let v = match *self {
-            EnergyKind::Sd => sd::value(x, y),
-            EnergyKind::ExpSd { s } => exp_sd::value(x, y, s),
-            EnergyKind::Sarap => sarap::value(x, y),
-            EnergyKind::Nh { mu, kappa } => nh::value(x, y, mu, kappa),
-            EnergyKind::Barap { k } => barap::value(x, y, k),
-            EnergyKind::Bconf { k } => bconf::value(x, y, k),
-        };
-        if v.is_nan() {
-            f64::INFINITY
-        } else {
-            v
-        }
-    }
-
-    /// Value and modifiers; `None` outside the domain `x > y`.
-    #[inline]
-    pub fn modifiers(&self, x: f64, y: f64) -> Option<Modifiers> {
-        if !(x - y > 0.0) {
-            return None;
-        }
-        Some(match *self {
-            EnergyKind::Sd => sd::modifiers(x, y),
-            EnergyKind::ExpSd { s } => exp_sd::modifiers(x, y, s),
-            EnergyKind::Sarap => sarap::modifiers(x, y),
-            EnergyKind::Nh { mu, kappa } => nh::modifiers(x, y, mu, kappa),
-            EnergyKind::Barap { k } => barap::modifiers(x, y, k),
-            EnergyKind::Bconf { k } => bconf::modifiers(x, y, k),
-        })
-    }
-
-    /// Check parameter ranges; the message names the offending key.
+    /// Check parameter ranges; the message names the energy and the offending key.
     pub fn check(&self) -> Result<(), String> {
-        let bad = |key: &str, v: f64, why: &str| Err(format!("energy {}: {key} = {v} {why}", self.name()));
-        match *self {
-            EnergyKind::ExpSd { s } if !(s > 0.0 && s.is_finite()) => bad("s", s, "must be positive"),
-            EnergyKind::Nh { mu, .. } if !(mu > 0.0 && mu.is_finite()) => bad("mu", mu, "must be positive"),
-            EnergyKind::Nh { kappa, .. } if !(kappa >= 0.0 && kappa.is_finite()) => {
-                bad("kappa", kappa, "must be non-negative")
-            }
-            EnergyKind::Barap { k } | EnergyKind::Bconf { k } if !(k > 0.0 && k.is_finite()) => {
-                bad("k", k, "must be positive (it weighs the barrier)")
-            }
-            _ => Ok(()),
-        }
+        self.density().check().map_err(|why| format!("energy {}: {why}", self.name()))
     }
 
-    /// The coefficient `c` of the energy's Dirichlet part `c |J|_F^2 = 2c (x + y)`, the
-    /// quadratic part the constant proxy (`solver::proxy`) is the Hessian of: `1/2` for SD
-    /// (`(x + y)(1 + (x - y)^-2) = 1/2 (|J|^2 + |J^-1|^2)`), `1` for BARAP (`|J - R|^2 =
-    /// 2(x + y) - 4 sqrt(x) + 2`; its barrier's `k |J|` is quadratic too, but indefinite and
-    /// summed over the mesh a boundary term, the image's signed area: the proxy leaves it out
-    /// as it leaves out the `|J^-1|^2` barrier). `None` for the energies without such a part:
-    /// exp-SD (exponential), SARAP (quadratic in `sigma1` only), NH (no `|J|^2` term) and
-    /// BCONF (`|f_zbar|^2`).
+    /// See [`Density::convex_split`].
+    pub fn convex_split(&self) -> Result<ConvexSplit, String> {
+        self.density().convex_split()
+    }
+
+    /// See [`Density::dirichlet_part`].
     pub fn dirichlet_part(&self) -> Option<f64> {
-        match self {
-            EnergyKind::Sd => Some(0.5),
-            EnergyKind::Barap { .. } => Some(1.0),
-            EnergyKind::ExpSd { .. } | EnergyKind::Sarap | EnergyKind::Nh { .. } | EnergyKind::Bconf { .. } => None,
-        }
+        self.density().dirichlet_part()
+    }
+
+    /// See [`Density::psd_scale`].
+    pub fn psd_scale(&self, x: f64, y: f64) -> Option<f64> {
+        self.density().psd_scale(x, y)
+    }
+
+    /// See [`Density::energy_decrease_tol`].
+    pub fn energy_decrease_tol(&self) -> f64 {
+        self.density().energy_decrease_tol()
     }
 
     /// Stationary value at an isometry (`x = 1, y = 0`), used in tests and reports.
@@ -211,14 +242,24 @@ pub(crate) mod tests {
         for name in ENERGY_NAMES {
             assert_eq!(EnergyKind::from_table(name, &table("")), Ok(EnergyKind::default_for(name).unwrap()));
         }
-        assert_eq!(EnergyKind::from_table("nh", &table("mu = 0.5")), Ok(EnergyKind::Nh { mu: 0.5, kappa: 0.8 }));
-        assert_eq!(EnergyKind::from_table("bconf", &table("k = 0.5")), Ok(EnergyKind::Bconf { k: 0.5 }));
+        assert_eq!(EnergyKind::from_table("nh", &table("mu = 0.5")), Ok(EnergyKind::Nh(Nh { mu: 0.5, kappa: 0.8 })));
+        assert_eq!(EnergyKind::from_table("bconf", &table("k = 0.5")), Ok(EnergyKind::Bconf(Bconf { k: 0.5 })));
         let err = |n: &str, t: &str| EnergyKind::from_table(n, &table(t)).unwrap_err();
         assert_eq!(err("barap", "s = 1.0"), "unknown field `s`, expected `k`");
         assert_eq!(err("sd", "k = 1.0"), "unknown field `k`: sd has no parameters");
         assert_eq!(err("exp-sd", "s = -1.0"), "energy exp-sd: s = -1 must be positive");
         assert!(err("nh", "mu = \"x\"").contains("invalid type"));
         assert!(err("sdd", "").starts_with("unknown variant `sdd`"));
+    }
+
+    #[test]
+    fn an_energy_writes_its_name_and_parameters_and_reads_back() {
+        let text = |e: EnergyKind| toml::Value::try_from(e).unwrap().to_string();
+        assert_eq!(text(EnergyKind::Sd(Sd)), r#"{ name = "sd" }"#);
+        assert_eq!(text(EnergyKind::Nh(Nh { mu: 0.5, kappa: 1.0 })), r#"{ kappa = 1.0, mu = 0.5, name = "nh" }"#);
+        for e in all_energies() {
+            assert_eq!(EnergyKind::deserialize(toml::Value::try_from(e).unwrap()), Ok(e));
+        }
     }
 
     /// Deterministic pseudo-random numbers for tests (64-bit LCG).
@@ -233,17 +274,17 @@ pub(crate) mod tests {
         }
     }
 
+    /// Every energy with its defaults, and other parameters where they change the shape
+    /// (a steeper exponential, barriers past CM's convexity bounds).
     pub fn all_energies() -> Vec<EnergyKind> {
-        vec![
-            EnergyKind::Sd,
-            EnergyKind::ExpSd { s: 0.3 },
-            EnergyKind::Sarap,
-            EnergyKind::Nh { mu: 0.2, kappa: 0.8 },
-            EnergyKind::Barap { k: 0.1 },
-            EnergyKind::Bconf { k: 0.1 },
-            EnergyKind::Barap { k: 3.0 },
-            EnergyKind::Bconf { k: 1.5 },
-        ]
+        let defaults = ENERGY_NAMES.iter().map(|n| EnergyKind::default_for(n).unwrap());
+        defaults
+            .chain([
+                EnergyKind::ExpSd(ExpSd { s: 0.3 }),
+                EnergyKind::Barap(Barap { k: 3.0 }),
+                EnergyKind::Bconf(Bconf { k: 1.5 }),
+            ])
+            .collect()
     }
 
     /// Random point of the domain `x > y > 0` with moderate distortion.
@@ -293,12 +334,12 @@ pub(crate) mod tests {
 
     #[test]
     fn isometry_values() {
-        assert_eq!(EnergyKind::Sd.isometry_value(), 2.0);
-        assert_eq!(EnergyKind::Sarap.isometry_value(), 0.0);
-        assert_eq!(EnergyKind::Nh { mu: 0.2, kappa: 0.8 }.isometry_value(), 0.0);
-        assert!((EnergyKind::Barap { k: 0.1 }.isometry_value() - 0.2).abs() < 1e-15);
-        assert!((EnergyKind::Bconf { k: 0.1 }.isometry_value() - 0.2).abs() < 1e-15);
-        assert!((EnergyKind::ExpSd { s: 0.5 }.isometry_value() - 1f64.exp()).abs() < 1e-14);
+        assert_eq!(EnergyKind::Sd(Sd).isometry_value(), 2.0);
+        assert_eq!(EnergyKind::Sarap(Sarap).isometry_value(), 0.0);
+        assert_eq!(EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 }).isometry_value(), 0.0);
+        assert!((EnergyKind::Barap(Barap { k: 0.1 }).isometry_value() - 0.2).abs() < 1e-15);
+        assert!((EnergyKind::Bconf(Bconf { k: 0.1 }).isometry_value() - 0.2).abs() < 1e-15);
+        assert!((EnergyKind::ExpSd(ExpSd { s: 0.5 }).isometry_value() - 1f64.exp()).abs() < 1e-14);
     }
 
     #[test]
@@ -307,7 +348,7 @@ pub(crate) mod tests {
         let mut rng = Lcg(3);
         for _ in 0..1000 {
             let (x, y) = random_xy(&mut rng);
-            assert!(EnergyKind::Sd.value(x, y) >= 2.0);
+            assert!(EnergyKind::Sd(Sd).value(x, y) >= 2.0);
         }
     }
 
@@ -315,10 +356,10 @@ pub(crate) mod tests {
     fn names_round_trip_and_checks() {
         for n in ENERGY_NAMES {
             let e = EnergyKind::default_for(n).unwrap();
-            assert_eq!(e.name(), n);
+            assert_eq!(e.name(), *n);
             assert!(e.check().is_ok());
         }
         assert!(EnergyKind::default_for("arap").is_none());
-        assert!(EnergyKind::Bconf { k: -1.0 }.check().unwrap_err().contains("k = -1"));
+        assert!(EnergyKind::Bconf(Bconf { k: -1.0 }).check().unwrap_err().contains("k = -1"));
     }
 }

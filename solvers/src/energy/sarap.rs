@@ -4,9 +4,14 @@
 //! `alpha2 ~ y^-1/2`; the modifiers are evaluated with `y` floored at `Y_FLOOR * x` so the
 //! gradient `2 alpha2 f_zbar` stays finite (it tends to a finite limit).
 
-use super::{from_singular_values, Modifiers};
+use super::{from_singular_values, ConvexSplit, Density, Modifiers};
+use serde::{Deserialize, Serialize};
 
 pub const Y_FLOOR: f64 = 1e-24;
+
+/// Symmetric ARAP; no parameters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Sarap;
 
 #[inline]
 pub fn value(x: f64, y: f64) -> f64 {
@@ -30,4 +35,27 @@ pub fn modifiers(x: f64, y: f64) -> Modifiers {
     let huu = 2.0;
     let hvv = 6.0 * iv2 * iv2 - 4.0 * iv3;
     from_singular_values(x, y, psi, [hu, hv, huu, hvv, 0.0])
+}
+
+impl Density for Sarap {
+    #[inline]
+    fn value(&self, x: f64, y: f64) -> f64 {
+        value(x, y)
+    }
+
+    #[inline]
+    fn modifiers(&self, x: f64, y: f64) -> Modifiers {
+        modifiers(x, y)
+    }
+
+    /// `(1/v - 1)^2` is concave for `v > 1.5`.
+    fn convex_split(&self) -> Result<ConvexSplit, String> {
+        Ok(ConvexSplit::Sarap)
+    }
+
+    /// Its gradient indicator fails near conformal maps (complex-view paper, Section 6.1):
+    /// design.md stops it on an energy decrease below `1e-8`.
+    fn energy_decrease_tol(&self) -> f64 {
+        1e-8
+    }
 }

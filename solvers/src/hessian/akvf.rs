@@ -47,7 +47,7 @@ impl SystemBlock for Akvf {
 mod tests {
     use super::*;
     use crate::energy::tests::Lcg;
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sd};
     use crate::hessian::tests::random_element;
     use nalgebra::Vector6;
 
@@ -55,7 +55,7 @@ mod tests {
     fn current_edges_are_the_image_triangle() {
         let mut rng = Lcg(81);
         for _ in 0..100 {
-            let (op, y, s) = random_element(&mut rng, &EnergyKind::Sd);
+            let (op, y, s) = random_element(&mut rng, &EnergyKind::Sd(Sd));
             let e = current_edges(&op, &s);
             for k in 0..3 {
                 let (a, b) = (y[(k + 1) % 3], y[(k + 2) % 3]);
@@ -88,7 +88,7 @@ mod tests {
     fn equals_the_reference_closed_form_and_is_psd() {
         let mut rng = Lcg(83);
         for _ in 0..300 {
-            let (op, _, s) = random_element(&mut rng, &EnergyKind::Sd);
+            let (op, _, s) = random_element(&mut rng, &EnergyKind::Sd(Sd));
             let k = Akvf.block(&op, &s);
             let r = reference_block(&op, &s);
             assert!((k - r).norm() <= 1e-10 * r.norm(), "{k} vs {r}");
@@ -101,7 +101,7 @@ mod tests {
     fn annihilates_rigid_motions_only() {
         let mut rng = Lcg(85);
         for _ in 0..100 {
-            let (op, y, s) = random_element(&mut rng, &EnergyKind::Sd);
+            let (op, y, s) = random_element(&mut rng, &EnergyKind::Sd(Sd));
             let k = Akvf.block(&op, &s);
             let tx = Vector6::new(1.0, 0.0, 1.0, 0.0, 1.0, 0.0);
             let ty = Vector6::new(0.0, 1.0, 0.0, 1.0, 0.0, 1.0);
@@ -125,7 +125,7 @@ mod tests {
         // linear interpolant on the current triangle (independent of the basis formulas).
         let mut rng = Lcg(87);
         for _ in 0..100 {
-            let (op, y, s) = random_element(&mut rng, &EnergyKind::Sd);
+            let (op, y, s) = random_element(&mut rng, &EnergyKind::Sd(Sd));
             let v: Vector6<f64> = Vector6::from_fn(|_, _| rng.range(-1.0, 1.0));
             // Solve for the affine field V(p) = G p + c through the three vertex values.
             let p = |k: usize| Vector2::new(y[k][0], y[k][1]);

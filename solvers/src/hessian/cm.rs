@@ -10,7 +10,7 @@
 //! `a2' = mu/|J| - (h_v)-` with `h_v = -mu (x+y)/|J|^2 + kappa (|J| - 1)`, betas unchanged.
 
 use super::{k_matrix, triple_product, ElementState, SystemBlock};
-use crate::energy::EnergyKind;
+use crate::energy::{ConvexSplit, EnergyKind};
 use crate::local::LocalOp;
 use nalgebra::Matrix6;
 
@@ -18,46 +18,16 @@ use nalgebra::Matrix6;
 /// skipped (they multiply `f_zbar f_zbar^T` and vanish with it).
 const Y_EPS: f64 = 1e-40;
 
-/// The convex-concave split CM uses for an energy.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Split {
-    /// `h(sigma1, sigma2)` is convex: only the cone terms are clamped.
-    Convex,
-    /// SARAP: `(1/v - 1)^2` is concave for `v > 1.5`, its concave part moves to `h-`.
-    Sarap,
-    /// Neo-Hookean with the `(||J||_F, det J)` composition.
-    NeoHookean { mu: f64, kappa: f64 },
-}
-
 #[derive(Clone, Copy, Debug)]
 pub struct Cm {
-    split: Split,
+    split: ConvexSplit,
 }
 
 impl Cm {
     /// The majorizer for `energy`, or the reason it is not defined.
     pub fn for_energy(energy: &EnergyKind) -> Result<Cm, String> {
-        let split = match *energy {
-            EnergyKind::Sd | EnergyKind::ExpSd { .. } => Split::Convex,
-            // h = (u - v)^2/4 + k (uv + 1/(uv)) is convex in (u, v) iff k <= 1.
-            EnergyKind::Bconf { k } if k <= 1.0 => Split::Convex,
-            // h = (u - 1)^2 + (v - 1)^2 + k (uv + 1/(uv)) is convex iff k <= 2.
-            EnergyKind::Barap { k } if k <= 2.0 => Split::Convex,
-            EnergyKind::Bconf { k } => {
-                return Err(format!(
-                    "cm: bconf with k = {k} is not convex in the singular values (needs k <= 1) and no \
-                     convex-concave split is defined for it"
-                ))
-            }
-            EnergyKind::Barap { k } => {
-                return Err(format!(
-                    "cm: barap with k = {k} is not convex in the singular values (needs k <= 2) and no \
-                     convex-concave split is defined for it"
-                ))
-            }
-            EnergyKind::Sarap => Split::Sarap,
-            EnergyKind::Nh { mu, kappa } => Split::NeoHookean { mu, kappa },
-        };
+        let split =
+            energy.convex_split().map_err(|why| format!("cm: {why} and no convex-concave split is defined for it"))?;
         Ok(Cm { split })
     }
 
@@ -66,7 +36,7 @@ impl Cm {
         let (x, y) = (s.x(), s.y());
         let mut t = *s;
         let m = &mut t.m;
-        if let Split::NeoHookean { mu, kappa } = self.split {
+        if let ConvexSplit::NeoHookean { mu, kappa } = self.split {
             let d = x - y;
             let hv = -mu * (x + y) / (d * d) + kappa * (d - 1.0);
             m.a1 = mu / d + hv.max(0.0);
@@ -85,7 +55,7 @@ impl Cm {
             }
             m.a2 = 0.0;
         }
-        if self.split == Split::Sarap && y_ok {
+        if self.split == ConvexSplit::Sarap && y_ok {
             let v = x.sqrt() - y.sqrt();
             if v > 1.5 {
                 let hvv_concave = 6.0 / v.powi(4) - 4.0 / v.powi(3);
@@ -108,6 +78,7 @@ impl SystemBlock for Cm {
 mod tests {
     use super::*;
     use crate::energy::tests::Lcg;
+    use crate::energy::{Barap, Bconf, ExpSd, Nh, Sarap, Sd};
     use crate::hessian::kp::Kp;
     use crate::hessian::tests::random_element;
     use crate::hessian::{count_negative, element_hessian};
@@ -116,11 +87,11 @@ mod tests {
     fn equals_kp_where_h_is_convex() {
         let mut rng = Lcg(61);
         for e in [
-            EnergyKind::Sd,
-            EnergyKind::Bconf { k: 0.1 },
-            EnergyKind::Bconf { k: 1.0 },
-            EnergyKind::Barap { k: 0.1 },
-            EnergyKind::Barap { k: 2.0 },
+            EnergyKind::Sd(Sd),
+            EnergyKind::Bconf(Bconf { k: 0.1 }),
+            EnergyKind::Bconf(Bconf { k: 1.0 }),
+            EnergyKind::Barap(Barap { k: 0.1 }),
+            EnergyKind::Barap(Barap { k: 2.0 }),
         ] {
             let cm = Cm::for_energy(&e).unwrap();
             let mut indefinite = 0;
@@ -139,11 +110,11 @@ mod tests {
     fn cm_block_is_psd_for_every_supported_energy() {
         let mut rng = Lcg(67);
         for e in [
-            EnergyKind::Sd,
-            EnergyKind::ExpSd { s: 0.3 },
-            EnergyKind::Sarap,
-            EnergyKind::Nh { mu: 0.2, kappa: 0.8 },
-            EnergyKind::Nh { mu: 1.0, kappa: 0.1 },
+            EnergyKind::Sd(Sd),
+            EnergyKind::ExpSd(ExpSd { s: 0.3 }),
+            EnergyKind::Sarap(Sarap),
+            EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 }),
+            EnergyKind::Nh(Nh { mu: 1.0, kappa: 0.1 }),
         ] {
             let cm = Cm::for_energy(&e).unwrap();
             for _ in 0..1000 {
@@ -158,7 +129,7 @@ mod tests {
     fn cm_differs_from_kp_for_nh() {
         let mut rng = Lcg(71);
         // NH: CM keeps the betas and shifts the alphas, unlike the eigen-clamp.
-        let e = EnergyKind::Nh { mu: 0.2, kappa: 0.8 };
+        let e = EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 });
         let cm = Cm::for_energy(&e).unwrap();
         let differs = (0..500).any(|_| {
             let (op, _, s) = random_element(&mut rng, &e);
@@ -175,16 +146,16 @@ mod tests {
         // K's eigenvalues drops exactly the concave h_vv (v > 1.5) that CM moves to h-: the
         // two coincide (the paper's Table 4: 209.9 vs 210.9 iterations).
         let mut rng = Lcg(73);
-        let cm = Cm::for_energy(&EnergyKind::Sarap).unwrap();
-        let (op, _, _) = random_element(&mut rng, &EnergyKind::Sarap);
+        let cm = Cm::for_energy(&EnergyKind::Sarap(Sarap)).unwrap();
+        let (op, _, _) = random_element(&mut rng, &EnergyKind::Sarap(Sarap));
         for (a, b) in [(2.0, 0.1), (3.0, 0.8), (2.5, 0.6), (4.0, 2.0), (1.2, 0.3)] {
-            let m = EnergyKind::Sarap.modifiers(a * a, b * b).unwrap();
+            let m = EnergyKind::Sarap(Sarap).modifiers(a * a, b * b).unwrap();
             let s = ElementState { fz: [a, 0.0], fzb: [0.0, b], m };
             let (c, k) = (cm.block(&op, &s), Kp.block(&op, &s));
             assert!((c - k).norm() <= 1e-10 * k.norm());
         }
         for _ in 0..500 {
-            let (op, _, s) = random_element(&mut rng, &EnergyKind::Sarap);
+            let (op, _, s) = random_element(&mut rng, &EnergyKind::Sarap(Sarap));
             let (c, k) = (cm.block(&op, &s), Kp.block(&op, &s));
             assert!((c - k).norm() <= 1e-9 * k.norm());
         }
@@ -192,8 +163,8 @@ mod tests {
 
     #[test]
     fn undefined_majorizers_are_reported() {
-        let err = Cm::for_energy(&EnergyKind::Bconf { k: 1.5 }).unwrap_err();
+        let err = Cm::for_energy(&EnergyKind::Bconf(Bconf { k: 1.5 })).unwrap_err();
         assert!(err.contains("k = 1.5") && err.contains("k <= 1"), "{err}");
-        assert!(Cm::for_energy(&EnergyKind::Barap { k: 3.0 }).is_err());
+        assert!(Cm::for_energy(&EnergyKind::Barap(Barap { k: 3.0 })).is_err());
     }
 }

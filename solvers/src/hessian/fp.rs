@@ -99,7 +99,7 @@ mod tests {
     fn rq_factor_reproduces_m_with_orthonormal_q() {
         let mut rng = Lcg(51);
         for _ in 0..200 {
-            let (op, _, _) = random_element(&mut rng, &crate::energy::EnergyKind::Sd);
+            let (op, _, _) = random_element(&mut rng, &crate::energy::EnergyKind::Sd(crate::energy::Sd));
             let m = op.m();
             let l = rq_factor(&m).unwrap();
             let q = l.solve_lower_triangular(&m).unwrap();

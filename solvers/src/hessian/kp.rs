@@ -64,7 +64,7 @@ impl SystemBlock for Kp {
 mod tests {
     use super::*;
     use crate::energy::tests::{all_energies, Lcg};
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sd};
     use crate::hessian::tests::random_element;
     use crate::hessian::{count_negative, element_hessian};
 
@@ -169,7 +169,7 @@ mod tests {
         let mut rng = Lcg(19);
         let mut n = 0;
         for _ in 0..500 {
-            let (_, _, s) = random_element(&mut rng, &EnergyKind::Sd);
+            let (_, _, s) = random_element(&mut rng, &EnergyKind::Sd(Sd));
             if s.m.a1 >= 0.0 {
                 continue;
             }

@@ -190,7 +190,7 @@ pub trait SystemBlock: Send + Sync {
 pub(crate) mod tests {
     use super::*;
     use crate::energy::tests::{all_energies, random_xy, Lcg};
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sd};
 
     /// A random orientation-preserving element state of energy `e` on a random triangle.
     pub fn random_element(rng: &mut Lcg, e: &EnergyKind) -> (LocalOp, [[f64; 2]; 3], ElementState) {
@@ -350,7 +350,7 @@ pub(crate) mod tests {
         let mut rng = Lcg(21);
         for _ in 0..2000 {
             let (x, y) = random_xy(&mut rng);
-            let m = EnergyKind::Sd.modifiers(x, y).unwrap();
+            let m = EnergyKind::Sd(Sd).modifiers(x, y).unwrap();
             let s = ElementState { fz: [x.sqrt(), 0.0], fzb: [0.0, y.sqrt()], m };
             let (s1, s2) = (x.sqrt() + y.sqrt(), x.sqrt() - y.sqrt());
             let closed = s1 * s1 - s1 * s2 + s2 * s2 > (s1 * s2).powi(3);

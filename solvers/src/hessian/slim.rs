@@ -141,7 +141,7 @@ pub const CLAMPED_COLUMN: [&str; 1] = ["clamped"];
 mod tests {
     use super::*;
     use crate::energy::tests::{all_energies, Lcg};
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sd};
     use crate::hessian::element_gradient;
     use crate::hessian::tests::random_element;
     use nalgebra::Vector4;
@@ -150,7 +150,7 @@ mod tests {
     fn complex_view_svd_reproduces_j() {
         let mut rng = Lcg(81);
         for _ in 0..500 {
-            let (_, _, s) = random_element(&mut rng, &EnergyKind::Sd);
+            let (_, _, s) = random_element(&mut rng, &EnergyKind::Sd(Sd));
             let d = svd(&s);
             let j = jacobian(&s);
             let rebuilt = d.u * Matrix2::from_diagonal(&Vector2::new(d.sigma[0], d.sigma[1])) * d.v.transpose();
@@ -235,7 +235,7 @@ mod tests {
         for e in all_energies() {
             let states: Vec<ElementState> = (0..2000).map(|_| random_element(&mut rng, &e).2).collect();
             let clamped = Slim.counters(&states);
-            let separable = matches!(e, EnergyKind::Sd | EnergyKind::ExpSd { .. } | EnergyKind::Sarap);
+            let separable = matches!(e, EnergyKind::Sd(_) | EnergyKind::ExpSd(_) | EnergyKind::Sarap(_));
             assert_eq!(clamped.len(), 1);
             assert_eq!(clamped[0] == 0.0, separable, "{e:?}: {} of 4000 clamped", clamped[0]);
             // the count is of the weights `weights_sq` clamps
@@ -247,7 +247,7 @@ mod tests {
 
     #[test]
     fn weights_at_the_isometry_use_the_limit() {
-        let m = EnergyKind::Sd.modifiers(1.0, 0.0).unwrap();
+        let m = EnergyKind::Sd(Sd).modifiers(1.0, 0.0).unwrap();
         let s = ElementState { fz: [1.0, 0.0], fzb: [0.0, 0.0], m };
         // psi_SD = (s^2 + s^-2)/2 per singular value: psi'' = 1 + 3 s^-4 = 4 at s = 1
         let w = weights_sq(&s);

@@ -2,7 +2,7 @@
 //! KP's minimum without a flip, on generated and shared meshes, in `param` and `deform`.
 
 use crate::deform::{solve_deform, DeformSettings};
-use crate::energy::EnergyKind;
+use crate::energy::{EnergyKind, Nh, Sd};
 use crate::generate::{generate, generated_handles};
 use crate::mesh::Mesh;
 use crate::param::{solve_param, ParamSettings};
@@ -14,11 +14,11 @@ const AFTER_THE_PAPERS: [&str; 7] =
     ["pn-abs", "fp-abs-6x6", "pn-trust-region", "fp-trust-region-6x6", "lbfgs", "lbfgs-laplacian", "aqp"];
 
 fn param(mesh: &Mesh, solver: &str, max_iters: usize) -> (Outcome, Vec<IterationRecord>) {
-    let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+    let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
     settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters };
     let mut rec = Recorder::default();
     let out =
-        solve_param(mesh, EnergyKind::Sd, solver, &settings, &mut rec).unwrap_or_else(|e| panic!("{solver}: {e}"));
+        solve_param(mesh, EnergyKind::Sd(Sd), solver, &settings, &mut rec).unwrap_or_else(|e| panic!("{solver}: {e}"));
     (out, rec.rows)
 }
 
@@ -98,7 +98,7 @@ fn the_solvers_after_the_papers_bend_the_bar_to_kp_s_minimum() {
     let name = "planar_bar_2k";
     let mesh = generate(name).unwrap();
     let handles = generated_handles(name).unwrap();
-    for energy in [EnergyKind::Sd, EnergyKind::Nh { mu: 0.2, kappa: 0.8 }] {
+    for energy in [EnergyKind::Sd(Sd), EnergyKind::Nh(Nh { mu: 0.2, kappa: 0.8 })] {
         let run = |solver: &str, stop: Option<StopSettings>| {
             let mut settings = DeformSettings::default();
             if let Some(stop) = stop {
@@ -141,7 +141,7 @@ fn lbfgs_with_the_laplacian_bends_the_bar_to_a_stationary_point_above_kp_s() {
     settings.solver.stop = StopSettings { grad_tol: 1e-7, energy_decrease_tol: 0.0, max_iters: 20_000 };
     let run = |solver: &str| {
         let mut rec = Recorder::default();
-        let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd, solver, &settings, &mut rec).unwrap();
+        let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd(Sd), solver, &settings, &mut rec).unwrap();
         (out, rec.rows)
     };
     let (kp, _) = run("kp-newton");

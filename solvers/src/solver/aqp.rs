@@ -233,7 +233,7 @@ impl<'a> Method for AqpStep<'a> {
 mod tests {
     use super::*;
     use crate::deform::{solve_deform, DeformSettings};
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sd};
     use crate::generate::{generate, generated_handles};
     use crate::mesh::Mesh;
     use crate::param::{solve_param, ParamSettings};
@@ -275,11 +275,11 @@ mod tests {
     /// `param` SD to `|grad| <= 1e-5` (as the L-BFGS test, so that the minimum is resolved to
     /// 1e-6): AQP reaches KP's final energy within 1e-6 relative without flips.
     fn reaches_kp_on(mesh: &Mesh, max_iters: usize) -> (usize, usize, usize) {
-        let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+        let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
         settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters };
-        let kp = solve_param(mesh, EnergyKind::Sd, "kp-newton", &settings, &mut Recorder::default()).unwrap();
+        let kp = solve_param(mesh, EnergyKind::Sd(Sd), "kp-newton", &settings, &mut Recorder::default()).unwrap();
         let mut rec = Recorder::default();
-        let out = solve_param(mesh, EnergyKind::Sd, "aqp", &settings, &mut rec).unwrap();
+        let out = solve_param(mesh, EnergyKind::Sd(Sd), "aqp", &settings, &mut rec).unwrap();
         let label = &mesh.source;
         assert_eq!(out.stop_reason, StopReason::GradientTolerance, "{label} after {}", out.iterations);
         let rel = (out.final_energy - kp.final_energy).abs() / kp.final_energy;
@@ -314,10 +314,11 @@ mod tests {
         let mesh = generate("planar_bar_2k").unwrap();
         let handles = generated_handles("planar_bar_2k").unwrap();
         let settings = DeformSettings::default();
-        let kp = solve_deform(&mesh, &handles, None, EnergyKind::Sd, "kp-newton", &settings, &mut Recorder::default())
-            .unwrap();
+        let kp =
+            solve_deform(&mesh, &handles, None, EnergyKind::Sd(Sd), "kp-newton", &settings, &mut Recorder::default())
+                .unwrap();
         let mut rec = Recorder::default();
-        let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd, "aqp", &settings, &mut rec).unwrap();
+        let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd(Sd), "aqp", &settings, &mut rec).unwrap();
         assert!(out.stop_reason.is_converged(), "{:?} after {}", out.stop_reason, out.iterations);
         let rises = check_rows("planar_bar_2k", &rec.rows);
         let rel = (out.final_energy - kp.final_energy) / kp.final_energy;
@@ -336,10 +337,10 @@ mod tests {
     fn the_record_only_work_is_timed_apart() {
         let mesh = generate("bumpy_1k").unwrap();
         for solver in ["aqp", "lbfgs", "lbfgs-laplacian", "kp-newton", "pn-trust-region", "kp-newton-cg"] {
-            let settings = ParamSettings::for_energy(&EnergyKind::Sd);
+            let settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
             let mut rec = Recorder::default();
             let t0 = Instant::now();
-            solve_param(&mesh, EnergyKind::Sd, solver, &settings, &mut rec).unwrap();
+            solve_param(&mesh, EnergyKind::Sd(Sd), solver, &settings, &mut rec).unwrap();
             let wall = t0.elapsed().as_secs_f64();
             let rows = &rec.rows;
             assert!(rows.len() > 5 && rows[0].t_record_s == 0.0, "{solver}");
@@ -363,7 +364,7 @@ mod tests {
         use crate::init::{tutte, TutteBoundary};
         use crate::solver::StopAt;
         let mesh = generate("bumpy_1k").unwrap().normalized();
-        let problem = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let problem = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let x0 = tutte(&mesh, TutteBoundary::Uniform).unwrap();
         struct Both(Recorder, StopAt);
         impl Observer for Both {

@@ -289,7 +289,7 @@ impl<'a> Method for Lbfgs<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sd};
     use crate::solver::{Recorder, StopSettings};
     use nalgebra::{DMatrix, DVector};
 
@@ -388,12 +388,12 @@ mod tests {
     fn both_variants_reach_kp_on_a_generated_mesh() {
         use crate::param::{solve_param, ParamSettings};
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
-        let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+        let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
         settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters: 5000 };
-        let kp = solve_param(&mesh, EnergyKind::Sd, "kp-newton", &settings, &mut Recorder::default()).unwrap();
+        let kp = solve_param(&mesh, EnergyKind::Sd(Sd), "kp-newton", &settings, &mut Recorder::default()).unwrap();
         for (solver, max_iters) in [("lbfgs", 1000), ("lbfgs-laplacian", 200)] {
             let mut rec = Recorder::default();
-            let out = solve_param(&mesh, EnergyKind::Sd, solver, &settings, &mut rec).unwrap();
+            let out = solve_param(&mesh, EnergyKind::Sd(Sd), solver, &settings, &mut rec).unwrap();
             assert_eq!(out.stop_reason, StopReason::GradientTolerance, "{solver}");
             assert!(out.iterations < max_iters, "{solver}: {}", out.iterations);
             assert!(rec.rows.windows(2).all(|w| w[1].energy <= w[0].energy), "{solver}");

@@ -195,7 +195,7 @@ impl<'a, L: Direction> Method for NewtonStep<'a, L> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sd};
     use crate::hessian::kp::Kp;
     use crate::linear::next_shift;
     use crate::local::LocalOp;
@@ -209,7 +209,7 @@ mod tests {
         let f = vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
         let mesh = Mesh::new("fan", p.clone(), f);
         let x = p.iter().flat_map(|q| [2.0 * q[0], 0.7 * q[1]]).collect();
-        (MapProblem::new(&mesh, EnergyKind::Sd).unwrap(), x)
+        (MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap(), x)
     }
 
     fn settings() -> Settings {

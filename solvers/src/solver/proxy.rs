@@ -340,7 +340,7 @@ impl ScalarProxy {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::energy::EnergyKind;
+    use crate::energy::{Barap, EnergyKind, Sd};
     use crate::problem::{dot, norm, Evaluation, Penalty};
 
     /// `c sum_t a_t |J_t|^2 / sum a` at `x`, plus the handle penalty when the problem has one.
@@ -383,7 +383,7 @@ mod tests {
     #[test]
     fn the_proxy_is_the_hessian_of_the_dirichlet_energy_and_pins_vertex_0() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
-        let mut pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let mut pb = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let pattern = pb.system_pattern();
         let n = pb.n_dofs();
         for penalty in [None, Some(Penalty { lambda: 1e3, handles: vec![(3, [0.1, 0.2]), (40, [-0.3, 0.0])] })] {
@@ -450,10 +450,10 @@ mod tests {
         let handles = Penalty { lambda: 1e3, handles: vec![(3, [0.1, 0.2]), (40, [-0.3, 0.0])] };
         let h = 1e-4;
         let cases = [
-            (EnergyKind::Sd, None, 0.5),
-            (EnergyKind::Sd, Some(handles), 0.5),
-            (EnergyKind::Barap { k: 0.0 }, None, 1.0),
-            (EnergyKind::Barap { k: 0.1 }, None, 1.0),
+            (EnergyKind::Sd(Sd), None, 0.5),
+            (EnergyKind::Sd(Sd), Some(handles), 0.5),
+            (EnergyKind::Barap(Barap { k: 0.0 }), None, 1.0),
+            (EnergyKind::Barap(Barap { k: 0.1 }), None, 1.0),
         ];
         for (energy, penalty, c) in cases {
             let mut pb = MapProblem::new(&mesh, energy).unwrap();
@@ -477,15 +477,15 @@ mod tests {
                     let diff: Vec<f64> = (0..n).filter(keep).map(|i| fd[i] - av[i]).collect();
                     norm(&diff) / norm(&av)
                 };
-                if energy == (EnergyKind::Barap { k: 0.1 }) {
+                if energy == (EnergyKind::Barap(Barap { k: 0.1 })) {
                     assert!(err(&interior) < 1e-8, "{label}: interior {:e}", err(&interior));
                     assert!(err(&|_| true) > 1e-4, "{label}: the barrier's area term is missing: {:e}", err(&|_| true));
                 } else {
                     assert!(err(&|_| true) < 1e-8, "{label}: {:e}", err(&|_| true));
                 }
-                if energy == EnergyKind::Sd && pb.penalty.is_none() {
+                if energy == EnergyKind::Sd(Sd) && pb.penalty.is_none() {
                     // the proxy of the Dirichlet energy |J|^2 (BARAP's) is twice SD's Hessian
-                    let barap = MapProblem::new(&mesh, EnergyKind::Barap { k: 0.1 }).unwrap();
+                    let barap = MapProblem::new(&mesh, EnergyKind::Barap(Barap { k: 0.1 })).unwrap();
                     let twice = pattern.sym_mul(&laplacian_proxy(&barap, &pattern, None), &v);
                     let rel = norm(&twice.iter().zip(&fd).map(|(t, f)| t - 2.0 * f).collect::<Vec<_>>()) / norm(&twice);
                     assert!(rel < 1e-8, "{label}: {rel:e}");
@@ -500,7 +500,7 @@ mod tests {
     #[test]
     fn the_stiffness_weights_reproduce_isotropic_blocks() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
-        let pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let pb = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let pattern = pb.system_pattern();
         let dirichlet = |t: usize| {
             let op = &pb.ops[t];
@@ -537,7 +537,7 @@ mod tests {
     #[test]
     fn the_scalar_proxy_is_the_proxy_of_each_coordinate() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap().normalized();
-        let mut pb = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let mut pb = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let pattern = pb.system_pattern();
         for penalty in [None, Some(Penalty { lambda: 1e3, handles: vec![(3, [0.1, 0.2]), (40, [-0.3, 0.0])] })] {
             pb.penalty = penalty;

@@ -315,7 +315,7 @@ impl Direction for Truncated<'_> {
 mod tests {
     use super::*;
     use crate::deform::{solve_deform, DeformSettings};
-    use crate::energy::EnergyKind;
+    use crate::energy::{EnergyKind, Sarap, Sd};
     use crate::generate::{generate, generated_handles};
     use crate::hessian::kp::Kp;
     use crate::init::{tutte, TutteBoundary};
@@ -358,7 +358,7 @@ mod tests {
     /// values, and the gradient.
     fn system(mesh: &Mesh) -> (MapProblem, crate::assembly::Pattern, Vec<f64>, Vec<f64>) {
         let mesh = mesh.normalized();
-        let problem = MapProblem::new(&mesh, EnergyKind::Sd).unwrap();
+        let problem = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let x = tutte(&mesh, TutteBoundary::Uniform).unwrap();
         let mut ev = Evaluation::default();
         problem.evaluate(&x, &mut ev).unwrap();
@@ -456,12 +456,12 @@ mod tests {
     fn reaches_kp_s_minimum_in_param() {
         let meshes = [Some(generate("bumpy_1k").unwrap()), shared_mesh("cow"), shared_mesh("bunnyhead")];
         for mesh in meshes.iter().flatten() {
-            let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+            let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
             settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters: 1000 };
-            let kp = solve_param(mesh, EnergyKind::Sd, "kp-newton", &settings, &mut Recorder::default()).unwrap();
+            let kp = solve_param(mesh, EnergyKind::Sd(Sd), "kp-newton", &settings, &mut Recorder::default()).unwrap();
             for solver in ["kp-newton-cg", "kp-newton-cg-laplacian"] {
                 let mut rec = Recorder::default();
-                let out = solve_param(mesh, EnergyKind::Sd, solver, &settings, &mut rec).unwrap();
+                let out = solve_param(mesh, EnergyKind::Sd(Sd), solver, &settings, &mut rec).unwrap();
                 let label = format!("{} {solver}", mesh.source);
                 assert_eq!(out.stop_reason, StopReason::GradientTolerance, "{label}");
                 assert_reaches(&label, &out, &rec.rows, &kp, 1e-6);
@@ -479,7 +479,7 @@ mod tests {
         let handles = generated_handles("planar_bar_2k").unwrap();
         let mut settings = DeformSettings::default();
         settings.solver.stop = StopSettings { grad_tol: 1e-6, energy_decrease_tol: 0.0, max_iters: 500 };
-        for energy in [EnergyKind::Sd, EnergyKind::default_for("nh").unwrap()] {
+        for energy in [EnergyKind::Sd(Sd), EnergyKind::default_for("nh").unwrap()] {
             let solve = |solver: &str, rec: &mut Recorder| {
                 solve_deform(&mesh, &handles, None, energy, solver, &settings, rec).unwrap()
             };
@@ -497,11 +497,11 @@ mod tests {
     #[test]
     fn a_step_at_the_cg_cap_is_marked() {
         let mesh = generate("sack_1k").unwrap();
-        let mut settings = ParamSettings::for_energy(&EnergyKind::Sarap);
+        let mut settings = ParamSettings::for_energy(&EnergyKind::Sarap(Sarap));
         settings.solver.stop.max_iters = 30;
         settings.solver.options = "max_cg_iters = 1".parse().unwrap();
         let mut rec = Recorder::default();
-        solve_param(&mesh, EnergyKind::Sarap, "kp-newton-cg", &settings, &mut rec).unwrap();
+        solve_param(&mesh, EnergyKind::Sarap(Sarap), "kp-newton-cg", &settings, &mut rec).unwrap();
         let rows = rec.rows;
         assert!(rows[0].extra_value(CG_CAPPED_COLUMN).unwrap().is_nan());
         let capped: Vec<bool> = rows[1..].iter().map(|r| value(r, CG_CAPPED_COLUMN) == 1.0).collect();
@@ -517,12 +517,12 @@ mod tests {
     #[test]
     fn the_iterates_do_not_depend_on_the_thread_count() {
         let mesh = generate("bumpy_10k").unwrap();
-        let settings = ParamSettings::for_energy(&EnergyKind::Sd);
+        let settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| {
                 let mut rec = Recorder::default();
-                let out = solve_param(&mesh, EnergyKind::Sd, "kp-newton-cg", &settings, &mut rec).unwrap();
+                let out = solve_param(&mesh, EnergyKind::Sd(Sd), "kp-newton-cg", &settings, &mut rec).unwrap();
                 // bits: row 0's columns are NaN
                 let rows: Vec<_> = rec.rows[1..].iter().map(|r| (r.energy, value(r, "cg_iters").to_bits())).collect();
                 (out.x, rows)

@@ -2,7 +2,7 @@
 
 use super::*;
 use solvers::authalic::FoldGuard;
-use solvers::energy::EnergyKind;
+use solvers::energy::{Bconf, EnergyKind, Sarap, Sd};
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
 use solvers::smoothness::Projection;
@@ -155,11 +155,11 @@ const MIN: &str = "name = \"t\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\
 fn minimal_config_gets_the_documented_defaults() {
     let c = parse(MIN).unwrap();
     assert_eq!(c.task, Task::Param);
-    let s = c.param_settings(&EnergyKind::Sd);
+    let s = c.param_settings(&EnergyKind::Sd(Sd));
     assert_eq!(s.solver.stop.grad_tol, 1e-3);
     assert_eq!(s.solver.stop.max_iters, 1000);
     assert_eq!(s.solver.stop.energy_decrease_tol, 0.0);
-    assert_eq!(c.param_settings(&EnergyKind::Sarap).solver.stop.energy_decrease_tol, 1e-8);
+    assert_eq!(c.param_settings(&EnergyKind::Sarap(Sarap)).solver.stop.energy_decrease_tol, 1e-8);
     assert_eq!(s.solver.line_search, LineSearchSettings::default());
     assert_eq!(
         s.solver.linear,
@@ -175,11 +175,11 @@ fn overrides_apply() {
         "{MIN}[stop]\nmax_iters = 7\n[init]\ntutte_boundary = \"arclength\"\n[energy.bconf]\nk = 0.5\n[line_search]\narmijo_c = 0.1\n"
     );
     let c = parse(&text).unwrap();
-    let s = c.param_settings(&EnergyKind::Sd);
+    let s = c.param_settings(&EnergyKind::Sd(Sd));
     assert_eq!(s.solver.stop.max_iters, 7);
     assert_eq!(s.solver.line_search.armijo_c, 0.1);
     assert_eq!(s.tutte_boundary, TutteBoundary::Arclength);
-    assert_eq!(c.energy_kind("bconf").unwrap(), EnergyKind::Bconf { k: 0.5 });
+    assert_eq!(c.energy_kind("bconf").unwrap(), EnergyKind::Bconf(Bconf { k: 0.5 }));
 }
 
 #[test]
@@ -218,7 +218,7 @@ fn solver_sections_are_passed_through_as_given() {
     let c = parse(&format!("{MIN}[solver.slim]\nclamp_weights = true\n")).unwrap();
     assert_eq!(c.solver["slim"].get("clamp_weights").and_then(|v| v.as_bool()), Some(true));
     // the energy's settings carry none: each run gets its solver's own (`RunSettings::for_solver`)
-    assert_eq!(c.param_settings(&EnergyKind::Sd).solver.options, Default::default());
+    assert_eq!(c.param_settings(&EnergyKind::Sd(Sd)).solver.options, Default::default());
     assert_eq!(c.deform_settings().solver.options, Default::default());
     // an empty section is allowed, for a solver the config does not run too
     assert!(parse(&format!("{MIN}[solver.cm]\n")).is_ok());

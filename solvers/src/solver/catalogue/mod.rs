@@ -125,7 +125,7 @@ const fn planar(
     SolverEntry {
         name,
         tasks: PLANAR_TASKS,
-        energies: &ENERGY_NAMES,
+        energies: ENERGY_NAMES,
         outside_reason: "",
         opt_in: never,
         options: check::<NoOptions>,

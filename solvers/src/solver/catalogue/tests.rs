@@ -1,4 +1,5 @@
 use super::*;
+use crate::energy::{Bconf, Sd};
 use crate::generate::generate;
 use crate::param::{solve_param, ParamSettings};
 use crate::solver::Recorder;
@@ -54,21 +55,22 @@ fn every_entry_builds_for_the_energies_it_lists_and_refuses_the_others_with_a_re
             }
         }
         if let Build::Planar(_) = s.build {
-            let err = s.planar(Task::Authalic, &EnergyKind::Sd, &RawOptions::new()).err().unwrap().to_string();
+            let err = s.planar(Task::Authalic, &EnergyKind::Sd(Sd), &RawOptions::new()).err().unwrap().to_string();
             assert!(err.starts_with(&format!("'{}' is a param/deform solver", s.name)), "{err}");
         }
     }
     // the solvers without a Newton system say so to export-system
     for name in ["lbfgs", "lbfgs-laplacian", "aqp"] {
-        let err = find(name).unwrap().newton_spec(Task::Param, &EnergyKind::Sd, &RawOptions::new()).err().unwrap();
+        let err = find(name).unwrap().newton_spec(Task::Param, &EnergyKind::Sd(Sd), &RawOptions::new()).err().unwrap();
         assert!(err.to_string().contains("has no Newton system"), "{err}");
     }
     // parameters outside a solver's domain: refused with the builder's reason, a skip
     let cm = find("cm").unwrap();
-    let err = cm.planar(Task::Param, &EnergyKind::Bconf { k: 1.5 }, &RawOptions::new()).err().unwrap().to_string();
+    let err =
+        cm.planar(Task::Param, &EnergyKind::Bconf(Bconf { k: 1.5 }), &RawOptions::new()).err().unwrap().to_string();
     assert!(err.contains("not convex"), "{err}");
-    assert_eq!(cm.skip_reason(Task::Param, &EnergyKind::Bconf { k: 1.5 }, &RawOptions::new()), Some(err));
-    assert_eq!(cm.skip_reason(Task::Deform, &EnergyKind::Bconf { k: 0.5 }, &RawOptions::new()), None);
+    assert_eq!(cm.skip_reason(Task::Param, &EnergyKind::Bconf(Bconf { k: 1.5 }), &RawOptions::new()), Some(err));
+    assert_eq!(cm.skip_reason(Task::Deform, &EnergyKind::Bconf(Bconf { k: 0.5 }), &RawOptions::new()), None);
 }
 
 #[test]
@@ -108,7 +110,7 @@ fn each_solver_reads_its_own_options_and_refuses_others() {
     );
     assert!(err("slim", table("clamp_weights = 1")).contains("invalid type"));
     // and a build refuses options its check refuses
-    let bad = find("kp-newton-cg").unwrap().planar(Task::Param, &EnergyKind::Sd, &table("eta_max = 2.0"));
+    let bad = find("kp-newton-cg").unwrap().planar(Task::Param, &EnergyKind::Sd(Sd), &table("eta_max = 2.0"));
     assert!(matches!(bad.map(|_| ()), Err(SolverError::Options { name: "kp-newton-cg", .. })));
 }
 
@@ -143,18 +145,18 @@ fn each_trust_region_threshold_reaches_its_strategy() {
         let tr = find(name).unwrap();
         assert_eq!(tr.extra_columns, TRUST_REGION_COLUMNS);
         for (o, tau) in [(RawOptions::new(), 0.01), (table("tau = 0.5"), 0.5)] {
-            let spec = tr.newton_spec(Task::Param, &EnergyKind::Sd, &o).unwrap();
+            let spec = tr.newton_spec(Task::Param, &EnergyKind::Sd(Sd), &o).unwrap();
             assert_eq!(spec.block.trust_region(), Some(TrustRegion { tau, space }), "{name}");
         }
     }
     // only they adapt their filter
     for s in SOLVERS.iter().filter(|s| !s.name.contains("trust-region")) {
-        if let Ok(spec) = s.newton_spec(Task::Param, &EnergyKind::Sd, &RawOptions::new()) {
+        if let Ok(spec) = s.newton_spec(Task::Param, &EnergyKind::Sd(Sd), &RawOptions::new()) {
             assert_eq!(spec.block.trust_region(), None, "{}", s.name);
         }
     }
     // kp-newton-cg's options reach its truncated solve
-    let cg = find("kp-newton-cg").unwrap().newton_spec(Task::Param, &EnergyKind::Sd, &table("max_cg_iters = 7"));
+    let cg = find("kp-newton-cg").unwrap().newton_spec(Task::Param, &EnergyKind::Sd(Sd), &table("max_cg_iters = 7"));
     let SystemSolve::Truncated(Preconditioner::Stiffness, o) = cg.unwrap().solve else { panic!("not truncated") };
     assert_eq!((o.max_cg_iters, o.eta_max), (7, 0.9));
 }
@@ -200,7 +202,7 @@ fn a_solver_of_another_task_or_no_solver_is_named_as_such() {
 #[test]
 fn extra_columns_are_those_the_solvers_write() {
     let mesh = generate("bumpy_1k").unwrap();
-    let mut settings = ParamSettings::for_energy(&EnergyKind::Sd);
+    let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
     settings.solver.stop.max_iters = 1;
     for s in SOLVERS {
         let mut rec = Recorder::default();
