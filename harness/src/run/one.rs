@@ -120,13 +120,30 @@ pub(super) fn run_one(
             return fail(summary, format!("{}: internal error (panic): {msg}", mesh.source));
         }
     };
+    let rows = rows.rows;
+    record_outcome(&mut summary, &outcome, metrics, &rows, elapsed, run, mesh);
+    let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &outcome.x));
+    // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
+    let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
+    RunResult { summary, rows, map_uv, mesh_file: None, interrupted }
+}
+
+/// What a finished solve says of the run: its summary's outcome, times and counts.
+fn record_outcome(
+    summary: &mut SummaryRow,
+    outcome: &Outcome,
+    metrics: Option<AreaMetrics>,
+    rows: &[IterationRecord],
+    elapsed: f64,
+    run: &PlannedRun,
+    mesh: &Mesh,
+) {
     if let Some(m) = metrics {
         summary.area_ratio_sd = Some(m.area_ratio_sd);
         summary.area_ratio_mad = Some(m.area_ratio_mad);
         summary.authalic_energy = Some(m.authalic_energy);
         summary.folded = Some(m.folded);
     }
-    let rows = rows.rows;
     summary.iterations = Some(outcome.iterations);
     summary.converged = outcome.stop_reason.is_converged();
     summary.stop_reason = Some(outcome.stop_reason.clone());
@@ -138,26 +155,22 @@ pub(super) fn run_one(
     // on scheduling: time_s leaves it out for every run (including any wait for another run
     // computing it) and analysis_s reports its cost.
     let setup = outcome.analysis.map_or(0.0, |a| a.setup_seconds);
-    let elapsed = run_time(elapsed, setup, &rows);
+    let elapsed = run_time(elapsed, setup, rows);
     summary.analysis_s = outcome.analysis.map(|a| a.seconds);
     summary.analysis_shared = outcome.analysis.map(|a| a.reused);
     summary.time_s = Some(elapsed);
     (summary.repeats, summary.time_s_min, summary.time_s_max) = (Some(1), Some(elapsed), Some(elapsed));
-    fill_times(&mut summary, &rows);
+    fill_times(summary, rows);
     summary.flips = Some(outcome.flips);
     // Rows after row 0 each come from one solved system (row 0 has none, `shift` empty).
-    summary.shifted_iters = run.settings.base_shift().map(|base| shifted_iters(base, &rows));
-    summary.clamped_iters = marked_iters(&rows, solvers::hessian::slim::CLAMPED_COLUMN[0]);
-    summary.cg_capped_iters = marked_iters(&rows, solvers::solver::truncated::CG_CAPPED_COLUMN);
+    summary.shifted_iters = run.settings.base_shift().map(|base| shifted_iters(base, rows));
+    summary.clamped_iters = marked_iters(rows, solvers::hessian::slim::CLAMPED_COLUMN[0]);
+    summary.cg_capped_iters = marked_iters(rows, solvers::solver::truncated::CG_CAPPED_COLUMN);
     summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
     summary.error = match &outcome.stop_reason {
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
         _ => String::new(),
     };
-    let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &outcome.x));
-    // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
-    let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
-    RunResult { summary, rows, map_uv, mesh_file: None, interrupted }
 }
 
 /// A run's `time_s` from its wall time `elapsed`: less the shared analysis's `setup` and the
