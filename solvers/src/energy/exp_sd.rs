@@ -1,7 +1,8 @@
 //! Exponential symmetric Dirichlet `exp(s * psi_SD)` with the half SD in the exponent,
 //! as in the complex-view reference code (libigl's `exp_factor` f equals s / 2).
 
-use super::{sd, ConvexSplit, Density, Modifiers};
+use super::{ConvexSplit, Density, Modifiers};
+use super::Sd;
 use serde::{Deserialize, Serialize};
 
 /// Default exponent weight. Tutte initializations with slivers overflow quickly, so the
@@ -24,13 +25,13 @@ impl Default for ExpSd {
 impl Density for ExpSd {
     #[inline]
     fn value(&self, x: f64, y: f64) -> f64 {
-        (self.s * sd::value(x, y)).exp()
+        (self.s * Sd.value(x, y)).exp()
     }
 
     #[inline]
     fn modifiers(&self, x: f64, y: f64) -> Modifiers {
         let s = self.s;
-        let m = sd::modifiers(x, y);
+        let m = Sd.modifiers(x, y);
         let e = (s * m.psi).exp();
         Modifiers {
             psi: e,

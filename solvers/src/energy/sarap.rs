@@ -13,39 +13,29 @@ pub const Y_FLOOR: f64 = 1e-24;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Sarap;
 
-#[inline]
-pub fn value(x: f64, y: f64) -> f64 {
-    let (a, b) = (x.sqrt(), y.sqrt());
-    let s1 = a + b;
-    let s2 = a - b;
-    (s1 - 1.0).powi(2) + (1.0 / s2 - 1.0).powi(2)
-}
-
-#[inline]
-pub fn modifiers(x: f64, y: f64) -> Modifiers {
-    let psi = value(x, y);
-    let y = y.max(Y_FLOOR * x);
-    let (a, b) = (x.sqrt(), y.sqrt());
-    let u = a + b;
-    let v = a - b;
-    let iv = 1.0 / v;
-    let (iv2, iv3) = (iv * iv, iv * iv * iv);
-    let hu = 2.0 * (u - 1.0);
-    let hv = 2.0 * (iv2 - iv3);
-    let huu = 2.0;
-    let hvv = 6.0 * iv2 * iv2 - 4.0 * iv3;
-    from_singular_values(x, y, psi, [hu, hv, huu, hvv, 0.0])
-}
-
 impl Density for Sarap {
     #[inline]
     fn value(&self, x: f64, y: f64) -> f64 {
-        value(x, y)
+        let (a, b) = (x.sqrt(), y.sqrt());
+        let s1 = a + b;
+        let s2 = a - b;
+        (s1 - 1.0).powi(2) + (1.0 / s2 - 1.0).powi(2)
     }
 
     #[inline]
     fn modifiers(&self, x: f64, y: f64) -> Modifiers {
-        modifiers(x, y)
+        let psi = self.value(x, y);
+        let y = y.max(Y_FLOOR * x);
+        let (a, b) = (x.sqrt(), y.sqrt());
+        let u = a + b;
+        let v = a - b;
+        let iv = 1.0 / v;
+        let (iv2, iv3) = (iv * iv, iv * iv * iv);
+        let hu = 2.0 * (u - 1.0);
+        let hv = 2.0 * (iv2 - iv3);
+        let huu = 2.0;
+        let hvv = 6.0 * iv2 * iv2 - 4.0 * iv3;
+        from_singular_values(x, y, psi, [hu, hv, huu, hvv, 0.0])
     }
 
     /// `(1/v - 1)^2` is concave for `v > 1.5`.
