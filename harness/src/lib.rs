@@ -9,6 +9,7 @@
 //! its trend page, `signals` turns Ctrl-C, SIGTERM and SIGHUP into a clean stop.
 
 pub mod calibration;
+pub mod evaluate;
 pub mod export;
 pub mod fuzzing;
 pub mod gate;

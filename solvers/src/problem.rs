@@ -198,6 +198,15 @@ impl MapProblem {
         (0..self.n_faces()).into_par_iter().filter(|&t| signed_area(self.target(x, t)) <= 0.0).count()
     }
 
+    /// The signed singular values `(sigma1, sigma2)` of each element's Jacobian at `x`
+    /// (`sigma2 <= 0` where the map inverts or collapses the element).
+    pub fn singular_values(&self, x: &[f64]) -> Vec<[f64; 2]> {
+        (0..self.n_faces())
+            .into_par_iter()
+            .map(|t| self.ops[t].wirtinger(self.target(x, t)).singular_values())
+            .collect()
+    }
+
     /// Energy, gradient, element states and inertia counts at `x`, reusing `out`'s buffers.
     ///
     /// One parallel pass over the faces in fixed chunks computes each element's state,

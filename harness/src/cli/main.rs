@@ -193,6 +193,29 @@ enum Command {
         #[arg(long, default_value = "param", value_parser = task_parser())]
         task: solvers::mesh::Task,
     },
+    /// Score a map made anywhere with our code: energy in our convention (mesh at area 1),
+    /// gradient norm, flips, singular values. MESH: an OBJ or a run folder's
+    /// meshes/<dataset>.obj.gz; MAP: a run folder's uv/<run>.uv.gz or an OBJ with `vt` (as
+    /// `mapbench map` writes).
+    Evaluate {
+        mesh: PathBuf,
+        map: PathBuf,
+        /// The task whose energy scores the map (only `param` so far).
+        #[arg(long, default_value = "param", value_parser = task_parser())]
+        task: solvers::mesh::Task,
+        /// The energy (`mapbench list energies`), with its default parameters unless --param.
+        #[arg(long, default_value = "sd")]
+        energy: String,
+        /// A parameter of the energy, KEY=VALUE as in `[energy.<name>]` (repeat for several).
+        #[arg(long = "param")]
+        params: Vec<String>,
+        /// The frame of the map's coordinates.
+        #[arg(long, value_enum, default_value = "area1")]
+        frame: mapbench::evaluate::Frame,
+        /// Print JSON instead of lines.
+        #[arg(long)]
+        json: bool,
+    },
     /// List the registered datasets, solvers or energies.
     List {
         #[arg(value_enum, default_value = "datasets")]
@@ -405,7 +428,40 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
         }
         Command::List { what, registry } => list(what, &registry),
+        Command::Evaluate { mesh, map, task, energy, params, frame, json } => {
+            evaluate(&mesh, &map, task, &energy, &params, frame, json)
+        }
     }
+}
+
+/// `evaluate`: one map scored; exit 0 whatever its quality (the numbers say it).
+fn evaluate(
+    mesh: &std::path::Path,
+    map: &std::path::Path,
+    task: solvers::mesh::Task,
+    energy: &str,
+    params: &[String],
+    frame: mapbench::evaluate::Frame,
+    json: bool,
+) -> Result<ExitCode> {
+    if task != solvers::mesh::Task::Param {
+        anyhow::bail!("evaluate scores `param` maps so far ({task} needs its handles or the disk's own energy)");
+    }
+    let mut table = toml::Table::new();
+    for p in params {
+        let text = format!("{}\n", p.replacen('=', " = ", 1));
+        let one: toml::Table = text.parse().with_context(|| format!("--param {p}: not KEY=VALUE with a TOML value"))?;
+        table.extend(one);
+    }
+    let energy = solvers::energy::EnergyKind::from_table(energy, &table)
+        .map_err(|e| anyhow::anyhow!("--energy {energy}: {e}"))?;
+    let score = mapbench::evaluate::evaluate(mesh, map, energy, frame)?;
+    if json {
+        out(format_args!("{}\n", serde_json::to_string_pretty(&score)?))?;
+    } else {
+        out(format_args!("{}", score.lines()))?;
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// The plan of `run`: the config resolved with `--only`, `--repeat` and the history choice.

@@ -1,0 +1,139 @@
+//! `mapbench evaluate`: a map made anywhere, scored by our own code in our conventions (the
+//! mesh centred and scaled to area 1, the energies of `solvers::energy`), so that a number
+//! from another code and one from a run are the same number.
+
+use crate::run_folder::map::{self, StoredMesh};
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+use solvers::energy::EnergyKind;
+use solvers::mesh::{obj::load_obj, Mesh};
+use solvers::problem::{norm, Evaluation, MapProblem};
+use std::path::Path;
+
+/// The frame a map's coordinates are in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Frame {
+    /// The mesh as mapbench normalizes it (area 1): what `run` stores, what `mapbench map`
+    /// writes and what an external solver receives.
+    Area1,
+    /// The mesh in its file's units: the map is scaled with the mesh before it is scored.
+    Source,
+}
+
+/// What `evaluate` measured.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Score {
+    pub mesh: String,
+    pub map: String,
+    pub vertices: usize,
+    pub faces: usize,
+    pub frame: Frame,
+    /// The energy with its parameters (`name` and the parameters).
+    pub energy: EnergyKind,
+    /// The area-weighted energy on the area-1 mesh; `inf` when any face is inverted or
+    /// collapsed (every energy here is a barrier).
+    pub energy_value: f64,
+    /// The Euclidean norm of the energy's gradient in the map's coordinates (area-1 frame);
+    /// `None` where the energy is not finite.
+    pub grad_norm: Option<f64>,
+    /// Faces the map inverts or collapses.
+    pub flips: usize,
+    /// The smallest signed singular value over the faces (negative: some face is inverted).
+    pub sigma_min: f64,
+    /// The largest singular value over the faces.
+    pub sigma_max: f64,
+}
+
+/// Score the map `map_path` of the mesh `mesh_path` with `energy`. The mesh is an OBJ, or a
+/// run folder's `meshes/<dataset>.obj.gz`; the map a run folder's `uv/<run>.uv.gz` (which names
+/// its mesh by checksum) or an OBJ with one `vt` per vertex and the mesh's faces, as
+/// `mapbench map` writes.
+pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Frame) -> Result<Score> {
+    let mesh = read_mesh(mesh_path)?;
+    let uv = read_map(map_path, &mesh)?;
+    let (_, scale) = mesh.normalization();
+    let rest = mesh.normalized();
+    let s = match frame {
+        Frame::Area1 => 1.0,
+        Frame::Source => scale,
+    };
+    let x: Vec<f64> = uv.iter().flat_map(|p| [p[0] * s, p[1] * s]).collect();
+    if let Some(v) = x.iter().position(|c| !c.is_finite()) {
+        bail!("{}: vertex {} has a non-finite coordinate", map_path.display(), v / 2);
+    }
+    let problem = MapProblem::new(&rest, energy).map_err(anyhow::Error::new)?;
+    let flips = problem.flips(&x);
+    let energy_value = problem.energy(&x);
+    let grad_norm = energy_value.is_finite().then(|| {
+        let mut ev = Evaluation::default();
+        problem.evaluate_without_inertia(&x, &mut ev).ok().map(|()| norm(&ev.grad))
+    });
+    let sv = problem.singular_values(&x);
+    Ok(Score {
+        mesh: mesh_path.display().to_string(),
+        map: map_path.display().to_string(),
+        vertices: mesh.n_vertices(),
+        faces: mesh.n_faces(),
+        frame,
+        energy,
+        energy_value,
+        grad_norm: grad_norm.flatten(),
+        flips,
+        sigma_min: sv.iter().map(|s| s[1]).fold(f64::INFINITY, f64::min),
+        sigma_max: sv.iter().map(|s| s[0]).fold(f64::NEG_INFINITY, f64::max),
+    })
+}
+
+fn read_mesh(path: &Path) -> Result<Mesh> {
+    if path.extension().is_some_and(|e| e == "gz") {
+        let m = map::read_mesh(path)?;
+        return Ok(Mesh { source: path.display().to_string(), positions: m.positions, faces: m.faces });
+    }
+    load_obj(path).map_err(anyhow::Error::new)
+}
+
+/// The map's position of each vertex of `mesh`, checked against it.
+fn read_map(path: &Path, mesh: &Mesh) -> Result<Vec<[f64; 2]>> {
+    let name = path.display();
+    if path.to_string_lossy().ends_with(".uv.gz") {
+        let checksum = map::checksum(&mesh.positions, &mesh.faces);
+        let stored = StoredMesh { positions: mesh.positions.clone(), faces: mesh.faces.clone(), checksum };
+        return map::read_uv(path, &stored).with_context(|| format!("{name}: is it a map of {}?", mesh.source));
+    }
+    let m = map::read_obj(path)?;
+    if m.uv.len() != mesh.n_vertices() {
+        bail!("{name}: {} map vertices (`vt`), but {} has {} vertices", m.uv.len(), mesh.source, mesh.n_vertices());
+    }
+    if m.faces.len() != mesh.n_faces() {
+        bail!("{name}: {} faces, but {} has {}", m.faces.len(), mesh.source, mesh.n_faces());
+    }
+    if let Some(t) = (0..mesh.n_faces()).find(|&t| m.faces[t] != mesh.faces[t]) {
+        bail!("{name}: face {t} is not face {t} of {} (a map of another mesh or vertex order?)", mesh.source);
+    }
+    Ok(m.uv)
+}
+
+impl Score {
+    /// The human-readable lines `evaluate` prints.
+    pub fn lines(&self) -> String {
+        let grad = self.grad_norm.map_or("- (the energy is not finite)".to_string(), |g| format!("{g:e}"));
+        let frame = match self.frame {
+            Frame::Area1 => "area-1 frame",
+            Frame::Source => "the mesh's own units, scaled with it to area 1",
+        };
+        format!(
+            "mesh    {} ({} vertices, {} faces)\nmap     {} ({frame})\nenergy  {} = {}\n|grad|  {grad}\n\
+             flips   {}\nsigma   min {:e}, max {:e}\n",
+            self.mesh,
+            self.vertices,
+            self.faces,
+            self.map,
+            self.energy.name(),
+            self.energy_value,
+            self.flips,
+            self.sigma_min,
+            self.sigma_max
+        )
+    }
+}
