@@ -11,6 +11,7 @@
 pub mod calibration;
 pub mod evaluate;
 pub mod export;
+pub mod external;
 pub mod fuzzing;
 pub mod gate;
 pub mod hash;

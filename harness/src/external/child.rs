@@ -1,0 +1,241 @@
+//! An external solver's process: started in a process group of its own so that the timeout,
+//! an interrupt and the end of the run reach everything it started; its wall time and peak
+//! memory measured from outside; its output kept, truncated.
+
+use std::io::Read;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// How often the harness looks at the child (exit, deadline, interrupt, memory).
+const POLL: Duration = Duration::from_millis(10);
+
+/// What became of the child.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Exit {
+    /// It exited with this code.
+    Code(i32),
+    /// A signal it did not handle ended it.
+    Signal(i32),
+    /// Still running at the deadline: its process group was killed.
+    TimedOut,
+    /// The batch was interrupted: its process group was killed.
+    Interrupted,
+}
+
+/// A finished child.
+#[derive(Clone, Debug)]
+pub struct ChildRun {
+    pub exit: Exit,
+    /// Wall time from the start to the exit (or the kill), on the harness's clock.
+    pub wall_s: f64,
+    /// The sum over its process group's processes of each one's peak resident memory
+    /// (`VmHWM`, sampled while it ran: an upper bound of the group's peak), in MB; `None`
+    /// where `/proc` does not say or the child was gone before the first look.
+    pub peak_rss_mb: Option<f64>,
+    /// Its standard output and error, each cut at the limit [`run`] was given.
+    pub stdout: String,
+    pub stderr: String,
+}
+
+/// Why a child did not start: the pairs are skipped, not failed (like a missing mesh).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot start `{command}`: {why}")]
+pub struct CannotStart {
+    pub command: String,
+    pub why: std::io::Error,
+}
+
+/// Run `command` with `dir` as its last argument and working directory, until it exits, the
+/// `timeout` passes or `interrupt` is set; keep at most `keep` bytes of each output stream.
+pub fn run(
+    command: &[String],
+    dir: &Path,
+    timeout: Option<Duration>,
+    interrupt: &AtomicBool,
+    keep: usize,
+) -> Result<ChildRun, CannotStart> {
+    let shown = command.join(" ");
+    let (program, args) = command.split_first().ok_or_else(|| CannotStart {
+        command: shown.clone(),
+        why: std::io::Error::new(std::io::ErrorKind::InvalidInput, "the command is empty"),
+    })?;
+    let mut cmd = Command::new(program);
+    cmd.args(args).arg(dir).current_dir(dir).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    #[cfg(unix)]
+    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+    let t0 = Instant::now();
+    let mut child = cmd.spawn().map_err(|why| CannotStart { command: shown, why })?;
+    let readers = [child.stdout.take().map(|s| reader(s, keep)), child.stderr.take().map(|s| reader(s, keep))];
+    let mut peaks = Peaks::default();
+    let exit = loop {
+        peaks.sample(child.id());
+        match child.try_wait() {
+            Ok(Some(status)) => break exit_of(status),
+            Ok(None) => {}
+            Err(_) => break Exit::Signal(0),
+        }
+        let stop = if interrupt.load(Ordering::Relaxed) {
+            Some(Exit::Interrupted)
+        } else if timeout.is_some_and(|t| t0.elapsed() >= t) {
+            Some(Exit::TimedOut)
+        } else {
+            None
+        };
+        if let Some(stop) = stop {
+            kill_group(&mut child);
+            let _ = child.wait();
+            break stop;
+        }
+        thread::sleep(POLL);
+    };
+    let wall_s = t0.elapsed().as_secs_f64();
+    // What the child left running (a daemon, a worker pool) ends with it.
+    kill_group(&mut child);
+    let [stdout, stderr] = readers.map(|r| r.and_then(|h| h.join().ok()).unwrap_or_default());
+    Ok(ChildRun { exit, wall_s, peak_rss_mb: peaks.total_mb(), stdout, stderr })
+}
+
+/// Read a stream to its end on a thread (a full pipe would block the child), keeping the
+/// first `keep` bytes and saying how many were cut.
+fn reader(mut stream: impl Read + Send + 'static, keep: usize) -> thread::JoinHandle<String> {
+    thread::spawn(move || {
+        let (mut kept, mut total, mut buf) = (Vec::new(), 0usize, [0u8; 8192]);
+        while let Ok(n) = stream.read(&mut buf) {
+            if n == 0 {
+                break;
+            }
+            total += n;
+            let room = keep.saturating_sub(kept.len());
+            kept.extend_from_slice(&buf[..n.min(room)]);
+        }
+        let mut text = String::from_utf8_lossy(&kept).into_owned();
+        if total > kept.len() {
+            text.push_str(&format!("\n[{} more bytes not kept]\n", total - kept.len()));
+        }
+        text
+    })
+}
+
+fn exit_of(status: std::process::ExitStatus) -> Exit {
+    #[cfg(unix)]
+    if let Some(sig) = std::os::unix::process::ExitStatusExt::signal(&status) {
+        return Exit::Signal(sig);
+    }
+    Exit::Code(status.code().unwrap_or(-1))
+}
+
+/// SIGKILL to the child's process group (the child itself where there are none).
+fn kill_group(child: &mut std::process::Child) {
+    #[cfg(unix)]
+    {
+        use nix::sys::signal::{killpg, Signal};
+        use nix::unistd::Pid;
+        // ESRCH: the group is gone already.
+        let _ = killpg(Pid::from_raw(child.id() as i32), Signal::SIGKILL);
+    }
+    let _ = child.kill();
+}
+
+/// The peak resident memory of each process seen in the child's process group.
+#[derive(Default)]
+struct Peaks {
+    by_pid: std::collections::BTreeMap<u32, u64>,
+    seen: bool,
+}
+
+impl Peaks {
+    /// Read `/proc/<pid>/stat` (the group) and `/proc/<pid>/status` (`VmHWM`) of the group's
+    /// processes; nothing where there is no `/proc`.
+    fn sample(&mut self, group: u32) {
+        let Ok(dir) = std::fs::read_dir("/proc") else { return };
+        for entry in dir.flatten() {
+            let Some(pid) = entry.file_name().to_str().and_then(|s| s.parse::<u32>().ok()) else { continue };
+            if pid != group && process_group(pid) != Some(group) {
+                continue;
+            }
+            if let Some(kb) = high_water_kb(pid) {
+                self.seen = true;
+                let peak = self.by_pid.entry(pid).or_default();
+                *peak = (*peak).max(kb);
+            }
+        }
+    }
+
+    fn total_mb(&self) -> Option<f64> {
+        self.seen.then(|| self.by_pid.values().sum::<u64>() as f64 / 1024.0)
+    }
+}
+
+/// Field 5 of `/proc/<pid>/stat` (after the parenthesized command, which may hold spaces).
+fn process_group(pid: u32) -> Option<u32> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let rest = &stat[stat.rfind(')')? + 1..];
+    rest.split_whitespace().nth(2)?.parse().ok()
+}
+
+fn high_water_kb(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sh(script: &str) -> Vec<String> {
+        vec!["sh".into(), "-c".into(), script.into(), "sh".into()]
+    }
+
+    fn go(cmd: &[String], timeout_s: f64) -> ChildRun {
+        let dir = tempfile::tempdir().unwrap();
+        run(cmd, dir.path(), Some(Duration::from_secs_f64(timeout_s)), &AtomicBool::new(false), 64).unwrap()
+    }
+
+    #[test]
+    fn exit_codes_outputs_and_the_folder_argument_come_back() {
+        let r = go(&sh("echo out; echo err >&2; test \"$1\" = \"$PWD\" || exit 9; sleep 0.2; exit 3"), 10.0);
+        assert_eq!(r.exit, Exit::Code(3));
+        assert_eq!((r.stdout.as_str(), r.stderr.as_str()), ("out\n", "err\n"));
+        // sampled while it ran (a child gone before the first look has no number)
+        assert!(r.peak_rss_mb.is_some_and(|m| m > 0.0), "{:?}", r.peak_rss_mb);
+        let r = go(&sh("kill -SEGV $$"), 10.0);
+        assert_eq!(r.exit, Exit::Signal(11));
+    }
+
+    #[test]
+    fn output_past_the_limit_is_cut_and_counted() {
+        let r = go(&sh("i=0; while [ $i -lt 100 ]; do echo 0123456789; i=$((i+1)); done"), 10.0);
+        assert!(r.stdout.starts_with("0123456789\n0123456789\n"));
+        assert!(r.stdout.ends_with("[1036 more bytes not kept]\n"), "{}", r.stdout);
+    }
+
+    #[test]
+    fn the_timeout_kills_the_whole_process_group() {
+        let dir = tempfile::tempdir().unwrap();
+        let pidfile = dir.path().join("grandchild");
+        let script = format!("sleep 60 & echo $! > {}; wait", pidfile.display());
+        let t0 = Instant::now();
+        let r = run(&sh(&script), dir.path(), Some(Duration::from_millis(300)), &AtomicBool::new(false), 64).unwrap();
+        assert_eq!(r.exit, Exit::TimedOut);
+        assert!(t0.elapsed() < Duration::from_secs(30));
+        let pid = std::fs::read_to_string(&pidfile).unwrap().trim().to_string();
+        // the grandchild is gone (or a zombie reaped by init in a moment)
+        thread::sleep(Duration::from_millis(200));
+        let state = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+        assert!(state.is_empty() || state.contains(") Z"), "grandchild still alive: {state}");
+    }
+
+    #[test]
+    fn an_interrupt_stops_the_child_and_a_missing_program_cannot_start() {
+        let dir = tempfile::tempdir().unwrap();
+        let r = run(&sh("sleep 60"), dir.path(), None, &AtomicBool::new(true), 64).unwrap();
+        assert_eq!(r.exit, Exit::Interrupted);
+        let err = run(&["no-such-solver-xyz".into()], dir.path(), None, &AtomicBool::new(false), 64).unwrap_err();
+        assert!(err.to_string().starts_with("cannot start `no-such-solver-xyz`: "), "{err}");
+        assert!(run(&[], dir.path(), None, &AtomicBool::new(false), 64).is_err());
+    }
+}

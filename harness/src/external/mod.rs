@@ -1,0 +1,4 @@
+//! Solvers outside the catalogue, in any language: the harness starts them as processes on a
+//! problem folder and judges what they write with its own code.
+
+pub mod child;
