@@ -9,12 +9,14 @@
 //! its trend page, `signals` turns Ctrl-C, SIGTERM and SIGHUP into a clean stop.
 
 pub mod calibration;
+pub mod convergence;
 pub mod export;
 pub mod fuzzing;
 pub mod gate;
 pub mod hash;
 pub mod history;
 pub mod judge;
+pub mod names;
 pub mod output;
 pub mod paths;
 pub mod plan;

@@ -119,10 +119,10 @@ pub fn render(
     let mut configs: Vec<ConfigHistory> = Vec::new();
     for b in batches {
         // The names become file names below: a database edited by hand must not write elsewhere.
-        crate::plan::names::check_name("config", &b.config_name).map_err(|e| bad(db, e))?;
+        crate::names::check_name("config", &b.config_name).map_err(|e| bad(db, e))?;
         let runs = db.runs(b.id)?;
         for r in &runs {
-            crate::plan::names::check_name("energy", &r.energy).map_err(|e| bad(db, e))?;
+            crate::names::check_name("energy", &r.energy).map_err(|e| bad(db, e))?;
         }
         match configs.last_mut() {
             Some(c) if c.name == b.config_name => c.batches.push((b, runs)),
@@ -149,7 +149,7 @@ pub fn render(
     Ok(TrendPage { index, plots: charts.into_iter().map(|c| c.file).collect(), batches })
 }
 
-fn bad(db: &HistoryDb, e: crate::plan::names::NameError) -> HistoryError {
+fn bad(db: &HistoryDb, e: crate::names::NameError) -> HistoryError {
     HistoryError::Meta { path: db.path().to_path_buf(), what: e.to_string() }
 }
 

@@ -180,7 +180,7 @@ impl GroupReference {
     /// The scale the group's runs are judged on besides `E0 - E*` (`deform` only), for the
     /// reference `e_star` the batch settled on.
     pub fn scale(&self, e_star: f64) -> Option<f64> {
-        self.elastic.and_then(|e| super::convergence::elastic_scale(e_star, e.rest, e.start))
+        self.elastic.and_then(|e| crate::convergence::elastic_scale(e_star, e.rest, e.start))
     }
 }
 

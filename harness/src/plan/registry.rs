@@ -109,7 +109,7 @@ impl Registry {
 /// A registry entry's name is file-name safe and its files stay inside `MAPBENCH_MESHES`
 /// (relative, no `..`): the registry may come from `scripts/prepare_datasets.py` or a user.
 fn check_entry(e: &Entry) -> Result<()> {
-    crate::plan::names::check_name("dataset", &e.name)?;
+    crate::names::check_name("dataset", &e.name)?;
     for (key, file) in [("file", &e.file), ("handles", &e.handles)] {
         if let Some(f) = file {
             let p = Path::new(f);
@@ -233,7 +233,7 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
     let inline = resolve_inline(cfg, &out)?;
     out.extend(inline);
     let c = &cfg.config;
-    crate::plan::names::check_run_names(out.iter().map(|d| d.name.as_str()), &c.energy_names(), &c.solvers)
+    crate::names::check_run_names(out.iter().map(|d| d.name.as_str()), &c.energy_names(), &c.solvers)
         .with_context(|| format!("{}: invalid config", cfg.path.display()))?;
     if out.is_empty() {
         // Say why, instead of the plan's "--only selects no run" when no --only was given.

@@ -69,7 +69,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
     let out_dir = match out {
         Some(o) => o.to_path_buf(),
         None => {
-            crate::plan::names::check_name("config", &identity.config)
+            crate::names::check_name("config", &identity.config)
                 .with_context(|| format!("{}: meta.json", first.display()))?;
             PathBuf::from("reports").join(&identity.config)
         }
