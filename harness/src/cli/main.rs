@@ -467,7 +467,7 @@ fn references(config: &std::path::Path, only: &[String], store: Option<PathBuf>)
     }
     let runs: Vec<&mapbench::plan::PlannedRun> = plan.runs.iter().collect();
     let progress = progress::for_stderr();
-    let groups = mapbench::judge::reference::prepare(&plan, &runs, progress.as_ref(), &interrupt)?;
+    let groups = mapbench::judge::reference::prepare(&plan, &runs, &|line| progress.notice(line), &interrupt)?;
     progress.finish();
     println!("dataset\tenergy\te_star\torigin\tkey");
     for g in &groups {

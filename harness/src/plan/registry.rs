@@ -1,6 +1,7 @@
 //! The dataset registry (`datasets.toml`): generated meshes built by our own code and file
 //! entries looked up in `MAPBENCH_MESHES`, selected by name or `tag:<tag>`.
 
+use crate::hash::Fnv;
 use crate::plan::config::LoadedConfig;
 use crate::plan::handles::HandleSource;
 use anyhow::{bail, Context, Result};
@@ -163,6 +164,27 @@ impl Dataset {
             MeshSource::Generated(g) => solvers::generate::generated_init(g),
             MeshSource::File(_) => None,
         }
+    }
+
+    /// Hash what a run takes from its dataset into a run's or a reference's key: the mesh (a
+    /// file by content), the counts the registry expects, the handles (a file by content).
+    pub fn hash_into(&self, h: &mut Fnv) -> Result<()> {
+        match &self.source {
+            MeshSource::Generated(g) => h.bytes(b"generated").bytes(g.as_bytes()),
+            MeshSource::File(p) => h.bytes(b"file").file(p)?,
+        };
+        h.bytes(format!("{:?}", self.expected).as_bytes());
+        match &self.handles {
+            HandleSource::None => h.bytes(b"no handles"),
+            HandleSource::Generated(g) => h.bytes(b"generated handles").bytes(g.as_bytes()),
+            HandleSource::Rule(r) => h.bytes(b"rule").bytes(r.as_bytes()),
+            // A missing handles file fails the run anyway: key it by name, not content.
+            HandleSource::File { path, set } => match h.bytes(format!("set {set}").as_bytes()).file(path) {
+                Ok(h) => h,
+                Err(_) => h.bytes(path.display().to_string().as_bytes()),
+            },
+        };
+        Ok(())
     }
 
     /// Build or read the mesh and check the registry's counts.

@@ -164,7 +164,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         .with_context(|| format!("{}: cannot create", out_dir.display()))?;
     // The reference minima the runs are judged by, before any run (computing a missing one
     // is a tight solve, timed by nobody).
-    meta.references = crate::judge::reference::prepare(plan, &mine, progress, &opts.interrupt)?;
+    meta.references = crate::judge::reference::prepare(plan, &mine, &|line| progress.notice(line), &opts.interrupt)?;
     calibrate(&mut calibration, jobs, threads, progress);
     meta.write(out_dir, None, false, &calibration)?;
     let report =
