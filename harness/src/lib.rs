@@ -10,6 +10,7 @@
 
 pub mod calibration;
 pub mod convergence;
+pub mod escape;
 pub mod export;
 pub mod fuzzing;
 pub mod gate;

@@ -577,10 +577,10 @@ fn compare_folders(
     let cmp = compare::compare_folders(run_a, run_b, options)?;
     // `--html -`: the page on standard output instead of the Markdown.
     if html.as_ref() != Some(&Output::Stdout) {
-        out(format_args!("{}", compare::to_markdown(&cmp)))?;
+        out(format_args!("{}", report::compare::to_markdown(&cmp)))?;
     }
     if let Some(h) = html {
-        h.write(compare::to_html(&cmp).as_bytes())?;
+        h.write(report::compare::to_html(&cmp).as_bytes())?;
         eprintln!("wrote the comparison page to {h}");
     }
     Ok(ExitCode::from(cmp.exit_code()))

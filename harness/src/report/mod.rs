@@ -1,9 +1,10 @@
 //! Everything of a run folder that is derived from its CSVs: each run's `energy_minus_best`
 //! against its (dataset, energy) group, the paper-style tables, the plots and `index.html`
 //! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
-//! CSVs alone.
+//! CSVs alone. Besides, the pages of the layer below: `compare`'s output (`compare`).
 
 pub mod batch;
+pub mod compare;
 pub mod corpus;
 pub mod html;
 pub mod plots;

@@ -14,6 +14,7 @@ pub mod meta;
 pub mod reuse;
 pub mod sidecar;
 pub mod summary;
+pub mod timed;
 
 pub use crate::names::run_stem;
 pub use error::FolderError;
