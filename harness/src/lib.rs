@@ -3,10 +3,10 @@
 //!
 //! One folder per concern: `plan` turns a config and the dataset registry into the runs of a
 //! batch, `run` executes them, `run_folder` owns every file of a run folder, `report` renders
-//! tables, plots and the HTML page from a run folder, `gate` compares a run folder with a
-//! baseline, `export` writes the Newton systems of a plan, `calibration` times the machine's
-//! reference workload, `history` keeps every batch in an SQLite database and renders
-//! its trend page, `signals` turns Ctrl-C, SIGTERM and SIGHUP into a clean stop.
+//! tables, plots and the HTML pages (a run folder's, the history's trend, `compare`'s),
+//! `gate` compares a run folder with a baseline, `export` writes the Newton systems of a
+//! plan, `calibration` times the machine's reference workload, `history` keeps every batch in
+//! an SQLite database, `signals` turns Ctrl-C, SIGTERM and SIGHUP into a clean stop.
 
 pub mod calibration;
 pub mod convergence;

@@ -324,7 +324,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
             let opts = run::RunOptions { resume, jobs, shard, force, interrupt };
             let progress = progress::for_stderr();
-            let report = run::run_batch(&plan, &out, &opts, progress.as_ref())?;
+            let report = run::run_batch(&plan, &out, &opts, progress.as_ref(), &report::Renderer)?;
             say_batch(&report);
             let written = say_history(&report.history);
             // A signal at any moment, after the last run too (the batch is then complete).
@@ -371,7 +371,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             }
             mapbench::output::check_folder(&out)?;
             let h = history::HistoryDb::open_existing(&db)?;
-            let page = history::trend::render(&h, config.as_deref(), last, &out)?;
+            let page = report::trend::render(&h, config.as_deref(), last, &out)?;
             eprintln!("trend page of {} batches ({} plots): {}", page.batches, page.plots.len(), page.index.display());
             Ok(ExitCode::SUCCESS)
         }
@@ -546,7 +546,7 @@ fn map(
 
 /// `merge`: shard folders of one batch into one folder.
 fn merge(shards: &[PathBuf], out: Option<&std::path::Path>, force: bool, history: &HistoryChoice) -> Result<ExitCode> {
-    let m = merge::merge(shards, out, history, force)?;
+    let m = merge::merge(shards, out, history, force, &report::Renderer)?;
     if !m.missing.is_empty() {
         eprintln!(
             "warning: {} planned runs are in no shard (first: {}); the report covers the rest",
