@@ -223,14 +223,18 @@ pub fn run_batch(
     meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
     report.history = record_history(pages, plan, out_dir, previous.as_ref(), &report)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
-    // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
-    // CPU) must not fan the plots out to every core of the node.
-    let report_threads = opts.jobs.unwrap_or(cores).max(1);
-    match rayon::ThreadPoolBuilder::new().num_threads(report_threads).build() {
-        Ok(pool) => pool.install(|| pages.report(out_dir, &rows))?,
-        Err(_) => pages.report(out_dir, &rows)?,
-    }
+    render_report(pages, out_dir, &rows, opts.jobs.unwrap_or(cores).max(1))?;
     Ok(report)
+}
+
+/// The batch's report on `threads` threads: it keeps to the batch's core budget too, so
+/// `--jobs 1` (say a Slurm task with one CPU) does not fan the plots out to every core of the
+/// node.
+fn render_report(pages: &dyn Pages, out_dir: &Path, rows: &[SummaryRow], threads: usize) -> Result<()> {
+    match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(pool) => pool.install(|| pages.report(out_dir, rows)),
+        Err(_) => pages.report(out_dir, rows),
+    }
 }
 
 /// `out_dir` for this batch: refused when it holds another batch's results, unless
