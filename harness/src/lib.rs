@@ -7,6 +7,13 @@
 //! `gate` compares a run folder with a baseline, `export` writes the Newton systems of a
 //! plan, `calibration` times the machine's reference workload, `history` keeps every batch in
 //! an SQLite database, `signals` turns Ctrl-C, SIGTERM and SIGHUP into a clean stop.
+//!
+//! The modules are layered one way (`scripts/layers.py` checks it): the leaves (`hash`,
+//! `paths`, `stats`, `names`, `escape`, `convergence`, `signals`, `calibration`) name nothing
+//! above them; `run_folder` only leaves; `plan`, `run`, `judge`, `history`, `gate`, `export`
+//! and `output` those two and each other, in no circle; `report` all of them; `cli` and
+//! `fuzzing` are the edges. `run` and `merge` end with pages the report renders, so they are
+//! handed a `run::Pages` rather than naming the report.
 
 pub mod calibration;
 pub mod convergence;
