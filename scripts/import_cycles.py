@@ -42,8 +42,9 @@ def strip_comments(text):
     return re.sub(r"/\*.*?\*/", "", text, flags=re.S)
 
 
-def targets(text, here, mods):
-    """The files that the paths in `text` (of the module `here`) name."""
+def named(text, here, mods):
+    """Each path in `text` (of the module `here`) that names another module's file: the path
+    as written, and that file."""
     paths = []
     for m in GROUP.finditer(text):
         base = m.group(1), m.group(2)
@@ -58,8 +59,8 @@ def targets(text, here, mods):
     for m in CHILD.finditer(text):
         if here + (m.group(1),) in mods:
             paths.append(("self", "::" + m.group(1) + m.group(2)))
-    found = set()
     for root, rest in paths:
+        written = root + rest
         if root == "crate":
             start = ()
         elif root == "self":
@@ -76,9 +77,13 @@ def targets(text, here, mods):
             if key in mods:
                 # a module's own submodules are its parts (re-exports, wiring), not imports
                 if key[: len(here)] != here or key == here:
-                    found.add(mods[key])
+                    yield written, mods[key]
                 break
-    return found
+
+
+def targets(text, here, mods):
+    """The files that the paths in `text` (of the module `here`) name."""
+    return {f for _, f in named(text, here, mods)}
 
 
 def sccs(graph):

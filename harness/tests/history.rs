@@ -165,7 +165,8 @@ fn a_history_that_cannot_be_written_keeps_the_run_folder_and_exits_2() {
 #[test]
 #[ignore = "a benchmark: needs MAPBENCH_BENCH_RUN (a run folder) and MAPBENCH_BENCH_DB"]
 fn thirty_simulated_batches() {
-    use mapbench::history::{batch_row, read_meta, trend, RunRow};
+    use mapbench::history::{batch_row, read_meta, RunRow};
+    use mapbench::report::trend;
     let (Some(run), Some(db)) = (std::env::var_os("MAPBENCH_BENCH_RUN"), std::env::var_os("MAPBENCH_BENCH_DB")) else {
         eprintln!("skipped: set MAPBENCH_BENCH_RUN and MAPBENCH_BENCH_DB");
         return;

@@ -347,7 +347,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
             let opts = run::RunOptions { resume, jobs, shard, force, interrupt };
             let progress = progress::for_stderr();
-            let report = run::run_batch(&plan, &out, &opts, progress.as_ref())?;
+            let report = run::run_batch(&plan, &out, &opts, progress.as_ref(), &report::Renderer)?;
             say_batch(&report);
             let written = say_history(&report.history);
             // A signal at any moment, after the last run too (the batch is then complete).
@@ -394,7 +394,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             }
             mapbench::output::check_folder(&out)?;
             let h = history::HistoryDb::open_existing(&db)?;
-            let page = history::trend::render(&h, config.as_deref(), last, &out)?;
+            let page = report::trend::render(&h, config.as_deref(), last, &out)?;
             eprintln!("trend page of {} batches ({} plots): {}", page.batches, page.plots.len(), page.index.display());
             Ok(ExitCode::SUCCESS)
         }
@@ -523,7 +523,7 @@ fn references(config: &std::path::Path, only: &[String], store: Option<PathBuf>)
     }
     let runs: Vec<&mapbench::plan::PlannedRun> = plan.runs.iter().collect();
     let progress = progress::for_stderr();
-    let groups = mapbench::judge::reference::prepare(&plan, &runs, progress.as_ref(), &interrupt)?;
+    let groups = mapbench::judge::reference::prepare(&plan, &runs, &|line| progress.notice(line), &interrupt)?;
     progress.finish();
     println!("dataset\tenergy\te_star\torigin\tkey");
     for g in &groups {
@@ -602,7 +602,7 @@ fn map(
 
 /// `merge`: shard folders of one batch into one folder.
 fn merge(shards: &[PathBuf], out: Option<&std::path::Path>, force: bool, history: &HistoryChoice) -> Result<ExitCode> {
-    let m = merge::merge(shards, out, history, force)?;
+    let m = merge::merge(shards, out, history, force, &report::Renderer)?;
     if !m.missing.is_empty() {
         eprintln!(
             "warning: {} planned runs are in no shard (first: {}); the report covers the rest",
@@ -633,10 +633,10 @@ fn compare_folders(
     let cmp = compare::compare_folders(run_a, run_b, options)?;
     // `--html -`: the page on standard output instead of the Markdown.
     if html.as_ref() != Some(&Output::Stdout) {
-        out(format_args!("{}", compare::to_markdown(&cmp)))?;
+        out(format_args!("{}", report::compare::to_markdown(&cmp)))?;
     }
     if let Some(h) = html {
-        h.write(compare::to_html(&cmp).as_bytes())?;
+        h.write(report::compare::to_html(&cmp).as_bytes())?;
         eprintln!("wrote the comparison page to {h}");
     }
     Ok(ExitCode::from(cmp.exit_code()))

@@ -16,7 +16,7 @@
 //!   [`Timed::overlaps`]) or, with a single sample, when the ratio exceeds [`SINGLE_SAMPLE_FACTOR`].
 
 use crate::plan::Task;
-use crate::report::tables::ranking::Timed;
+use crate::run_folder::timed::Timed;
 use crate::run_folder::{Status, SummaryRow};
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};

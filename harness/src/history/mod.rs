@@ -1,12 +1,12 @@
 //! The history of batches: after every `run` and `merge` the batch is appended to
 //! an SQLite database (`db`), read back from the finished run folder's `meta.json` and
-//! `summary.csv` so that both verbs share one path; `trend` renders the trend page of a
-//! config's batches (`mapbench history`, and after each append into [`trend_dir`]).
+//! `summary.csv` so that both verbs share one path. The trend page of a config's batches is
+//! the report's (`report::trend`): whoever appends renders it into [`trend_dir`] from the
+//! database the append leaves open ([`Recorded`]), and `mapbench history` anywhere.
 
 pub mod db;
-pub mod trend;
 
-use crate::paths::{absolute, relative_link};
+use crate::paths::absolute;
 #[cfg(test)]
 use crate::plan::paths::resolve_path;
 pub use db::{BatchRow, HistoryDb, RunRow, Source, SCHEMA_VERSION};
@@ -152,27 +152,30 @@ pub fn read_meta(run_dir: &Path) -> Result<Meta, HistoryError> {
     Ok(Meta::read(run_dir)?)
 }
 
-/// What [`record`] did.
-#[derive(Debug)]
+/// What [`record`] appended, and the database still open: the caller renders the config's
+/// trend page from it (into [`trend_dir`]).
 pub struct Recorded {
+    pub history: HistoryDb,
     pub batch_id: i64,
     pub runs: usize,
     pub config: String,
-    /// The trend page rendered after the append.
-    pub trend: PathBuf,
 }
 
 /// Append the finished run folder `run_dir` to the database at `db` (created when absent)
-/// in one transaction, then render the trend page of its config into [`trend_dir`].
+/// in one transaction.
 pub fn record(db: &Path, run_dir: &Path) -> Result<Recorded, HistoryError> {
-    let meta = read_meta(run_dir)?;
-    let batch = batch_row(run_dir, &meta)?;
-    let runs: Vec<RunRow> = read_summary(run_dir)?.iter().map(RunRow::from_summary).collect();
+    insert(db, run_dir, run_dir)
+}
+
+/// [`record`], the run folder recorded as `recorded_as` (where a merged folder is moved).
+fn insert(db: &Path, folder: &Path, recorded_as: &Path) -> Result<Recorded, HistoryError> {
+    let meta = read_meta(folder)?;
+    let mut batch = batch_row(folder, &meta)?;
+    batch.run_dir = absolute(recorded_as).display().to_string();
+    let runs: Vec<RunRow> = read_summary(folder)?.iter().map(RunRow::from_summary).collect();
     let mut history = HistoryDb::open_or_create(db)?;
     let batch_id = history.insert_batch(&batch, &runs)?;
-    let trend = trend_dir(db, &batch.config_name);
-    trend::render(&history, Some(&batch.config_name), None, &trend)?;
-    Ok(Recorded { batch_id, runs: runs.len(), config: batch.config_name, trend: trend.join("index.html") })
+    Ok(Recorded { history, batch_id, runs: runs.len(), config: batch.config_name })
 }
 
 /// What became of a batch in the history: `meta.json`'s `history_outcome`, and what `run` and
@@ -218,59 +221,54 @@ pub enum Decision {
 
 impl Outcome {
     /// Carry out `decision` for the finished run folder `folder` and the database `db` (none:
-    /// [`Outcome::Off`]): append the batch (its run folder recorded as `recorded_as`, where
-    /// the folder is moved after a merge) and render its config's trend page; then record the
-    /// outcome in `folder`'s `meta.json` (`history`: the database when the batch is in it,
-    /// else null; `history_outcome`). An error is only a `meta.json` that cannot be written;
-    /// what happened to the database is the outcome.
+    /// [`Outcome::Off`]): append the batch, its run folder recorded as `recorded_as` (where
+    /// the folder is moved after a merge). What happened to the database is the outcome. An
+    /// appended batch comes with the database still open: the caller renders its config's
+    /// trend page, says how that went ([`Outcome::set_trend`]) and then records the outcome
+    /// in the folder ([`Outcome::write_into`]).
     pub fn conclude(
         db: Option<&Path>,
         folder: &Path,
         recorded_as: &Path,
         decision: Decision,
-    ) -> Result<Outcome, HistoryError> {
-        let outcome = match (db, decision) {
-            (None, _) => Outcome::Off,
-            (Some(db), Decision::Skip(reason)) => Outcome::NotAppended { db: absolute(db), reason },
+    ) -> (Outcome, Option<Recorded>) {
+        match (db, decision) {
+            (None, _) => (Outcome::Off, None),
+            (Some(db), Decision::Skip(reason)) => (Outcome::NotAppended { db: absolute(db), reason }, None),
             (Some(db), Decision::AlreadyIn { batch_id, trend }) => {
-                Outcome::AlreadyIn { db: absolute(db), batch_id, trend }
+                (Outcome::AlreadyIn { db: absolute(db), batch_id, trend }, None)
             }
-            (Some(db), Decision::Append) => Outcome::append(db, folder, recorded_as),
-        };
-        outcome.write_into(folder)?;
-        Ok(outcome)
+            (Some(db), Decision::Append) => match insert(db, folder, recorded_as) {
+                Ok(r) => {
+                    let (batch_id, runs, config) = (r.batch_id, r.runs, r.config.clone());
+                    let appended =
+                        Outcome::Appended { db: absolute(db), batch_id, runs, config, trend: None, trend_error: None };
+                    (appended, Some(r))
+                }
+                Err(e) => (Outcome::Failed { db: absolute(db), error: e.to_string() }, None),
+            },
+        }
     }
 
-    fn append(db: &Path, folder: &Path, recorded_as: &Path) -> Outcome {
-        let failed = |e: HistoryError| Outcome::Failed { db: absolute(db), error: e.to_string() };
-        let appended = (|| {
-            let meta = read_meta(folder)?;
-            let mut batch = batch_row(folder, &meta)?;
-            batch.run_dir = absolute(recorded_as).display().to_string();
-            let runs: Vec<RunRow> = read_summary(folder)?.iter().map(RunRow::from_summary).collect();
-            let mut history = HistoryDb::open_or_create(db)?;
-            let batch_id = history.insert_batch(&batch, &runs)?;
-            Ok((history, batch_id, runs.len(), batch.config_name))
-        })();
-        let (history, batch_id, runs, config) = match appended {
-            Ok(a) => a,
-            Err(e) => return failed(e),
-        };
-        let dir = trend_dir(db, &config);
-        let (trend, trend_error) = match trend::render(&history, Some(&config), None, &dir) {
-            Ok(_) => (Some(absolute(&dir.join("index.html"))), None),
-            Err(e) => (None, Some(e.to_string())),
-        };
-        Outcome::Appended { db: absolute(db), batch_id, runs, config, trend, trend_error }
+    /// An appended batch's trend page: the page rendered, or why it was not (the batch is
+    /// in the database either way).
+    pub fn set_trend(&mut self, rendered: Result<PathBuf, HistoryError>) {
+        if let Outcome::Appended { trend, trend_error, .. } = self {
+            (*trend, *trend_error) = match rendered {
+                Ok(page) => (Some(absolute(&page)), None),
+                Err(e) => (None, Some(e.to_string())),
+            };
+        }
     }
 
     /// Take an appended batch out of the database again (its folder could not be put in
-    /// place), and render its config's trend page without it. Best effort: says what failed.
-    pub fn withdraw(&self) -> Result<(), HistoryError> {
-        let Outcome::Appended { db, batch_id, config, .. } = self else { return Ok(()) };
+    /// place). The database stays open for the caller to render the config's trend page
+    /// without it; `None` when nothing was appended.
+    pub fn withdraw(&self) -> Result<Option<HistoryDb>, HistoryError> {
+        let Outcome::Appended { db, batch_id, .. } = self else { return Ok(None) };
         let history = HistoryDb::open_existing(db)?;
         history.remove_batch(*batch_id)?;
-        trend::render(&history, Some(config), None, &trend_dir(db, config)).map(|_| ())
+        Ok(Some(history))
     }
 
     /// The database and batch id when the batch is in the history (appended now or before).
@@ -288,8 +286,10 @@ impl Outcome {
         self.in_history().map(|(db, ..)| db.display().to_string())
     }
 
-    /// Set `history` and `history_outcome` in `folder`'s `meta.json`.
-    fn write_into(&self, folder: &Path) -> Result<(), HistoryError> {
+    /// Record the outcome in `folder`'s `meta.json`: `history` (the database when the batch
+    /// is in it, else null) and `history_outcome`. Its error is only a `meta.json` that cannot
+    /// be written.
+    pub fn write_into(&self, folder: &Path) -> Result<(), HistoryError> {
         let mut meta = read_meta(folder)?;
         meta.history = self.meta_history();
         meta.history_outcome = serde_json::to_value(self).ok();

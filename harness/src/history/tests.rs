@@ -1,9 +1,11 @@
 //! The history database on real files in a temporary folder: schema versions and migrations,
-//! one transaction per batch, the queries and the trend page.
+//! one transaction per batch, the queries and the trend page's folder (the page itself is the
+//! report's: `report::trend`).
 
 use super::*;
+use crate::paths::relative_link;
 use crate::plan::Task;
-use crate::run_folder::{write_summary, Status, SummaryRow};
+use crate::run_folder::{Status, SummaryRow};
 use rusqlite::Connection;
 use solvers::solver::StopReason;
 
@@ -221,65 +223,4 @@ fn paths_resolve_and_links_are_relative() {
     assert_eq!(HistoryChoice::from_flags(Some("a".into()), false).apply("b".into()), Some(PathBuf::from("a")));
     assert_eq!(HistoryChoice::from_flags(None, true).apply("b".into()), None);
     assert_eq!(HistoryChoice::from_flags(None, false).apply("b".into()), Some(PathBuf::from("b")));
-}
-
-/// `record` reads a run folder (meta.json, summary.csv), appends it and renders the trend
-/// page; the second batch's page names both revisions and lists the run whose iterations
-/// changed, and the totals use `time_norm`.
-#[test]
-fn recording_two_folders_makes_two_nights_on_the_trend_page() {
-    let dir = tempfile::tempdir().unwrap();
-    let db = dir.path().join("reports/history.sqlite");
-    let folder = |name: &str, rev: &str, started: u64, kp_iters: usize| {
-        let d = dir.path().join(name);
-        std::fs::create_dir_all(&d).unwrap();
-        let meta = serde_json::json!({
-            "config": {"name": "nightly"}, "plan": ["a__sd__kp-newton", "a__sd__cm"], "repeat": 1,
-            "git_revision": rev, "git_dirty": false, "started_unix": started, "ended_unix": started + 9,
-            "host": "node", "cores": 2, "jobs": 2, "threads_per_run": 1,
-            "calibration_median_s": 0.5, "calibration_spread": 0.02,
-        });
-        std::fs::write(d.join("meta.json"), meta.to_string()).unwrap();
-        let row = |solver: &str, it: usize| SummaryRow {
-            dataset: "a".into(),
-            task: Task::Param,
-            energy: "sd".into(),
-            solver: solver.into(),
-            iterations: Some(it),
-            converged: true,
-            stop_reason: Some(StopReason::GradientTolerance),
-            final_energy: Some(2.0),
-            time_s: Some(0.1 * it as f64),
-            time_norm: Some(0.2 * it as f64),
-            status: Status::Ok,
-            ..Default::default()
-        };
-        write_summary(&d.join("summary.csv"), &[row("kp-newton", kp_iters), row("cm", 9)]).unwrap();
-        d
-    };
-    let first = record(&db, &folder("night1", "1111111aaaa", 1000, 8)).unwrap();
-    let second = record(&db, &folder("night2", "2222222bbbb", 90_000, 11)).unwrap();
-    assert_eq!((first.runs, second.batch_id, second.config.as_str()), (2, first.batch_id + 1, "nightly"));
-    assert_eq!(second.trend, dir.path().join("reports/history-trend/nightly/index.html"));
-    let html = std::fs::read_to_string(&second.trend).unwrap();
-    for needle in [
-        "1111111",
-        "2222222",
-        "What changed: batch 2 (2222222) since batch 1 (1111111)",
-        "a param sd kp-newton",
-        "time_norm (time_s / calibration median)",
-        "\"../../../night2/index.html\"",
-        "plots/nightly__sd__iterations.png",
-        "plots/nightly__sd__time.png",
-    ] {
-        assert!(html.contains(needle), "{needle} not in the page:\n{html}");
-    }
-    // cm did not change: only kp-newton's iterations are listed
-    assert!(!html.contains("a param sd cm"), "{html}");
-    let trend = second.trend.parent().unwrap();
-    for png in ["plots/nightly__sd__iterations.png", "plots/nightly__sd__time.png"] {
-        assert_eq!(crate::report::plots::tests::png_size(&trend.join(png)), (800, 500));
-    }
-    let h = HistoryDb::open_existing(&db).unwrap();
-    assert_eq!(h.last_batch_of(&absolute(&dir.path().join("night2")).display().to_string()).unwrap(), Some(2));
 }

@@ -1,13 +1,13 @@
 //! The harness judges the runs of `param` and `deform` batches: by the convergence test
-//! (`convergence`) against a reference minimum (`reference`), each run's verdict
+//! (`crate::convergence`) against a reference minimum (`reference`), each run's verdict
 //! (`verdict`), its final gap, and its iterations and time to each target. A run is `ok`
 //! when it solved its problem at the tightest target, whatever its own stop rule said.
 //! `authalic` runs keep their solvers' own rules (README "The harness's verdict").
 
-pub mod convergence;
 pub mod reference;
 pub mod verdict;
 
+use crate::convergence;
 use crate::plan::Task;
 use crate::run_folder::summary::{RefSource, ToTarget};
 use crate::run_folder::{read_run, Status, SummaryRow};

@@ -13,8 +13,6 @@
 use crate::hash::Fnv;
 use crate::plan::paths::Stores;
 use crate::plan::{Plan, PlannedRun, RunSettings, Task};
-use crate::run::progress::Progress;
-use crate::run::resume::hash_dataset;
 use crate::run_folder::write_atomic;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
@@ -132,7 +130,7 @@ pub fn key(plan: &Plan, run: &PlannedRun) -> Result<Option<String>> {
     let Some(problem) = run.settings.problem_key_text() else { return Ok(None) };
     let mut h = Fnv::new();
     h.bytes(format!("mapbench reference {REFERENCE_VERSION}").as_bytes()).bytes(problem.as_bytes());
-    hash_dataset(&mut h, plan.dataset(run))?;
+    plan.dataset(run).hash_into(&mut h)?;
     Ok(Some(format!("{:016x}", h.0)))
 }
 
@@ -180,16 +178,16 @@ impl GroupReference {
     /// The scale the group's runs are judged on besides `E0 - E*` (`deform` only), for the
     /// reference `e_star` the batch settled on.
     pub fn scale(&self, e_star: f64) -> Option<f64> {
-        self.elastic.and_then(|e| super::convergence::elastic_scale(e_star, e.rest, e.start))
+        self.elastic.and_then(|e| crate::convergence::elastic_scale(e_star, e.rest, e.start))
     }
 }
 
 /// The references of the groups of `runs` (param, deform): looked up, or computed and added
-/// to the writable store, with a notice each. Stops computing when `interrupt` is set.
+/// to the writable store, with a `notice` each. Stops computing when `interrupt` is set.
 pub fn prepare(
     plan: &Plan,
     runs: &[&PlannedRun],
-    progress: &dyn Progress,
+    notice: &dyn Fn(&str),
     interrupt: &AtomicBool,
 ) -> Result<Vec<GroupReference>> {
     let Some(stores) = &plan.references else { return Ok(Vec::new()) };
@@ -212,7 +210,7 @@ pub fn prepare(
         if let RunSettings::Deform { energy, settings } = &run.settings {
             match elastic(plan, run, *energy, settings) {
                 Ok(e) => group.elastic = Some(e),
-                Err(e) => progress.notice(&format!(
+                Err(e) => notice(&format!(
                     "{} {}: the elastic energies are not available ({e:#}); its runs are judged from E0",
                     group.dataset, group.energy
                 )),
@@ -232,7 +230,7 @@ pub fn prepare(
             group.origin = if book.own.contains_key(&key) { Origin::Store } else { Origin::Seed };
             group.e_star = Some(r.e_star);
         } else if !interrupt.load(Ordering::Relaxed) {
-            progress.notice(&format!(
+            notice(&format!(
                 "reference minimum of {} {} {}: computing (kp-newton from the common start to |grad| <= {:e})",
                 group.dataset,
                 plan.task.as_str(),
@@ -241,7 +239,7 @@ pub fn prepare(
             ));
             match compute(plan, run, &key, interrupt) {
                 Ok(r) => {
-                    progress.notice(&format!(
+                    notice(&format!(
                         "reference minimum of {} {}: E* = {:.12} ({} iterations, |grad| {:.1e}, {})",
                         group.dataset, group.energy, r.e_star, r.iterations, r.grad_norm, r.stop_reason
                     ));
@@ -250,7 +248,7 @@ pub fn prepare(
                     book.add(r).with_context(|| "adding a computed reference")?;
                 }
                 Err(e) => {
-                    progress.notice(&format!(
+                    notice(&format!(
                         "reference minimum of {} {}: not available ({e:#}); the batch's best final energy is used",
                         group.dataset, group.energy
                     ));
@@ -353,22 +351,6 @@ mod tests {
         }
     }
 
-    /// Collects a batch's notices.
-    #[derive(Default)]
-    struct Notices(std::sync::Mutex<Vec<String>>);
-
-    impl Progress for Notices {
-        fn start(&self, _: usize, _: usize) {}
-        fn run_started(&self, _: usize, _: &str) {}
-        fn iteration(&self, _: usize, _: usize, _: f64) {}
-        fn run_finished(&self, _: usize, _: &str) {}
-        fn fewer_solves(&self, _: usize) {}
-        fn notice(&self, line: &str) {
-            self.0.lock().unwrap().push(line.to_string());
-        }
-        fn finish(&self) {}
-    }
-
     /// A config in `dir` on the inline dataset `name` (`m.obj`), storing references in
     /// `refs.json`, and what `prepare` made of its groups with the notices it gave.
     fn prepared(dir: &Path, name: &str, energies: &str, extra: &str) -> (Vec<GroupReference>, Vec<String>) {
@@ -379,9 +361,11 @@ mod tests {
         let cfg = LoadedConfig::parse(&text, &dir.join("c.toml")).unwrap();
         let plan = Plan::resolve(cfg, &[]).unwrap();
         let runs: Vec<&PlannedRun> = plan.runs.iter().collect();
-        let notices = Notices::default();
-        let groups = prepare(&plan, &runs, &notices, &AtomicBool::new(false)).unwrap();
-        (groups, notices.0.into_inner().unwrap())
+        let notices = std::cell::RefCell::new(Vec::new());
+        let groups =
+            prepare(&plan, &runs, &|line| notices.borrow_mut().push(line.to_string()), &AtomicBool::new(false))
+                .unwrap();
+        (groups, notices.into_inner())
     }
 
     /// A reference is computed once and found again by what determines it: the mesh's content

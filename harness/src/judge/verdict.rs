@@ -2,55 +2,8 @@
 //! tightest target with no flipped triangle, whatever its own stop rule said; otherwise why
 //! not, in words a reader can act on.
 
-use serde::{Deserialize, Serialize};
-
-/// Why a run that ran is (or is not) solved.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Verdict {
-    /// Passed the tightest target, no flips: `status = ok`.
-    Solved,
-    /// Passed the tightest target but its final map flips triangles.
-    Flipped,
-    /// Its own stop rule called it converged above the tightest target.
-    StoppedAboveTarget,
-    /// Stopped with a small gradient far above the reference (past the loosest target): at
-    /// another local minimum or a saddle, not short of this one.
-    OtherMinimum,
-    /// Stopped for another reason above the target (the iteration cap, the time limit, a
-    /// failed line search or linear solve; `stop_reason` says which).
-    Unfinished,
-    /// No reference to judge by: the solver's own rule decides (authalic runs).
-    OwnRule,
-}
-
-impl Verdict {
-    pub const ALL: [Verdict; 6] = [
-        Verdict::Solved,
-        Verdict::Flipped,
-        Verdict::StoppedAboveTarget,
-        Verdict::OtherMinimum,
-        Verdict::Unfinished,
-        Verdict::OwnRule,
-    ];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Verdict::Solved => "solved",
-            Verdict::Flipped => "flipped",
-            Verdict::StoppedAboveTarget => "stopped_above_target",
-            Verdict::OtherMinimum => "other_minimum",
-            Verdict::Unfinished => "unfinished",
-            Verdict::OwnRule => "own_rule",
-        }
-    }
-}
-
-impl std::fmt::Display for Verdict {
-    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
+// The verdict column's type is the summary's own, beside `Status`: `run_folder` types every file.
+pub use crate::run_folder::summary::Verdict;
 
 /// What the verdict is made of.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,14 +63,5 @@ mod tests {
         assert_eq!(judge(capped), Verdict::Unfinished);
         // an energy-decrease stop with a large gradient above the target
         assert_eq!(judge(Facts { small_gradient: false, ..short }), Verdict::StoppedAboveTarget);
-    }
-
-    #[test]
-    fn names_are_distinct_and_snake_case() {
-        let names: std::collections::HashSet<&str> = Verdict::ALL.iter().map(|v| v.as_str()).collect();
-        assert_eq!(names.len(), Verdict::ALL.len());
-        for v in Verdict::ALL {
-            assert_eq!(serde_json::to_value(v).unwrap(), v.as_str());
-        }
     }
 }

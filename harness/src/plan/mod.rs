@@ -4,7 +4,6 @@
 
 pub mod config;
 pub mod handles;
-pub mod names;
 pub mod paths;
 pub mod registry;
 pub mod select;
@@ -100,7 +99,7 @@ impl Plan {
         for (d, ds) in datasets.iter().enumerate() {
             for (energy, settings) in &settings {
                 for solver in &c.solvers {
-                    let stem = names::run_stem(&ds.name, energy, solver);
+                    let stem = crate::names::run_stem(&ds.name, energy, solver);
                     if only.is_empty() || only.iter().any(|g| glob_match(g, &stem)) {
                         let settings = settings.for_solver(solver, &c.solver);
                         runs.push(PlannedRun {

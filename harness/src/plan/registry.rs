@@ -1,6 +1,7 @@
 //! The dataset registry (`datasets.toml`): generated meshes built by our own code and file
 //! entries looked up in `MAPBENCH_MESHES`, selected by name or `tag:<tag>`.
 
+use crate::hash::Fnv;
 use crate::plan::config::LoadedConfig;
 use crate::plan::handles::HandleSource;
 use anyhow::{bail, Context, Result};
@@ -109,7 +110,7 @@ impl Registry {
 /// A registry entry's name is file-name safe and its files stay inside `MAPBENCH_MESHES`
 /// (relative, no `..`): the registry may come from `scripts/prepare_datasets.py` or a user.
 fn check_entry(e: &Entry) -> Result<()> {
-    crate::plan::names::check_name("dataset", &e.name)?;
+    crate::names::check_name("dataset", &e.name)?;
     for (key, file) in [("file", &e.file), ("handles", &e.handles)] {
         if let Some(f) = file {
             let p = Path::new(f);
@@ -163,6 +164,27 @@ impl Dataset {
             MeshSource::Generated(g) => solvers::generate::generated_init(g),
             MeshSource::File(_) => None,
         }
+    }
+
+    /// Hash what a run takes from its dataset into a run's or a reference's key: the mesh (a
+    /// file by content), the counts the registry expects, the handles (a file by content).
+    pub fn hash_into(&self, h: &mut Fnv) -> Result<()> {
+        match &self.source {
+            MeshSource::Generated(g) => h.bytes(b"generated").bytes(g.as_bytes()),
+            MeshSource::File(p) => h.bytes(b"file").file(p)?,
+        };
+        h.bytes(format!("{:?}", self.expected).as_bytes());
+        match &self.handles {
+            HandleSource::None => h.bytes(b"no handles"),
+            HandleSource::Generated(g) => h.bytes(b"generated handles").bytes(g.as_bytes()),
+            HandleSource::Rule(r) => h.bytes(b"rule").bytes(r.as_bytes()),
+            // A missing handles file fails the run anyway: key it by name, not content.
+            HandleSource::File { path, set } => match h.bytes(format!("set {set}").as_bytes()).file(path) {
+                Ok(h) => h,
+                Err(_) => h.bytes(path.display().to_string().as_bytes()),
+            },
+        };
+        Ok(())
     }
 
     /// Build or read the mesh and check the registry's counts.
@@ -233,7 +255,7 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
     let inline = resolve_inline(cfg, &out)?;
     out.extend(inline);
     let c = &cfg.config;
-    crate::plan::names::check_run_names(out.iter().map(|d| d.name.as_str()), &c.energy_names(), &c.solvers)
+    crate::names::check_run_names(out.iter().map(|d| d.name.as_str()), &c.energy_names(), &c.solvers)
         .with_context(|| format!("{}: invalid config", cfg.path.display()))?;
     if out.is_empty() {
         // Say why, instead of the plan's "--only selects no run" when no --only was given.

@@ -1,14 +1,18 @@
 //! Everything of a run folder that is derived from its CSVs: each run's `energy_minus_best`
 //! against its (dataset, energy) group, the paper-style tables, the plots and `index.html`
 //! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
-//! CSVs alone.
+//! CSVs alone ([`Renderer`] is what `run` and `merge` are handed). Besides, the pages of the
+//! layer below: the history's trend page (`trend`) and `compare`'s output (`compare`).
 
 pub mod batch;
+pub mod compare;
 pub mod corpus;
 pub mod html;
 pub mod plots;
 pub mod tables;
+pub mod trend;
 
+use crate::history::{HistoryDb, HistoryError};
 use crate::judge::verdict::Verdict;
 use crate::plan::Task;
 use crate::run_folder::read_run;
@@ -19,6 +23,20 @@ use batch::Batch;
 use std::collections::BTreeMap;
 use std::path::Path;
 use tables::Table;
+
+/// The pages `run` and `merge` end with: the run folder's report ([`refresh`]) and, after a
+/// history append, the config's trend page ([`trend::render`]).
+pub struct Renderer;
+
+impl crate::run::Pages for Renderer {
+    fn report(&self, dir: &Path, rows: &[SummaryRow]) -> Result<()> {
+        refresh(dir, rows)
+    }
+
+    fn trend(&self, history: &HistoryDb, config: &str, dir: &Path) -> Result<(), HistoryError> {
+        trend::render(history, Some(config), None, dir).map(|_| ())
+    }
+}
 
 /// Re-derive everything from `summary` rows and the per-iteration CSVs in `run_dir`.
 pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {

@@ -1,11 +1,12 @@
 //! `merge SHARD_DIR...`: combine the folders of `run --shard I/N` batches of one config into
-//! one run folder, as if the batch had run unsharded, and render its report.
+//! one run folder, as if the batch had run unsharded, and render its report (`Pages`).
 //!
 //! Every shard file is read and checked first, so an error names the shard's file; the merged
 //! folder is then put together in a staging folder beside the output and moved into place, so
 //! a failed merge leaves no partial folder. The history gets the merged batch only when it is
 //! complete: every planned run in some shard, and no shard interrupted.
 
+use super::pages::{conclude_history, withdraw, Pages};
 use crate::calibration::Calibration;
 use crate::history::{Decision, HistoryChoice, Outcome};
 use crate::judge::reference::GroupReference;
@@ -48,8 +49,15 @@ struct ShardRun<'a> {
 
 /// Merge `shards` into `out` (default: `reports/<config name>`). `history` picks the database
 /// (the config's `history` key, resolved against the shards' config file, unless overridden).
-/// An output folder of another batch is refused unless `force`.
-pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, force: bool) -> Result<Merged> {
+/// An output folder of another batch is refused unless `force`. `pages` renders the report and
+/// the trend page.
+pub fn merge(
+    shards: &[PathBuf],
+    out: Option<&Path>,
+    history: &HistoryChoice,
+    force: bool,
+    pages: &dyn Pages,
+) -> Result<Merged> {
     let Some(first) = shards.first() else { bail!("merge needs at least one shard folder") };
     let metas: Vec<Meta> = shards.iter().map(|d| read_meta(d)).collect::<Result<_>>()?;
     let (config, plan) = (&metas[0].config, &metas[0].plan);
@@ -69,7 +77,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
     let out_dir = match out {
         Some(o) => o.to_path_buf(),
         None => {
-            crate::plan::names::check_name("config", &identity.config)
+            crate::names::check_name("config", &identity.config)
                 .with_context(|| format!("{}: meta.json", first.display()))?;
             PathBuf::from("reports").join(&identity.config)
         }
@@ -125,9 +133,9 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
         } else {
             already_in(previous.as_ref(), history_db.as_deref(), &merged_from).unwrap_or(Decision::Append)
         };
-        let outcome = Outcome::conclude(history_db.as_deref(), &staging, &out_dir, decision)?;
+        let outcome = conclude_history(pages, history_db.as_deref(), &staging, &out_dir, decision)?;
         appended = Some(outcome.clone());
-        crate::report::refresh(&staging, &rows)?;
+        pages.report(&staging, &rows)?;
         install(&staging, &out_dir, reuse)?;
         Ok::<_, anyhow::Error>(outcome)
     })();
@@ -135,7 +143,7 @@ pub fn merge(shards: &[PathBuf], out: Option<&Path>, history: &HistoryChoice, fo
         Ok(outcome) => outcome,
         Err(e) => {
             let _ = std::fs::remove_dir_all(&staging);
-            if let Some(Err(w)) = appended.map(|o| o.withdraw()) {
+            if let Some(Err(w)) = appended.map(|o| withdraw(pages, &o)) {
                 return Err(e.context(format!("the merged batch stays in the history, without its folder: {w}")));
             }
             return Err(e);

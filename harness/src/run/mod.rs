@@ -3,6 +3,7 @@
 //! writes every file, so each file has one writer.
 
 pub mod merge;
+mod pages;
 pub mod progress;
 mod record;
 pub mod resume;
@@ -26,6 +27,8 @@ use finish::{batch_notices, judge_and_write, Finisher};
 use memory::Monitor;
 use meshes::MeshCache;
 use one::{run_one, RunContext, RunResult};
+use pages::conclude_history;
+pub use pages::Pages;
 use progress::Progress;
 use record::{code_id, BatchRecord};
 use repeats::Repeats;
@@ -122,10 +125,17 @@ struct Todo {
     keep_map: bool,
 }
 
-/// Run the plan's runs (those of `opts.shard`) into `out_dir`, then render its report. With
-/// `repeat = N` every run runs once, then every run again (round-robin), N times, with a
-/// calibration sample before the first round, between rounds and after the last.
-pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn Progress) -> Result<BatchReport> {
+/// Run the plan's runs (those of `opts.shard`) into `out_dir`, then render its report and,
+/// after a history append, its config's trend page (`pages`). With `repeat = N` every run
+/// runs once, then every run again (round-robin), N times, with a calibration sample before
+/// the first round, between rounds and after the last.
+pub fn run_batch(
+    plan: &Plan,
+    out_dir: &Path,
+    opts: &RunOptions,
+    progress: &dyn Progress,
+    pages: &dyn Pages,
+) -> Result<BatchReport> {
     for n in &plan.notices {
         progress.notice(n);
     }
@@ -164,7 +174,7 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
         .with_context(|| format!("{}: cannot create", out_dir.display()))?;
     // The reference minima the runs are judged by, before any run (computing a missing one
     // is a tight solve, timed by nobody).
-    meta.references = crate::judge::reference::prepare(plan, &mine, progress, &opts.interrupt)?;
+    meta.references = crate::judge::reference::prepare(plan, &mine, &|line| progress.notice(line), &opts.interrupt)?;
     calibrate(&mut calibration, jobs, threads, progress);
     meta.write(out_dir, None, false, &calibration)?;
     let report =
@@ -211,16 +221,20 @@ pub fn run_batch(plan: &Plan, out_dir: &Path, opts: &RunOptions, progress: &dyn 
     // which reads the finished folder and records its outcome in meta.json for the report.
     let interrupted = report.interrupted > 0;
     meta.write(out_dir, Some(SystemTime::now()), interrupted, &calibration)?;
-    report.history = record_history(plan, out_dir, previous.as_ref(), &report)?;
+    report.history = record_history(pages, plan, out_dir, previous.as_ref(), &report)?;
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
-    // The report keeps to the batch's core budget too: `--jobs 1` (say a Slurm task with one
-    // CPU) must not fan the plots out to every core of the node.
-    let report_threads = opts.jobs.unwrap_or(cores).max(1);
-    match rayon::ThreadPoolBuilder::new().num_threads(report_threads).build() {
-        Ok(pool) => pool.install(|| crate::report::refresh(out_dir, &rows))?,
-        Err(_) => crate::report::refresh(out_dir, &rows)?,
-    }
+    render_report(pages, out_dir, &rows, opts.jobs.unwrap_or(cores).max(1))?;
     Ok(report)
+}
+
+/// The batch's report on `threads` threads: it keeps to the batch's core budget too, so
+/// `--jobs 1` (say a Slurm task with one CPU) does not fan the plots out to every core of the
+/// node.
+fn render_report(pages: &dyn Pages, out_dir: &Path, rows: &[SummaryRow], threads: usize) -> Result<()> {
+    match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(pool) => pool.install(|| pages.report(out_dir, rows)),
+        Err(_) => pages.report(out_dir, rows),
+    }
 }
 
 /// `out_dir` for this batch: refused when it holds another batch's results, unless
@@ -257,7 +271,13 @@ fn round_todo(round: usize, slots: &[Option<Slot>], total: usize, maps: Maps) ->
 
 /// The batch into the history database, unless it was interrupted (its means would read as
 /// a change of the code) or, resumed whole, is in it already.
-fn record_history(plan: &Plan, out_dir: &Path, previous: Option<&Outcome>, report: &BatchReport) -> Result<Outcome> {
+fn record_history(
+    pages: &dyn Pages,
+    plan: &Plan,
+    out_dir: &Path,
+    previous: Option<&Outcome>,
+    report: &BatchReport,
+) -> Result<Outcome> {
     let decision = if report.interrupted > 0 {
         Decision::Skip("the batch was interrupted: its means would read as a change of the code".into())
     } else {
@@ -270,7 +290,7 @@ fn record_history(plan: &Plan, out_dir: &Path, previous: Option<&Outcome>, repor
             _ => Decision::Append,
         }
     };
-    Ok(Outcome::conclude(plan.history.as_deref(), out_dir, out_dir, decision)?)
+    Ok(conclude_history(pages, plan.history.as_deref(), out_dir, out_dir, decision)?)
 }
 
 /// One result of a round into its run's slot: the run's slot when its last repeat is in

@@ -5,8 +5,6 @@
 
 use crate::hash::Fnv;
 use crate::plan::config::Maps;
-use crate::plan::handles::HandleSource;
-use crate::plan::registry::MeshSource;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::{map, read_run, sidecar, SummaryRow};
 use anyhow::Result;
@@ -24,29 +22,8 @@ pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
     let (energy, solver) = (&run.energy, &run.solver);
     let mut h = Fnv::new();
     h.bytes(code.as_bytes()).bytes(settings.to_string().as_bytes()).bytes(energy.as_bytes()).bytes(solver.as_bytes());
-    hash_dataset(&mut h, ds)?;
+    ds.hash_into(&mut h)?;
     Ok(format!("{:016x}", h.0))
-}
-
-/// Hash what a run takes from its dataset: the mesh (a file by content), the counts the
-/// registry expects, the handles (a file by content).
-pub(crate) fn hash_dataset(h: &mut Fnv, ds: &crate::plan::registry::Dataset) -> Result<()> {
-    match &ds.source {
-        MeshSource::Generated(g) => h.bytes(b"generated").bytes(g.as_bytes()),
-        MeshSource::File(p) => h.bytes(b"file").file(p)?,
-    };
-    h.bytes(format!("{:?}", ds.expected).as_bytes());
-    match &ds.handles {
-        HandleSource::None => h.bytes(b"no handles"),
-        HandleSource::Generated(g) => h.bytes(b"generated handles").bytes(g.as_bytes()),
-        HandleSource::Rule(r) => h.bytes(b"rule").bytes(r.as_bytes()),
-        // A missing handles file fails the run anyway: key it by name, not content.
-        HandleSource::File { path, set } => match h.bytes(format!("set {set}").as_bytes()).file(path) {
-            Ok(h) => h,
-            Err(_) => h.bytes(path.display().to_string().as_bytes()),
-        },
-    };
-    Ok(())
 }
 
 /// The finished run `stem` if its sidecar has `key` and all its files are intact: the CSV

@@ -1,7 +1,7 @@
 //! What can be wrong with a run folder's files: every error names the file, and the line and
 //! column where there is one.
 
-use crate::plan::names::NameError;
+use crate::names::NameError;
 use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]

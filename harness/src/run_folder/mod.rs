@@ -14,8 +14,9 @@ pub mod meta;
 pub mod reuse;
 pub mod sidecar;
 pub mod summary;
+pub mod timed;
 
-pub use crate::plan::names::run_stem;
+pub use crate::names::run_stem;
 pub use error::FolderError;
 pub use iterations::{iteration_csv, read_iterations, read_run, IterationFile, ITERATION_COLUMNS};
 pub use summary::{read_summary, write_summary, Status, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};

@@ -2,10 +2,9 @@
 //! rewritten in the plan's order at the end.
 
 use super::{csv_error, read_csv_bytes, write_atomic, FolderError};
-use crate::judge::verdict::Verdict;
-use crate::plan::Task;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
+use solvers::mesh::Task;
 use solvers::solver::{StartMap, StopReason};
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -145,6 +144,56 @@ impl std::fmt::Display for Status {
     }
 }
 
+/// The `verdict` column, the harness's word on a finished run: solved when it passed the
+/// convergence test at the tightest target with no flipped triangle, otherwise why not
+/// (`judge::verdict` decides it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// Passed the tightest target, no flips: `status = ok`.
+    Solved,
+    /// Passed the tightest target but its final map flips triangles.
+    Flipped,
+    /// Its own stop rule called it converged above the tightest target.
+    StoppedAboveTarget,
+    /// Stopped with a small gradient far above the reference (past the loosest target): at
+    /// another local minimum or a saddle, not short of this one.
+    OtherMinimum,
+    /// Stopped for another reason above the target (the iteration cap, the time limit, a
+    /// failed line search or linear solve; `stop_reason` says which).
+    Unfinished,
+    /// No reference to judge by: the solver's own rule decides (authalic runs).
+    OwnRule,
+}
+
+impl Verdict {
+    pub const ALL: [Verdict; 6] = [
+        Verdict::Solved,
+        Verdict::Flipped,
+        Verdict::StoppedAboveTarget,
+        Verdict::OtherMinimum,
+        Verdict::Unfinished,
+        Verdict::OwnRule,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Solved => "solved",
+            Verdict::Flipped => "flipped",
+            Verdict::StoppedAboveTarget => "stopped_above_target",
+            Verdict::OtherMinimum => "other_minimum",
+            Verdict::Unfinished => "unfinished",
+            Verdict::OwnRule => "own_rule",
+        }
+    }
+}
+
+impl std::fmt::Display for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// The `stop_reason` column: the solver's reason (`skipped` for a pair outside the solver's
 /// definition, `StopReason::Skipped`), or `error` for a run that failed.
 mod stop_column {
@@ -252,7 +301,7 @@ pub struct SummaryRow {
     pub cg_capped_iters: Option<usize>,
     /// The span the gaps are fractions of: `final_gap = (E_final - E*) / gap_scale`, and the
     /// convergence test at `tau` is `E - E* <= tau gap_scale`. `E0 - E*` (Moré and Wild), for
-    /// `deform` at most the shape's own change (`judge::convergence::judged_start`).
+    /// `deform` at most the shape's own change (`convergence::judged_start`).
     #[serde(default)]
     pub gap_scale: Option<f64>,
     /// Iterations and time to each target, the loosest first.
@@ -392,7 +441,7 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>, FolderError> {
         // another tool or edited by hand must not make them write outside the run folder.
         let line = rec.position().map_or(0, |p| p.line());
         for (kind, name) in [("dataset", &row.dataset), ("energy", &row.energy), ("solver", &row.solver)] {
-            crate::plan::names::check_name(kind, name).map_err(|source| FolderError::Name {
+            crate::names::check_name(kind, name).map_err(|source| FolderError::Name {
                 path: path.clone(),
                 line,
                 source,
@@ -528,5 +577,14 @@ mod tests {
         w.serialize(SummaryRow::default()).unwrap();
         let s = String::from_utf8(w.into_inner().unwrap()).unwrap();
         assert_eq!(s.lines().next().unwrap(), SUMMARY_COLUMNS.join(","));
+    }
+
+    #[test]
+    fn verdict_names_are_distinct_and_snake_case() {
+        let names: std::collections::HashSet<&str> = Verdict::ALL.iter().map(|v| v.as_str()).collect();
+        assert_eq!(names.len(), Verdict::ALL.len());
+        for v in Verdict::ALL {
+            assert_eq!(serde_json::to_value(v).unwrap(), v.as_str());
+        }
     }
 }

@@ -3,22 +3,21 @@
 //! before / after / ratio, gated by the rules `check` uses ([`super::rules`]); times are
 //! labelled when they moved beyond their noise and are never gated unless asked
 //! ([`Options::time_regressions`]). Runs in one folder only are listed, and the settings in
-//! which the two batches' `meta.json` differ head the output.
+//! which the two batches' `meta.json` differ head the output. The gate computes; the report
+//! layer writes it out (`report::compare`: Markdown and HTML).
 
 use super::rules::{self, Change, Record, TimeChange};
-use crate::report::tables::ranking::Timed;
 use crate::run_folder::meta::Meta;
+use crate::run_folder::timed::Timed;
 use crate::run_folder::{self, SummaryRow};
 use anyhow::{bail, Context, Result};
 use std::collections::{BTreeMap, HashSet};
 use std::path::Path;
 
-mod render;
 mod settings;
 #[cfg(test)]
 mod tests;
 
-pub use render::{to_html, to_markdown};
 use settings::provenance;
 pub use settings::settings_diff;
 

@@ -1,5 +1,6 @@
 use super::*;
 use crate::plan::Task;
+use crate::report::compare::{to_html, to_markdown};
 use crate::run_folder::meta::Meta;
 use crate::run_folder::Status;
 use serde_json::json;

@@ -105,19 +105,19 @@ impl Config {
         Ok(())
     }
 
-    /// Names that become file names are file-name safe (`crate::plan::names`), and no list repeats
+    /// Names that become file names are file-name safe (`crate::names`), and no list repeats
     /// an entry (a repeated energy or solver would run the same run twice into one file).
     fn check_names(&self) -> Result<()> {
         // `name` is the default run folder, reports/<name>.
-        crate::plan::names::check_name("config", &self.name).context("'name'")?;
+        crate::names::check_name("config", &self.name).context("'name'")?;
         for d in &self.dataset {
-            crate::plan::names::check_name("dataset", &d.name).context("[[dataset]]")?;
+            crate::names::check_name("dataset", &d.name).context("[[dataset]]")?;
         }
         for e in &self.energies {
-            crate::plan::names::check_name("energy", e).context("'energies'")?;
+            crate::names::check_name("energy", e).context("'energies'")?;
         }
         for s in &self.solvers {
-            crate::plan::names::check_name("solver", s).context("'solvers'")?;
+            crate::names::check_name("solver", s).context("'solvers'")?;
         }
         let inline: Vec<String> = self.dataset.iter().map(|d| d.name.clone()).collect();
         for (key, list) in [

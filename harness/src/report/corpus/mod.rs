@@ -22,8 +22,8 @@
 //!   problem set.
 
 use super::batch::Batch;
-use super::tables::ranking::Timed;
 use super::{finished, skipped, unique};
+use crate::run_folder::timed::Timed;
 use crate::run_folder::{Status, SummaryRow};
 use crate::stats::shifted_geometric_mean;
 

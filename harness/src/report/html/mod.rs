@@ -5,6 +5,7 @@
 //! from `meta.json`. Readable on a phone: images scale down and
 //! wide tables scroll sideways in their own box.
 
+pub use crate::escape::{esc, href};
 use crate::report::batch::Batch;
 use crate::report::plots::Plot;
 use crate::report::tables::Table;
@@ -116,35 +117,6 @@ fn read_meta(run_dir: &Path) -> Result<Option<Meta>> {
         return Ok(None);
     }
     Ok(Some(Meta::read(run_dir)?))
-}
-
-/// HTML-escape text for element content and quoted attribute values.
-pub fn esc(t: &str) -> String {
-    let mut s = String::with_capacity(t.len());
-    for c in t.chars() {
-        match c {
-            '&' => s += "&amp;",
-            '<' => s += "&lt;",
-            '>' => s += "&gt;",
-            '"' => s += "&quot;",
-            '\'' => s += "&#39;",
-            _ => s.push(c),
-        }
-    }
-    s
-}
-
-/// A relative link target: percent-encode all but unreserved characters and `/`, then escape.
-pub(crate) fn href(path: &str) -> String {
-    let mut s = String::new();
-    for b in path.bytes() {
-        if b.is_ascii_alphanumeric() || b"-._~/".contains(&b) {
-            s.push(b as char);
-        } else {
-            let _ = write!(s, "%{b:02X}");
-        }
-    }
-    esc(&s)
 }
 
 fn counts(summaries: &[SummaryRow]) -> String {

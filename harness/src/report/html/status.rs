@@ -3,9 +3,9 @@
 use super::timing::{seconds, timed_seconds};
 use super::{esc, href};
 use crate::judge::verdict::Verdict;
-use crate::report::tables::ranking::Timed;
 use crate::report::{clamped_label, reached_target, tau_text, tightest_target, to_target, unique, verdict_text};
 use crate::run_folder::summary::RefSource;
+use crate::run_folder::timed::Timed;
 use crate::run_folder::{run_stem, Status, SummaryRow};
 use std::fmt::Write as _;
 use std::path::Path;

@@ -3,7 +3,7 @@
 use super::esc;
 use crate::calibration::SPREAD_WARNING;
 use crate::report::batch::Batch;
-use crate::report::tables::ranking::Timed;
+use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 use std::fmt::Write as _;
 

@@ -3,11 +3,12 @@
 //! the paper-shaped mean tables that one hard mesh can dominate.
 
 use super::comparison::with_space;
-use super::ranking::{self, fastest, lowest, Timed};
+use super::ranking::{self, fastest, lowest};
 use super::Table;
 use crate::report::batch::Batch;
 use crate::report::corpus::{self, Cap, CapSource, TimeUnit, ITERATION_SHIFT};
 use crate::report::{finished, is_param_or_deform, target_rule};
+use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 
 /// The table's file stem (and the anchor the profiles sit under in `index.html`).

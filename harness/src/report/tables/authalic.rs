@@ -1,9 +1,10 @@
 //! Area-preserving (authalic) disk maps.
 
-use super::ranking::{self, comparable_at_budget, lowest, Timed};
+use super::ranking::{self, comparable_at_budget, lowest};
 use super::Table;
 use crate::plan::Task;
 use crate::report::{finished, is_authalic};
+use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 use solvers::solver::catalogue;
 

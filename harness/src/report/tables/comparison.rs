@@ -1,10 +1,11 @@
 //! Solver comparisons over a task's runs: the mean iterations and time per solver and energy
 //! (`param`, `deform`) and the per-mesh iterations, time and final energy.
 
-use super::ranking::{self, comparable, equal, fastest, lowest, Timed};
+use super::ranking::{self, comparable, equal, fastest, lowest};
 use super::Table;
 use crate::plan::Task;
 use crate::report::{converged, failed, finished, is_param_or_deform, skipped, target_rule};
+use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 
 /// How a solver x energy table averages its runs.

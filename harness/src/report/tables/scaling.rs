@@ -1,9 +1,9 @@
 //! Iterations and time against the mesh size.
 
 use super::comparison::with_space;
-use super::ranking::Timed;
 use super::Table;
 use crate::report::{converged, finished, is_param_or_deform, target_rule};
+use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 
 /// The composite-majorization paper's Figure 6 as a table: per energy, the datasets sorted by

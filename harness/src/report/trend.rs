@@ -1,13 +1,15 @@
-//! The trend page of the history (`mapbench history --out DIR`): per config, its batches in
-//! time order; per energy, each solver's mean iterations and mean time per batch (PNG, each
-//! tick labelled with the batch's short revision) with the totals in tables; and what changed
-//! in the latest batch since the previous one of the same config, by the rules of `check`.
+//! The trend page of the history (`mapbench history --out DIR`, and after every `run` and
+//! `merge` that appends): per config, its batches in time order; per energy, each solver's
+//! mean iterations and mean time per batch (PNG, each tick labelled with the batch's short
+//! revision) with the totals in tables; and what changed in the latest batch since the
+//! previous one of the same config, by the rules of `check`.
 
-use super::{relative_link, BatchRow, HistoryDb, HistoryError, RunRow};
+use super::html::{esc, href, utc, STYLE};
+use super::plots::trend::{render_trend, TrendLine};
+use super::unique;
 use crate::gate::check::{self, Baseline, Record, DEFAULT_ENERGY_RTOL};
-use crate::report::html::{esc, href, utc, STYLE};
-use crate::report::plots::trend::{render_trend, TrendLine};
-use crate::report::unique;
+use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
+use crate::paths::relative_link;
 use crate::run_folder::{write_atomic, Status};
 use rayon::prelude::*;
 use std::fmt::Write as _;
@@ -119,10 +121,10 @@ pub fn render(
     let mut configs: Vec<ConfigHistory> = Vec::new();
     for b in batches {
         // The names become file names below: a database edited by hand must not write elsewhere.
-        crate::plan::names::check_name("config", &b.config_name).map_err(|e| bad(db, e))?;
+        crate::names::check_name("config", &b.config_name).map_err(|e| bad(db, e))?;
         let runs = db.runs(b.id)?;
         for r in &runs {
-            crate::plan::names::check_name("energy", &r.energy).map_err(|e| bad(db, e))?;
+            crate::names::check_name("energy", &r.energy).map_err(|e| bad(db, e))?;
         }
         match configs.last_mut() {
             Some(c) if c.name == b.config_name => c.batches.push((b, runs)),
@@ -149,7 +151,7 @@ pub fn render(
     Ok(TrendPage { index, plots: charts.into_iter().map(|c| c.file).collect(), batches })
 }
 
-fn bad(db: &HistoryDb, e: crate::plan::names::NameError) -> HistoryError {
+fn bad(db: &HistoryDb, e: crate::names::NameError) -> HistoryError {
     HistoryError::Meta { path: db.path().to_path_buf(), what: e.to_string() }
 }
 
@@ -439,4 +441,78 @@ fn totals_table(h: &mut String, c: &ConfigHistory, energy: &str, solvers: &[Stri
         *h += "</tr>\n";
     }
     *h += "</table></div></details>\n";
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::history::{record, trend_dir};
+    use crate::paths::absolute;
+    use crate::plan::Task;
+    use crate::report::plots::tests::png_size;
+    use crate::run_folder::{write_summary, SummaryRow};
+    use solvers::solver::StopReason;
+
+    /// `record` reads a run folder (meta.json, summary.csv) and appends it, and the trend page
+    /// renders from the database it leaves open; the second batch's page names both revisions
+    /// and lists the run whose iterations changed, and the totals use `time_norm`.
+    #[test]
+    fn recording_two_folders_makes_two_nights_on_the_trend_page() {
+        let dir = tempfile::tempdir().unwrap();
+        let db = dir.path().join("reports/history.sqlite");
+        let folder = |name: &str, rev: &str, started: u64, kp_iters: usize| {
+            let d = dir.path().join(name);
+            std::fs::create_dir_all(&d).unwrap();
+            let meta = serde_json::json!({
+                "config": {"name": "nightly"}, "plan": ["a__sd__kp-newton", "a__sd__cm"], "repeat": 1,
+                "git_revision": rev, "git_dirty": false, "started_unix": started, "ended_unix": started + 9,
+                "host": "node", "cores": 2, "jobs": 2, "threads_per_run": 1,
+                "calibration_median_s": 0.5, "calibration_spread": 0.02,
+            });
+            std::fs::write(d.join("meta.json"), meta.to_string()).unwrap();
+            let row = |solver: &str, it: usize| SummaryRow {
+                dataset: "a".into(),
+                task: Task::Param,
+                energy: "sd".into(),
+                solver: solver.into(),
+                iterations: Some(it),
+                converged: true,
+                stop_reason: Some(StopReason::GradientTolerance),
+                final_energy: Some(2.0),
+                time_s: Some(0.1 * it as f64),
+                time_norm: Some(0.2 * it as f64),
+                status: Status::Ok,
+                ..Default::default()
+            };
+            write_summary(&d.join("summary.csv"), &[row("kp-newton", kp_iters), row("cm", 9)]).unwrap();
+            d
+        };
+        let first = record(&db, &folder("night1", "1111111aaaa", 1000, 8)).unwrap();
+        let second = record(&db, &folder("night2", "2222222bbbb", 90_000, 11)).unwrap();
+        assert_eq!((first.runs, second.batch_id, second.config.as_str()), (2, first.batch_id + 1, "nightly"));
+        let page = render(&second.history, Some(&second.config), None, &trend_dir(&db, &second.config)).unwrap();
+        assert_eq!(page.index, dir.path().join("reports/history-trend/nightly/index.html"));
+        let html = std::fs::read_to_string(&page.index).unwrap();
+        for needle in [
+            "1111111",
+            "2222222",
+            "What changed: batch 2 (2222222) since batch 1 (1111111)",
+            "a param sd kp-newton",
+            "time_norm (time_s / calibration median)",
+            "\"../../../night2/index.html\"",
+            "plots/nightly__sd__iterations.png",
+            "plots/nightly__sd__time.png",
+        ] {
+            assert!(html.contains(needle), "{needle} not in the page:\n{html}");
+        }
+        // cm did not change: only kp-newton's iterations are listed
+        assert!(!html.contains("a param sd cm"), "{html}");
+        let trend = page.index.parent().unwrap();
+        assert_eq!(page.plots, ["plots/nightly__sd__iterations.png", "plots/nightly__sd__time.png"]);
+        for png in &page.plots {
+            assert_eq!(png_size(&trend.join(png)), (800, 500));
+        }
+        let h = HistoryDb::open_existing(&db).unwrap();
+        assert_eq!(h.last_batch_of(&absolute(&dir.path().join("night2")).display().to_string()).unwrap(), Some(2));
+    }
 }

@@ -1,10 +1,11 @@
-//! The comparison as Markdown or as an HTML page: legend, verdict and tables.
+//! `compare`'s output: the comparison `gate::compare` computed, as Markdown or as an HTML
+//! page (legend, verdict and tables).
 
-use super::rules::{self, Record, TimeChange};
-use super::{FolderComparison, TimePair};
-use crate::report::html::esc;
-use crate::report::tables::ranking::Timed;
-use crate::report::tables::Table;
+use super::html::esc;
+use super::tables::Table;
+use crate::gate::compare::{FolderComparison, TimePair};
+use crate::gate::rules::{self, Record, TimeChange};
+use crate::run_folder::timed::Timed;
 
 /// A part of the output: a table, or a titled sentence.
 enum Section {

@@ -1,0 +1,103 @@
+#!/usr/bin/env python3
+"""The harness's modules point one way: each top-level module of harness/src has a layer
+rank, and a file may name (by a `crate::`, `super::` or `self::` path, or a child module
+named without a prefix; the parsing of scripts/import_cycles.py) only modules of its own
+rank or below:
+
+    0  leaves        hash, paths, stats, names, escape, convergence, signals, calibration
+    1  run_folder    every file of a run folder, meta.json typed and versioned
+    2  the batch     plan, run, judge, history, gate, export, output, evaluate, external
+    3  report        tables, plots, the report and trend pages, the comparison page
+    4  edges         cli (the binary) and fuzzing (what the fuzz targets call)
+
+A rank is what a module is, not the least its imports allow: calibration names only stats,
+output names run_folder (whose files it refuses to overwrite) and so sits with the batch,
+and fuzzing, an entry point like cli, is an edge that nothing in the library may name. The
+binary reaches the library through `mapbench::` paths, which are not followed: cli is the
+top.
+
+Modules of one rank may use each other, but not in a circle (a circle of files is
+scripts/import_cycles.py's to find; here a circle of top-level modules is refused too).
+Test code is left out, as import_cycles.py does: a file's `#[cfg(test)] mod { ... }` (its
+unit tests, at its end) and a module's test file (`#[cfg(test)] mod tests;`, `tests.rs`),
+since tests may drive a module through the layers above it. A new top-level module must be
+given a rank here.
+
+    python3 scripts/layers.py [HARNESS_SRC]   (default: harness/src)
+
+Prints each offending file with the path it names and exits 1 when there is any.
+"""
+import os
+import re
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from import_cycles import modules, named, sccs, strip_comments  # noqa: E402
+
+RANKS = {
+    "hash": 0,
+    "paths": 0,
+    "stats": 0,
+    "names": 0,
+    "escape": 0,
+    "convergence": 0,
+    "signals": 0,
+    "calibration": 0,
+    "run_folder": 1,
+    "plan": 2,
+    "run": 2,
+    "judge": 2,
+    "history": 2,
+    "gate": 2,
+    "export": 2,
+    "output": 2,
+    "evaluate": 2,
+    "external": 2,
+    "report": 3,
+    "cli": 4,
+    "fuzzing": 4,
+}
+
+TEST_MOD = re.compile(r"#\[cfg\(test\)\]\s*(?:pub(?:\([a-z]+\))?\s+)?mod\s+(\w+)\s*;")
+
+
+def test_files(mods):
+    """The files of modules declared `#[cfg(test)] mod name;`, and of their submodules."""
+    tests = set()
+    for here, path in mods.items():
+        for name in TEST_MOD.findall(open(path, encoding="utf-8").read()):
+            tests.add(here + (name,))
+    return {path for key, path in mods.items() if any(key[: len(t)] == t for t in tests)}
+
+
+def main(src):
+    mods = modules(src)
+    skip = test_files(mods)
+    top = {path: key[0] for key, path in mods.items() if key}
+    unranked = sorted({m for m in top.values() if m not in RANKS})
+    bad, edges = [], {}
+    for here, path in sorted(mods.items()):
+        if not here or path in skip:
+            continue
+        mine = here[0]
+        text = strip_comments(open(path, encoding="utf-8").read())
+        for written, target in named(text, here, mods):
+            theirs = top.get(target)
+            if theirs is None or theirs == mine or theirs in unranked or mine in unranked:
+                continue
+            edges.setdefault(mine, set()).add(theirs)
+            if RANKS[theirs] > RANKS[mine]:
+                bad.append((path, written, mine, theirs))
+    for path, written, mine, theirs in sorted(set(bad)):
+        print(f"{path}: names {written} ({theirs}, rank {RANKS[theirs]}) from {mine} (rank {RANKS[mine]})")
+    circles = [sorted(c) for c in sccs({m: sorted(t) for m, t in edges.items()}) if len(c) > 1]
+    for c in circles:
+        print("modules in a circle: " + " ".join(c))
+    for m in unranked:
+        print(f"{src}/{m}: a top-level module without a rank (give it one in scripts/layers.py)")
+    print(f"{len(set(bad))} upward name(s), {len(circles)} module circle(s), {len(unranked)} unranked module(s)")
+    return 1 if bad or circles or unranked else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1] if len(sys.argv) > 1 else "harness/src"))
