@@ -47,8 +47,8 @@ pub struct Score {
 
 /// Score the map `map_path` of the mesh `mesh_path` with `energy`. The mesh is an OBJ, or a
 /// run folder's `meshes/<dataset>.obj.gz`; the map a run folder's `uv/<run>.uv.gz` (which names
-/// its mesh by checksum) or an OBJ with one `vt` per vertex and the mesh's faces, as
-/// `mapbench map` writes.
+/// its mesh by checksum), a text `.uv` (one `u v` line per vertex, as external solvers write)
+/// or an OBJ with one `vt` per vertex and the mesh's faces, as `mapbench map` writes.
 pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Frame) -> Result<Score> {
     let mesh = read_mesh(mesh_path)?;
     let uv = read_map(map_path, &mesh)?;
@@ -100,6 +100,9 @@ fn read_map(path: &Path, mesh: &Mesh) -> Result<Vec<[f64; 2]>> {
         let checksum = map::checksum(&mesh.positions, &mesh.faces);
         let stored = StoredMesh { positions: mesh.positions.clone(), faces: mesh.faces.clone(), checksum };
         return map::read_uv(path, &stored).with_context(|| format!("{name}: is it a map of {}?", mesh.source));
+    }
+    if path.extension().is_some_and(|e| e == "uv") {
+        return map::read_uv_text(path, mesh.n_vertices());
     }
     let m = map::read_obj(path)?;
     if m.uv.len() != mesh.n_vertices() {

@@ -109,6 +109,11 @@ fn the_identity_map_of_a_planar_mesh_is_an_isometry_in_the_source_frame() {
     for k in ["sigma_min", "sigma_max"] {
         assert!((s[k].as_f64().unwrap() - 1.0).abs() < 1e-12, "{s}");
     }
+    // the same map as an external solver's text snapshot
+    let text: String = p.iter().map(|q| format!("{:?} {:?}\n", q[0], q[1])).collect();
+    std::fs::write(tmp.path().join("id.uv"), text).unwrap();
+    let t = score(&["mesh.obj", "id.uv", "--frame", "source"], tmp.path());
+    assert_eq!(t["energy_value"], s["energy_value"]);
     // read in the area-1 frame, the same coordinates are 7 times too large: sigma = 7,
     // SD = (49 + 1/49)
     let s = score(&["mesh.obj", "id.obj"], tmp.path());

@@ -182,6 +182,34 @@ pub fn read_with(dir: &Path, stem: &str, mesh: impl FnOnce() -> Result<StoredMes
     Ok(None)
 }
 
+/// Read a map as text, one `u v` line per vertex (the external solvers' `.uv`: any language
+/// writes and reads it, and a shortest round-trip decimal is the exact `f64`); it must have
+/// `n` lines. Errors name the file and the line.
+pub fn read_uv_text(path: &Path, n: usize) -> Result<Vec<[f64; 2]>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let mut uv = Vec::with_capacity(n);
+    for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .with_context(|| format!("{}: line {}: not numbers", path.display(), i + 1))?;
+        let [u, w] = v[..] else {
+            bail!("{}: line {}: expected `u v`, found {} numbers", path.display(), i + 1, v.len())
+        };
+        uv.push([u, w]);
+    }
+    if uv.len() != n {
+        bail!("{}: {} map vertices, but the mesh has {n}", path.display(), uv.len());
+    }
+    Ok(uv)
+}
+
+/// `read_uv_text`'s format: `u v` per vertex, shortest round-trip decimals.
+pub fn uv_text(uv: &[[f64; 2]]) -> String {
+    uv.iter().map(|p| format!("{:?} {:?}\n", p[0], p[1])).collect()
+}
+
 /// The classic OBJ of a map: the source mesh as `v`, the map as `vt`, faces `f a/a b/b c/c`.
 pub fn to_obj(map: &MapFile) -> Vec<u8> {
     let mut s = format!("# final map: {} vertices, {} faces\n", map.source.len(), map.faces.len());
@@ -269,6 +297,22 @@ fn parse_obj(text: &str, with_uv: bool) -> Result<MapFile> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_text_map_reads_back_bit_for_bit_and_names_a_bad_line() {
+        let (mesh, x) = bumpy();
+        let uv: Vec<[f64; 2]> = x.chunks(2).map(|c| [c[0], c[1]]).collect();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.uv");
+        std::fs::write(&path, uv_text(&uv)).unwrap();
+        assert_eq!(read_uv_text(&path, mesh.n_vertices()).unwrap(), uv);
+        let err = read_uv_text(&path, mesh.n_vertices() + 1).unwrap_err().to_string();
+        assert!(err.ends_with(&format!("{} map vertices, but the mesh has {}", uv.len(), uv.len() + 1)), "{err}");
+        std::fs::write(&path, "1 2\n3\n").unwrap();
+        assert!(read_uv_text(&path, 2).unwrap_err().to_string().ends_with("line 2: expected `u v`, found 1 numbers"));
+        std::fs::write(&path, "1 2\n3 x\n").unwrap();
+        assert!(format!("{:#}", read_uv_text(&path, 2).unwrap_err()).contains("line 2: not numbers"));
+    }
 
     fn bumpy() -> (Mesh, Vec<f64>) {
         let mesh = solvers::generate::generate("bumpy_1k").unwrap();
