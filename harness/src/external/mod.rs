@@ -2,3 +2,4 @@
 //! problem folder and judges what they write with its own code.
 
 pub mod child;
+pub mod protocol;

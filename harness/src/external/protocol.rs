@@ -1,0 +1,310 @@
+//! The problem folder an external solver receives and what it writes back
+//! (`peers/PROTOCOL.md`), and the harness's check of every snapshot with its own code.
+
+use crate::run_folder::map::{read_uv_text, uv_text};
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use solvers::energy::EnergyKind;
+use solvers::mesh::{Mesh, Task};
+use solvers::problem::{norm, Evaluation, MapProblem};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+pub const PROTOCOL: u32 = 1;
+
+const CONVENTION: &str = "the mesh is centred and scaled to area 1; the energy is the area-weighted mean of the \
+                          density, SD = 1/2 (|J|^2 + |J^-1|^2), 2 at an isometry";
+
+/// `problem.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProblemSpec {
+    pub protocol: u32,
+    pub task: Task,
+    pub energy: EnergyKind,
+    pub convention: String,
+    pub mesh: String,
+    pub start: String,
+    pub stop: StopSpec,
+    pub timeout_s: Option<f64>,
+    pub threads: usize,
+    pub snapshot_every: usize,
+}
+
+/// The stop rules the solver is asked to apply (the harness judges the run either way).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StopSpec {
+    pub max_iters: usize,
+    pub grad_tol: f64,
+    pub energy_decrease_tol: f64,
+}
+
+impl ProblemSpec {
+    pub fn new(
+        task: Task,
+        energy: EnergyKind,
+        stop: StopSpec,
+        timeout_s: Option<f64>,
+        threads: usize,
+        snapshot_every: usize,
+    ) -> ProblemSpec {
+        ProblemSpec {
+            protocol: PROTOCOL,
+            task,
+            energy,
+            convention: CONVENTION.into(),
+            mesh: "mesh.obj".into(),
+            start: "start.uv".into(),
+            stop,
+            timeout_s,
+            threads,
+            snapshot_every,
+        }
+    }
+}
+
+/// Write the problem folder `dir`: `problem.json`, `mesh.obj` (the normalized `mesh`, exact
+/// decimals) and `start.uv` (the start map `x`, `[u0, v0, u1, ...]`).
+pub fn write_problem(dir: &Path, spec: &ProblemSpec, mesh: &Mesh, x: &[f64]) -> Result<()> {
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).with_context(|| format!("{}: cannot write", path.display()))
+    };
+    write("problem.json", (serde_json::to_string_pretty(spec)? + "\n").as_bytes())?;
+    let mut obj = String::with_capacity(48 * mesh.n_vertices() + 24 * mesh.n_faces());
+    for p in &mesh.positions {
+        let _ = writeln!(obj, "v {:?} {:?} {:?}", p[0], p[1], p[2]);
+    }
+    for f in &mesh.faces {
+        let _ = writeln!(obj, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1);
+    }
+    write(&spec.mesh, obj.as_bytes())?;
+    let uv: Vec<[f64; 2]> = x.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+    write(&spec.start, uv_text(&uv).as_bytes())?;
+    std::fs::create_dir_all(dir.join("maps")).with_context(|| format!("{}: cannot create maps/", dir.display()))
+}
+
+/// One line of `iterations.jsonl`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct Record {
+    pub iter: usize,
+    pub energy: f64,
+    pub time_s: f64,
+    /// Any other key: an extra column.
+    #[serde(flatten)]
+    pub extras: BTreeMap<String, serde_json::Value>,
+}
+
+/// `iterations.jsonl`, checked: iterations 0, 1, 2, ... in order, times that do not go back.
+pub fn read_records(dir: &Path) -> Result<Vec<Record>> {
+    let path = dir.join("iterations.jsonl");
+    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let mut records: Vec<Record> = Vec::new();
+    for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        let at = || format!("{} line {}", path.display(), i + 1);
+        let r: Record = serde_json::from_str(line).with_context(|| format!("{}: not a record", at()))?;
+        if r.iter != records.len() {
+            bail!("{}: iteration {} where {} was due", at(), r.iter, records.len());
+        }
+        if !r.time_s.is_finite() || records.last().is_some_and(|p| r.time_s < p.time_s) {
+            bail!("{}: time_s = {} goes back or is not finite", at(), r.time_s);
+        }
+        records.push(r);
+    }
+    if records.is_empty() {
+        bail!("{}: no records (iteration 0 is the start map)", path.display());
+    }
+    Ok(records)
+}
+
+/// `result.json`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct ResultFile {
+    pub stop_reason: ExternalStop,
+    #[serde(default)]
+    pub message: String,
+}
+
+/// The stop reasons a solver may give.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ExternalStop {
+    Converged,
+    MaxIters,
+    LineSearchFailed,
+    Timeout,
+    Error,
+}
+
+pub fn read_result(dir: &Path) -> Result<ResultFile> {
+    let path = dir.join("result.json");
+    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}: not a result", path.display()))
+}
+
+/// A snapshot measured by the harness.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Snapshot {
+    pub iter: usize,
+    pub energy: f64,
+    /// `None` where the energy is not finite.
+    pub grad_norm: Option<f64>,
+    pub flips: usize,
+    pub x: Vec<f64>,
+}
+
+/// How far a reported energy may be from the recomputed one: round-off of a sum over the
+/// faces in another order and of another formula for the same density.
+pub const ENERGY_RTOL: f64 = 1e-9;
+
+/// Read every `maps/<iter>.uv` the solver wrote, recompute energy, gradient norm and flips on
+/// `problem`, and check each against the energy the solver recorded for that iteration. The
+/// first and the last recorded iterations must have their map.
+pub fn verify(dir: &Path, problem: &MapProblem, records: &[Record]) -> Result<Vec<Snapshot>> {
+    let n = problem.n_dofs() / 2;
+    let last = records.len() - 1;
+    let mut snapshots = Vec::new();
+    for (k, r) in records.iter().enumerate() {
+        let path = dir.join("maps").join(format!("{k}.uv"));
+        if !path.exists() {
+            if k == 0 || k == last {
+                bail!("{}: the map of iteration {k} is missing (the first and the last are due)", path.display());
+            }
+            continue;
+        }
+        let x: Vec<f64> = read_uv_text(&path, n)?.into_iter().flatten().collect();
+        let energy = problem.energy(&x);
+        if !agree(r.energy, energy) {
+            bail!(
+                "iteration {k}: the solver reported energy {} but its map has {energy}{}",
+                r.energy,
+                factor(r.energy, energy)
+            );
+        }
+        let grad_norm = energy.is_finite().then(|| {
+            let mut ev = Evaluation::default();
+            problem.evaluate_without_inertia(&x, &mut ev).ok().map(|()| norm(&ev.grad))
+        });
+        snapshots.push(Snapshot { iter: k, energy, grad_norm: grad_norm.flatten(), flips: problem.flips(&x), x });
+    }
+    Ok(snapshots)
+}
+
+fn agree(reported: f64, ours: f64) -> bool {
+    reported == ours || (reported - ours).abs() <= ENERGY_RTOL * ours.abs().max(1.0)
+}
+
+/// " (a factor of 2: ...)" when the reported energy is a round multiple of ours.
+fn factor(reported: f64, ours: f64) -> String {
+    let r = reported / ours;
+    for (f, name) in [(2.0, "2"), (0.5, "1/2"), (4.0, "4"), (0.25, "1/4")] {
+        if (r - f).abs() <= 1e-6 * f {
+            return format!(" (a factor of {name}: another convention of the energy?)");
+        }
+    }
+    String::new()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use solvers::energy::Sd;
+
+    fn setup() -> (tempfile::TempDir, Mesh, MapProblem, Vec<f64>) {
+        let mesh = solvers::generate::generate("bumpy_1k").unwrap().normalized();
+        let problem = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
+        let x: Vec<f64> = mesh.positions.iter().flat_map(|p| [p[0] * 1.3, p[1] * 0.9]).collect();
+        (tempfile::tempdir().unwrap(), mesh, problem, x)
+    }
+
+    fn stop() -> StopSpec {
+        StopSpec { max_iters: 10, grad_tol: 1e-3, energy_decrease_tol: 0.0 }
+    }
+
+    #[test]
+    fn the_problem_folder_reads_back_exactly() {
+        let (dir, mesh, _, x) = setup();
+        let spec = ProblemSpec::new(Task::Param, EnergyKind::Sd(Sd), stop(), Some(60.0), 2, 5);
+        write_problem(dir.path(), &spec, &mesh, &x).unwrap();
+        let back: ProblemSpec =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("problem.json")).unwrap()).unwrap();
+        assert_eq!(back, spec);
+        let obj = solvers::mesh::load_obj(&dir.path().join("mesh.obj")).unwrap();
+        assert_eq!((obj.positions, obj.faces), (mesh.positions.clone(), mesh.faces.clone()));
+        let start: Vec<f64> = read_uv_text(&dir.path().join("start.uv"), mesh.n_vertices()).unwrap().concat();
+        assert_eq!(start, x);
+    }
+
+    fn write_run(dir: &Path, energies: &[f64], maps: &[(usize, &[f64])]) {
+        let lines: String = energies
+            .iter()
+            .enumerate()
+            .map(|(k, e)| format!("{{\"iter\": {k}, \"energy\": {e:?}, \"time_s\": {}, \"note\": \"x\"}}\n", k as f64))
+            .collect();
+        std::fs::write(dir.join("iterations.jsonl"), lines).unwrap();
+        std::fs::create_dir_all(dir.join("maps")).unwrap();
+        for (k, x) in maps {
+            let uv: Vec<[f64; 2]> = x.chunks(2).map(|c| [c[0], c[1]]).collect();
+            std::fs::write(dir.join("maps").join(format!("{k}.uv")), uv_text(&uv)).unwrap();
+        }
+    }
+
+    #[test]
+    fn snapshots_are_recomputed_and_a_lie_is_named_with_its_factor() {
+        let (dir, _, problem, x) = setup();
+        let e = problem.energy(&x);
+        let y: Vec<f64> = x.iter().map(|v| v * 1.1).collect();
+        let ey = problem.energy(&y);
+        write_run(dir.path(), &[e, 0.5 * (e + ey), ey], &[(0, &x), (2, &y)]);
+        let records = read_records(dir.path()).unwrap();
+        assert_eq!(records[1].extras["note"], "x");
+        let snaps = verify(dir.path(), &problem, &records).unwrap();
+        assert_eq!(snaps.iter().map(|s| (s.iter, s.energy, s.flips)).collect::<Vec<_>>(), [(0, e, 0), (2, ey, 0)]);
+        assert!(snaps.iter().all(|s| s.grad_norm.is_some_and(|g| g > 0.0)));
+
+        write_run(dir.path(), &[2.0 * e, ey], &[(0, &x), (1, &y)]);
+        let err = verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).unwrap_err().to_string();
+        assert!(
+            err.starts_with(&format!("iteration 0: the solver reported energy {:?} but its map has {e:?}", 2.0 * e))
+        );
+        assert!(err.ends_with("(a factor of 2: another convention of the energy?)"), "{err}");
+        write_run(dir.path(), &[e, e * (1.0 + 1e-6)], &[(0, &x), (1, &x)]);
+        let err = verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).unwrap_err().to_string();
+        assert!(err.starts_with("iteration 1: the solver reported energy") && !err.contains("factor"), "{err}");
+        // round-off passes
+        write_run(dir.path(), &[e * (1.0 + 1e-14), ey], &[(0, &x), (1, &y)]);
+        assert!(verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).is_ok());
+    }
+
+    #[test]
+    fn missing_maps_bad_lines_and_a_wrong_sized_map_fail() {
+        let (dir, _, problem, x) = setup();
+        let e = problem.energy(&x);
+        write_run(dir.path(), &[e, e], &[(0, &x)]);
+        let err = verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).unwrap_err().to_string();
+        assert!(err.ends_with("the map of iteration 1 is missing (the first and the last are due)"), "{err}");
+        write_run(dir.path(), &[e], &[(0, &x[..x.len() - 2])]);
+        let err = format!("{:#}", verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).unwrap_err());
+        assert!(err.contains(&format!("map vertices, but the mesh has {}", x.len() / 2)), "{err}");
+        std::fs::write(
+            dir.path().join("iterations.jsonl"),
+            "{\"iter\": 0, \"energy\": 1, \"time_s\": 0}\n{\"iter\": 2, \"energy\": 1, \"time_s\": 1}\n",
+        )
+        .unwrap();
+        assert!(read_records(dir.path()).unwrap_err().to_string().ends_with("line 2: iteration 2 where 1 was due"));
+        std::fs::write(
+            dir.path().join("iterations.jsonl"),
+            "{\"iter\": 0, \"energy\": 1, \"time_s\": 1}\n{\"iter\": 1, \"energy\": 1, \"time_s\": 0.5}\n",
+        )
+        .unwrap();
+        assert!(read_records(dir.path()).unwrap_err().to_string().contains("time_s = 0.5 goes back"));
+        std::fs::write(dir.path().join("iterations.jsonl"), "garbage\n").unwrap();
+        assert!(read_records(dir.path()).unwrap_err().to_string().ends_with("line 1: not a record"));
+        std::fs::write(dir.path().join("iterations.jsonl"), "").unwrap();
+        assert!(read_records(dir.path()).is_err());
+        std::fs::write(dir.path().join("result.json"), "{\"stop_reason\": \"converged\"}").unwrap();
+        assert_eq!(read_result(dir.path()).unwrap().stop_reason, ExternalStop::Converged);
+        std::fs::write(dir.path().join("result.json"), "{\"stop_reason\": \"bored\"}").unwrap();
+        assert!(read_result(dir.path()).is_err());
+    }
+}
