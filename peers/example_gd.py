@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""A template for your own solver under mapbench's external-solver protocol
+(peers/PROTOCOL.md): gradient descent with backtracking on the symmetric Dirichlet energy,
+in numpy. Copy this file and `mapbench_peer.py`, replace `step` with your method, and name the
+command in a config:
+
+    [external.my-gd]
+    command = ["python3", "peers/example_gd.py"]
+    tasks = ["param"]
+    energies = ["sd"]
+
+mapbench recomputes the energy of every map you snapshot with its own code, so report the
+energy in its convention (`Problem.sd`, 2 at an isometry) and snapshot the map you report.
+"""
+import sys
+
+import numpy as np
+
+from mapbench_peer import Problem, wirtinger_xy
+
+
+def sd_gradient(p, uv):
+    """The gradient of `Problem.sd` with respect to the map (n x 2), by the chain rule through
+    f_z and f_zbar: dpsi/dfz = 2 a1 fz, dpsi/dfzbar = 2 a2 fzbar (complex-view paper, Table 2)."""
+    l1, (x2, y2), area = p._rest
+    F = p.F
+    a = uv[F[:, 1]] - uv[F[:, 0]]
+    b = uv[F[:, 2]] - uv[F[:, 0]]
+    j00, j10 = a[:, 0] / l1, a[:, 1] / l1
+    j01, j11 = (b[:, 0] - j00 * x2) / y2, (b[:, 1] - j10 * x2) / y2
+    fz = 0.5 * np.stack([j00 + j11, j10 - j01], 1)
+    fzb = 0.5 * np.stack([j00 - j11, j10 + j01], 1)
+    x, y = wirtinger_xy(p._rest, uv, F)
+    d3 = (x - y) ** 3
+    w = (area / area.sum())[:, None]
+    gz = w * 2.0 * (1.0 - (x + 3.0 * y) / d3)[:, None] * fz
+    gzb = w * 2.0 * (1.0 + (3.0 * x + y) / d3)[:, None] * fzb
+    # d/dJ of the density through fz = (j00 + j11, j10 - j01)/2, fzb = (j00 - j11, j10 + j01)/2
+    g00 = 0.5 * (gz[:, 0] + gzb[:, 0])
+    g11 = 0.5 * (gz[:, 0] - gzb[:, 0])
+    g10 = 0.5 * (gz[:, 1] + gzb[:, 1])
+    g01 = 0.5 * (-gz[:, 1] + gzb[:, 1])
+    # J's columns from the edges: col1 = a / l1, col2 = (b - col1 x2) / y2
+    gb = np.stack([g01, g11], 1) / y2[:, None]
+    ga = (np.stack([g00, g10], 1) - gb * x2[:, None]) / l1[:, None]
+    grad = np.zeros_like(uv)
+    np.add.at(grad, F[:, 1], ga)
+    np.add.at(grad, F[:, 2], gb)
+    np.add.at(grad, F[:, 0], -ga - gb)
+    return grad
+
+
+def step(p, uv, energy, grad):
+    """Backtracking (Armijo) along -grad from t = 1; None when no step decreases the energy."""
+    t, slope = 1.0, float(np.sum(grad * grad))
+    while t > 1e-20:
+        trial = uv - t * grad
+        e = p.sd(trial)
+        if e <= energy - 1e-4 * t * slope:
+            return trial, e
+        t *= 0.5
+    return None
+
+
+def main(folder):
+    p = Problem(folder)
+    if p.spec["task"] != "param" or p.energy["name"] != "sd":
+        p.finish("error", "example_gd solves param with sd only")
+        return 2
+    uv, energy = p.start, p.sd(p.start)
+    max_iters, tol = int(p.stop["max_iters"]), float(p.stop["grad_tol"])
+    grad = sd_gradient(p, uv)
+    norm, k = float(np.linalg.norm(grad)), 0
+    p.record(0, energy, uv, final=norm <= tol or max_iters == 0, grad_norm=norm)
+    while norm > tol and k < max_iters:
+        moved = step(p, uv, energy, grad)
+        if moved is None:
+            p.snapshot(k, uv)
+            p.finish("line_search_failed")
+            return 0
+        (uv, energy), k = moved, k + 1
+        grad = sd_gradient(p, uv)
+        norm = float(np.linalg.norm(grad))
+        p.record(k, energy, uv, final=norm <= tol or k == max_iters, grad_norm=norm)
+    p.finish("converged" if norm <= tol else "max_iters")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[-1]))

@@ -1,0 +1,99 @@
+"""The Python side of the external-solver protocol: mapbench's SD convention against closed
+forms, the template's gradient against finite differences, and both adapters end to end on a
+problem folder (records, snapshots, result)."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+PEERS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+sys.path.insert(0, PEERS)
+
+from example_gd import sd_gradient  # noqa: E402
+from mapbench_peer import Problem, read_uv, write_uv  # noqa: E402
+
+
+def grid(n=5, side=1.0):
+    V = np.array([[side * i / (n - 1), side * j / (n - 1), 0.0] for j in range(n) for i in range(n)])
+    F = []
+    for j in range(n - 1):
+        for i in range(n - 1):
+            v = j * n + i
+            F += [[v, v + 1, v + n + 1], [v, v + n + 1, v + n]]
+    return V, np.array(F)
+
+
+def problem(tmp_path, start, max_iters=50, grad_tol=1e-6, V=None, F=None):
+    if V is None:
+        V, F = grid()
+    with open(tmp_path / "mesh.obj", "w") as f:
+        f.writelines(f"v {x!r} {y!r} {z!r}\n" for x, y, z in V.tolist())
+        f.writelines(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in F.tolist())
+    write_uv(str(tmp_path / "start.uv"), start)
+    spec = {
+        "protocol": 1,
+        "task": "param",
+        "energy": {"name": "sd"},
+        "mesh": "mesh.obj",
+        "start": "start.uv",
+        "stop": {"max_iters": max_iters, "grad_tol": grad_tol, "energy_decrease_tol": 0.0},
+        "snapshot_every": 4,
+    }
+    (tmp_path / "problem.json").write_text(json.dumps(spec))
+    return str(tmp_path)
+
+
+def distorted(V):
+    """A smooth, injective distortion of the grid's plane."""
+    x, y = V[:, 0], V[:, 1]
+    return np.stack([x + 0.15 * np.sin(3 * y), y + 0.1 * x * x], 1)
+
+
+def test_sd_is_two_at_isometries_closed_form_at_scalings_and_inf_when_inverted(tmp_path):
+    V, F = grid(side=1.0)
+    p = Problem(problem(tmp_path, V[:, :2], V=V, F=F))
+    theta = 0.7
+    R = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+    assert p.sd(V[:, :2] @ R.T + 3.0) == pytest.approx(2.0, abs=1e-13)
+    # a uniform scaling by s: (s^2)(1 + s^-4) = s^2 + s^-2
+    assert p.sd(2.0 * V[:, :2]) == pytest.approx(4.25, abs=1e-12)
+    assert p.sd(V[:, :2] * np.array([-1.0, 1.0])) == float("inf")
+
+
+def test_the_templates_gradient_matches_central_differences(tmp_path):
+    V, F = grid()
+    p = Problem(problem(tmp_path, distorted(V)))
+    uv = distorted(V)
+    g = sd_gradient(p, uv)
+    h = 1e-6
+    for k in range(0, uv.size, 7):
+        e = np.zeros(uv.size)
+        e[k] = h
+        e = e.reshape(uv.shape)
+        fd = (p.sd(uv + e) - p.sd(uv - e)) / (2 * h)
+        assert fd == pytest.approx(g.flat[k], abs=1e-7, rel=1e-6), k
+
+
+@pytest.mark.parametrize("adapter", ["example_gd.py", "igl_slim.py"])
+def test_an_adapter_writes_records_snapshots_and_a_result(tmp_path, adapter):
+    V, F = grid(7)
+    folder = problem(tmp_path, distorted(V), max_iters=40, V=V, F=F)
+    done = subprocess.run([sys.executable, os.path.join(PEERS, adapter), folder], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    rows = [json.loads(line) for line in open(os.path.join(folder, "iterations.jsonl"))]
+    assert [r["iter"] for r in rows] == list(range(len(rows)))
+    energies = [r["energy"] for r in rows]
+    assert all(b <= a for a, b in zip(energies, energies[1:])), energies
+    assert energies[-1] < energies[0] and energies[-1] >= 2.0
+    result = json.load(open(os.path.join(folder, "result.json")))
+    assert result["stop_reason"] in ("converged", "max_iters", "line_search_failed")
+    snaps = sorted(int(n[:-3]) for n in os.listdir(os.path.join(folder, "maps")))
+    last = rows[-1]["iter"]
+    assert snaps == sorted({0, last} | set(range(4, last + 1, 4))), snaps
+    # every snapshot is the map of the energy recorded at its iteration, in mapbench's convention
+    p = Problem(folder)
+    for k in snaps:
+        assert p.sd(read_uv(os.path.join(folder, "maps", f"{k}.uv"))) == energies[k]
