@@ -88,11 +88,12 @@ impl Timed {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::run_folder::Status;
 
-    fn run(status: Status, t: f64, spread: Option<(f64, f64, usize)>) -> SummaryRow {
+    /// A summary row with a time and, optionally, its spread `(min, max, repeats)`.
+    pub(crate) fn run(status: Status, t: f64, spread: Option<(f64, f64, usize)>) -> SummaryRow {
         SummaryRow {
             status,
             time_s: Some(t),

@@ -103,17 +103,7 @@ pub const CONVERGED_RULE: &str =
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn run(status: Status, t: f64, spread: Option<(f64, f64, usize)>) -> SummaryRow {
-        SummaryRow {
-            status,
-            time_s: Some(t),
-            time_s_min: spread.map(|s| s.0).or(Some(t)),
-            time_s_max: spread.map(|s| s.1).or(Some(t)),
-            repeats: spread.map(|s| s.2),
-            ..Default::default()
-        }
-    }
+    use crate::run_folder::timed::tests::run;
 
     /// What a table does: competitors are the comparable runs' times.
     fn marks(rows: &[SummaryRow]) -> TimeMarks {
