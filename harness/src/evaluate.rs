@@ -6,7 +6,7 @@ use crate::run_folder::map::{self, StoredMesh};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use solvers::energy::EnergyKind;
-use solvers::mesh::{obj::load_obj, Mesh};
+use solvers::mesh::{obj::load_obj, Mesh, Task};
 use solvers::problem::{norm, Evaluation, MapProblem};
 use std::path::Path;
 
@@ -83,6 +83,23 @@ pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Fr
         sigma_min: sv.iter().map(|s| s[1]).fold(f64::INFINITY, f64::min),
         sigma_max: sv.iter().map(|s| s[0]).fold(f64::NEG_INFINITY, f64::max),
     })
+}
+
+/// The energy `evaluate` scores with: `name` with the `KEY=VALUE` parameters of `params`
+/// (TOML values, as in `[energy.<name>]`), for `task` (only `param` so far: a `deform` map's
+/// energy needs its handles, an `authalic` one the disk's own energy).
+pub fn energy_of(task: Task, name: &str, params: &[String]) -> Result<EnergyKind> {
+    if task != Task::Param {
+        bail!("evaluate scores `param` maps so far ({task} needs its handles or the disk's own energy)");
+    }
+    let mut table = toml::Table::new();
+    for p in params {
+        let one: toml::Table = format!("{}\n", p.replacen('=', " = ", 1))
+            .parse()
+            .with_context(|| format!("--param {p}: not KEY=VALUE with a TOML value"))?;
+        table.extend(one);
+    }
+    EnergyKind::from_table(name, &table).map_err(|e| anyhow::anyhow!("--energy {name}: {e}"))
 }
 
 fn read_mesh(path: &Path) -> Result<Mesh> {

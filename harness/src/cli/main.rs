@@ -428,40 +428,17 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
         }
         Command::List { what, registry } => list(what, &registry),
+        // exit 0 whatever the map's quality: the numbers say it
         Command::Evaluate { mesh, map, task, energy, params, frame, json } => {
-            evaluate(&mesh, &map, task, &energy, &params, frame, json)
+            let energy = mapbench::evaluate::energy_of(task, &energy, &params)?;
+            let score = mapbench::evaluate::evaluate(&mesh, &map, energy, frame)?;
+            match json {
+                true => out(format_args!("{}\n", serde_json::to_string_pretty(&score)?))?,
+                false => out(format_args!("{}", score.lines()))?,
+            }
+            Ok(ExitCode::SUCCESS)
         }
     }
-}
-
-/// `evaluate`: one map scored; exit 0 whatever its quality (the numbers say it).
-fn evaluate(
-    mesh: &std::path::Path,
-    map: &std::path::Path,
-    task: solvers::mesh::Task,
-    energy: &str,
-    params: &[String],
-    frame: mapbench::evaluate::Frame,
-    json: bool,
-) -> Result<ExitCode> {
-    if task != solvers::mesh::Task::Param {
-        anyhow::bail!("evaluate scores `param` maps so far ({task} needs its handles or the disk's own energy)");
-    }
-    let mut table = toml::Table::new();
-    for p in params {
-        let text = format!("{}\n", p.replacen('=', " = ", 1));
-        let one: toml::Table = text.parse().with_context(|| format!("--param {p}: not KEY=VALUE with a TOML value"))?;
-        table.extend(one);
-    }
-    let energy = solvers::energy::EnergyKind::from_table(energy, &table)
-        .map_err(|e| anyhow::anyhow!("--energy {energy}: {e}"))?;
-    let score = mapbench::evaluate::evaluate(mesh, map, energy, frame)?;
-    if json {
-        out(format_args!("{}\n", serde_json::to_string_pretty(&score)?))?;
-    } else {
-        out(format_args!("{}", score.lines()))?;
-    }
-    Ok(ExitCode::SUCCESS)
 }
 
 /// The plan of `run`: the config resolved with `--only`, `--repeat` and the history choice.
