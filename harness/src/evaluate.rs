@@ -43,6 +43,20 @@ pub struct Score {
     pub sigma_min: f64,
     /// The largest singular value over the faces.
     pub sigma_max: f64,
+    /// The reference minimum of the map's problem, when MESH is a run folder's
+    /// `meshes/<dataset>.obj.gz` and that batch settled one for this energy.
+    pub reference: Option<ReferenceGap>,
+}
+
+/// The map's energy against the batch's reference minimum `E*`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ReferenceGap {
+    pub e_star: f64,
+    /// `E - E*`.
+    pub above: f64,
+    /// `(E - E*) / gap_scale`, on the scale the batch judged its runs (`E0 - E*` of the
+    /// common start for `param`): 1 at the start, 0 at the minimum.
+    pub gap: Option<f64>,
 }
 
 /// Score the map `map_path` of the mesh `mesh_path` with `energy`. The mesh is an OBJ, or a
@@ -82,7 +96,30 @@ pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Fr
         flips,
         sigma_min: sv.iter().map(|s| s[1]).fold(f64::INFINITY, f64::min),
         sigma_max: sv.iter().map(|s| s[0]).fold(f64::NEG_INFINITY, f64::max),
+        reference: reference(mesh_path, &energy).map(|(e_star, scale)| ReferenceGap {
+            e_star,
+            above: energy_value - e_star,
+            gap: scale.map(|s| crate::convergence::gap_on(energy_value, e_star, s)),
+        }),
     })
+}
+
+/// `E*` and the gap scale of `energy` on the dataset of `<run folder>/meshes/<dataset>.obj.gz`,
+/// when that folder's `meta.json` has the reference and ran the energy with these parameters.
+fn reference(mesh_path: &Path, energy: &EnergyKind) -> Option<(f64, Option<f64>)> {
+    let dataset = mesh_path.file_name()?.to_str()?.strip_suffix(".obj.gz")?;
+    let folder = mesh_path.parent().filter(|d| d.file_name().is_some_and(|n| n == "meshes"))?.parent()?;
+    let meta = crate::run_folder::meta::Meta::read(folder).ok()?;
+    let ran = meta.settings_per_energy.as_ref()?.get(energy.name())?.pointer("/param/energy")?.clone();
+    if ran != serde_json::to_value(energy).ok()? {
+        return None;
+    }
+    let groups: Vec<crate::judge::reference::GroupReference> = serde_json::from_value(meta.references?).ok()?;
+    let group = groups.iter().find(|g| g.dataset == dataset && g.energy == energy.name())?;
+    let e_star = group.e_star?;
+    let rows = crate::run_folder::summary::read_summary(folder).ok()?;
+    let scale = rows.iter().filter(|r| r.dataset == dataset && r.energy == energy.name()).find_map(|r| r.gap_scale);
+    Some((e_star, scale))
 }
 
 /// The energy `evaluate` scores with: `name` with the `KEY=VALUE` parameters of `params`
@@ -144,7 +181,7 @@ impl Score {
         };
         format!(
             "mesh    {} ({} vertices, {} faces)\nmap     {} ({frame})\nenergy  {} = {}\n|grad|  {grad}\n\
-             flips   {}\nsigma   min {:e}, max {:e}\n",
+             flips   {}\nsigma   min {:e}, max {:e}\n{}",
             self.mesh,
             self.vertices,
             self.faces,
@@ -153,7 +190,13 @@ impl Score {
             self.energy_value,
             self.flips,
             self.sigma_min,
-            self.sigma_max
+            self.sigma_max,
+            self.reference.as_ref().map_or(String::new(), |r| format!(
+                "E*      {} (the batch's reference): E - E* = {:e}, gap {}\n",
+                r.e_star,
+                r.above,
+                r.gap.map_or("-".to_string(), |g| format!("{g:e}"))
+            ))
         )
     }
 }

@@ -45,6 +45,14 @@ fn a_runs_maps_score_its_final_energy_and_gradient_in_both_formats() {
         assert_eq!(s["flips"], 0, "{run}");
         assert!(s["sigma_min"].as_f64().unwrap() > 0.0 && s["sigma_max"].as_f64().unwrap() >= 1.0, "{run}");
         assert_eq!(s["energy"]["name"], energy.as_str());
+        // the batch's reference minimum and gap, as summary.csv has them
+        let e_star: f64 = r[col("ref_energy")].parse().unwrap();
+        let scale: f64 = r[col("gap_scale")].parse().unwrap();
+        assert_eq!(s["reference"]["e_star"].as_f64(), Some(e_star), "{run}");
+        assert_eq!(s["reference"]["above"].as_f64(), Some(e - e_star));
+        assert_eq!(s["reference"]["gap"].as_f64(), Some((e - e_star) / scale));
+        let gap: f64 = r[col("final_gap")].parse().unwrap();
+        assert!((s["reference"]["gap"].as_f64().unwrap() - gap).abs() <= 1e-9 * gap.abs().max(1e-12), "{run}");
 
         // the same map as `mapbench map` writes it: the same numbers
         let obj = format!("{run}.obj");
@@ -60,6 +68,13 @@ fn a_runs_maps_score_its_final_energy_and_gradient_in_both_formats() {
             })
         );
     }
+    // other parameters than the batch ran: no reference
+    let o = mapbench(
+        &["evaluate", "--json", "out/meshes/bumpy_1k.obj.gz", "out/uv/bumpy_1k__nh__kp-newton.uv.gz", "--energy", "nh"],
+        tmp.path(),
+    );
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(s["reference"], serde_json::Value::Null, "{s}");
     // a stored map read against another mesh: its checksum says so
     let (p, f) = grid(1.0);
     write_obj(&tmp.path().join("grid.obj"), &p, None, &f);
