@@ -16,21 +16,16 @@ import sys
 
 import numpy as np
 
-from mapbench_peer import Problem, wirtinger_xy
+from mapbench_peer import Problem, wirtinger
 
 
 def sd_gradient(p, uv):
     """The gradient of `Problem.sd` with respect to the map (n x 2), by the chain rule through
     f_z and f_zbar: dpsi/dfz = 2 a1 fz, dpsi/dfzbar = 2 a2 fzbar (complex-view paper, Table 2)."""
-    l1, (x2, y2), area = p._rest
+    l1, (x2, y2), area = p.rest
     F = p.F
-    a = uv[F[:, 1]] - uv[F[:, 0]]
-    b = uv[F[:, 2]] - uv[F[:, 0]]
-    j00, j10 = a[:, 0] / l1, a[:, 1] / l1
-    j01, j11 = (b[:, 0] - j00 * x2) / y2, (b[:, 1] - j10 * x2) / y2
-    fz = 0.5 * np.stack([j00 + j11, j10 - j01], 1)
-    fzb = 0.5 * np.stack([j00 - j11, j10 + j01], 1)
-    x, y = wirtinger_xy(p._rest, uv, F)
+    fz, fzb = wirtinger(p.rest, uv, F)
+    x, y = np.sum(fz * fz, 1), np.sum(fzb * fzb, 1)
     d3 = (x - y) ** 3
     w = (area / area.sum())[:, None]
     gz = w * 2.0 * (1.0 - (x + 3.0 * y) / d3)[:, None] * fz

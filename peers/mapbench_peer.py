@@ -24,7 +24,7 @@ class Problem:
         self.energy = self.spec["energy"]
         self.stop = self.spec["stop"]
         self.snapshot_every = int(self.spec.get("snapshot_every", 0))
-        self._rest = rest_frames(self.V, self.F)
+        self.rest = rest_frames(self.V, self.F)
         self._records = open(os.path.join(folder, "iterations.jsonl"), "w")
         os.makedirs(os.path.join(folder, "maps"), exist_ok=True)
         self.clock0 = time.perf_counter()
@@ -32,11 +32,11 @@ class Problem:
     def sd(self, uv):
         """Symmetric Dirichlet in mapbench's convention: the area-weighted mean of
         1/2 (|J|^2 + |J^-1|^2), 2 at an isometry, inf when a face is inverted."""
-        x, y = wirtinger_xy(self._rest, uv, self.F)
+        x, y = wirtinger_xy(self.rest, uv, self.F)
         d = x - y
         if np.any(~(d > 0)):
             return float("inf")
-        area = self._rest[2]
+        area = self.rest[2]
         return float(np.sum(area * (x + y) * (1.0 + 1.0 / (d * d))) / np.sum(area))
 
     def record(self, iteration, energy, uv, final=False, **extras):
@@ -99,14 +99,20 @@ def rest_frames(V, F):
     return l1, (x2, y2), 0.5 * l1 * y2
 
 
-def wirtinger_xy(rest, uv, F):
-    """x = |f_z|^2 and y = |f_zbar|^2 of each face's Jacobian (signed: x < y when inverted)."""
+def wirtinger(rest, uv, F):
+    """f_z and f_zbar (n x 2 each, as real pairs) of each face's Jacobian J, with J's
+    entries: J [l1, 0]^T is the first edge's image, J [x2, y2]^T the second's."""
     l1, (x2, y2), _ = rest
     a = uv[F[:, 1]] - uv[F[:, 0]]
     b = uv[F[:, 2]] - uv[F[:, 0]]
-    # J [l1, 0]^T = a and J [x2, y2]^T = b
     j00, j10 = a[:, 0] / l1, a[:, 1] / l1
     j01, j11 = (b[:, 0] - j00 * x2) / y2, (b[:, 1] - j10 * x2) / y2
     fz = 0.5 * np.stack([j00 + j11, j10 - j01], axis=1)
     fzb = 0.5 * np.stack([j00 - j11, j10 + j01], axis=1)
+    return fz, fzb
+
+
+def wirtinger_xy(rest, uv, F):
+    """x = |f_z|^2 and y = |f_zbar|^2 of each face's Jacobian (x < y when inverted)."""
+    fz, fzb = wirtinger(rest, uv, F)
     return np.sum(fz * fz, axis=1), np.sum(fzb * fzb, axis=1)

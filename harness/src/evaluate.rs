@@ -77,12 +77,7 @@ pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Fr
         bail!("{}: vertex {} has a non-finite coordinate", map_path.display(), v / 2);
     }
     let problem = MapProblem::new(&rest, energy).map_err(anyhow::Error::new)?;
-    let flips = problem.flips(&x);
-    let energy_value = problem.energy(&x);
-    let grad_norm = energy_value.is_finite().then(|| {
-        let mut ev = Evaluation::default();
-        problem.evaluate_without_inertia(&x, &mut ev).ok().map(|()| norm(&ev.grad))
-    });
+    let (energy_value, grad_norm, flips) = measure(&problem, &x);
     let sv = problem.singular_values(&x);
     Ok(Score {
         mesh: mesh_path.display().to_string(),
@@ -92,7 +87,7 @@ pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Fr
         frame,
         energy,
         energy_value,
-        grad_norm: grad_norm.flatten(),
+        grad_norm,
         flips,
         sigma_min: sv.iter().map(|s| s[1]).fold(f64::INFINITY, f64::min),
         sigma_max: sv.iter().map(|s| s[0]).fold(f64::NEG_INFINITY, f64::max),
@@ -102,6 +97,17 @@ pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Fr
             gap: scale.map(|s| crate::convergence::gap_on(energy_value, e_star, s)),
         }),
     })
+}
+
+/// Energy, gradient norm (`None` where the energy is not finite) and flipped faces of the map
+/// `x` on `problem`: what `evaluate` and the external solvers' snapshot check measure.
+pub fn measure(problem: &MapProblem, x: &[f64]) -> (f64, Option<f64>, usize) {
+    let energy = problem.energy(x);
+    let grad_norm = energy.is_finite().then(|| {
+        let mut ev = Evaluation::default();
+        problem.evaluate_without_inertia(x, &mut ev).ok().map(|()| norm(&ev.grad))
+    });
+    (energy, grad_norm.flatten(), problem.flips(x))
 }
 
 /// `E*` and the gap scale of `energy` on the dataset of `<run folder>/meshes/<dataset>.obj.gz`,

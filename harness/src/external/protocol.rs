@@ -1,14 +1,14 @@
 //! The problem folder an external solver receives and what it writes back
 //! (`peers/PROTOCOL.md`), and the harness's check of every snapshot with its own code.
 
-use crate::run_folder::map::{read_uv_text, uv_text};
+use crate::evaluate::measure;
+use crate::run_folder::map::{obj_text, read_uv_text, uv_text};
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use solvers::energy::EnergyKind;
 use solvers::mesh::{Mesh, Task};
-use solvers::problem::{norm, Evaluation, MapProblem};
+use solvers::problem::MapProblem;
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::Path;
 
 pub const PROTOCOL: u32 = 1;
@@ -71,14 +71,7 @@ pub fn write_problem(dir: &Path, spec: &ProblemSpec, mesh: &Mesh, x: &[f64]) -> 
         std::fs::write(&path, bytes).with_context(|| format!("{}: cannot write", path.display()))
     };
     write("problem.json", (serde_json::to_string_pretty(spec)? + "\n").as_bytes())?;
-    let mut obj = String::with_capacity(48 * mesh.n_vertices() + 24 * mesh.n_faces());
-    for p in &mesh.positions {
-        let _ = writeln!(obj, "v {:?} {:?} {:?}", p[0], p[1], p[2]);
-    }
-    for f in &mesh.faces {
-        let _ = writeln!(obj, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1);
-    }
-    write(&spec.mesh, obj.as_bytes())?;
+    write(&spec.mesh, obj_text(mesh).as_bytes())?;
     let uv: Vec<[f64; 2]> = x.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
     write(&spec.start, uv_text(&uv).as_bytes())?;
     std::fs::create_dir_all(dir.join("maps")).with_context(|| format!("{}: cannot create maps/", dir.display()))
@@ -173,7 +166,7 @@ pub fn verify(dir: &Path, problem: &MapProblem, records: &[Record]) -> Result<Ve
             continue;
         }
         let x: Vec<f64> = read_uv_text(&path, n)?.into_iter().flatten().collect();
-        let energy = problem.energy(&x);
+        let (energy, grad_norm, flips) = measure(problem, &x);
         if !agree(r.energy, energy) {
             bail!(
                 "iteration {k}: the solver reported energy {} but its map has {energy}{}",
@@ -181,11 +174,7 @@ pub fn verify(dir: &Path, problem: &MapProblem, records: &[Record]) -> Result<Ve
                 factor(r.energy, energy)
             );
         }
-        let grad_norm = energy.is_finite().then(|| {
-            let mut ev = Evaluation::default();
-            problem.evaluate_without_inertia(&x, &mut ev).ok().map(|()| norm(&ev.grad))
-        });
-        snapshots.push(Snapshot { iter: k, energy, grad_norm: grad_norm.flatten(), flips: problem.flips(&x), x });
+        snapshots.push(Snapshot { iter: k, energy, grad_norm, flips, x });
     }
     Ok(snapshots)
 }

@@ -88,19 +88,26 @@ fn gunzip(path: &Path) -> Result<Vec<u8>> {
 /// `meshes/<dataset>.obj.gz`'s bytes for `mesh`: `v` lines (shortest round-trip `f64`s) and
 /// `f` lines, so `zcat` gives an OBJ of the source mesh.
 pub fn encode_mesh(mesh: &Mesh) -> Vec<u8> {
-    let mut s = format!(
+    let header = format!(
         "# mapbench mesh: {} vertices, {} faces, checksum {:016x}\n",
         mesh.n_vertices(),
         mesh.n_faces(),
         checksum(&mesh.positions, &mesh.faces)
     );
+    gzip((header + &obj_text(mesh)).as_bytes())
+}
+
+/// `mesh` as OBJ text: `v` lines with shortest round-trip `f64`s (they read back exactly) and
+/// 1-based `f` lines.
+pub fn obj_text(mesh: &Mesh) -> String {
+    let mut s = String::with_capacity(48 * mesh.n_vertices() + 24 * mesh.n_faces());
     for p in &mesh.positions {
         let _ = writeln!(s, "v {:?} {:?} {:?}", p[0], p[1], p[2]);
     }
     for f in &mesh.faces {
         let _ = writeln!(s, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1);
     }
-    gzip(s.as_bytes())
+    s
 }
 
 /// `uv/<run>.uv.gz`'s bytes for the map `x` (`[u0, v0, u1, v1, ...]`) of `mesh`.
