@@ -16,6 +16,7 @@
 //! handed a `run::Pages` rather than naming the report.
 
 pub mod calibration;
+pub mod column_names;
 pub mod convergence;
 pub mod escape;
 pub mod evaluate;

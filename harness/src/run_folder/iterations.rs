@@ -140,7 +140,9 @@ pub struct IterationFile {
 
 /// The one reader of per-iteration CSVs (resume, report, plots), columns by header name.
 /// Every error names the file and the line, and the column of a bad cell.
-pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<IterationFile, FolderError> {
+/// `extra_columns` are the solver's extra columns (`None`: any plain name, an external
+/// solver's).
+pub fn read_iterations(path: &Path, extra_columns: Option<&[&'static str]>) -> Result<IterationFile, FolderError> {
     let bytes = read_csv_bytes(path)?;
     let mut r = csv::Reader::from_reader(bytes.as_slice());
     let header = r.headers().map_err(|e| csv_error(path, None, None, &e))?.clone();
@@ -156,7 +158,10 @@ pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<It
     // from the records, so a column they cannot hold is refused rather than dropped.
     let mut extra_cols: Vec<(&'static str, usize)> = Vec::new();
     for (j, name) in header.iter().enumerate().filter(|(_, n)| !ITERATION_COLUMNS.contains(n)) {
-        let known = extra_columns.iter().copied().find(|k| *k == name);
+        let known = match extra_columns {
+            Some(declared) => declared.iter().copied().find(|k| *k == name),
+            None => crate::column_names::is_column_name(name).then(|| crate::column_names::intern(name)),
+        };
         let known = known.ok_or_else(|| at_line(1, format!("unknown column `{name}`")))?;
         extra_cols.push((known, j));
     }
@@ -215,13 +220,17 @@ pub fn read_iterations(path: &Path, extra_columns: &[&'static str]) -> Result<It
     Ok(out)
 }
 
+/// The extra columns the catalogue declares for `solver`; `None` (any) for a solver outside it,
+/// an external one.
+pub fn extra_columns(solver: &str) -> Option<&'static [&'static str]> {
+    solvers::solver::catalogue::find(solver).map(|e| e.extra_columns)
+}
+
 /// The per-iteration CSV of the run `s` in `run_dir`, refused unless it has the row of every
 /// iteration the summary counts (a file cut at a row boundary still parses).
 pub fn read_run(run_dir: &Path, s: &SummaryRow) -> Result<IterationFile, FolderError> {
     let path = super::iterations_csv(run_dir, &run_stem(&s.dataset, &s.energy, &s.solver));
-    // The extra columns the run's solver declares in the catalogue.
-    let extra = solvers::solver::catalogue::find(&s.solver).map_or(&[][..], |e| e.extra_columns);
-    let file = read_iterations(&path, extra)?;
+    let file = read_iterations(&path, extra_columns(&s.solver))?;
     if let Some(n) = s.iterations {
         // Iteration 0 (the initial state) has a row too.
         if file.rows.len() != n + 1 {
@@ -286,13 +295,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("r.csv");
         std::fs::write(&p, crate::run_folder::iteration_csv(&rows, 2.0, None, None).unwrap()).unwrap();
-        let back = read_iterations(&p, &["ascent", "wolfe"]).unwrap().rows;
+        let back = read_iterations(&p, Some(&["ascent", "wolfe"])).unwrap().rows;
         assert_eq!(back.len(), 2);
         assert_eq!(back[1], rows[1]);
         assert_eq!(back[0].energy, 3.0);
         assert!(back[0].extra[1].1.is_nan());
         std::fs::write(&p, "a,b\n1,2\n").unwrap();
-        assert!(read_iterations(&p, &[]).is_err());
+        assert!(read_iterations(&p, Some(&[])).is_err());
     }
 
     /// `shift` sits right after `t_cum_s`, empty when the row has no Newton system (row 0,
@@ -318,7 +327,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("r.csv");
         std::fs::write(&p, &text).unwrap();
-        assert_eq!(read_iterations(&p, &[]).unwrap().rows, rows);
+        assert_eq!(read_iterations(&p, Some(&[])).unwrap().rows, rows);
         // an older file: no shift column (nor t_record_s, which came later)
         let old: String = text
             .lines()
@@ -330,12 +339,12 @@ mod tests {
             "{old}"
         );
         std::fs::write(&p, &old).unwrap();
-        let back = read_iterations(&p, &[]).unwrap().rows;
+        let back = read_iterations(&p, Some(&[])).unwrap().rows;
         assert_eq!(back.iter().map(|r| r.shift).collect::<Vec<_>>(), [None, None]);
         assert_eq!((back[1].t_cum_s, back[1].ls_evals), (0.5, 2));
         // a cell that is neither a number nor empty names its column
         std::fs::write(&p, text.replace(",1e-10,", ",big,")).unwrap();
-        let e = format!("{:#}", read_iterations(&p, &[]).unwrap_err());
+        let e = format!("{:#}", read_iterations(&p, Some(&[])).unwrap_err());
         assert!(e.contains("line 3: column 15 `shift`: `big` is not a number or empty"), "{e}");
     }
 
@@ -359,12 +368,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("r.csv");
         std::fs::write(&p, &text).unwrap();
-        assert_eq!(read_iterations(&p, &[]).unwrap().rows, rows);
+        assert_eq!(read_iterations(&p, Some(&[])).unwrap().rows, rows);
         let old: String =
             text.lines().map(|l| l.rsplit_once(',').map_or(l, |(head, _)| head).to_string() + "\n").collect();
         assert!(!old.contains("t_record_s"), "{old}");
         std::fs::write(&p, &old).unwrap();
-        let back = read_iterations(&p, &[]).unwrap().rows;
+        let back = read_iterations(&p, Some(&[])).unwrap().rows;
         assert_eq!(back.iter().map(|r| r.t_record_s).collect::<Vec<_>>(), [0.0, 0.0]);
         assert_eq!(back[1].t_cum_s, 0.5);
     }
@@ -379,7 +388,7 @@ mod tests {
         let good = String::from_utf8(crate::run_folder::iteration_csv(&rows, 1.0, None, None).unwrap()).unwrap();
         let err = |text: &[u8]| {
             std::fs::write(&p, text).unwrap();
-            let e = format!("{:#}", read_iterations(&p, &[]).unwrap_err());
+            let e = format!("{:#}", read_iterations(&p, Some(&[])).unwrap_err());
             assert!(e.starts_with(&format!("{}: ", p.display())), "{e}");
             e
         };
@@ -394,9 +403,24 @@ mod tests {
         assert!(err(b"\xff\xfe,\x00\n\x80\n").contains("line 1: column 1: not UTF-8 text"));
         assert!(err(good.replace("t_cum_s", "t_total").as_bytes()).contains("line 1: no column `t_cum_s`"));
         assert!(err(good.replace("ls_evals", "ls_evals,x").as_bytes()).contains("line 1: unknown column `x`"));
+        // an external solver's columns are any plain names; others are refused
+        let with = |name: &str| {
+            let mut text = String::new();
+            for (i, l) in good.lines().enumerate() {
+                text += &format!("{l},{}\n", if i == 0 { name.to_string() } else { format!("{}.5", i) });
+            }
+            std::fs::write(&p, text).unwrap();
+            read_iterations(&p, None)
+        };
+        let rows_x = with("decrease").unwrap().rows;
+        assert_eq!(
+            rows_x.iter().map(|r| r.extra.clone()).collect::<Vec<_>>(),
+            [[("decrease", 1.5)], [("decrease", 2.5)], [("decrease", 3.5)]]
+        );
+        assert!(format!("{:#}", with("a b").unwrap_err()).contains("line 1: unknown column `a b`"));
         // columns are found by name, and energy_minus_best is kept as written
         std::fs::write(&p, &good).unwrap();
-        let file = read_iterations(&p, &[]).unwrap();
+        let file = read_iterations(&p, Some(&[])).unwrap();
         assert_eq!(file.rows, rows);
         assert_eq!(file.energy_minus_best, vec![2.0, 1.0, 0.0]);
         // a file cut at a row boundary parses, but not as the run the summary counts

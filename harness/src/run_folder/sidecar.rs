@@ -71,8 +71,7 @@ pub fn read_partial<R: DeserializeOwned>(
     if partial.key != key {
         return None;
     }
-    let extra = solvers::solver::catalogue::find(&partial.summary.solver).map_or(&[][..], |e| e.extra_columns);
-    let rows = super::read_iterations(&csv, extra).ok()?.rows;
+    let rows = super::read_iterations(&csv, super::iterations::extra_columns(&partial.summary.solver)).ok()?.rows;
     (Some(rows.len()) == partial.summary.iterations.map(|n| n + 1)).then_some((partial, rows))
 }
 

@@ -17,10 +17,10 @@ use std::path::{Path, PathBuf};
 /// system clamped SLIM weights; then the peak resident memory; then the harness's verdict:
 /// the start map, the reference minimum and where it came from, the final gap and the
 /// verdict; then the count of the truncated solvers' steps whose CG stopped at its cap and
-/// the energy span the gaps are fractions of (appended: a file written before them reads
-/// them as empty). After them, for each target `tau`
+/// the energy span the gaps are fractions of, and the snapshots of an external solver the
+/// harness verified (appended: a file written before them reads them as empty). After them, for each target `tau`
 /// of the batch, `iters_to_<tau>` and `time_to_<tau>` ([`target_columns`]).
-pub const SUMMARY_COLUMNS: [&str; 40] = [
+pub const SUMMARY_COLUMNS: [&str; 41] = [
     "dataset",
     "task",
     "energy",
@@ -61,6 +61,7 @@ pub const SUMMARY_COLUMNS: [&str; 40] = [
     "verdict",
     "cg_capped_iters",
     "gap_scale",
+    "verified_snapshots",
 ];
 
 /// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
@@ -304,6 +305,10 @@ pub struct SummaryRow {
     /// `deform` at most the shape's own change (`convergence::judged_start`).
     #[serde(default)]
     pub gap_scale: Option<f64>,
+    /// The maps of an external solver's run that the harness recomputed (energy, gradient
+    /// norm, flips); empty for the catalogue's solvers, whose iterates are our own code's.
+    #[serde(default)]
+    pub verified_snapshots: Option<usize>,
     /// Iterations and time to each target, the loosest first.
     #[serde(skip)]
     pub to_targets: Vec<ToTarget>,
@@ -526,7 +531,10 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
         let at = header.iter().position(|c| *c == "cg_capped_iters").unwrap();
-        assert_eq!((header[at - 1], header[at + 1], header[at + 2]), ("verdict", "gap_scale", "iters_to_1e-6"));
+        assert_eq!(
+            (header[at - 1], header[at + 1], header[at + 2], header[at + 3]),
+            ("verdict", "gap_scale", "verified_snapshots", "iters_to_1e-6")
+        );
         let cells: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
         assert_eq!((cells[0][at], cells[1][at]), ("210", ""));
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
@@ -545,8 +553,8 @@ mod tests {
         assert_eq!(back[0].to_targets, rows[0].to_targets);
     }
 
-    /// `gap_scale` round-trips as the last fixed column; a summary written before it existed
-    /// reads it as empty.
+    /// `gap_scale` and `verified_snapshots` round-trip as the last fixed columns; a summary
+    /// written before they existed reads them as empty.
     #[test]
     fn gap_scale_round_trips_and_an_older_file_reads_without_it() {
         let dir = tempfile::tempdir().unwrap();
@@ -557,18 +565,20 @@ mod tests {
             solver: solver.into(),
             status: Status::Ok,
             gap_scale: scale,
+            verified_snapshots: scale.map(|_| 12),
             ..Default::default()
         };
         let rows = vec![row("kp-newton", Some(0.2103)), row("aqp", None)];
         let path = dir.path().join("summary.csv");
         write_summary(&path, &rows).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.lines().next().unwrap().ends_with(",cg_capped_iters,gap_scale"));
+        assert!(text.lines().next().unwrap().ends_with(",cg_capped_iters,gap_scale,verified_snapshots"));
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
-        let older: String = text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n").collect();
+        let cut = |l: &str| l.rsplitn(3, ',').nth(2).unwrap().to_string() + "\n";
+        let older: String = text.lines().map(cut).collect();
         std::fs::write(&path, older).unwrap();
         let back = read_summary(dir.path()).unwrap();
-        assert_eq!(back.iter().map(|r| r.gap_scale).collect::<Vec<_>>(), [None, None]);
+        assert_eq!(back.iter().map(|r| (r.gap_scale, r.verified_snapshots)).collect::<Vec<_>>(), [(None, None); 2]);
     }
 
     #[test]

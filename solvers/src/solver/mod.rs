@@ -212,6 +212,9 @@ pub enum StopReason {
     Interrupted,
     /// The observer stopped the run at its deadline.
     Timeout,
+    /// An external solver stopped by its own convergence rule (its `result.json` says
+    /// `converged`); the harness's verdict judges the run as any other.
+    SolverRule,
     /// Never started: the solver is not defined for the energy (or its parameters). No
     /// solver returns it; the harness records such pairs as skipped, the reason in `error`
     /// (`SolverEntry::skip_reason`).
@@ -225,7 +228,7 @@ pub struct UnknownStopReason(pub String);
 
 impl StopReason {
     /// Every reason, payloads empty (parsing, listings).
-    pub const ALL: [StopReason; 11] = [
+    pub const ALL: [StopReason; 12] = [
         StopReason::GradientTolerance,
         StopReason::EnergyDecrease,
         StopReason::MaxIterations,
@@ -236,6 +239,7 @@ impl StopReason {
         StopReason::EnergyIncreased,
         StopReason::Interrupted,
         StopReason::Timeout,
+        StopReason::SolverRule,
         StopReason::Skipped,
     ];
 
@@ -251,13 +255,14 @@ impl StopReason {
             StopReason::EnergyIncreased => "energy_increased",
             StopReason::Interrupted => "interrupted",
             StopReason::Timeout => "timeout",
+            StopReason::SolverRule => "solver_rule",
             StopReason::Skipped => "skipped",
         }
     }
 
     /// Convergence by one of the configured stopping rules.
     pub fn is_converged(&self) -> bool {
-        matches!(self, StopReason::GradientTolerance | StopReason::EnergyDecrease)
+        matches!(self, StopReason::GradientTolerance | StopReason::EnergyDecrease | StopReason::SolverRule)
     }
 
     /// Detail for the `error` column, if any.
