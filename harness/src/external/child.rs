@@ -48,11 +48,13 @@ pub struct CannotStart {
     pub why: std::io::Error,
 }
 
-/// Run `command` with `dir` as its last argument and working directory, until it exits, the
-/// `timeout` passes or `interrupt` is set; keep at most `keep` bytes of each output stream.
+/// Run `command` in the folder `cwd`, with `last` appended to its arguments when given, until
+/// it exits, the `timeout` passes or `interrupt` is set; keep at most `keep` bytes of each
+/// output stream. A program given as a relative path with a `/` is taken relative to `cwd`.
 pub fn run(
     command: &[String],
-    dir: &Path,
+    cwd: &Path,
+    last: Option<&Path>,
     timeout: Option<Duration>,
     interrupt: &AtomicBool,
     keep: usize,
@@ -62,8 +64,8 @@ pub fn run(
         command: shown.clone(),
         why: std::io::Error::new(std::io::ErrorKind::InvalidInput, "the command is empty"),
     })?;
-    let mut cmd = Command::new(program);
-    cmd.args(args).arg(dir).current_dir(dir).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    let mut cmd = Command::new(program_in(program, cwd));
+    cmd.args(args).args(last).current_dir(cwd).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
     #[cfg(unix)]
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     let t0 = Instant::now();
@@ -96,6 +98,18 @@ pub fn run(
     kill_group(&mut child);
     let [stdout, stderr] = readers.map(|r| r.and_then(|h| h.join().ok()).unwrap_or_default());
     Ok(ChildRun { exit, wall_s, peak_rss_mb: peaks.total_mb(), stdout, stderr })
+}
+
+/// `program` as the child finds it: a relative path with a separator is relative to `cwd`
+/// (the child's folder; which folder the OS would take is not defined), a bare name is looked
+/// up in `PATH`.
+pub fn program_in(program: &str, cwd: &Path) -> std::path::PathBuf {
+    let p = Path::new(program);
+    if p.is_relative() && p.components().count() > 1 {
+        cwd.join(p)
+    } else {
+        p.to_path_buf()
+    }
 }
 
 /// Read a stream to its end on a thread (a full pipe would block the child), keeping the
@@ -192,7 +206,8 @@ mod tests {
 
     fn go(cmd: &[String], timeout_s: f64) -> ChildRun {
         let dir = tempfile::tempdir().unwrap();
-        run(cmd, dir.path(), Some(Duration::from_secs_f64(timeout_s)), &AtomicBool::new(false), 64).unwrap()
+        run(cmd, dir.path(), Some(dir.path()), Some(Duration::from_secs_f64(timeout_s)), &AtomicBool::new(false), 64)
+            .unwrap()
     }
 
     #[test]
@@ -219,7 +234,8 @@ mod tests {
         let pidfile = dir.path().join("grandchild");
         let script = format!("sleep 60 & echo $! > {}; wait", pidfile.display());
         let t0 = Instant::now();
-        let r = run(&sh(&script), dir.path(), Some(Duration::from_millis(300)), &AtomicBool::new(false), 64).unwrap();
+        let r =
+            run(&sh(&script), dir.path(), None, Some(Duration::from_millis(300)), &AtomicBool::new(false), 64).unwrap();
         assert_eq!(r.exit, Exit::TimedOut);
         assert!(t0.elapsed() < Duration::from_secs(30));
         let pid = std::fs::read_to_string(&pidfile).unwrap().trim().to_string();
@@ -232,10 +248,16 @@ mod tests {
     #[test]
     fn an_interrupt_stops_the_child_and_a_missing_program_cannot_start() {
         let dir = tempfile::tempdir().unwrap();
-        let r = run(&sh("sleep 60"), dir.path(), None, &AtomicBool::new(true), 64).unwrap();
+        let r = run(&sh("sleep 60"), dir.path(), None, None, &AtomicBool::new(true), 64).unwrap();
         assert_eq!(r.exit, Exit::Interrupted);
-        let err = run(&["no-such-solver-xyz".into()], dir.path(), None, &AtomicBool::new(false), 64).unwrap_err();
+        let no = AtomicBool::new(false);
+        let err = run(&["no-such-solver-xyz".into()], dir.path(), None, None, &no, 64).unwrap_err();
         assert!(err.to_string().starts_with("cannot start `no-such-solver-xyz`: "), "{err}");
-        assert!(run(&[], dir.path(), None, &AtomicBool::new(false), 64).is_err());
+        assert!(run(&[], dir.path(), None, None, &no, 64).is_err());
+        // a relative program path is the child's folder's
+        std::fs::write(dir.path().join("peer.sh"), "#!/bin/sh\nexit 4\n").unwrap();
+        std::fs::set_permissions(dir.path().join("peer.sh"), std::os::unix::fs::PermissionsExt::from_mode(0o755))
+            .unwrap();
+        assert_eq!(run(&["./peer.sh".into()], dir.path(), None, None, &no, 64).unwrap().exit, Exit::Code(4));
     }
 }

@@ -2,4 +2,6 @@
 //! problem folder and judges what they write with its own code.
 
 pub mod child;
+pub mod execute;
+pub mod probe;
 pub mod protocol;

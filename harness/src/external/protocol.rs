@@ -150,6 +150,11 @@ pub struct Snapshot {
 /// faces in another order and of another formula for the same density.
 pub const ENERGY_RTOL: f64 = 1e-9;
 
+/// `maps/<iter>.uv` of the problem folder `dir`.
+pub fn snapshot_path(dir: &Path, iter: usize) -> std::path::PathBuf {
+    dir.join("maps").join(format!("{iter}.uv"))
+}
+
 /// Read every `maps/<iter>.uv` the solver wrote, recompute energy, gradient norm and flips on
 /// `problem`, and check each against the energy the solver recorded for that iteration. The
 /// first and the last recorded iterations must have their map.
@@ -158,7 +163,7 @@ pub fn verify(dir: &Path, problem: &MapProblem, records: &[Record]) -> Result<Ve
     let last = records.len() - 1;
     let mut snapshots = Vec::new();
     for (k, r) in records.iter().enumerate() {
-        let path = dir.join("maps").join(format!("{k}.uv"));
+        let path = snapshot_path(dir, k);
         if !path.exists() {
             if k == 0 || k == last {
                 bail!("{}: the map of iteration {k} is missing (the first and the last are due)", path.display());

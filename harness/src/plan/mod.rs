@@ -3,6 +3,7 @@
 //! `merge`'s checks) consumes the plan instead of reading config sections.
 
 pub mod config;
+pub mod external;
 pub mod handles;
 pub mod paths;
 pub mod registry;
@@ -102,12 +103,16 @@ impl Plan {
                     let stem = crate::names::run_stem(&ds.name, energy, solver);
                     if only.is_empty() || only.iter().any(|g| glob_match(g, &stem)) {
                         let settings = settings.for_solver(solver, &c.solver);
+                        let skip = match c.external.get(solver) {
+                            Some(declared) => declared.skip_reason(solver, energy, settings.has_smoothness()),
+                            None => settings.skip_reason(solver),
+                        };
                         runs.push(PlannedRun {
                             dataset: d,
                             energy: energy.clone(),
                             solver: solver.clone(),
                             stem,
-                            skip: settings.skip_reason(solver),
+                            skip,
                             settings,
                         });
                     }
@@ -146,6 +151,11 @@ impl Plan {
     /// The dataset of a run.
     pub fn dataset(&self, run: &PlannedRun) -> &Dataset {
         &self.datasets[run.dataset]
+    }
+
+    /// The declaration of a run's solver when it is external (`[external.<name>]`).
+    pub fn external(&self, run: &PlannedRun) -> Option<&crate::plan::external::Declared> {
+        self.config.config.external.get(&run.solver)
     }
 }
 

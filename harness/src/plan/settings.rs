@@ -65,6 +65,15 @@ impl RunSettings {
         solvers::solver::catalogue::lookup(solver, task).ok()?.skip_reason(task, energy, options)
     }
 
+    /// Whether the run's problem has the smoothness term (Section 4.3).
+    pub fn has_smoothness(&self) -> bool {
+        match self {
+            RunSettings::Param { settings, .. } => settings.smoothness.is_some(),
+            RunSettings::Deform { settings, .. } => settings.smoothness.is_some(),
+            RunSettings::Authalic(_) => false,
+        }
+    }
+
     /// The base Tikhonov shift of the run's Newton systems (`[linear] tikhonov`); `None` for
     /// the authalic task, which has none.
     pub fn base_shift(&self) -> Option<f64> {

@@ -8,6 +8,7 @@
 
 use super::pages::{conclude_history, withdraw, Pages};
 use crate::calibration::Calibration;
+use crate::external::probe::Probe;
 use crate::history::{Decision, HistoryChoice, Outcome};
 use crate::judge::reference::GroupReference;
 use crate::run_folder::keep::{self, Maps};
@@ -152,6 +153,21 @@ pub fn merge(
     Ok(Merged { out_dir, runs: rows.len(), missing, interrupted, history })
 }
 
+/// The shards' external solvers, each (name, version, availability) once: a shard that probed
+/// another version of a solver adds a second entry, which the report shows.
+fn merged_external(metas: &[Meta]) -> Option<serde_json::Value> {
+    let mut all: Vec<Probe> = Vec::new();
+    for m in metas {
+        let theirs: Vec<Probe> = m.external.clone().and_then(|v| serde_json::from_value(v).ok()).unwrap_or_default();
+        for p in theirs {
+            if !all.contains(&p) {
+                all.push(p);
+            }
+        }
+    }
+    (!all.is_empty()).then(|| serde_json::to_value(&all).ok()).flatten()
+}
+
 /// [`Decision::AlreadyIn`] when the folder's earlier merge (`previous`, its `meta.json`) was
 /// of the same shards (the same `merged_from`) and its batch is in `db`.
 fn already_in(previous: Option<&Meta>, db: Option<&Path>, merged_from: &[MergedShard]) -> Option<Decision> {
@@ -243,6 +259,7 @@ fn stage(
         })
         .collect();
     meta.merged_from = Some(merged_from.clone());
+    meta.external = merged_external(metas);
     let ends: Vec<Option<u64>> = metas.iter().map(|m| m.ended_unix).collect();
     meta.started_unix = metas.iter().filter_map(|m| m.started_unix).min();
     meta.ended_unix = if ends.iter().all(Option::is_some) { ends.iter().flatten().max().copied() } else { None };

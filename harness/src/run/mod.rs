@@ -15,6 +15,7 @@ mod one;
 mod repeats;
 
 use crate::calibration::Calibration;
+use crate::external::probe::Probe;
 use crate::history::{Decision, Outcome};
 use crate::paths::absolute;
 use crate::plan::config::Maps;
@@ -163,6 +164,7 @@ pub fn run_batch(
         started: SystemTime::now(),
         history: previous.clone(),
         references: Vec::new(),
+        external: probe_externals(plan, &mine, &opts.interrupt, progress),
     };
     // meta.json and summary.csv first: from then on the folder is a run folder, whenever
     // the batch is stopped.
@@ -199,7 +201,8 @@ pub fn run_batch(
         if round > 0 {
             calibrate(&mut calibration, jobs, threads, progress);
         }
-        let workers = Workers { plan, out_dir, mine: &mine, opts, progress, jobs, threads, code: &code };
+        let workers =
+            Workers { plan, out_dir, mine: &mine, opts, progress, jobs, threads, code: &code, probes: &meta.external };
         run_round(&workers, &todo, round, |d| match absorb(&mut slots, d, plan, &mine, progress) {
             Some((i, worker, slot)) => done.finish(i, worker, slot),
             None => Ok(()),
@@ -267,6 +270,26 @@ fn round_todo(round: usize, slots: &[Option<Slot>], total: usize, maps: Maps) ->
             Some(Todo { index, stop_at: replay_to(&s.first), keep_map })
         })
         .collect()
+}
+
+/// Probe each external solver the batch runs (not those of skipped pairs only), once, and say
+/// what became of it.
+fn probe_externals(plan: &Plan, mine: &[&PlannedRun], interrupt: &AtomicBool, progress: &dyn Progress) -> Vec<Probe> {
+    let mut probes: Vec<Probe> = Vec::new();
+    for run in mine.iter().filter(|r| r.skip.is_none()) {
+        let Some(declared) = plan.external(run) else { continue };
+        if probes.iter().any(|p| p.name == run.solver) {
+            continue;
+        }
+        let p = crate::external::probe::probe(&run.solver, declared, &plan.config.dir, interrupt);
+        progress.notice(&match (&p.unavailable, &p.version) {
+            (Some(why), _) => format!("external solver {}: its runs are skipped: {why}", p.name),
+            (None, Some(v)) => format!("external solver {}: version {v}", p.name),
+            (None, None) => format!("external solver {}: `{}`", p.name, p.command.join(" ")),
+        });
+        probes.push(p);
+    }
+    probes
 }
 
 /// The batch into the history database, unless it was interrupted (its means would read as
@@ -376,12 +399,14 @@ struct Workers<'a> {
     threads: usize,
     /// The code's identity in the run keys.
     code: &'a str,
+    /// What the batch found out about its external solvers.
+    probes: &'a [Probe],
 }
 
 /// One round: the runs `todo` on `jobs` workers; the calling thread hands each result to
 /// `done` as it arrives.
 fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done) -> Result<()>) -> Result<()> {
-    let Workers { plan, out_dir, mine, opts, progress, jobs, threads, code } = *w;
+    let Workers { plan, out_dir, mine, opts, progress, jobs, threads, code, probes } = *w;
     let meshes = MeshCache::new(todo.iter().map(|t| mine[t.index].dataset), plan.datasets.len());
     let next = AtomicUsize::new(0);
     let (tx, rx) = mpsc::channel::<Done>();
@@ -408,8 +433,11 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                     let ds = plan.dataset(p);
                     let again = if round > 0 { format!(" (repeat {})", round + 1) } else { String::new() };
                     progress.run_started(worker, &format!("{} {} {}{again}", ds.name, p.energy, p.solver));
-                    // An unreadable mesh file has no key; its run fails below as usual.
-                    let key = resume::run_key(plan, p, code).ok();
+                    // An unreadable mesh file has no key; its run fails below as usual. An external
+                    // solver's version is part of its code.
+                    let version = probes.iter().find(|x| x.name == p.solver).and_then(|x| x.version.as_deref());
+                    let code = version.map_or(code.to_string(), |v| format!("{code} {} {v}", p.solver));
+                    let key = resume::run_key(plan, p, &code).ok();
                     let earlier =
                         |summary, rows| RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false };
                     let previous = match (&key, opts.resume && round == 0) {
@@ -426,6 +454,9 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                         None => {
                             let loaded = meshes.get(p.dataset, ds);
                             let ctx = RunContext {
+                                out_dir,
+                                threads,
+                                probes,
                                 interrupt: &opts.interrupt,
                                 progress,
                                 worker,
@@ -436,7 +467,8 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                             monitor.start(worker);
                             let mut result = run_one(plan, p, loaded.mesh.as_ref(), &ctx);
                             let peak = monitor.finish(worker);
-                            if result.summary.status != Status::Skipped {
+                            // An external run has its child's own peak.
+                            if result.summary.status != Status::Skipped && plan.external(p).is_none() {
                                 result.summary.peak_rss_mb = peak;
                             }
                             if result.map_uv.is_some() {

@@ -2,6 +2,9 @@
 //! summary row and rows, never stopping the batch.
 
 use super::progress::Progress;
+use crate::external::execute::{execute, ExternalError, Job};
+use crate::external::probe::Probe;
+use crate::plan::external::Declared;
 use crate::plan::{Plan, PlannedRun, RunSettings};
 use crate::run_folder::{Status, SummaryRow};
 use crate::stats::median;
@@ -13,6 +16,7 @@ use solvers::mesh::Mesh;
 use solvers::param::solve_param;
 use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
 use std::panic::AssertUnwindSafe;
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
@@ -92,6 +96,9 @@ pub(super) fn run_one(
     };
     summary.vertices = Some(mesh.n_vertices());
     summary.faces = Some(mesh.n_faces());
+    if let Some(declared) = plan.external(run) {
+        return run_external(plan, run, declared, mesh, ctx, summary);
+    }
     let mut rows = Rows {
         rows: Vec::new(),
         deadline: if ctx.stop_at.is_some() { None } else { plan.timeout.map(|t| Instant::now() + t) },
@@ -126,6 +133,67 @@ pub(super) fn run_one(
     // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
     RunResult { summary, rows, map_uv, mesh_file: None, interrupted }
+}
+
+/// A run of an external solver: skipped when its command cannot start (found by the batch's
+/// probe, or at the start), failed on anything it did wrong, otherwise a result like ours,
+/// with the child's own wall time and peak memory.
+fn run_external(
+    plan: &Plan,
+    run: &PlannedRun,
+    declared: &Declared,
+    mesh: &Mesh,
+    ctx: &RunContext,
+    mut summary: SummaryRow,
+) -> RunResult {
+    let result = |summary, rows| RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false };
+    let skip = |mut summary: SummaryRow, reason: String| {
+        summary.status = Status::Skipped;
+        summary.stop_reason = Some(StopReason::Skipped);
+        summary.error = reason;
+        result(summary, Vec::new())
+    };
+    if let Some(why) = ctx.probes.iter().find(|p| p.name == run.solver).and_then(|p| p.unavailable.clone()) {
+        return skip(summary, why);
+    }
+    let RunSettings::Param { energy, settings } = &run.settings else {
+        return skip(summary, format!("{}: external solvers run the param task only", run.solver));
+    };
+    let external = crate::run_folder::external_dir(ctx.out_dir);
+    let job = Job {
+        name: &run.solver,
+        declared,
+        cwd: &plan.config.dir,
+        dir: external.join(&run.stem),
+        logs: external.join(&run.stem),
+        energy: *energy,
+        settings,
+        timeout: plan.timeout,
+        stop_at: ctx.stop_at,
+        threads: ctx.threads,
+        interrupt: ctx.interrupt,
+    };
+    ctx.progress.iteration(ctx.worker, 0, f64::NAN);
+    let executed = match execute(&job, mesh) {
+        Ok(e) => e,
+        Err(ExternalError::CannotStart(why)) => return skip(summary, why),
+        Err(ExternalError::Interrupted) => return RunResult { interrupted: true, ..result(summary, Vec::new()) },
+        Err(ExternalError::Failed(why)) => {
+            summary.status = Status::Failed;
+            summary.error = why;
+            return result(summary, Vec::new());
+        }
+    };
+    record_outcome(&mut summary, &executed.outcome, None, &executed.rows, executed.time_s, run, mesh);
+    // The child's own clock and memory: `time_s` is the harness's wall time of the process
+    // (its start-up included), less what it said its records took.
+    summary.time_s = Some(executed.time_s);
+    (summary.repeats, summary.time_s_min, summary.time_s_max) = (Some(1), summary.time_s, summary.time_s);
+    fill_times(&mut summary, &executed.rows);
+    summary.peak_rss_mb = executed.peak_rss_mb;
+    summary.verified_snapshots = Some(executed.verified);
+    let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &executed.outcome.x));
+    RunResult { map_uv, ..result(summary, executed.rows) }
 }
 
 /// What a finished solve says of the run: its summary's outcome, times and counts.
@@ -210,6 +278,12 @@ fn marked_iters(rows: &[IterationRecord], name: &str) -> Option<usize> {
 
 /// What a run needs from the batch around it.
 pub(super) struct RunContext<'a> {
+    /// The run folder (external runs write their problem folders in it).
+    pub out_dir: &'a Path,
+    /// rayon threads of the run (what an external solver is told it may use).
+    pub threads: usize,
+    /// What the batch found out about its external solvers.
+    pub probes: &'a [Probe],
     pub interrupt: &'a AtomicBool,
     pub progress: &'a dyn Progress,
     pub worker: usize,

@@ -1,6 +1,7 @@
 //! What a batch writes into its folder's `meta.json`: the plan and provenance of the batch.
 
 use crate::calibration::Calibration;
+use crate::external::probe::Probe;
 use crate::history::Outcome;
 use crate::judge::reference::GroupReference;
 use crate::plan::select::Shard;
@@ -25,6 +26,8 @@ pub struct BatchRecord<'a> {
     /// The reference minimum of each (dataset, energy) group of the batch (`merge` judges
     /// the merged batch by them).
     pub references: Vec<GroupReference>,
+    /// What the batch found out about its external solvers.
+    pub external: Vec<Probe>,
 }
 
 impl BatchRecord<'_> {
@@ -69,6 +72,7 @@ impl BatchRecord<'_> {
             cores: Some(std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)),
             crates: Some(env!("MAPBENCH_CRATES").into()),
             ended_unix: ended.map(secs),
+            external: (!self.external.is_empty()).then(|| serde_json::to_value(&self.external).ok()).flatten(),
             git_dirty: dirty,
             git_revision: rev,
             history: self.history.as_ref().and_then(Outcome::meta_history),

@@ -18,7 +18,11 @@ use std::path::Path;
 pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
     let ds = plan.dataset(run);
     // The repeat count too: a median over another number of repeats is another measurement.
-    let settings = format!("{} timeout={:?} repeat={}", run.settings.key_text(), plan.timeout, plan.repeat);
+    let mut settings = format!("{} timeout={:?} repeat={}", run.settings.key_text(), plan.timeout, plan.repeat);
+    // An external solver's declaration (its command, snapshots) is part of what it ran.
+    if let Some(declared) = plan.external(run) {
+        settings += &serde_json::to_string(declared)?;
+    }
     let (energy, solver) = (&run.energy, &run.solver);
     let mut h = Fnv::new();
     h.bytes(code.as_bytes()).bytes(settings.to_string().as_bytes()).bytes(energy.as_bytes()).bytes(solver.as_bytes());

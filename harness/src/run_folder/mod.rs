@@ -40,6 +40,13 @@ pub fn runs_dir(dir: &Path) -> PathBuf {
     dir.join("runs")
 }
 
+/// `external/`: the problem folders of external runs (`external/<run>/`, removed after the run
+/// unless the solver's `keep_problem`) and their output (`external/<run>.stdout.txt`,
+/// `.stderr.txt`).
+pub fn external_dir(dir: &Path) -> PathBuf {
+    dir.join("external")
+}
+
 /// `runs/<run>.csv`, the per-iteration rows of a run.
 pub fn iterations_csv(dir: &Path, stem: &str) -> PathBuf {
     runs_dir(dir).join(format!("{stem}.csv"))
@@ -103,8 +110,8 @@ pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
 
 /// The files and folders of a run folder that mapbench writes (a verb's output named by the
 /// user must not be one of them: see [`owner`]).
-pub const OWN_ENTRIES: [&str; 8] =
-    ["summary.csv", "meta.json", "index.html", "runs", "uv", "meshes", "plots", "tables"];
+pub const OWN_ENTRIES: [&str; 9] =
+    ["summary.csv", "meta.json", "index.html", "runs", "uv", "meshes", "plots", "tables", "external"];
 
 /// Whether `dir` is a run folder: it has the `meta.json` and `summary.csv` every batch writes.
 pub fn is_run_folder(dir: &Path) -> bool {

@@ -119,6 +119,13 @@ impl Config {
         for s in &self.solvers {
             crate::names::check_name("solver", s).context("'solvers'")?;
         }
+        for (name, declared) in &self.external {
+            crate::names::check_name("solver", name).context("[external]")?;
+            if catalogue::find(name).is_some() {
+                bail!("[external.{name}]: '{name}' is a solver of the catalogue; give the external one another name");
+            }
+            declared.check(name)?;
+        }
         let inline: Vec<String> = self.dataset.iter().map(|d| d.name.clone()).collect();
         for (key, list) in [
             ("datasets", &self.datasets),
@@ -140,11 +147,25 @@ impl Config {
             bail!("'solvers' is empty: name at least one of {}", names_for(self.task).join(", "));
         }
         for s in &self.solvers {
+            if let Some(declared) = self.external.get(s) {
+                if !declared.tasks.contains(&self.task) {
+                    let tasks: Vec<&str> = declared.tasks.iter().map(|t| t.as_str()).collect();
+                    bail!(
+                        "[external.{s}] solves {} (its tasks), not this config's task {}",
+                        tasks.join(", "),
+                        self.task
+                    );
+                }
+                continue;
+            }
             match catalogue::lookup(s, self.task) {
                 Ok(_) => {}
                 Err(e @ SolverError::WrongTask { runs, .. }) => {
                     let tasks: Vec<String> = runs.iter().map(|t| format!("\"{t}\"")).collect();
                     bail!("{e}; it runs in a config with task = {}", tasks.join(" or "))
+                }
+                Err(e @ SolverError::Unknown { .. }) => {
+                    bail!("{e}; a solver outside the catalogue is declared in [external.{s}]")
                 }
                 Err(e) => bail!("{e}"),
             }
@@ -156,6 +177,9 @@ impl Config {
     /// solver's options (its keys only, its checks).
     fn check_solver_options(&self) -> Result<()> {
         for (name, options) in &self.solver {
+            if self.external.contains_key(name) {
+                bail!("[solver.{name}]: {name} is an external solver; its settings are in [external.{name}]");
+            }
             let entry = catalogue::lookup(name, self.task).map_err(|e| anyhow::anyhow!("[solver.{name}]: {e}"))?;
             entry.check_options(options)?;
         }

@@ -101,6 +101,10 @@ pub struct Config {
     pub init: InitConfig,
     #[serde(default)]
     pub energy: BTreeMap<String, toml::Table>,
+    /// `[external.<name>]`: solvers outside the catalogue, run as processes under the
+    /// external-solver protocol (`peers/PROTOCOL.md`); `solvers` names them like the others.
+    #[serde(default)]
+    pub external: BTreeMap<String, crate::plan::external::Declared>,
     /// `[solver.<name>]`: options of individual solvers (a solver of the config's task), as
     /// given: each solver's catalogue entry reads its own table.
     #[serde(default)]

@@ -268,3 +268,24 @@ fn a_solver_section_for_an_unknown_solver_or_option_is_an_error_naming_it() {
     let e = err(&format!("{AUTH}[solver.sem]\nclamp_weights = true\n"));
     assert!(e.contains("[solver.sem] unknown field `clamp_weights`, there are no fields"), "{e}");
 }
+
+/// `[external.<name>]` declares a solver outside the catalogue: `solvers` may name it, with
+/// the task it declares; it cannot take a catalogue name or a `[solver.<name>]` table.
+#[test]
+fn external_solvers_are_declared_checked_and_named_like_the_others() {
+    let peer = "[external.peer]\ncommand = [\"python3\", \"peer.py\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n";
+    let base = "name = \"t\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\n";
+    let c = parse(&format!("{base}solvers = [\"kp-newton\", \"peer\"]\n{peer}")).unwrap();
+    assert_eq!(c.external["peer"].command, ["python3", "peer.py"]);
+    let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+    assert!(err(&format!("{base}solvers = [\"peerx\"]\n{peer}"))
+        .contains("a solver outside the catalogue is declared in [external.peerx]"));
+    assert!(err(&format!("task = \"deform\"\n{base}solvers = [\"peer\"]\n{peer}"))
+        .contains("[external.peer] solves param (its tasks), not this config's task deform"));
+    assert!(err(&format!("{base}solvers = [\"slim\"]\n{}", peer.replace("external.peer", "external.slim")))
+        .contains("[external.slim]: 'slim' is a solver of the catalogue"));
+    assert!(err(&format!("{base}solvers = [\"peer\"]\n{peer}[solver.peer]\nx = 1\n"))
+        .contains("[solver.peer]: peer is an external solver; its settings are in [external.peer]"));
+    assert!(err(&format!("{base}solvers = [\"peer\"]\n{}", peer.replace("external.peer", "external.\"a/b\"")))
+        .contains("contains a path separator"));
+}

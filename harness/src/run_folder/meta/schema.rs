@@ -54,6 +54,10 @@ pub struct Meta {
     pub cores: Option<usize>,
     pub crates: Option<String>,
     pub ended_unix: Option<u64>,
+    /// The external solvers of the batch: name, command, version and, when their runs were
+    /// skipped, why (`external::probe::Probe`); absent without any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub external: Option<Value>,
     pub git_dirty: Option<bool>,
     pub git_revision: Option<String>,
     /// The history database the batch is in (`None`: not, or not yet).

@@ -1,0 +1,331 @@
+//! One run of an external solver: the problem folder from the common start, the process, and
+//! the run's rows and outcome from what it wrote, every snapshot recomputed by our code.
+
+use super::child::{self, ChildRun, Exit};
+use super::probe::ended;
+use super::protocol::{self, ExternalStop, ProblemSpec, Record, Snapshot, StopSpec};
+use crate::column_names::{intern, is_column_name};
+use crate::plan::external::Declared;
+use crate::run_folder::ITERATION_COLUMNS;
+use solvers::energy::EnergyKind;
+use solvers::mesh::{Mesh, Task};
+use solvers::param::{start_map, ParamSettings};
+use solvers::problem::MapProblem;
+use solvers::solver::catalogue::Start;
+use solvers::solver::{IterationRecord, Outcome, StopReason};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+/// The most of each output stream kept in the run folder.
+pub const KEEP_OUTPUT: usize = 64 * 1024;
+
+/// The extra column that says which rows the harness recomputed (1) and which it took from the
+/// solver's record (0).
+pub const VERIFIED_COLUMN: &str = "verified";
+
+/// The record key whose value is the time the solver spent on the record and its snapshot
+/// (left out of the run's time like our solvers' `t_record_s`), not an extra column.
+pub const RECORD_TIME_KEY: &str = "record_s";
+
+/// One external run to do.
+pub struct Job<'a> {
+    pub name: &'a str,
+    pub declared: &'a Declared,
+    /// The folder the command runs in (the config's).
+    pub cwd: &'a Path,
+    /// The problem folder to write (made anew, removed after unless `keep_problem`).
+    pub dir: PathBuf,
+    /// Where the child's output goes: `<logs>.stdout.txt`, `<logs>.stderr.txt`.
+    pub logs: PathBuf,
+    pub energy: EnergyKind,
+    pub settings: &'a ParamSettings,
+    pub timeout: Option<Duration>,
+    /// Stop after this iteration (a repeat of a run that timed out): asked as `max_iters`,
+    /// recorded as a timeout.
+    pub stop_at: Option<usize>,
+    pub threads: usize,
+    pub interrupt: &'a AtomicBool,
+}
+
+/// What an external run produced.
+#[derive(Debug)]
+pub struct Executed {
+    pub outcome: Outcome,
+    pub rows: Vec<IterationRecord>,
+    /// Snapshots the harness recomputed (the first and the last among them).
+    pub verified: usize,
+    /// The child's wall time on the harness's clock, less the time it said it spent on its
+    /// records and snapshots.
+    pub time_s: f64,
+    pub peak_rss_mb: Option<f64>,
+}
+
+/// Why an external run has no result.
+#[derive(Debug, thiserror::Error)]
+pub enum ExternalError {
+    /// The command could not start: the run is skipped with this reason.
+    #[error("{0}")]
+    CannotStart(String),
+    /// The batch was interrupted: no result, nothing written.
+    #[error("interrupted")]
+    Interrupted,
+    /// The run failed with this message.
+    #[error("{0}")]
+    Failed(String),
+}
+
+/// Do `job` on `mesh` (as the dataset has it: validated and normalized here, as our solvers
+/// do), the problem folder and output files under the run folder.
+pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
+    let failed = |what: String| ExternalError::Failed(format!("{}: {what}", mesh.source));
+    solvers::mesh::validate_for(mesh, Task::Param).into_result().map_err(|e| failed(format!("{e:#}")))?;
+    let mesh = mesh.normalized();
+    let problem = MapProblem::new(&mesh, job.energy).map_err(|e| failed(format!("{e:#}")))?;
+    let (x0, start) = start_map(&mesh, &problem, Start::Common, job.settings).map_err(|e| failed(format!("{e:#}")))?;
+    let stop = job.settings.solver.stop;
+    let spec = ProblemSpec::new(
+        Task::Param,
+        job.energy,
+        StopSpec {
+            max_iters: job.stop_at.unwrap_or(stop.max_iters),
+            grad_tol: stop.grad_tol,
+            energy_decrease_tol: stop.energy_decrease_tol,
+        },
+        job.timeout.filter(|_| job.stop_at.is_none()).map(|t| t.as_secs_f64()),
+        job.threads,
+        job.declared.snapshot_every,
+    );
+    let _ = std::fs::remove_dir_all(&job.dir);
+    std::fs::create_dir_all(&job.dir)
+        .map_err(|e| failed(format!("{}: cannot create the problem folder: {e}", job.dir.display())))?;
+    let result = protocol::write_problem(&job.dir, &spec, &mesh, &x0)
+        .map_err(|e| failed(format!("{e:#}")))
+        .and_then(|()| run_and_read(job, &problem, &x0, &failed));
+    if !job.declared.keep_problem {
+        let _ = std::fs::remove_dir_all(&job.dir);
+    }
+    let (done, child) = result?;
+    let mut outcome = done.outcome;
+    outcome.start = Some(start);
+    let record_s: f64 = done.rows.iter().map(|r| r.t_record_s).sum();
+    Ok(Executed {
+        outcome,
+        verified: done.verified,
+        rows: done.rows,
+        time_s: (child.wall_s - record_s).max(0.0),
+        peak_rss_mb: child.peak_rss_mb,
+    })
+}
+
+/// The child on the problem folder, its output kept, then what it wrote read and verified.
+fn run_and_read(
+    job: &Job,
+    problem: &MapProblem,
+    x0: &[f64],
+    failed: &dyn Fn(String) -> ExternalError,
+) -> Result<(Read, ChildRun), ExternalError> {
+    let dir = std::path::absolute(&job.dir).unwrap_or_else(|_| job.dir.clone());
+    let timeout = job.timeout.filter(|_| job.stop_at.is_none());
+    let child = child::run(&job.declared.command, job.cwd, Some(&dir), timeout, job.interrupt, KEEP_OUTPUT)
+        .map_err(|e| ExternalError::CannotStart(e.to_string()))?;
+    keep_output(&job.logs, &child);
+    let said = || {
+        let last = child.stderr.lines().map(str::trim).rfind(|l| !l.is_empty());
+        last.map_or(String::new(), |l| format!(" (its last error line: {l})"))
+    };
+    let stop = match &child.exit {
+        Exit::Interrupted => return Err(ExternalError::Interrupted),
+        Exit::Code(0) => {
+            let result = protocol::read_result(&dir).map_err(|e| failed(format!("{e:#}")))?;
+            match result.stop_reason {
+                ExternalStop::Error => {
+                    return Err(failed(format!("{} reported an error: {}", job.name, result.message)))
+                }
+                s => stop_reason(s, job.stop_at.is_some()),
+            }
+        }
+        Exit::TimedOut => StopReason::Timeout,
+        other => return Err(failed(format!("{} {}{}", job.name, ended(other), said()))),
+    };
+    let records = protocol::read_records(&dir);
+    let records = if child.exit == Exit::TimedOut {
+        // Killed at the deadline: the run ends at its last map (a line cut by the kill, or none
+        // at all, is no record).
+        let mut records = records.unwrap_or_default();
+        let last = (0..records.len()).rev().find(|k| protocol::snapshot_path(&dir, *k).exists()).ok_or_else(|| {
+            failed(format!("{} passed its timeout before it wrote the start map (maps/0.uv)", job.name))
+        })?;
+        records.truncate(last + 1);
+        records
+    } else {
+        records.map_err(|e| failed(format!("{e:#}")))?
+    };
+    let snapshots = protocol::verify(&dir, problem, &records).map_err(|e| failed(format!("{e:#}")))?;
+    if let Some(i) = (0..x0.len()).find(|&i| snapshots[0].x[i].to_bits() != x0[i].to_bits()) {
+        return Err(failed(format!(
+            "iteration 0's map is not start.uv (vertex {}: {} where the start has {})",
+            i / 2,
+            snapshots[0].x[i],
+            x0[i]
+        )));
+    }
+    let read = rows_and_outcome(&records, snapshots, stop).map_err(|e| failed(format!("{}: {e}", job.name)))?;
+    Ok((read, child))
+}
+
+/// The child's output beside the run's files (the last repeat's), when there is any.
+fn keep_output(logs: &Path, child: &ChildRun) {
+    for (stream, text) in [("stdout", &child.stdout), ("stderr", &child.stderr)] {
+        let path = logs.with_extension(format!("{stream}.txt"));
+        if text.is_empty() {
+            let _ = std::fs::remove_file(&path);
+        } else {
+            let _ = std::fs::write(&path, text);
+        }
+    }
+}
+
+/// Our stop reason for the one the solver gave; a replay asked to stop at the first run's
+/// timeout stops as a timeout.
+fn stop_reason(s: ExternalStop, replay: bool) -> StopReason {
+    match s {
+        _ if replay => StopReason::Timeout,
+        ExternalStop::Converged => StopReason::SolverRule,
+        ExternalStop::MaxIters => StopReason::MaxIterations,
+        ExternalStop::LineSearchFailed => StopReason::LineSearchFailed,
+        ExternalStop::Timeout => StopReason::Timeout,
+        // `execute` fails the run instead.
+        ExternalStop::Error => StopReason::NonFinite(String::new()),
+    }
+}
+
+/// What an external run's records and verified snapshots make of its rows and outcome.
+struct Read {
+    outcome: Outcome,
+    rows: Vec<IterationRecord>,
+    verified: usize,
+}
+
+/// The run's rows: at a verified iteration its energy, gradient norm and flips are ours,
+/// elsewhere its energy is the one recorded (gradient norm NaN, flips 0, `verified` 0); the
+/// times are the solver's clock; its numeric extras become columns.
+fn rows_and_outcome(records: &[Record], snapshots: Vec<Snapshot>, stop: StopReason) -> Result<Read, String> {
+    let mut names: Vec<&'static str> = vec![VERIFIED_COLUMN];
+    for r in records {
+        for key in r.extras.keys().filter(|k| k.as_str() != RECORD_TIME_KEY) {
+            if !is_column_name(key) || ITERATION_COLUMNS.contains(&key.as_str()) || key == VERIFIED_COLUMN {
+                return Err(format!("iteration {}: `{key}` cannot be an extra column (plain names, not ours)", r.iter));
+            }
+            if !names.contains(&key.as_str()) {
+                names.push(intern(key));
+            }
+        }
+    }
+    let mut rows = Vec::with_capacity(records.len());
+    let mut snaps = snapshots.iter().peekable();
+    for (k, r) in records.iter().enumerate() {
+        let snap = snaps.next_if(|s| s.iter == k);
+        let mut extra = vec![(VERIFIED_COLUMN, if snap.is_some() { 1.0 } else { 0.0 })];
+        for &name in &names[1..] {
+            extra.push((name, number(r, name)?.unwrap_or(f64::NAN)));
+        }
+        let since = |t: f64| (t - records[0].time_s).max(0.0);
+        rows.push(IterationRecord {
+            iter: k,
+            energy: snap.map_or(r.energy, |s| s.energy),
+            grad_norm: snap.and_then(|s| s.grad_norm).unwrap_or(f64::NAN),
+            step: f64::NAN,
+            flips: snap.map_or(0, |s| s.flips),
+            t_iter_s: if k == 0 { 0.0 } else { (r.time_s - records[k - 1].time_s).max(0.0) },
+            t_cum_s: since(r.time_s),
+            t_record_s: number(r, RECORD_TIME_KEY)?.filter(|t| *t >= 0.0).unwrap_or(0.0),
+            extra,
+            ..Default::default()
+        });
+    }
+    let (first, last) = (&snapshots[0], &snapshots[snapshots.len() - 1]);
+    let outcome = Outcome {
+        x: last.x.clone(),
+        iterations: last.iter,
+        stop_reason: stop,
+        init_energy: first.energy,
+        final_energy: last.energy,
+        grad_norm: last.grad_norm.unwrap_or(f64::NAN),
+        flips: last.flips,
+        analysis: None,
+        start: None,
+    };
+    Ok(Read { outcome, rows, verified: snapshots.len() })
+}
+
+/// A record's extra `name` as a number (`true`/`false` as 1/0, `null` as none).
+fn number(r: &Record, name: &str) -> Result<Option<f64>, String> {
+    match r.extras.get(name) {
+        None | Some(serde_json::Value::Null) => Ok(None),
+        Some(serde_json::Value::Bool(b)) => Ok(Some(if *b { 1.0 } else { 0.0 })),
+        Some(serde_json::Value::Number(n)) => Ok(n.as_f64()),
+        Some(other) => Err(format!("iteration {}: extra `{name}` = {other} is not a number", r.iter)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(iter: usize, energy: f64, time_s: f64, extras: serde_json::Value) -> Record {
+        let serde_json::Value::Object(map) = extras else { panic!() };
+        Record { iter, energy, time_s, extras: map.into_iter().collect() }
+    }
+
+    fn snapshot(iter: usize, energy: f64) -> Snapshot {
+        Snapshot { iter, energy, grad_norm: Some(0.5), flips: 1, x: vec![iter as f64; 4] }
+    }
+
+    #[test]
+    fn rows_take_our_numbers_where_verified_and_the_solvers_extras_as_columns() {
+        let records = [
+            record(0, 3.0, 0.5, serde_json::json!({})),
+            record(1, 2.5, 1.5, serde_json::json!({"decrease": 0.2, "record_s": 0.25})),
+            record(2, 2.25, 1.75, serde_json::json!({"accepted": true, "record_s": 0.125})),
+        ];
+        let snaps = vec![snapshot(0, 3.0 + 1e-12), snapshot(2, 2.25)];
+        let read = rows_and_outcome(&records, snaps, StopReason::SolverRule).unwrap();
+        let r = &read.rows;
+        assert_eq!(r.iter().map(|r| r.energy).collect::<Vec<_>>(), [3.0 + 1e-12, 2.5, 2.25]);
+        assert_eq!((r[0].grad_norm, r[0].flips, r[1].flips), (0.5, 1, 0));
+        assert!(r[1].grad_norm.is_nan() && r[1].step.is_nan());
+        assert_eq!(
+            r.iter().map(|r| (r.t_iter_s, r.t_cum_s, r.t_record_s)).collect::<Vec<_>>(),
+            [(0.0, 0.0, 0.0), (1.0, 1.0, 0.25), (0.25, 1.25, 0.125)]
+        );
+        let names: Vec<&str> = r[1].extra.iter().map(|e| e.0).collect();
+        assert_eq!(names, [VERIFIED_COLUMN, "decrease", "accepted"]);
+        assert_eq!(r[1].extra[0].1, 0.0);
+        assert_eq!((r[2].extra[0].1, r[2].extra[2].1), (1.0, 1.0));
+        assert!(r[0].extra[1].1.is_nan() && r[2].extra[1].1.is_nan());
+        let o = &read.outcome;
+        assert_eq!((o.iterations, o.init_energy, o.final_energy, o.flips, read.verified), (2, 3.0 + 1e-12, 2.25, 1, 2));
+        assert_eq!((o.x.clone(), o.stop_reason.clone()), (vec![2.0; 4], StopReason::SolverRule));
+
+        // a name of ours, a name that is no column, a value that is no number
+        for (extras, says) in [
+            (serde_json::json!({"grad_norm": 1.0}), "`grad_norm` cannot be an extra column"),
+            (serde_json::json!({"a b": 1.0}), "`a b` cannot be an extra column"),
+            (serde_json::json!({"note": "x"}), "extra `note` = \"x\" is not a number"),
+        ] {
+            let bad = [record(0, 3.0, 0.0, extras)];
+            let err = rows_and_outcome(&bad, vec![snapshot(0, 3.0)], StopReason::MaxIterations).err().unwrap();
+            assert!(err.contains(says), "{err}");
+        }
+    }
+
+    #[test]
+    fn the_solvers_stop_reasons_map_to_ours_and_a_replay_stops_as_a_timeout() {
+        assert_eq!(stop_reason(ExternalStop::Converged, false), StopReason::SolverRule);
+        assert!(StopReason::SolverRule.is_converged());
+        assert_eq!(stop_reason(ExternalStop::MaxIters, false), StopReason::MaxIterations);
+        assert_eq!(stop_reason(ExternalStop::LineSearchFailed, false), StopReason::LineSearchFailed);
+        assert_eq!(stop_reason(ExternalStop::MaxIters, true), StopReason::Timeout);
+    }
+}
