@@ -66,7 +66,7 @@ def main(folder):
     max_iters, tol = int(p.stop["max_iters"]), float(p.stop["grad_tol"])
     grad = sd_gradient(p, uv)
     norm, k = float(np.linalg.norm(grad)), 0
-    p.record(0, energy, uv, final=norm <= tol or max_iters == 0, grad_norm=norm)
+    p.record(0, energy, uv, final=norm <= tol or max_iters == 0, own_grad_norm=norm)
     while norm > tol and k < max_iters:
         moved = step(p, uv, energy, grad)
         if moved is None:
@@ -76,7 +76,7 @@ def main(folder):
         (uv, energy), k = moved, k + 1
         grad = sd_gradient(p, uv)
         norm = float(np.linalg.norm(grad))
-        p.record(k, energy, uv, final=norm <= tol or k == max_iters, grad_norm=norm)
+        p.record(k, energy, uv, final=norm <= tol or k == max_iters, own_grad_norm=norm)
     p.finish("converged" if norm <= tol else "max_iters")
     return 0
 

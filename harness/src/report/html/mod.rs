@@ -15,6 +15,7 @@ use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
+mod external;
 mod figures;
 mod files;
 mod provenance;
@@ -23,6 +24,7 @@ mod status;
 mod tests;
 mod timing;
 
+use external::{external_section, probes};
 use figures::{plots_section, tables_section};
 use files::files_section;
 use provenance::provenance_section;
@@ -77,14 +79,17 @@ pub fn write_index(
          <title>mapbench: {n}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n\
          <h1>mapbench report: {n}</h1>\n<p>task <b>{t}</b>; {c}</p>\n\
          <nav><a href=\"#status\">status</a><a href=\"#tables\">tables</a><a href=\"#plots\">plots</a>\
-         <a href=\"#files\">files</a><a href=\"#provenance\">provenance</a></nav>\n",
+         {x}<a href=\"#files\">files</a><a href=\"#provenance\">provenance</a></nav>\n",
         n = esc(name),
         t = esc(&task),
         c = esc(&counts(summaries)),
+        x = if probes(meta.as_ref()).is_empty() { "" } else { "<a href=\"#external\">external solvers</a>" },
     );
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
-    status_matrix(&mut h, run_dir, summaries);
+    let external = probes(meta.as_ref());
+    status_matrix(&mut h, run_dir, summaries, &external);
+    external_section(&mut h, &external, summaries);
     tables_section(&mut h, run_dir, tables, plots, summaries);
     plots_section(&mut h, run_dir, plots);
     files_section(&mut h, run_dir, summaries, tables)?;

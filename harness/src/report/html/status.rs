@@ -2,6 +2,7 @@
 
 use super::timing::{seconds, timed_seconds};
 use super::{esc, href};
+use crate::external::probe::Probe;
 use crate::judge::verdict::Verdict;
 use crate::report::{clamped_label, reached_target, tau_text, tightest_target, to_target, unique, verdict_text};
 use crate::run_folder::summary::RefSource;
@@ -12,7 +13,7 @@ use std::path::Path;
 
 /// Rows: dataset (and energy, when the run has several), columns: solver. Each cell links to
 /// the run's per-iteration CSV when it exists.
-pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
+pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow], external: &[Probe]) {
     let solvers = unique(summaries.iter().map(|s| s.solver.as_str()));
     let datasets = unique(summaries.iter().map(|s| s.dataset.as_str()));
     let several_energies = unique(summaries.iter().map(|s| s.energy.as_str())).len() > 1;
@@ -50,7 +51,20 @@ pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[Summary
         *h += "<th class=\"k\">energy</th>";
     }
     for s in &solvers {
-        let _ = write!(h, "<th>{}</th>", esc(s));
+        match external.iter().find(|p| p.name == *s) {
+            Some(p) => {
+                let version = p.version.as_deref().unwrap_or("version not recorded");
+                let _ = write!(
+                    h,
+                    "<th title=\"external solver: {}\">{}<br><a href=\"#external\" class=\"caption\">external</a></th>",
+                    esc(version),
+                    esc(s)
+                );
+            }
+            None => {
+                let _ = write!(h, "<th>{}</th>", esc(s));
+            }
+        }
     }
     *h += "</tr>\n";
     for d in datasets {

@@ -1,0 +1,49 @@
+//! The external solvers of a batch (`meta.json`'s `external`): what ran them, which version,
+//! how many of their maps the harness recomputed, and why any were skipped.
+
+use super::esc;
+use crate::external::probe::Probe;
+use crate::run_folder::meta::Meta;
+use crate::run_folder::{Status, SummaryRow};
+use std::fmt::Write as _;
+
+/// The batch's external solvers as `meta.json` records them (none for an older folder).
+pub(super) fn probes(meta: Option<&Meta>) -> Vec<Probe> {
+    meta.and_then(|m| m.external.clone()).and_then(|v| serde_json::from_value(v).ok()).unwrap_or_default()
+}
+
+/// The section, when the batch has external solvers.
+pub(super) fn external_section(h: &mut String, probes: &[Probe], summaries: &[SummaryRow]) {
+    if probes.is_empty() {
+        return;
+    }
+    *h += "<h2 id=\"external\">External solvers</h2>\n<p class=\"caption\">Solvers outside the catalogue, run as \
+           processes under the external-solver protocol (peers/PROTOCOL.md) from the same start map as ours. \
+           Every map they wrote was read back and its energy, gradient norm and flips recomputed by mapbench's \
+           code; a reported energy that disagreed beyond round-off failed the run. Their time_s is the \
+           process's wall time on the harness's clock (interpreter start-up included, record writing left \
+           out); their per-iteration times are their own clock's; peak_rss_mb is their own process group's.</p>\n\
+           <table>\n<tr><th>solver</th><th>version</th><th>command</th><th>ran</th><th>failed</th>\
+           <th>skipped</th><th>maps verified</th></tr>\n";
+    for p in probes {
+        let mine: Vec<&SummaryRow> = summaries.iter().filter(|s| s.solver == p.name).collect();
+        let n = |st: Status| mine.iter().filter(|s| s.status == st).count();
+        let verified: usize = mine.iter().filter_map(|s| s.verified_snapshots).sum();
+        let version = match (&p.version, &p.unavailable) {
+            (_, Some(why)) => format!("unavailable: {why}"),
+            (Some(v), None) => v.clone(),
+            (None, None) => "not recorded (no version command)".into(),
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{verified}</td></tr>",
+            esc(&p.name),
+            esc(&version),
+            esc(&p.command.join(" ")),
+            n(Status::Ok) + n(Status::NotConverged),
+            n(Status::Failed),
+            n(Status::Skipped),
+        );
+    }
+    *h += "</table>\n";
+}

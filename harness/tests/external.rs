@@ -1,0 +1,196 @@
+//! External solvers in a batch: the template adapter runs under verification next to ours and
+//! resumes and repeats like them; a solver that lies about its energy, hangs past the timeout,
+//! exits non-zero, writes garbage or a map of the wrong size fails its run alone; one that
+//! cannot start is skipped with the reason; libigl's SLIM runs where `libigl` is installed.
+
+mod common;
+
+use common::*;
+use std::path::Path;
+
+/// A peer in Python on `peers/mapbench_peer.py`: `body` runs with `p` the problem, `uv` its
+/// start map and `e` its energy.
+fn peer(dir: &Path, name: &str, body: &str) -> String {
+    let peers = repo_root().join("peers");
+    let script = format!(
+        "import sys, time\nsys.path.insert(0, {peers:?})\nimport numpy as np\nfrom mapbench_peer import Problem\n\
+         p = Problem(sys.argv[-1])\nuv = p.start\ne = p.sd(uv)\n{body}\n",
+        peers = peers.display().to_string()
+    );
+    let path = dir.join(format!("{name}.py"));
+    std::fs::write(&path, script).unwrap();
+    path.display().to_string()
+}
+
+fn external(name: &str, command: &[&str], extra: &str) -> String {
+    let command: Vec<String> = command.iter().map(|c| format!("{c:?}")).collect();
+    format!("[external.{name}]\ncommand = [{}]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n{extra}", command.join(", "))
+}
+
+fn column<'a>(h: &[String], rows: &'a [Vec<String>], solver: &str, name: &str) -> &'a str {
+    let col = |n: &str| h.iter().position(|x| x == n).unwrap_or_else(|| panic!("no column {n}"));
+    &rows.iter().find(|r| r[col("solver")] == solver).unwrap_or_else(|| panic!("no run of {solver}"))[col(name)]
+}
+
+#[test]
+fn external_solvers_are_verified_and_each_failure_stays_in_its_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let gd = repo_root().join("peers/example_gd.py").display().to_string();
+    let liar = peer(d, "liar", "p.record(0, 2 * e, uv)\np.finish('max_iters')");
+    let crash = peer(d, "crash", "p.record(0, e, uv)\nprint('boom', file=sys.stderr)\nsys.exit(3)");
+    let short = peer(d, "short", "p.record(0, e, uv[:-1])\np.finish('max_iters')");
+    let garbage =
+        peer(d, "garbage", "open(p.folder + '/iterations.jsonl', 'w').write('garbage\\n')\np.finish('max_iters')");
+    // starts a grandchild, writes the start, then hangs: the timeout ends the whole group
+    let hang = peer(
+        d,
+        "hang",
+        "import subprocess\nchild = subprocess.Popen(['sleep', '600'])\n\
+         open(p.folder + '/../../../grandchild.pid', 'w').write(str(child.pid))\n\
+         p.record(0, e, uv)\ntime.sleep(600)",
+    );
+    let mute = peer(d, "mute", "time.sleep(600)");
+    let mut config = String::from(
+        "name = \"x\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\", \"sarap\"]\ntimeout = \"4s\"\nmaps = \"all\"\n\
+         solvers = [\"kp-newton\", \"gd\", \"liar\", \"crash\", \"short\", \"garbage\", \"hang\", \"mute\", \"absent\", \
+         \"nopkg\"]\n[stop]\nmax_iters = 12\n",
+    );
+    for (name, script) in
+        [("liar", &liar), ("crash", &crash), ("short", &short), ("garbage", &garbage), ("hang", &hang), ("mute", &mute)]
+    {
+        config += &external(name, &["python3", script], "");
+    }
+    config += &external(
+        "gd",
+        &["python3", &gd],
+        "version = [\"python3\", \"-c\", \"print('gd 1.0')\"]\nsnapshot_every = 3\n",
+    );
+    config += &external("absent", &["no-such-solver-xyz"], "");
+    config +=
+        &external("nopkg", &["python3", "x.py"], "version = [\"python3\", \"-c\", \"import no_such_package_xyz\"]\n");
+    let cfg = write_config(d, &config);
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "out", "--jobs", "2", "--no-history"], d);
+    // runs failed (exit 1), the batch finished
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("20 runs: 2 ok, 2 not converged, 5 failed, 11 skipped"), "{}", text(&o));
+    let (h, rows) = read_csv(&d.join("out/summary.csv"));
+    let sd: Vec<Vec<String>> = rows.iter().filter(|r| r[2] == "sd").cloned().collect();
+    let get = |solver: &str, name: &str| column(&h, &sd, solver, name).to_string();
+
+    // ours and the template: the same start, every third map and the last verified
+    assert_eq!(get("kp-newton", "status"), "ok");
+    assert_eq!(get("gd", "start"), get("kp-newton", "start"));
+    assert_eq!(get("gd", "init_energy"), get("kp-newton", "init_energy"));
+    assert_eq!((get("gd", "iterations").as_str(), get("gd", "stop_reason").as_str()), ("12", "max_iters"));
+    assert_eq!(get("gd", "verified_snapshots"), "5", "iterations 0, 3, 6, 9, 12");
+    assert_eq!(get("gd", "flips"), "0");
+    assert!(get("gd", "peak_rss_mb").parse::<f64>().unwrap() > 1.0);
+    assert!(get("gd", "verdict") == "unfinished", "{}", get("gd", "verdict"));
+    assert_eq!(get("kp-newton", "verified_snapshots"), "");
+    // its final map scores as the run says
+    let s = mapbench(&["evaluate", "--json", "out/meshes/bumpy_1k.obj.gz", "out/uv/bumpy_1k__sd__gd.uv.gz"], d);
+    let s: serde_json::Value = serde_json::from_slice(&s.stdout).unwrap();
+    assert_eq!(s["energy_value"].as_f64().unwrap().to_string(), get("gd", "final_energy"));
+    // its rows: the verified column, its own extra column, times on its clock
+    let (ih, irows) = read_csv(&d.join("out/runs/bumpy_1k__sd__gd.csv"));
+    let icol = |n: &str| ih.iter().position(|x| x == n).unwrap_or_else(|| panic!("no column {n} in {ih:?}"));
+    let verified: Vec<&str> = irows.iter().map(|r| r[icol("verified")].as_str()).collect();
+    assert_eq!(verified, ["1.0", "0.0", "0.0", "1.0", "0.0", "0.0", "1.0", "0.0", "0.0", "1.0", "0.0", "0.0", "1.0"]);
+    // its own gradient norm (an extra) against ours at the verified rows
+    for r in irows.iter().filter(|r| r[icol("verified")] == "1.0") {
+        let (own, ours): (f64, f64) =
+            (r[icol("own_grad_norm")].parse().unwrap(), r[icol("grad_norm")].parse().unwrap());
+        assert!((own - ours).abs() <= 1e-9 * ours, "{own} vs {ours}");
+    }
+    assert!(irows.iter().skip(1).all(|r| r[icol("t_iter_s")].parse::<f64>().unwrap() >= 0.0));
+    // the pair outside its declared energies is skipped
+    let sarap = |solver: &str, name: &str| {
+        column(&h, &rows.iter().filter(|r| r[2] == "sarap").cloned().collect::<Vec<_>>(), solver, name).to_string()
+    };
+    assert_eq!(sarap("gd", "status"), "skipped");
+    assert_eq!(sarap("gd", "error"), "gd is an external solver of sd only");
+
+    // each failure in its run, named
+    let failed = |solver: &str, says: &str| {
+        assert_eq!(get(solver, "status"), "failed", "{solver}: {}", get(solver, "error"));
+        assert!(get(solver, "error").contains(says), "{solver}: {}", get(solver, "error"));
+    };
+    failed("liar", "iteration 0: the solver reported energy");
+    failed("liar", "(a factor of 2: another convention of the energy?)");
+    failed("crash", "crash exited with code 3 (its last error line: boom)");
+    failed("short", "map vertices, but the mesh has");
+    failed("garbage", "iterations.jsonl line 1: not a record");
+    failed("mute", "mute passed its timeout before it wrote the start map");
+    // a hang after the start: a timeout at its last map, like ours at their deadline
+    assert_eq!((get("hang", "stop_reason").as_str(), get("hang", "iterations").as_str()), ("timeout", "0"));
+    assert!(get("hang", "time_s").parse::<f64>().unwrap() < 30.0);
+    let pid = std::fs::read_to_string(d.join("grandchild.pid")).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let state = std::fs::read_to_string(format!("/proc/{}/stat", pid.trim())).unwrap_or_default();
+    assert!(state.is_empty() || state.contains(") Z"), "the hung peer's grandchild outlived it: {state}");
+    // what cannot start is skipped with the reason
+    assert_eq!(get("absent", "status"), "skipped");
+    assert!(get("absent", "error").contains("no program 'no-such-solver-xyz' on PATH"), "{}", get("absent", "error"));
+    assert_eq!(get("nopkg", "status"), "skipped");
+    assert!(get("nopkg", "error").contains("No module named 'no_such_package_xyz'"), "{}", get("nopkg", "error"));
+    // the output kept, the problem folders gone
+    assert_eq!(std::fs::read_to_string(d.join("out/external/bumpy_1k__sd__crash.stderr.txt")).unwrap(), "boom\n");
+    assert!(!d.join("out/external/bumpy_1k__sd__gd").exists());
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("out/meta.json")).unwrap()).unwrap();
+    let gd_probe = meta["external"].as_array().unwrap().iter().find(|p| p["name"] == "gd").unwrap();
+    assert_eq!(gd_probe["version"], "gd 1.0");
+    let index = std::fs::read_to_string(d.join("out/index.html")).unwrap();
+    assert!(index.contains("<h2 id=\"external\">External solvers</h2>") && index.contains("gd 1.0"));
+
+    // --resume takes the finished external runs back; --repeat reproduces them bit for bit
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "out", "--resume", "--no-history", "--jobs", "2"], d);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("bumpy_1k sd gd: resumed, ran (max_iters), 12 iterations"), "{}", text(&o));
+    let o = mapbench(
+        &[
+            "run",
+            cfg.to_str().unwrap(),
+            "--out",
+            "again",
+            "--repeat",
+            "2",
+            "--no-history",
+            "--only",
+            "bumpy_1k__sd__gd",
+        ],
+        d,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (h2, rows2) = read_csv(&d.join("again/summary.csv"));
+    assert_eq!(column(&h2, &rows2, "gd", "repeats"), "2");
+    assert_eq!(column(&h2, &rows2, "gd", "final_energy"), get("gd", "final_energy"));
+}
+
+#[test]
+fn libigl_slim_runs_verified_where_libigl_is_installed_and_is_skipped_where_not() {
+    let has_igl =
+        std::process::Command::new("python3").args(["-c", "import igl"]).output().is_ok_and(|o| o.status.success());
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = repo_root().join("configs/peers.toml");
+    let o = mapbench(
+        &["run", cfg.to_str().unwrap(), "--out", "out", "--no-history", "--only", "bumpy_1k__*", "--jobs", "1"],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (h, rows) = read_csv(&tmp.path().join("out/summary.csv"));
+    let get = |solver: &str, name: &str| column(&h, &rows, solver, name).to_string();
+    if has_igl {
+        assert_eq!(get("igl-slim", "status"), "ok", "{}", get("igl-slim", "error"));
+        let iterations: usize = get("igl-slim", "iterations").parse().unwrap();
+        assert_eq!(get("igl-slim", "verified_snapshots"), (iterations + 1).to_string());
+        assert_eq!(get("igl-slim", "init_energy"), get("kp-newton", "init_energy"));
+        let (ours, theirs): (f64, f64) =
+            (get("kp-newton", "final_energy").parse().unwrap(), get("igl-slim", "final_energy").parse().unwrap());
+        assert!((ours - theirs).abs() < 1e-8, "kp-newton {ours} vs igl-slim {theirs}");
+    } else {
+        assert_eq!(get("igl-slim", "status"), "skipped");
+        assert!(get("igl-slim", "error").contains("No module named 'igl'"), "{}", get("igl-slim", "error"));
+    }
+}
