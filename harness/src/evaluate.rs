@@ -63,8 +63,20 @@ pub struct ReferenceGap {
 /// run folder's `meshes/<dataset>.obj.gz`; the map a run folder's `uv/<run>.uv.gz` (which names
 /// its mesh by checksum), a text `.uv` (one `u v` line per vertex, as external solvers write)
 /// or an OBJ with one `vt` per vertex and the mesh's faces, as `mapbench map` writes.
-pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Frame) -> Result<Score> {
+/// With `known`, the reference minimum is looked up for that config's dataset instead of in
+/// the run folder the mesh came from ([`known_reference`]).
+pub fn evaluate(
+    mesh_path: &Path,
+    map_path: &Path,
+    energy: EnergyKind,
+    frame: Frame,
+    known: Option<(&Path, &str)>,
+) -> Result<Score> {
     let mesh = read_mesh(mesh_path)?;
+    let reference_of = match known {
+        Some((config, dataset)) => Some(known_reference(config, dataset, &energy, &mesh)?),
+        None => reference(mesh_path, &energy),
+    };
     let uv = read_map(map_path, &mesh)?;
     let (_, scale) = mesh.normalization();
     let rest = mesh.normalized();
@@ -91,7 +103,7 @@ pub fn evaluate(mesh_path: &Path, map_path: &Path, energy: EnergyKind, frame: Fr
         flips,
         sigma_min: sv.iter().map(|s| s[1]).fold(f64::INFINITY, f64::min),
         sigma_max: sv.iter().map(|s| s[0]).fold(f64::NEG_INFINITY, f64::max),
-        reference: reference(mesh_path, &energy).map(|(e_star, scale)| ReferenceGap {
+        reference: reference_of.map(|(e_star, scale)| ReferenceGap {
             e_star,
             above: energy_value - e_star,
             gap: scale.map(|s| crate::convergence::gap_on(energy_value, e_star, s)),
@@ -126,6 +138,49 @@ fn reference(mesh_path: &Path, energy: &EnergyKind) -> Option<(f64, Option<f64>)
     let rows = crate::run_folder::summary::read_summary(folder).ok()?;
     let scale = rows.iter().filter(|r| r.dataset == dataset && r.energy == energy.name()).find_map(|r| r.gap_scale);
     Some((e_star, scale))
+}
+
+/// `E*` and the gap scale of `energy` on `dataset` of the batch `config` plans, from its
+/// reference stores (the committed `references.json` beside the registry, then the one its
+/// batches add to): the same key a run of that config looks up, so the energy's parameters
+/// and the start's settings are the config's. `mesh` must be the dataset's mesh; the scale is
+/// `E0 - E*` at the common start, as the batch judges its runs.
+pub fn known_reference(config: &Path, dataset: &str, energy: &EnergyKind, mesh: &Mesh) -> Result<(f64, Option<f64>)> {
+    use crate::plan::{config::LoadedConfig, Plan, RunSettings};
+    let only = [crate::names::run_stem(dataset, energy.name(), "*")];
+    let plan = Plan::resolve(LoadedConfig::load(config)?, &only)
+        .with_context(|| format!("{}: no run of dataset '{dataset}' with {}", config.display(), energy.name()))?;
+    let run = &plan.runs[0];
+    let RunSettings::Param { energy: planned, settings } = &run.settings else {
+        bail!("{}: the reference of a {} batch is not a param map's", config.display(), run.settings.task());
+    };
+    if planned != energy {
+        bail!(
+            "{}: its {} is {}, not the energy given ({}): give its parameters with --param",
+            config.display(),
+            energy.name(),
+            serde_json::to_string(planned)?,
+            serde_json::to_string(energy)?
+        );
+    }
+    let theirs = plan.dataset(run).load()?;
+    if theirs.positions != mesh.positions || theirs.faces != mesh.faces {
+        bail!("{}: not the mesh of dataset '{dataset}' ({})", mesh.source, theirs.source);
+    }
+    let key = crate::judge::reference::key(&plan, run)?.context("no reference key")?;
+    let stores = plan.references.as_ref().context("no reference stores")?;
+    let book = crate::judge::reference::Book::open(stores)?;
+    let e_star = book.get(&key).map(|r| r.e_star).with_context(|| {
+        format!(
+            "{}: no reference minimum of {dataset} with {} yet (a batch of this config computes it)",
+            config.display(),
+            energy.name()
+        )
+    })?;
+    let rest = mesh.normalized();
+    let problem = MapProblem::new(&rest, *energy).map_err(anyhow::Error::new)?;
+    let (x0, _) = solvers::param::start_map(&rest, &problem, solvers::solver::catalogue::Start::Common, settings)?;
+    Ok((e_star, Some(problem.energy(&x0) - e_star)))
 }
 
 /// The energy `evaluate` scores with: `name` with the `KEY=VALUE` parameters of `params`

@@ -168,3 +168,36 @@ fn a_map_of_another_mesh_or_energy_is_refused_with_the_reason() {
     assert!(fail(&["mesh.obj", "swapped.obj", "--energy", "arap"]).contains("unknown variant `arap`"));
     assert!(fail(&["mesh.obj", "swapped.obj", "--task", "deform"]).contains("scores `param` maps so far"));
 }
+
+/// Outside a run folder, `--config` and `--dataset` find the reference minimum the config's
+/// batches use: the same `E*` and gap as the run folder's, for the same mesh; another mesh or
+/// other energy parameters are refused.
+#[test]
+fn a_configs_dataset_gives_the_reference_minimum_outside_a_run_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"e\"\ndatasets = [\"bumpy_1k\", \"cap_2k\"]\nenergies = [\"sd\"]\nsolvers = [\"slim\"]\nmaps = \"all\"\n",
+    );
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "out", "--no-history"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let mesh = "out/meshes/bumpy_1k.obj.gz";
+    let obj = "bumpy.obj";
+    let o = mapbench(&["map", "out", "bumpy_1k__sd__slim", "--obj", obj], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let in_folder = score(&[mesh, "out/uv/bumpy_1k__sd__slim.uv.gz"], tmp.path());
+    let c = cfg.to_str().unwrap();
+    let known = score(&[obj, obj, "--config", c, "--dataset", "bumpy_1k"], tmp.path());
+    assert_eq!(known["energy_value"], in_folder["energy_value"]);
+    assert_eq!(known["reference"]["e_star"], in_folder["reference"]["e_star"]);
+    let (a, b) = (known["reference"]["gap"].as_f64().unwrap(), in_folder["reference"]["gap"].as_f64().unwrap());
+    assert!((a - b).abs() <= 1e-12 * b.abs().max(1e-300), "{a} vs {b}");
+    // the mesh of another dataset, another energy's parameters: refused with the reason
+    let o = mapbench(&["evaluate", obj, obj, "--config", c, "--dataset", "cap_2k"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("not the mesh of dataset 'cap_2k'"), "{}", text(&o));
+    let o = mapbench(&["evaluate", obj, obj, "--config", c, "--dataset", "bumpy_1k", "--energy", "nh"], tmp.path());
+    assert!(text(&o).contains("no run of dataset 'bumpy_1k' with nh"), "{}", text(&o));
+    let o = mapbench(&["evaluate", obj, obj, "--dataset", "bumpy_1k"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}

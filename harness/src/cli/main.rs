@@ -212,6 +212,13 @@ enum Command {
         /// The frame of the map's coordinates.
         #[arg(long, value_enum, default_value = "area1")]
         frame: mapbench::evaluate::Frame,
+        /// Look the reference minimum up for this config's dataset (with --dataset) instead of
+        /// in the run folder MESH came from.
+        #[arg(long, requires = "dataset")]
+        config: Option<PathBuf>,
+        /// The dataset of --config whose mesh MESH is.
+        #[arg(long, requires = "config")]
+        dataset: Option<String>,
         /// Print JSON instead of lines.
         #[arg(long)]
         json: bool,
@@ -429,9 +436,10 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         }
         Command::List { what, registry } => list(what, &registry),
         // exit 0 whatever the map's quality: the numbers say it
-        Command::Evaluate { mesh, map, task, energy, params, frame, json } => {
+        Command::Evaluate { mesh, map, task, energy, params, frame, config, dataset, json } => {
             let energy = mapbench::evaluate::energy_of(task, &energy, &params)?;
-            let score = mapbench::evaluate::evaluate(&mesh, &map, energy, frame)?;
+            let known = config.as_deref().zip(dataset.as_deref());
+            let score = mapbench::evaluate::evaluate(&mesh, &map, energy, frame, known)?;
             match json {
                 true => out(format_args!("{}\n", serde_json::to_string_pretty(&score)?))?,
                 false => out(format_args!("{}", score.lines()))?,
