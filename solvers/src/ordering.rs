@@ -158,7 +158,7 @@ fn node_nd(nodes: usize, mut xadj: Vec<i32>, mut adjncy: Vec<i32>) -> Result<(Ve
 /// Compose `fwd` with a postorder of the elimination tree of the permuted matrix, so that
 /// every subtree is numbered contiguously (Liu's etree algorithm with path compression, then
 /// an iterative depth-first search visiting children in increasing order).
-fn postorder(n: usize, col_ptr: &[usize], row_idx: &[usize], fwd: &[usize]) -> Vec<usize> {
+pub(crate) fn postorder(n: usize, col_ptr: &[usize], row_idx: &[usize], fwd: &[usize]) -> Vec<usize> {
     let mut inv = vec![0; n];
     for (new, &old) in fwd.iter().enumerate() {
         inv[old] = new;

@@ -465,6 +465,62 @@ pub(crate) mod tests {
         l
     }
 
+    /// An order that is not a postorder of its elimination tree (two interleaved paths in the
+    /// identity order, as faer's AMD sometimes leaves it): the schedule refuses it, and
+    /// `ordering::postorder` of it gives one the schedule takes, with faer's factor.
+    #[test]
+    fn an_order_that_is_no_postorder_is_refused_and_postordering_repairs_it() {
+        use faer::perm::PermRef;
+        let n = 9;
+        let pattern: Vec<Vec<usize>> = (0..n).map(|c| if c + 2 < n { vec![c, c + 2] } else { vec![c] }).collect();
+        let col_ptr: Vec<usize> = std::iter::once(0)
+            .chain(pattern.iter().scan(0, |k, c| {
+                *k += c.len();
+                Some(*k)
+            }))
+            .collect();
+        let row_idx: Vec<usize> = pattern.concat();
+        let vals: Vec<f64> =
+            pattern.iter().flat_map(|c| c.iter().map(|&r| if r == c[0] { 4.0 } else { -1.0 })).collect();
+        let a = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr.clone(), None, row_idx.clone());
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let with = |fwd: &[usize]| {
+            let mut inv = vec![0; n];
+            fwd.iter().enumerate().for_each(|(new, &old)| inv[old] = new);
+            let custom = SymmetricOrdering::Custom(PermRef::new_checked(fwd, &inv, n));
+            factorize_symbolic_cholesky(a.as_ref(), Side::Lower, custom, params).unwrap()
+        };
+        let identity: Vec<usize> = (0..n).collect();
+        let sym = with(&identity);
+        assert_eq!(
+            Schedule::new(supernodal(&sym), sym.perm(), &col_ptr, &row_idx).err(),
+            Some(ScheduleError::NotPostordered)
+        );
+        let post = crate::ordering::postorder(n, &col_ptr, &row_idx, &identity);
+        assert_eq!(post, [1, 3, 5, 7, 0, 2, 4, 6, 8]);
+        let sym = with(&post);
+        let mut reference = vec![0.0; sym.len_val()];
+        let mut mem = MemBuffer::new(sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));
+        let values = SparseColMatRef::new(a.as_ref(), &vals);
+        let seq = (Side::Lower, LltRegularization::default(), Par::Seq);
+        sym.factorize_numeric_llt::<f64>(
+            &mut reference,
+            values,
+            seq.0,
+            seq.1,
+            seq.2,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .unwrap();
+        let l = ours(&sym, &col_ptr, &row_idx, &vals, 1);
+        let diff = l.iter().zip(&reference).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        assert!(diff <= 1e-14, "max |L - L_faer| = {diff:e}");
+    }
+
     #[test]
     fn factor_matches_faers_sequential_factorization() {
         let (n, cp, ri, vals) = system("bumpy_10k");

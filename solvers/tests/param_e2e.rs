@@ -63,6 +63,21 @@ fn kp_newton_sd_on_shared_corpus() {
     }
 }
 
+/// bimba's Tutte system is one whose AMD order faer leaves unpostordered: the analysis
+/// postorders it, and the Tutte map is the solution of its system.
+#[test]
+fn the_tutte_map_of_bimba_solves() {
+    let Ok(dir) = std::env::var("MAPBENCH_MESHES") else {
+        eprintln!("MAPBENCH_MESHES not set: shared-corpus test skipped");
+        return;
+    };
+    let mesh = load_obj(&std::path::Path::new(&dir).join("bimba.obj")).unwrap().normalized();
+    let x = solvers::init::tutte(&mesh, solvers::init::TutteBoundary::Uniform).unwrap();
+    let problem = solvers::problem::MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
+    assert_eq!(problem.flips(&x), 0);
+    assert!(problem.energy(&x).is_finite());
+}
+
 #[test]
 fn identical_runs_are_deterministic() {
     let mesh = generate("bumpy_1k").unwrap();

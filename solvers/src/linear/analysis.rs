@@ -3,7 +3,7 @@
 
 use super::LinearError;
 use crate::ordering::{metis_order_timed, Ordering};
-use crate::supernodal::Schedule;
+use crate::supernodal::{Schedule, ScheduleError};
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
@@ -50,21 +50,36 @@ impl Analysis {
             Some((fwd, inv)) => SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, n)),
             None => SymmetricOrdering::Amd,
         };
-        let symbolic = factorize_symbolic_cholesky(
-            symbolic_a.as_ref(),
-            Side::Lower,
-            faer_ordering,
-            CholeskySymbolicParams::default(),
-        )
-        .map_err(|e| LinearError::Symbolic(format!("{e:?}")))?;
-        let used = if perm.is_some() { Ordering::Metis } else { Ordering::Amd };
-        let schedule = match symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(sn) => Some(
-                Schedule::new(sn, symbolic.perm(), symbolic_a.col_ptr(), symbolic_a.row_idx())
-                    .map_err(|e| LinearError::Symbolic(format!("the supernodal schedule: {e:?}")))?,
-            ),
-            SymbolicCholeskyRaw::Simplicial(_) => None,
+        let symbolic_of = |ordering| {
+            factorize_symbolic_cholesky(symbolic_a.as_ref(), Side::Lower, ordering, CholeskySymbolicParams::default())
+                .map_err(|e| LinearError::Symbolic(format!("{e:?}")))
         };
+        let schedule_of = |symbolic: &SymbolicCholesky<usize>| match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(sn) => {
+                Schedule::new(sn, symbolic.perm(), symbolic_a.col_ptr(), symbolic_a.row_idx()).map(Some)
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => Ok(None),
+        };
+        let mut symbolic = symbolic_of(faer_ordering)?;
+        let schedule = match schedule_of(&symbolic) {
+            Ok(s) => s,
+            // faer's AMD order is not always a postorder of its elimination tree, which the
+            // schedule needs (every subtree a contiguous run): postorder it, as CHOLMOD does,
+            // and analyse again (the same fill). Only then: an order that works stays as it is.
+            Err(ScheduleError::NotPostordered) if symbolic.perm().is_some() => {
+                let fwd = symbolic.perm().map(|p| p.arrays().0.to_vec()).unwrap_or_default();
+                let post = crate::ordering::postorder(n, symbolic_a.col_ptr(), symbolic_a.row_idx(), &fwd);
+                let mut inv = vec![0; n];
+                for (new, &old) in post.iter().enumerate() {
+                    inv[old] = new;
+                }
+                symbolic = symbolic_of(SymmetricOrdering::Custom(PermRef::new_checked(&post, &inv, n)))?;
+                schedule_of(&symbolic).unwrap_or(None)
+            }
+            // Otherwise faer's own factorization and solves, which take any order.
+            Err(_) => None,
+        };
+        let used = if perm.is_some() { Ordering::Metis } else { Ordering::Amd };
         let seconds = t0.elapsed().saturating_sub(waited).as_secs_f64();
         Ok(Analysis { symbolic_a, symbolic, requested: (ordering, block), ordering: used, schedule, seconds })
     }
