@@ -78,7 +78,11 @@ pub enum ExternalError {
 /// Do `job` on `mesh` (as the dataset has it: validated and normalized here, as our solvers
 /// do), the problem folder and output files under the run folder.
 pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
-    let failed = |what: String| ExternalError::Failed(format!("{}: {what}", mesh.source));
+    // Errors of our own code name the mesh already; name it where they do not.
+    let failed = |what: String| match what.starts_with(&mesh.source) {
+        true => ExternalError::Failed(what),
+        false => ExternalError::Failed(format!("{}: {what}", mesh.source)),
+    };
     solvers::mesh::validate_for(mesh, Task::Param).into_result().map_err(|e| failed(format!("{e:#}")))?;
     let mesh = mesh.normalized();
     let problem = MapProblem::new(&mesh, job.energy).map_err(|e| failed(format!("{e:#}")))?;
