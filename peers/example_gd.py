@@ -6,11 +6,12 @@ command in a config:
 
     [external.my-gd]
     command = ["python3", "peers/example_gd.py"]
-    tasks = ["param"]
+    tasks = ["param", "deform"]
     energies = ["sd"]
 
 mapbench recomputes the energy of every map you snapshot with its own code, so report the
-energy in its convention (`Problem.sd`, 2 at an isometry) and snapshot the map you report.
+energy in its convention (`Problem.objective`: SD, 2 at an isometry, plus the handles' penalty
+in deform) and snapshot the map you report.
 """
 import sys
 
@@ -50,7 +51,7 @@ def step(p, uv, energy, grad):
     t, slope = 1.0, float(np.sum(grad * grad))
     while t > 1e-20:
         trial = uv - t * grad
-        e = p.sd(trial)
+        e = p.objective(trial)
         if e <= energy - 1e-4 * t * slope:
             return trial, e
         t *= 0.5
@@ -59,12 +60,12 @@ def step(p, uv, energy, grad):
 
 def main(folder):
     p = Problem(folder)
-    if p.spec["task"] != "param" or p.energy["name"] != "sd":
-        p.finish("error", "example_gd solves param with sd only")
+    if p.energy["name"] != "sd":
+        p.finish("error", "example_gd minimizes sd only")
         return 2
-    uv, energy = p.start, p.sd(p.start)
+    uv, energy = p.start, p.objective(p.start)
     max_iters, tol = int(p.stop["max_iters"]), float(p.stop["grad_tol"])
-    grad = sd_gradient(p, uv)
+    grad = sd_gradient(p, uv) + p.penalty_gradient(uv)
     norm, k = float(np.linalg.norm(grad)), 0
     p.record(0, energy, uv, final=norm <= tol or max_iters == 0, own_grad_norm=norm)
     while norm > tol and k < max_iters:
@@ -74,7 +75,7 @@ def main(folder):
             p.finish("line_search_failed")
             return 0
         (uv, energy), k = moved, k + 1
-        grad = sd_gradient(p, uv)
+        grad = sd_gradient(p, uv) + p.penalty_gradient(uv)
         norm = float(np.linalg.norm(grad))
         p.record(k, energy, uv, final=norm <= tol or k == max_iters, own_grad_norm=norm)
     p.finish("converged" if norm <= tol else "max_iters")

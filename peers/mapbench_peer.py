@@ -25,6 +25,11 @@ class Problem:
         self.stop = self.spec["stop"]
         self.snapshot_every = int(self.spec.get("snapshot_every", 0))
         self.rest = rest_frames(self.V, self.F)
+        # deform: soft handles, lambda * sum |x_v - target|^2 added to the energy
+        h = self.spec.get("handles")
+        self.lam = float(h["lambda"]) if h else 0.0
+        self.handle_vertices = np.array(h["vertices"] if h else [], dtype=np.int64)
+        self.handle_targets = np.array(h["targets"] if h else [], dtype=np.float64).reshape(-1, 2)
         self._records = open(os.path.join(folder, "iterations.jsonl"), "w")
         os.makedirs(os.path.join(folder, "maps"), exist_ok=True)
         self.clock0 = time.perf_counter()
@@ -41,6 +46,22 @@ class Problem:
             return float("inf")
         area = self.rest[2]
         return float(np.sum(area * (x + y) * (1.0 + 1.0 / (d * d))) / np.sum(area))
+
+    def objective(self, uv):
+        """The problem's energy in mapbench's convention: `sd`, plus the handles' penalty for
+        `deform`."""
+        return self.sd(uv) + self.penalty(uv)
+
+    def penalty(self, uv):
+        """lambda * sum |x_v - target|^2 over the handles (0 without any)."""
+        d = np.asarray(uv)[self.handle_vertices] - self.handle_targets
+        return self.lam * float(np.sum(d * d))
+
+    def penalty_gradient(self, uv):
+        """The penalty's gradient (n x 2): 2 lambda (x_v - target) at each handle."""
+        g = np.zeros_like(np.asarray(uv, dtype=np.float64))
+        np.add.at(g, self.handle_vertices, 2.0 * self.lam * (np.asarray(uv)[self.handle_vertices] - self.handle_targets))
+        return g
 
     def record(self, iteration, energy, uv, final=False, **extras):
         """One line of `iterations.jsonl` and the map at iteration 0, every `snapshot_every`

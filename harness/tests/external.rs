@@ -194,3 +194,49 @@ fn libigl_slim_runs_verified_where_libigl_is_installed_and_is_skipped_where_not(
         assert!(get("igl-slim", "error").contains("No module named 'igl'"), "{}", get("igl-slim", "error"));
     }
 }
+
+/// `deform`: the problem folder carries the handles, the template's objective adds their
+/// penalty, and every map it reports is verified against our energy with the penalty; its
+/// start is ours (the rest pose, or the shape's own).
+#[test]
+fn an_external_deform_run_is_verified_with_the_handles_penalty() {
+    let tmp = tempfile::tempdir().unwrap();
+    let gd = repo_root().join("peers/example_gd.py").display().to_string();
+    let mut config = String::from(
+        "name = \"d\"\ntask = \"deform\"\ndatasets = [\"planar_bar_2k\", \"planar_bar_release_2k\"]\n\
+         energies = [\"sd\", \"nh\"]\nsolvers = [\"kp-newton\", \"gd\"]\n[stop]\nmax_iters = 6\n",
+    );
+    config += &external("gd", &["python3", &gd], "keep_problem = true\n").replace("[\"param\"]", "[\"deform\"]");
+    let cfg = write_config(tmp.path(), &config);
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "out", "--no-history"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (h, rows) = read_csv(&tmp.path().join("out/summary.csv"));
+    let col = |n: &str| h.iter().position(|x| x == n).unwrap();
+    for dataset in ["planar_bar_2k", "planar_bar_release_2k"] {
+        let of = |solver: &str, energy: &str| {
+            rows.iter()
+                .find(|r| r[col("dataset")] == dataset && r[col("solver")] == solver && r[col("energy")] == energy)
+        };
+        let (ours, theirs) = (of("kp-newton", "sd").unwrap(), of("gd", "sd").unwrap());
+        assert_eq!(theirs[col("stop_reason")], "max_iters", "{}", theirs[col("error")]);
+        assert_eq!(theirs[col("verified_snapshots")], "7");
+        // the same start map (checked bit for bit by the harness); its energy summed in
+        // another order than the solver's evaluation adds the penalty
+        assert_eq!(theirs[col("start")], ours[col("start")]);
+        let (e0, e): (f64, f64) =
+            (theirs[col("init_energy")].parse().unwrap(), theirs[col("final_energy")].parse().unwrap());
+        let our_e0: f64 = ours[col("init_energy")].parse().unwrap();
+        assert!((e0 - our_e0).abs() <= 1e-13 * our_e0, "{dataset}: {e0} vs {our_e0}");
+        assert!(e < e0, "{dataset}: {e} from {e0}");
+        assert_eq!(of("gd", "nh").unwrap()[col("status")], "skipped");
+    }
+    // the problem folder kept: the handles in the normalized frame
+    let spec: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(tmp.path().join("out/external/planar_bar_2k__sd__gd/problem.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(spec["task"], "deform");
+    assert_eq!(spec["handles"]["lambda"].as_f64(), Some(1e5));
+    let n = spec["handles"]["vertices"].as_array().unwrap().len();
+    assert!(n > 0 && spec["handles"]["targets"].as_array().unwrap().len() == n);
+}

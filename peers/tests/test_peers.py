@@ -77,6 +77,33 @@ def test_the_templates_gradient_matches_central_differences(tmp_path):
         assert fd == pytest.approx(g.flat[k], abs=1e-7, rel=1e-6), k
 
 
+def test_the_handles_penalty_and_its_gradient(tmp_path):
+    """deform's objective: SD plus lambda * sum |x_v - target|^2; the gradient against central
+    differences, a handle at its target costs nothing."""
+    V, F = grid()
+    folder = problem(tmp_path, distorted(V))
+    spec = json.loads((tmp_path / "problem.json").read_text())
+    spec["task"] = "deform"
+    spec["handles"] = {"lambda": 3.0, "vertices": [0, 7, 7], "targets": [[0.1, 0.2], [0.5, -0.5], [0.0, 0.0]]}
+    (tmp_path / "problem.json").write_text(json.dumps(spec))
+    p = Problem(folder)
+    uv = distorted(V)
+    d0, d7 = uv[0] - [0.1, 0.2], uv[7] - [0.5, -0.5]
+    assert p.penalty(uv) == pytest.approx(3.0 * (d0 @ d0 + d7 @ d7 + uv[7] @ uv[7]), rel=1e-14)
+    assert p.objective(uv) == pytest.approx(p.sd(uv) + p.penalty(uv), rel=1e-15)
+    g = p.penalty_gradient(uv)
+    h = 1e-6
+    for k in range(uv.size):
+        e = np.zeros(uv.size)
+        e[k] = h
+        e = e.reshape(uv.shape)
+        fd = (p.penalty(uv + e) - p.penalty(uv - e)) / (2 * h)
+        assert fd == pytest.approx(g.flat[k], abs=1e-8), k
+    at = uv.copy()
+    at[0] = [0.1, 0.2]
+    assert p.penalty_gradient(at)[0] == pytest.approx([0.0, 0.0])
+
+
 @pytest.mark.parametrize("adapter", ["example_gd.py", "igl_slim.py"])
 def test_an_adapter_writes_records_snapshots_and_a_result(tmp_path, adapter):
     V, F = grid(7)

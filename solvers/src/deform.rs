@@ -120,6 +120,25 @@ pub fn solve_deform(
     Ok(outcome)
 }
 
+/// The problem of a `deform` run (its energy with the handles' penalty, no smoothness term of a
+/// solver's own projection) and its start, in the normalized frame, after the checks
+/// [`solve_deform`] makes of the mesh, the handles and the energy: what a solver outside the
+/// catalogue is given and judged on.
+pub fn deform_start(
+    mesh: &Mesh,
+    handles: &[Handle],
+    init: Option<&[[f64; 2]]>,
+    energy: EnergyKind,
+    settings: &DeformSettings,
+) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
+    energy.check().map_err(MapError::Energy)?;
+    validate_for(mesh, Task::Deform).into_result()?;
+    check_handles(mesh, handles)?;
+    let (mut problem, _, x) = deform_problem(mesh, init, energy, None, settings)?;
+    problem.penalty = Some(penalty(mesh, handles, settings.lambda));
+    Ok((problem, x, if init.is_some() { StartMap::Given } else { StartMap::Rest }))
+}
+
 /// The elastic energy of a `deform` problem (its energy without the handles' penalty) at the
 /// rest pose and at the start. The penalty dominates the start's energy (`lambda = 1e5`
 /// against an elastic energy of order 1), so the judge measures how far a run is from the
@@ -351,6 +370,30 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(err.contains("initial map: 1 points for"), "{err}");
+    }
+
+    /// What an external solver gets is what ours start from: the same problem (its energy at
+    /// the start is row 0's, to round-off) and the same start, the rest pose or the shape's own.
+    #[test]
+    fn deform_start_is_the_problem_and_start_of_a_run() {
+        for (name, given) in [("planar_bar_2k", false), ("planar_bar_release_2k", true)] {
+            let mesh = generate(name).unwrap();
+            let handles = generated_handles(name).unwrap();
+            let init = given.then(|| crate::generate::generated_init(name).unwrap());
+            let energy = EnergyKind::Sd(Sd);
+            let mut s = settings();
+            s.solver.stop.max_iters = 0;
+            let (problem, x, start) = deform_start(&mesh, &handles, init.as_deref(), energy, &s).unwrap();
+            assert_eq!(start, if given { StartMap::Given } else { StartMap::Rest });
+            let mut rec = Recorder::default();
+            let out = solve_deform(&mesh, &handles, init.as_deref(), energy, "kp-newton", &s, &mut rec).unwrap();
+            assert_eq!(out.x, x, "{name}: the start");
+            let e = problem.energy(&x);
+            assert!((e - rec.rows[0].energy).abs() <= 1e-13 * e, "{name}: {e} vs {}", rec.rows[0].energy);
+            assert!(problem.penalty.as_ref().is_some_and(|p| p.handles.len() == handles.len()));
+        }
+        let err = deform_start(&generate("planar_bar_2k").unwrap(), &[], None, EnergyKind::Sd(Sd), &settings());
+        assert!(matches!(err, Err(MapError::NoHandles { .. })), "{:?}", err.err());
     }
 
     #[test]

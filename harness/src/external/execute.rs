@@ -3,16 +3,18 @@
 
 use super::child::{self, ChildRun, Exit};
 use super::probe::ended;
-use super::protocol::{self, ExternalStop, ProblemSpec, Record, Snapshot, StopSpec};
+use super::protocol::{self, ExternalStop, HandlesSpec, ProblemSpec, Record, Snapshot, StopSpec};
 use crate::column_names::{intern, is_column_name};
 use crate::plan::external::Declared;
 use crate::run_folder::ITERATION_COLUMNS;
+use solvers::deform::{deform_start, DeformSettings};
 use solvers::energy::EnergyKind;
+use solvers::handle::Handle;
 use solvers::mesh::{Mesh, Task};
 use solvers::param::{start_map, ParamSettings};
 use solvers::problem::MapProblem;
 use solvers::solver::catalogue::Start;
-use solvers::solver::{IterationRecord, Outcome, StopReason};
+use solvers::solver::{IterationRecord, Outcome, StartMap, StopReason, StopSettings};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
@@ -38,14 +40,56 @@ pub struct Job<'a> {
     pub dir: PathBuf,
     /// Where the child's output goes: `<logs>.stdout.txt`, `<logs>.stderr.txt`.
     pub logs: PathBuf,
-    pub energy: EnergyKind,
-    pub settings: &'a ParamSettings,
+    pub setup: Setup<'a>,
     pub timeout: Option<Duration>,
     /// Stop after this iteration (a repeat of a run that timed out): asked as `max_iters`,
     /// recorded as a timeout.
     pub stop_at: Option<usize>,
     pub threads: usize,
     pub interrupt: &'a AtomicBool,
+}
+
+/// The task's side of a job: what makes its problem and start.
+pub enum Setup<'a> {
+    Param {
+        energy: EnergyKind,
+        settings: &'a ParamSettings,
+    },
+    Deform {
+        energy: EnergyKind,
+        settings: &'a DeformSettings,
+        handles: &'a [Handle],
+        /// The dataset's own start (a generated shape's), else the rest pose.
+        init: Option<&'a [[f64; 2]]>,
+    },
+}
+
+impl Setup<'_> {
+    /// The normalized mesh, the problem (with the handles' penalty for `deform`), the start
+    /// and which start it is: what our solvers of the task get.
+    fn problem(&self, mesh: &Mesh) -> Result<(Mesh, MapProblem, Vec<f64>, StartMap), String> {
+        match self {
+            Setup::Param { energy, settings } => {
+                solvers::mesh::validate_for(mesh, Task::Param).into_result().map_err(|e| format!("{e:#}"))?;
+                let rest = mesh.normalized();
+                let problem = MapProblem::new(&rest, *energy).map_err(|e| format!("{e:#}"))?;
+                let (x0, start) = start_map(&rest, &problem, Start::Common, settings).map_err(|e| format!("{e:#}"))?;
+                Ok((rest, problem, x0, start))
+            }
+            Setup::Deform { energy, settings, handles, init } => {
+                let (problem, x0, start) =
+                    deform_start(mesh, handles, *init, *energy, settings).map_err(|e| format!("{e:#}"))?;
+                Ok((mesh.normalized(), problem, x0, start))
+            }
+        }
+    }
+
+    fn task(&self) -> (Task, EnergyKind, StopSettings) {
+        match self {
+            Setup::Param { energy, settings } => (Task::Param, *energy, settings.solver.stop),
+            Setup::Deform { energy, settings, .. } => (Task::Deform, *energy, settings.solver.stop),
+        }
+    }
 }
 
 /// What an external run produced.
@@ -83,14 +127,11 @@ pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
         true => ExternalError::Failed(what),
         false => ExternalError::Failed(format!("{}: {what}", mesh.source)),
     };
-    solvers::mesh::validate_for(mesh, Task::Param).into_result().map_err(|e| failed(format!("{e:#}")))?;
-    let mesh = mesh.normalized();
-    let problem = MapProblem::new(&mesh, job.energy).map_err(|e| failed(format!("{e:#}")))?;
-    let (x0, start) = start_map(&mesh, &problem, Start::Common, job.settings).map_err(|e| failed(format!("{e:#}")))?;
-    let stop = job.settings.solver.stop;
-    let spec = ProblemSpec::new(
-        Task::Param,
-        job.energy,
+    let (mesh, problem, x0, start) = job.setup.problem(mesh).map_err(failed)?;
+    let (task, energy, stop) = job.setup.task();
+    let mut spec = ProblemSpec::new(
+        task,
+        energy,
         StopSpec {
             max_iters: job.stop_at.unwrap_or(stop.max_iters),
             grad_tol: stop.grad_tol,
@@ -100,6 +141,7 @@ pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
         job.threads,
         job.declared.snapshot_every,
     );
+    spec.handles = problem.penalty.as_ref().map(HandlesSpec::of);
     let _ = std::fs::remove_dir_all(&job.dir);
     std::fs::create_dir_all(&job.dir)
         .map_err(|e| failed(format!("{}: cannot create the problem folder: {e}", job.dir.display())))?;

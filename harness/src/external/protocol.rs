@@ -14,7 +14,8 @@ use std::path::Path;
 pub const PROTOCOL: u32 = 1;
 
 const CONVENTION: &str = "the mesh is centred and scaled to area 1; the energy is the area-weighted mean of the \
-                          density, SD = 1/2 (|J|^2 + |J^-1|^2), 2 at an isometry";
+                          density, SD = 1/2 (|J|^2 + |J^-1|^2), 2 at an isometry; deform adds lambda * sum \
+                          |x_v - target|^2 over the handles";
 
 /// `problem.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -29,6 +30,29 @@ pub struct ProblemSpec {
     pub timeout_s: Option<f64>,
     pub threads: usize,
     pub snapshot_every: usize,
+    /// `deform`: the soft handles whose penalty is part of the energy.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub handles: Option<HandlesSpec>,
+}
+
+/// The handles of a `deform` problem: the energy adds `lambda * sum |x_v - target|^2` over
+/// them, targets in the normalized frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HandlesSpec {
+    pub lambda: f64,
+    /// 0-based vertex indices of `mesh.obj`.
+    pub vertices: Vec<usize>,
+    pub targets: Vec<[f64; 2]>,
+}
+
+impl HandlesSpec {
+    pub fn of(penalty: &solvers::problem::Penalty) -> HandlesSpec {
+        HandlesSpec {
+            lambda: penalty.lambda,
+            vertices: penalty.handles.iter().map(|h| h.0).collect(),
+            targets: penalty.handles.iter().map(|h| h.1).collect(),
+        }
+    }
 }
 
 /// The stop rules the solver is asked to apply (the harness judges the run either way).
@@ -59,6 +83,7 @@ impl ProblemSpec {
             timeout_s,
             threads,
             snapshot_every,
+            handles: None,
         }
     }
 }

@@ -6,9 +6,9 @@ use serde::{Deserialize, Serialize};
 use solvers::energy::ENERGY_NAMES;
 use solvers::mesh::Task;
 
-/// The tasks the protocol covers (`deform` needs the handles in `problem.json`, `authalic`
-/// its own disk energy; neither is part of protocol 1).
-pub const PROTOCOL_TASKS: [Task; 1] = [Task::Param];
+/// The tasks the protocol covers (`authalic`, with its own disk energy and boundary, is not
+/// part of protocol 1).
+pub const PROTOCOL_TASKS: [Task; 2] = [Task::Param, Task::Deform];
 
 /// `[external.<name>]`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -18,7 +18,7 @@ pub struct Declared {
     /// It runs in the config's folder; a program given as a relative path with a `/` is
     /// found there too.
     pub command: Vec<String>,
-    /// The tasks it solves (protocol 1: `param`).
+    /// The tasks it solves (protocol 1: `param`, `deform`).
     pub tasks: Vec<Task>,
     /// The energies it minimizes; the other pairs of a batch are skipped with the reason.
     pub energies: Vec<String>,
@@ -92,8 +92,8 @@ mod tests {
         assert_eq!((d.snapshot_every, d.keep_problem, d.version.as_ref()), (1, false, None));
         let err = |text: &str| format!("{:#}", declared(text).unwrap_err());
         assert!(err("command = []\ntasks = [\"param\"]\nenergies = [\"sd\"]\n").contains("command is empty"));
-        assert!(err("command = [\"x\"]\ntasks = [\"deform\"]\nenergies = [\"sd\"]\n")
-            .contains("tasks: deform is not in the external-solver protocol (it covers param"));
+        assert!(err("command = [\"x\"]\ntasks = [\"authalic\"]\nenergies = [\"sd\"]\n")
+            .contains("tasks: authalic is not in the external-solver protocol (it covers param, deform"));
         assert!(err("command = [\"x\"]\ntasks = [\"param\"]\nenergies = [\"sdd\"]\n").contains("unknown energy 'sdd'"));
         assert!(err("command = [\"x\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\nversion = []\n")
             .contains("version is empty"));

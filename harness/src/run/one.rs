@@ -2,7 +2,7 @@
 //! summary row and rows, never stopping the batch.
 
 use super::progress::Progress;
-use crate::external::execute::{execute, ExternalError, Job};
+use crate::external::execute::{execute, ExternalError, Job, Setup};
 use crate::external::probe::Probe;
 use crate::plan::external::Declared;
 use crate::plan::{Plan, PlannedRun, RunSettings};
@@ -156,8 +156,29 @@ fn run_external(
     if let Some(why) = ctx.probes.iter().find(|p| p.name == run.solver).and_then(|p| p.unavailable.clone()) {
         return skip(summary, why);
     }
-    let RunSettings::Param { energy, settings } = &run.settings else {
-        return skip(summary, format!("{}: external solvers run the param task only", run.solver));
+    let (handles, init);
+    let setup = match &run.settings {
+        RunSettings::Param { energy, settings } => Setup::Param { energy: *energy, settings },
+        RunSettings::Deform { energy, settings } => {
+            // As for ours: a bad mesh fails with validate's reason, not the handle rule's.
+            let loaded = solvers::mesh::validate_for(mesh, solvers::mesh::Task::Deform)
+                .into_result()
+                .map_err(anyhow::Error::new)
+                .and_then(|()| plan.dataset(run).handles.load(mesh));
+            handles = match loaded {
+                Ok(h) => h,
+                Err(e) => {
+                    summary.status = Status::Failed;
+                    summary.error = format!("{e:#}");
+                    return result(summary, Vec::new());
+                }
+            };
+            init = plan.dataset(run).initial_map();
+            Setup::Deform { energy: *energy, settings, handles: &handles, init: init.as_deref() }
+        }
+        RunSettings::Authalic(_) => {
+            return skip(summary, format!("{}: the external-solver protocol has no authalic task", run.solver))
+        }
     };
     let external = crate::run_folder::external_dir(ctx.out_dir);
     let job = Job {
@@ -166,8 +187,7 @@ fn run_external(
         cwd: &plan.config.dir,
         dir: external.join(&run.stem),
         logs: external.join(&run.stem),
-        energy: *energy,
-        settings,
+        setup,
         timeout: plan.timeout,
         stop_at: ctx.stop_at,
         threads: ctx.threads,
