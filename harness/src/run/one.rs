@@ -204,12 +204,10 @@ fn run_external(
             return result(summary, Vec::new());
         }
     };
-    record_outcome(&mut summary, &executed.outcome, None, &executed.rows, executed.time_s, run, mesh);
-    // The child's own clock and memory: `time_s` is the harness's wall time of the process
-    // (its start-up included), less what it said its records took.
-    summary.time_s = Some(executed.time_s);
-    (summary.repeats, summary.time_s_min, summary.time_s_max) = (Some(1), summary.time_s, summary.time_s);
-    fill_times(&mut summary, &executed.rows);
+    // `time_s`: the child's wall time on our clock (its start-up included), less what it said
+    // its records took; its memory is its own process group's; it has no Newton systems.
+    record_outcome(&mut summary, &executed.outcome, None, &executed.rows, executed.wall_s, run, mesh);
+    summary.shifted_iters = None;
     summary.peak_rss_mb = executed.peak_rss_mb;
     summary.verified_snapshots = Some(executed.verified);
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &executed.outcome.x));
