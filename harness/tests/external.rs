@@ -240,3 +240,34 @@ fn an_external_deform_run_is_verified_with_the_handles_penalty() {
     let n = spec["handles"]["vertices"].as_array().unwrap().len();
     assert!(n > 0 && spec["handles"]["targets"].as_array().unwrap().len() == n);
 }
+
+/// `--shard` and `merge` take external runs like any other: the merged folder has every run
+/// once, the external ones verified, and the solver's probe in its `meta.json`.
+#[test]
+fn external_runs_shard_and_merge_like_ours() {
+    let tmp = tempfile::tempdir().unwrap();
+    let gd = repo_root().join("peers/example_gd.py").display().to_string();
+    let mut config = String::from(
+        "name = \"s\"\ndatasets = [\"bumpy_1k\", \"cap_2k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"gd\"]\n\
+         [stop]\nmax_iters = 5\n",
+    );
+    config += &external("gd", &["python3", &gd], "version = [\"python3\", \"-c\", \"print('gd 2')\"]\n");
+    let cfg = write_config(tmp.path(), &config);
+    for shard in ["1/2", "2/2"] {
+        let out = format!("shard{}", &shard[..1]);
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--shard", shard, "--out", &out, "--no-history"], tmp.path());
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    let o = mapbench(&["merge", "shard1", "shard2", "--out", "merged", "--no-history"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (h, rows) = read_csv(&tmp.path().join("merged/summary.csv"));
+    assert_eq!(rows.len(), 4);
+    for dataset in ["bumpy_1k", "cap_2k"] {
+        let r = rows.iter().find(|r| r[0] == dataset && r[3] == "gd").unwrap();
+        assert_eq!(column(&h, std::slice::from_ref(r), "gd", "verified_snapshots"), "6", "{dataset}");
+    }
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("merged/meta.json")).unwrap()).unwrap();
+    assert_eq!(meta["external"][0]["version"], "gd 2");
+    assert_eq!(meta["external"].as_array().unwrap().len(), 1);
+}
