@@ -193,11 +193,16 @@ fn run_and_read(
         Exit::TimedOut => StopReason::Timeout,
         other => return Err(failed(format!("{} {}{}", job.name, ended(other), said()))),
     };
-    let records = protocol::read_records(&dir);
-    let records = if child.exit == Exit::TimedOut {
-        // Killed at the deadline: the run ends at its last map (a line cut by the kill, or none
-        // at all, is no record).
-        let mut records = records.unwrap_or_default();
+    let killed = child.exit == Exit::TimedOut;
+    let records = protocol::read_records(&dir, killed);
+    let records = if killed {
+        // Killed at the deadline: the run ends at its last map (a line the kill cut is no
+        // record; no file at all, none).
+        let mut records = match records {
+            Ok(r) => r,
+            Err(_) if !dir.join("iterations.jsonl").exists() => Vec::new(),
+            Err(e) => return Err(failed(format!("{e:#}"))),
+        };
         let last = (0..records.len()).rev().find(|k| protocol::snapshot_path(&dir, *k).exists()).ok_or_else(|| {
             failed(format!("{} passed its timeout before it wrote the start map (maps/0.uv)", job.name))
         })?;

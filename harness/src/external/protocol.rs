@@ -114,11 +114,13 @@ pub struct Record {
 }
 
 /// `iterations.jsonl`, checked: iterations 0, 1, 2, ... in order, times that do not go back.
-pub fn read_records(dir: &Path) -> Result<Vec<Record>> {
+/// With `cut`, the solver was killed: a last line it did not finish is no record.
+pub fn read_records(dir: &Path, cut: bool) -> Result<Vec<Record>> {
     let path = dir.join("iterations.jsonl");
     let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
     let mut records: Vec<Record> = Vec::new();
-    for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+    let finished = if cut && !text.ends_with('\n') { text.rfind('\n').map_or("", |end| &text[..=end]) } else { &text };
+    for (i, line) in finished.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
         let at = || format!("{} line {}", path.display(), i + 1);
         let r: Record = serde_json::from_str(line).with_context(|| format!("{}: not a record", at()))?;
         if r.iter != records.len() {
@@ -129,7 +131,7 @@ pub fn read_records(dir: &Path) -> Result<Vec<Record>> {
         }
         records.push(r);
     }
-    if records.is_empty() {
+    if records.is_empty() && !cut {
         bail!("{}: no records (iteration 0 is the start map)", path.display());
     }
     Ok(records)
@@ -275,24 +277,24 @@ mod tests {
         let y: Vec<f64> = x.iter().map(|v| v * 1.1).collect();
         let ey = problem.energy(&y);
         write_run(dir.path(), &[e, 0.5 * (e + ey), ey], &[(0, &x), (2, &y)]);
-        let records = read_records(dir.path()).unwrap();
+        let records = read_records(dir.path(), false).unwrap();
         assert_eq!(records[1].extras["note"], "x");
         let snaps = verify(dir.path(), &problem, &records).unwrap();
         assert_eq!(snaps.iter().map(|s| (s.iter, s.energy, s.flips)).collect::<Vec<_>>(), [(0, e, 0), (2, ey, 0)]);
         assert!(snaps.iter().all(|s| s.grad_norm.is_some_and(|g| g > 0.0)));
 
         write_run(dir.path(), &[2.0 * e, ey], &[(0, &x), (1, &y)]);
-        let err = verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).unwrap_err().to_string();
+        let err = verify(dir.path(), &problem, &read_records(dir.path(), false).unwrap()).unwrap_err().to_string();
         assert!(
             err.starts_with(&format!("iteration 0: the solver reported energy {:?} but its map has {e:?}", 2.0 * e))
         );
         assert!(err.ends_with("(a factor of 2: another convention of the energy?)"), "{err}");
         write_run(dir.path(), &[e, e * (1.0 + 1e-6)], &[(0, &x), (1, &x)]);
-        let err = verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).unwrap_err().to_string();
+        let err = verify(dir.path(), &problem, &read_records(dir.path(), false).unwrap()).unwrap_err().to_string();
         assert!(err.starts_with("iteration 1: the solver reported energy") && !err.contains("factor"), "{err}");
         // round-off passes
         write_run(dir.path(), &[e * (1.0 + 1e-14), ey], &[(0, &x), (1, &y)]);
-        assert!(verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).is_ok());
+        assert!(verify(dir.path(), &problem, &read_records(dir.path(), false).unwrap()).is_ok());
     }
 
     #[test]
@@ -300,27 +302,38 @@ mod tests {
         let (dir, _, problem, x) = setup();
         let e = problem.energy(&x);
         write_run(dir.path(), &[e, e], &[(0, &x)]);
-        let err = verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).unwrap_err().to_string();
+        let err = verify(dir.path(), &problem, &read_records(dir.path(), false).unwrap()).unwrap_err().to_string();
         assert!(err.ends_with("the map of iteration 1 is missing (the first and the last are due)"), "{err}");
         write_run(dir.path(), &[e], &[(0, &x[..x.len() - 2])]);
-        let err = format!("{:#}", verify(dir.path(), &problem, &read_records(dir.path()).unwrap()).unwrap_err());
+        let err = format!("{:#}", verify(dir.path(), &problem, &read_records(dir.path(), false).unwrap()).unwrap_err());
         assert!(err.contains(&format!("map vertices, but the mesh has {}", x.len() / 2)), "{err}");
         std::fs::write(
             dir.path().join("iterations.jsonl"),
             "{\"iter\": 0, \"energy\": 1, \"time_s\": 0}\n{\"iter\": 2, \"energy\": 1, \"time_s\": 1}\n",
         )
         .unwrap();
-        assert!(read_records(dir.path()).unwrap_err().to_string().ends_with("line 2: iteration 2 where 1 was due"));
+        assert!(read_records(dir.path(), false)
+            .unwrap_err()
+            .to_string()
+            .ends_with("line 2: iteration 2 where 1 was due"));
         std::fs::write(
             dir.path().join("iterations.jsonl"),
             "{\"iter\": 0, \"energy\": 1, \"time_s\": 1}\n{\"iter\": 1, \"energy\": 1, \"time_s\": 0.5}\n",
         )
         .unwrap();
-        assert!(read_records(dir.path()).unwrap_err().to_string().contains("time_s = 0.5 goes back"));
+        assert!(read_records(dir.path(), false).unwrap_err().to_string().contains("time_s = 0.5 goes back"));
+        // a line the kill cut is dropped only when the solver was killed
+        std::fs::write(
+            dir.path().join("iterations.jsonl"),
+            "{\"iter\": 0, \"energy\": 1, \"time_s\": 0}\n{\"iter\": 1, \"ene",
+        )
+        .unwrap();
+        assert_eq!(read_records(dir.path(), true).unwrap().len(), 1);
+        assert!(read_records(dir.path(), false).is_err());
         std::fs::write(dir.path().join("iterations.jsonl"), "garbage\n").unwrap();
-        assert!(read_records(dir.path()).unwrap_err().to_string().ends_with("line 1: not a record"));
+        assert!(read_records(dir.path(), false).unwrap_err().to_string().ends_with("line 1: not a record"));
         std::fs::write(dir.path().join("iterations.jsonl"), "").unwrap();
-        assert!(read_records(dir.path()).is_err());
+        assert!(read_records(dir.path(), false).is_err());
         std::fs::write(dir.path().join("result.json"), "{\"stop_reason\": \"converged\"}").unwrap();
         assert_eq!(read_result(dir.path()).unwrap().stop_reason, ExternalStop::Converged);
         std::fs::write(dir.path().join("result.json"), "{\"stop_reason\": \"bored\"}").unwrap();
