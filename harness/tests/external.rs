@@ -52,7 +52,7 @@ fn external_solvers_are_verified_and_each_failure_stays_in_its_run() {
     );
     let mute = peer(d, "mute", "time.sleep(600)");
     let mut config = String::from(
-        "name = \"x\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\", \"sarap\"]\ntimeout = \"4s\"\nmaps = \"all\"\n\
+        "name = \"x\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\", \"sarap\"]\ntimeout = \"10s\"\nmaps = \"all\"\n\
          solvers = [\"kp-newton\", \"gd\", \"liar\", \"crash\", \"short\", \"garbage\", \"hang\", \"mute\", \"absent\", \
          \"nopkg\"]\n[stop]\nmax_iters = 12\n",
     );
@@ -148,6 +148,8 @@ fn external_solvers_are_verified_and_each_failure_stays_in_its_run() {
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "out", "--resume", "--no-history", "--jobs", "2"], d);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("bumpy_1k sd gd: resumed, ran (max_iters), 12 iterations"), "{}", text(&o));
+    // a skip for want of a program is not kept: it is asked again
+    assert!(text(&o).contains("bumpy_1k sd absent: skipped"), "{}", text(&o));
     let o = mapbench(
         &[
             "run",

@@ -63,7 +63,8 @@ pub struct Schedule {
     max_cols: usize,
 }
 
-/// Why a schedule could not be built (the caller then uses faer's sequential factorization).
+/// Why a schedule could not be built (the analysis postorders an order it refuses as
+/// [`ScheduleError::NotPostordered`]; the other reasons are errors of the analysis).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum ScheduleError {
     /// The supernodes are not numbered in a postorder of their tree.

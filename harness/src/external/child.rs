@@ -65,7 +65,15 @@ pub fn run(
         why: std::io::Error::new(std::io::ErrorKind::InvalidInput, "the command is empty"),
     })?;
     let mut cmd = Command::new(program_in(program, cwd));
-    cmd.args(args).args(last).current_dir(cwd).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    // Python would write its bytecode cache beside the adapter's modules: outside the run
+    // folder, and shared by the runs at once.
+    cmd.args(args)
+        .args(last)
+        .current_dir(cwd)
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
     #[cfg(unix)]
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     let t0 = Instant::now();
@@ -110,6 +118,24 @@ pub fn program_in(program: &str, cwd: &Path) -> std::path::PathBuf {
     } else {
         p.to_path_buf()
     }
+}
+
+/// `command` with every argument that names a file of `folder` (relative, as a config gives
+/// it) made absolute, and the program too when it is a relative path: the command runs in
+/// another folder then.
+pub fn absolute_in(command: &[String], folder: &Path) -> Vec<String> {
+    command
+        .iter()
+        .enumerate()
+        .map(|(i, arg)| {
+            let p = if i == 0 { program_in(arg, folder) } else { folder.join(arg) };
+            let named = Path::new(arg).is_relative() && (i > 0 || p != Path::new(arg)) && p.exists();
+            match named {
+                true => std::path::absolute(&p).unwrap_or(p).display().to_string(),
+                false => arg.clone(),
+            }
+        })
+        .collect()
 }
 
 /// Read a stream to its end on a thread (a full pipe would block the child), keeping the
@@ -259,5 +285,12 @@ mod tests {
         std::fs::set_permissions(dir.path().join("peer.sh"), std::os::unix::fs::PermissionsExt::from_mode(0o755))
             .unwrap();
         assert_eq!(run(&["./peer.sh".into()], dir.path(), None, None, &no, 64).unwrap().exit, Exit::Code(4));
+        // from another folder: the files the command names, made absolute
+        let cmd: Vec<String> = ["./peer.sh", "sh", "peer.sh", "--x", "absent.py"].map(String::from).to_vec();
+        let abs = absolute_in(&cmd, dir.path());
+        let peer = std::path::absolute(dir.path().join("peer.sh")).unwrap().display().to_string();
+        assert_eq!(abs, [peer.as_str(), "sh", peer.as_str(), "--x", "absent.py"]);
+        let elsewhere = tempfile::tempdir().unwrap();
+        assert_eq!(run(&abs[..1], elsewhere.path(), None, None, &no, 64).unwrap().exit, Exit::Code(4));
     }
 }

@@ -26,6 +26,14 @@ pub const KEEP_OUTPUT: usize = 64 * 1024;
 /// solver's record (0).
 pub const VERIFIED_COLUMN: &str = "verified";
 
+/// Without a config `timeout`, an external run is killed after this long: a solver that
+/// hangs fails its run instead of holding a worker for ever.
+pub const DEFAULT_KILL: Duration = Duration::from_secs(3600);
+
+/// A repeat of a run that timed out replays it to the same iteration (asked as `max_iters`),
+/// killed after this many times the timeout.
+const REPLAY_KILL_FACTOR: u32 = 4;
+
 /// The record key whose value is the time the solver spent on the record and its snapshot
 /// (left out of the run's time like our solvers' `t_record_s`), not an extra column.
 pub const RECORD_TIME_KEY: &str = "record_s";
@@ -34,7 +42,7 @@ pub const RECORD_TIME_KEY: &str = "record_s";
 pub struct Job<'a> {
     pub name: &'a str,
     pub declared: &'a Declared,
-    /// The folder the command runs in (the config's).
+    /// The config's folder: the files its command names are there.
     pub cwd: &'a Path,
     /// The problem folder to write (made anew, removed after unless `keep_problem`).
     pub dir: PathBuf,
@@ -171,8 +179,15 @@ fn run_and_read(
     failed: &dyn Fn(String) -> ExternalError,
 ) -> Result<(Read, ChildRun), ExternalError> {
     let dir = std::path::absolute(&job.dir).unwrap_or_else(|_| job.dir.clone());
-    let timeout = job.timeout.filter(|_| job.stop_at.is_none());
-    let child = child::run(&job.declared.command, job.cwd, Some(&dir), timeout, job.interrupt, KEEP_OUTPUT)
+    let kill = match (job.timeout, job.stop_at) {
+        (Some(t), None) => t,
+        (Some(t), Some(_)) => t * REPLAY_KILL_FACTOR,
+        (None, _) => DEFAULT_KILL,
+    };
+    // It runs in its problem folder, whatever it writes stays in the run folder; what its
+    // command names in the config's folder is given as absolute paths.
+    let command = child::absolute_in(&job.declared.command, job.cwd);
+    let child = child::run(&command, &dir, Some(&dir), Some(kill), job.interrupt, KEEP_OUTPUT)
         .map_err(|e| ExternalError::CannotStart(e.to_string()))?;
     keep_output(&job.logs, &child);
     let said = || {
@@ -226,8 +241,10 @@ fn run_and_read(
 
 /// The child's output beside the run's files (the last repeat's), when there is any.
 fn keep_output(logs: &Path, child: &ChildRun) {
+    let stem = logs.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     for (stream, text) in [("stdout", &child.stdout), ("stderr", &child.stderr)] {
-        let path = logs.with_extension(format!("{stream}.txt"));
+        // Run names may hold dots: the stream's suffix is appended, never substituted.
+        let path = logs.with_file_name(format!("{stem}.{stream}.txt"));
         if text.is_empty() {
             let _ = std::fs::remove_file(&path);
         } else {

@@ -434,12 +434,22 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                     let again = if round > 0 { format!(" (repeat {})", round + 1) } else { String::new() };
                     progress.run_started(worker, &format!("{} {} {}{again}", ds.name, p.energy, p.solver));
                     // An unreadable mesh file has no key; its run fails below as usual. An external
-                    // solver's version is part of its code.
-                    let version = probes.iter().find(|x| x.name == p.solver).and_then(|x| x.version.as_deref());
-                    let code = version.map_or(code.to_string(), |v| format!("{code} {} {v}", p.solver));
+                    // solver's version is part of its code, and the threads it is given (ours give
+                    // the same bits on any).
+                    let probe = probes.iter().find(|x| x.name == p.solver);
+                    let code = match probe {
+                        Some(x) => format!("{code} {} {:?} threads={threads}", p.solver, x.version),
+                        None => code.to_string(),
+                    };
                     let key = resume::run_key(plan, p, &code).ok();
-                    let earlier =
-                        |summary, rows| RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false };
+                    let earlier = |summary, rows| RunResult {
+                        summary,
+                        rows,
+                        map_uv: None,
+                        mesh_file: None,
+                        interrupted: false,
+                        unkeyed: false,
+                    };
                     let previous = match (&key, opts.resume && round == 0) {
                         (Some(k), true) => resume::previous(out_dir, &p.stem, k, plan.maps)
                             .map(|(summary, rows)| (earlier(summary, rows), Origin::Resumed))
@@ -478,6 +488,7 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                         }
                     };
                     meshes.done(p.dataset);
+                    let key = key.filter(|_| !result.unkeyed);
                     if tx.send(Done { index: i, worker, result, origin, key }).is_err() {
                         break;
                     }

@@ -59,6 +59,9 @@ pub(super) struct RunResult {
     pub mesh_file: Option<Arc<Vec<u8>>>,
     /// Stopped by an interrupt of the batch: not a result, nothing is written.
     pub interrupted: bool,
+    /// Skipped for want of something on this machine (an external solver's program or
+    /// package): no `--resume` key, so the run runs once it is installed.
+    pub unkeyed: bool,
 }
 
 /// One run; never returns an error or panics: failures become a `failed` summary row.
@@ -78,7 +81,7 @@ pub(super) fn run_one(
     let fail = |mut summary: SummaryRow, error: String| {
         summary.status = Status::Failed;
         summary.error = error;
-        RunResult { summary, rows: Vec::new(), map_uv: None, mesh_file: None, interrupted: false }
+        RunResult { summary, rows: Vec::new(), map_uv: None, mesh_file: None, interrupted: false, unkeyed: false }
     };
     // A pair outside the solver's definition is not solved: no rows, no map, the reason.
     if let Some(reason) = &run.skip {
@@ -88,7 +91,14 @@ pub(super) fn run_one(
         summary.status = Status::Skipped;
         summary.stop_reason = Some(StopReason::Skipped);
         summary.error = reason.clone();
-        return RunResult { summary, rows: Vec::new(), map_uv: None, mesh_file: None, interrupted: false };
+        return RunResult {
+            summary,
+            rows: Vec::new(),
+            map_uv: None,
+            mesh_file: None,
+            interrupted: false,
+            unkeyed: false,
+        };
     }
     let mesh = match mesh {
         Ok(m) => m,
@@ -97,7 +107,12 @@ pub(super) fn run_one(
     summary.vertices = Some(mesh.n_vertices());
     summary.faces = Some(mesh.n_faces());
     if let Some(declared) = plan.external(run) {
-        return run_external(plan, run, declared, mesh, ctx, summary);
+        // Our code runs on what the solver wrote: a panic in it fails this run alone.
+        let unwound = summary.clone();
+        return std::panic::catch_unwind(AssertUnwindSafe(|| run_external(plan, run, declared, mesh, ctx, summary)))
+            .unwrap_or_else(|panic| {
+                fail(unwound, format!("{}: internal error (panic): {}", mesh.source, panic_text(&panic)))
+            });
     }
     let mut rows = Rows {
         rows: Vec::new(),
@@ -118,21 +133,23 @@ pub(super) fn run_one(
             let msg = if msg.starts_with(&mesh.source) { msg } else { format!("{}: {msg}", mesh.source) };
             return fail(summary, msg);
         }
-        Err(panic) => {
-            let msg = panic
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "unknown panic".into());
-            return fail(summary, format!("{}: internal error (panic): {msg}", mesh.source));
-        }
+        Err(panic) => return fail(summary, format!("{}: internal error (panic): {}", mesh.source, panic_text(&panic))),
     };
     let rows = rows.rows;
     record_outcome(&mut summary, &outcome, metrics, &rows, elapsed, run, mesh);
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &outcome.x));
     // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
-    RunResult { summary, rows, map_uv, mesh_file: None, interrupted }
+    RunResult { summary, rows, map_uv, mesh_file: None, interrupted, unkeyed: false }
+}
+
+/// The message of a caught panic.
+fn panic_text(panic: &Box<dyn std::any::Any + Send>) -> String {
+    panic
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_else(|| "unknown panic".into())
 }
 
 /// A run of an external solver: skipped when its command cannot start (found by the batch's
@@ -146,12 +163,13 @@ fn run_external(
     ctx: &RunContext,
     mut summary: SummaryRow,
 ) -> RunResult {
-    let result = |summary, rows| RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false };
+    let result =
+        |summary, rows| RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false, unkeyed: false };
     let skip = |mut summary: SummaryRow, reason: String| {
         summary.status = Status::Skipped;
         summary.stop_reason = Some(StopReason::Skipped);
         summary.error = reason;
-        result(summary, Vec::new())
+        RunResult { unkeyed: true, ..result(summary, Vec::new()) }
     };
     if let Some(why) = ctx.probes.iter().find(|p| p.name == run.solver).and_then(|p| p.unavailable.clone()) {
         return skip(summary, why);
@@ -177,7 +195,8 @@ fn run_external(
             Setup::Deform { energy: *energy, settings, handles: &handles, init: init.as_deref() }
         }
         RunSettings::Authalic(_) => {
-            return skip(summary, format!("{}: the external-solver protocol has no authalic task", run.solver))
+            let why = format!("{}: the external-solver protocol has no authalic task", run.solver);
+            return RunResult { unkeyed: false, ..skip(summary, why) };
         }
     };
     let external = crate::run_folder::external_dir(ctx.out_dir);
@@ -207,7 +226,8 @@ fn run_external(
     // `time_s`: the child's wall time on our clock (its start-up included), less what it said
     // its records took; its memory is its own process group's; it has no Newton systems.
     record_outcome(&mut summary, &executed.outcome, None, &executed.rows, executed.wall_s, run, mesh);
-    summary.shifted_iters = None;
+    // Our safety-net counts mean nothing of its columns, whatever they are called.
+    (summary.shifted_iters, summary.clamped_iters, summary.cg_capped_iters) = (None, None, None);
     summary.peak_rss_mb = executed.peak_rss_mb;
     summary.verified_snapshots = Some(executed.verified);
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &executed.outcome.x));

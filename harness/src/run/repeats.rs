@@ -161,7 +161,7 @@ mod tests {
             time_s: Some(time),
             ..Default::default()
         };
-        RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false }
+        RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false, unkeyed: false }
     }
 
     #[test]

@@ -18,14 +18,22 @@ use std::path::Path;
 pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
     let ds = plan.dataset(run);
     // The repeat count too: a median over another number of repeats is another measurement.
-    let mut settings = format!("{} timeout={:?} repeat={}", run.settings.key_text(), plan.timeout, plan.repeat);
-    // An external solver's declaration (its command, snapshots) is part of what it ran.
-    if let Some(declared) = plan.external(run) {
-        settings += &serde_json::to_string(declared)?;
-    }
+    let settings = format!("{} timeout={:?} repeat={}", run.settings.key_text(), plan.timeout, plan.repeat);
     let (energy, solver) = (&run.energy, &run.solver);
     let mut h = Fnv::new();
     h.bytes(code.as_bytes()).bytes(settings.to_string().as_bytes()).bytes(energy.as_bytes()).bytes(solver.as_bytes());
+    // An external solver: its command and snapshots (not whether its problem folder is kept),
+    // and the contents of the files its command names (an adapter edited but not committed
+    // is another solver).
+    if let Some(declared) = plan.external(run) {
+        let ran = crate::plan::external::Declared { keep_problem: false, ..declared.clone() };
+        h.bytes(serde_json::to_string(&ran)?.as_bytes());
+        for file in crate::external::child::absolute_in(&declared.command, &plan.config.dir) {
+            if std::path::Path::new(&file).is_file() {
+                h.file(std::path::Path::new(&file))?;
+            }
+        }
+    }
     ds.hash_into(&mut h)?;
     Ok(format!("{:016x}", h.0))
 }

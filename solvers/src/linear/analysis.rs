@@ -74,10 +74,10 @@ impl Analysis {
                     inv[old] = new;
                 }
                 symbolic = symbolic_of(SymmetricOrdering::Custom(PermRef::new_checked(&post, &inv, n)))?;
-                schedule_of(&symbolic).unwrap_or(None)
+                schedule_of(&symbolic)
+                    .map_err(|e| LinearError::Symbolic(format!("the supernodal schedule, postordered: {e:?}")))?
             }
-            // Otherwise faer's own factorization and solves, which take any order.
-            Err(_) => None,
+            Err(e) => return Err(LinearError::Symbolic(format!("the supernodal schedule: {e:?}"))),
         };
         let used = if perm.is_some() { Ordering::Metis } else { Ordering::Amd };
         let seconds = t0.elapsed().saturating_sub(waited).as_secs_f64();
