@@ -43,7 +43,11 @@ def main(folder):
     for k in range(1, max_iters + 1):
         uv = np.asarray(igl.slim_solve(data, 1), dtype=np.float64)
         new = p.sd(uv)
-        decrease = (energy - new) / abs(energy) if np.isfinite(new) else -np.inf
+        if not np.isfinite(new):
+            # JSON has no infinity: the run fails with what happened, not with a bad record
+            p.finish("error", f"iteration {k}: SLIM's map inverts a face (SD not finite)")
+            return 0
+        decrease = (energy - new) / abs(energy)
         energy = new
         done = k == max_iters or decrease < tol
         if decrease <= 0:
