@@ -177,9 +177,7 @@ pub fn known_reference(config: &Path, dataset: &str, energy: &EnergyKind, mesh: 
             energy.name()
         )
     })?;
-    let rest = mesh.normalized();
-    let problem = MapProblem::new(&rest, *energy).map_err(anyhow::Error::new)?;
-    let (x0, _) = solvers::param::start_map(&rest, &problem, solvers::solver::catalogue::Start::Common, settings)?;
+    let (problem, x0, _) = solvers::param::param_start(mesh, *energy, settings)?;
     Ok((e_star, Some(problem.energy(&x0) - e_star)))
 }
 

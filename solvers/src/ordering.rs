@@ -46,6 +46,15 @@ static METIS_LOCK: Mutex<()> = Mutex::new(());
 /// A permutation as `(fwd, inv)`: `fwd[new] = old`, `inv[old] = new`.
 pub type Permutation = (Vec<usize>, Vec<usize>);
 
+/// `inv` of the permutation `fwd` (`fwd[new] = old`, `inv[old] = new`).
+pub(crate) fn inverse(fwd: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0; fwd.len()];
+    for (new, &old) in fwd.iter().enumerate() {
+        inv[old] = new;
+    }
+    inv
+}
+
 /// A METIS nested-dissection order of the symmetric matrix whose lower triangle is the CSC
 /// pattern (`col_ptr`, `row_idx`), on the graph whose nodes are groups of `block`
 /// consecutive dofs, then postordered. Returns `(fwd, inv)` with `fwd[new] = old`.
@@ -82,10 +91,7 @@ pub fn metis_order_timed(
         fwd.extend((0..block).map(|j| block * v + j));
     }
     let fwd = postorder(n, col_ptr, row_idx, &fwd);
-    let mut inv = vec![0; n];
-    for (new, &old) in fwd.iter().enumerate() {
-        inv[old] = new;
-    }
+    let inv = inverse(&fwd);
     Ok((Some((fwd, inv)), waited))
 }
 
@@ -159,10 +165,7 @@ fn node_nd(nodes: usize, mut xadj: Vec<i32>, mut adjncy: Vec<i32>) -> Result<(Ve
 /// every subtree is numbered contiguously (Liu's etree algorithm with path compression, then
 /// an iterative depth-first search visiting children in increasing order).
 pub(crate) fn postorder(n: usize, col_ptr: &[usize], row_idx: &[usize], fwd: &[usize]) -> Vec<usize> {
-    let mut inv = vec![0; n];
-    for (new, &old) in fwd.iter().enumerate() {
-        inv[old] = new;
-    }
+    let inv = inverse(fwd);
     // Neighbours of each new index with a smaller new index (row k of the permuted lower
     // triangle; grouped with a counting pass, not a vector per row, for the same reason).
     let inv = &inv;
@@ -236,10 +239,7 @@ mod tests {
     fn etree_parents(pat: &Pattern, fwd: &[usize]) -> Vec<Option<usize>> {
         // The same tree from a dense symbolic elimination: parent(j) = min { i > j : L(i, j) != 0 }.
         let n = pat.n;
-        let mut inv = vec![0; n];
-        for (new, &old) in fwd.iter().enumerate() {
-            inv[old] = new;
-        }
+        let inv = inverse(fwd);
         let mut rows: Vec<std::collections::BTreeSet<usize>> = vec![Default::default(); n];
         for c in 0..n {
             for &r in &pat.row_idx[pat.col_ptr[c]..pat.col_ptr[c + 1]] {

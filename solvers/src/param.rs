@@ -65,6 +65,22 @@ pub fn solve_param(
     Ok(outcome)
 }
 
+/// The problem of a `param` run without a smoothness term, and its common start, in the
+/// normalized frame, after the checks of the mesh a run makes: what a solver outside the
+/// catalogue is given and judged on (`deform::deform_start` for `deform`).
+pub fn param_start(
+    mesh: &Mesh,
+    energy: EnergyKind,
+    settings: &ParamSettings,
+) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
+    energy.check().map_err(MapError::Energy)?;
+    crate::mesh::validate_for(mesh, Task::Param).into_result()?;
+    let rest = mesh.normalized();
+    let problem = map_problem(&rest, energy, None, None)?;
+    let (x, start) = start_map(&rest, &problem, Start::Common, settings)?;
+    Ok((problem, x, start))
+}
+
 /// The start of a run with a solver whose catalogue entry says `start`: the common start is
 /// the Tutte map scaled by Section 4.2's rule for the energies that define it (the Tutte map
 /// for the others), the same for every solver; `kp-newton-noscale` keeps the Tutte map.
@@ -99,6 +115,20 @@ mod tests {
     fn run(mesh: &Mesh) -> Result<Outcome, MapError> {
         let energy = EnergyKind::Sd(Sd);
         solve_param(mesh, energy, "kp-newton", &ParamSettings::for_energy(&energy), &mut Recorder::default())
+    }
+
+    /// What an external solver is given is what ours start from: the same map and energy.
+    #[test]
+    fn param_start_is_the_problem_and_start_of_a_run() {
+        let mesh = generate("bumpy_1k").unwrap();
+        let energy = EnergyKind::Sd(Sd);
+        let mut settings = ParamSettings::for_energy(&energy);
+        settings.solver.stop.max_iters = 0;
+        let (problem, x, start) = param_start(&mesh, energy, &settings).unwrap();
+        let mut rec = Recorder::default();
+        let out = solve_param(&mesh, energy, "kp-newton", &settings, &mut rec).unwrap();
+        assert_eq!((out.x, out.start), (x.clone(), Some(start)));
+        assert_eq!(problem.energy(&x).to_bits(), rec.rows[0].energy.to_bits());
     }
 
     /// Every param solver starts from the same map, the Tutte map scaled for the energies

@@ -489,8 +489,7 @@ pub(crate) mod tests {
             ..Default::default()
         };
         let with = |fwd: &[usize]| {
-            let mut inv = vec![0; n];
-            fwd.iter().enumerate().for_each(|(new, &old)| inv[old] = new);
+            let inv = crate::ordering::inverse(fwd);
             let custom = SymmetricOrdering::Custom(PermRef::new_checked(fwd, &inv, n));
             factorize_symbolic_cholesky(a.as_ref(), Side::Lower, custom, params).unwrap()
         };

@@ -11,9 +11,8 @@ use solvers::deform::{deform_start, DeformSettings};
 use solvers::energy::EnergyKind;
 use solvers::handle::Handle;
 use solvers::mesh::{Mesh, Task};
-use solvers::param::{start_map, ParamSettings};
+use solvers::param::{param_start, ParamSettings};
 use solvers::problem::MapProblem;
-use solvers::solver::catalogue::Start;
 use solvers::solver::{IterationRecord, Outcome, StartMap, StopReason, StopSettings};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -78,11 +77,8 @@ impl Setup<'_> {
     fn problem(&self, mesh: &Mesh) -> Result<(Mesh, MapProblem, Vec<f64>, StartMap), String> {
         match self {
             Setup::Param { energy, settings } => {
-                solvers::mesh::validate_for(mesh, Task::Param).into_result().map_err(|e| format!("{e:#}"))?;
-                let rest = mesh.normalized();
-                let problem = MapProblem::new(&rest, *energy).map_err(|e| format!("{e:#}"))?;
-                let (x0, start) = start_map(&rest, &problem, Start::Common, settings).map_err(|e| format!("{e:#}"))?;
-                Ok((rest, problem, x0, start))
+                let (problem, x0, start) = param_start(mesh, *energy, settings).map_err(|e| format!("{e:#}"))?;
+                Ok((mesh.normalized(), problem, x0, start))
             }
             Setup::Deform { energy, settings, handles, init } => {
                 let (problem, x0, start) =

@@ -69,10 +69,7 @@ impl Analysis {
             Err(ScheduleError::NotPostordered) if symbolic.perm().is_some() => {
                 let fwd = symbolic.perm().map(|p| p.arrays().0.to_vec()).unwrap_or_default();
                 let post = crate::ordering::postorder(n, symbolic_a.col_ptr(), symbolic_a.row_idx(), &fwd);
-                let mut inv = vec![0; n];
-                for (new, &old) in post.iter().enumerate() {
-                    inv[old] = new;
-                }
+                let inv = crate::ordering::inverse(&post);
                 symbolic = symbolic_of(SymmetricOrdering::Custom(PermRef::new_checked(&post, &inv, n)))?;
                 schedule_of(&symbolic)
                     .map_err(|e| LinearError::Symbolic(format!("the supernodal schedule, postordered: {e:?}")))?

@@ -71,6 +71,7 @@ pub fn write_index(
         .map(str::to_string)
         .or_else(|| summaries.first().map(|s| s.task.as_str().to_string()))
         .unwrap_or_default();
+    let external = probes(meta.as_ref());
     let mut h = String::new();
     let _ = write!(
         h,
@@ -83,11 +84,10 @@ pub fn write_index(
         n = esc(name),
         t = esc(&task),
         c = esc(&counts(summaries)),
-        x = if probes(meta.as_ref()).is_empty() { "" } else { "<a href=\"#external\">external solvers</a>" },
+        x = if external.is_empty() { "" } else { "<a href=\"#external\">external solvers</a>" },
     );
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
-    let external = probes(meta.as_ref());
     status_matrix(&mut h, run_dir, summaries, &external);
     external_section(&mut h, &external, summaries);
     tables_section(&mut h, run_dir, tables, plots, summaries);
