@@ -104,6 +104,10 @@ enum Command {
         /// Folder for index.html and plots/.
         #[arg(long)]
         out: PathBuf,
+        /// Print what changed in the config's latest batch since the one before it and exit 1
+        /// on a regression (the rules of `check`): the nightly's gate.
+        #[arg(long, requires = "config")]
+        fail_on_regression: bool,
     },
     /// Write the Newton system (Matrix Market) of each selected `param` run of a config at an
     /// iteration, for timing other sparse solvers on it (scripts/bench_linear_solvers.py).
@@ -316,6 +320,31 @@ fn task_parser() -> impl clap::builder::TypedValueParser<Value = solvers::mesh::
         .try_map(|s| s.parse::<solvers::mesh::Task>())
 }
 
+/// `history --fail-on-regression`: what changed in `config`'s latest batch since the one
+/// before it, as `check` prints it; exit 1 on a regression.
+fn latest_changes(h: &history::HistoryDb, config: &str) -> Result<ExitCode> {
+    let Some(latest) = h.batches(Some(config), Some(1))?.pop() else {
+        anyhow::bail!("no batch of config {config:?} in {}", h.path().display());
+    };
+    match report::changes::since_previous(h, config, latest.id)? {
+        Some(report::changes::Since::Previous(ch)) => {
+            out(format_args!(
+                "batch {} ({}) since batch {} ({}):\n{}",
+                ch.after.id,
+                ch.after.short_revision(),
+                ch.before.id,
+                ch.before.short_revision(),
+                check::render(&ch.comparison)
+            ))?;
+            Ok(if ch.regressions() > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+        }
+        _ => {
+            out(format_args!("batch {} is the first of config {config}: nothing to compare with\n", latest.id))?;
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match dispatch(cli) {
@@ -395,7 +424,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Merge { shards, out, force, history } => merge(&shards, out.as_deref(), force, &history.choice()),
-        Command::History { db, config, last, out } => {
+        Command::History { db, config, last, out, fail_on_regression } => {
             if last == Some(0) {
                 anyhow::bail!("--last must be at least 1");
             }
@@ -403,7 +432,10 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let h = history::HistoryDb::open_existing(&db)?;
             let page = report::trend::render(&h, config.as_deref(), last, &out)?;
             eprintln!("trend page of {} batches ({} plots): {}", page.batches, page.plots.len(), page.index.display());
-            Ok(ExitCode::SUCCESS)
+            match config.filter(|_| fail_on_regression) {
+                Some(config) => latest_changes(&h, &config),
+                None => Ok(ExitCode::SUCCESS),
+            }
         }
         Command::Check { run_dir, baseline } => {
             let base = check::Baseline::load(&baseline)?;

@@ -5,6 +5,7 @@
 //! layer below: the history's trend page (`trend`) and `compare`'s output (`compare`).
 
 pub mod batch;
+pub mod changes;
 pub mod compare;
 pub mod corpus;
 pub mod html;

@@ -4,10 +4,12 @@
 //! revision) with the totals in tables; and what changed in the latest batch since the
 //! previous one of the same config, by the rules of `check`.
 
+use super::changes::Changes;
 use super::html::{esc, href, utc, STYLE};
 use super::plots::trend::{render_trend, TrendLine};
 use super::unique;
-use crate::gate::check::{self, Baseline, Record, DEFAULT_ENERGY_RTOL};
+use crate::gate::check::DEFAULT_ENERGY_RTOL;
+use crate::gate::rules::Change;
 use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
 use crate::paths::relative_link;
 use crate::run_folder::{write_atomic, Status};
@@ -321,22 +323,6 @@ fn batches_table(h: &mut String, c: &ConfigHistory, out: &Path) {
     *h += "</table></div>\n";
 }
 
-fn record(r: &RunRow) -> Record {
-    Record {
-        dataset: r.dataset.clone(),
-        task: r.task,
-        energy: r.energy.clone(),
-        solver: r.solver.clone(),
-        iterations: r.iterations.and_then(|i| usize::try_from(i).ok()),
-        final_energy: r.final_energy,
-        status: r.status,
-        flips: r.flips.and_then(|i| usize::try_from(i).ok()),
-        iterations_tolerance: None,
-        time_s: r.time_s,
-        final_gap: r.final_gap,
-    }
-}
-
 /// What changed in the latest batch since the one before it (iterations, status, final
 /// energy beyond `DEFAULT_ENERGY_RTOL`, new flips), and the runs only one of them has.
 fn changes_section(h: &mut String, c: &ConfigHistory) {
@@ -352,23 +338,19 @@ fn changes_section(h: &mut String, c: &ConfigHistory) {
         prev.id,
         esc(&prev.short_revision())
     );
-    if prev.config_hash != last.config_hash {
+    changes_body(h, &Changes::between((prev, prev_runs), (last, last_runs)));
+}
+
+/// The changes of one batch since another: a warning when the settings differ, the changed
+/// metrics (worse first) and the runs only one batch has. Shared with the report's first
+/// screen.
+pub(crate) fn changes_body(h: &mut String, ch: &Changes) {
+    let cmp = &ch.comparison;
+    if ch.settings_differ() {
         *h += "<p class=\"warn\">The two batches ran different configs or plans (config hash differs): changes may \
                come from the settings, not the code.</p>\n";
     }
-    let base = Baseline { energy_rtol: DEFAULT_ENERGY_RTOL, runs: prev_runs.iter().map(record).collect() };
-    let now: Vec<Record> = last_runs.iter().map(record).collect();
-    let cmp = check::compare(&base, &now);
-    let added: Vec<String> = last_runs
-        .iter()
-        .filter(|r| {
-            !prev_runs
-                .iter()
-                .any(|p| (&p.dataset, p.task, &p.energy, &p.solver) == (&r.dataset, r.task, &r.energy, &r.solver))
-        })
-        .map(|r| format!("{} {} {} {}", r.dataset, r.task.as_str(), r.energy, r.solver))
-        .collect();
-    if cmp.changes.is_empty() && cmp.missing.is_empty() && added.is_empty() {
+    if ch.is_quiet() {
         let _ = writeln!(
             h,
             "<p>No change in iterations, status or final energy (rel. tol. {DEFAULT_ENERGY_RTOL:e}) over {} runs.</p>",
@@ -378,33 +360,59 @@ fn changes_section(h: &mut String, c: &ConfigHistory) {
     }
     let _ = writeln!(
         h,
-        "<p>{} of {} runs in both changed.</p>",
+        "<p>{} of {} runs in both changed: {} regressions, {} improvements.</p>",
         unique(cmp.changes.iter().map(|c| c.run.as_str())).len(),
-        cmp.compared
+        cmp.compared,
+        ch.regressions(),
+        ch.improvements()
     );
-    if !cmp.changes.is_empty() {
-        *h += "<div class=\"scroll\"><table>\n<tr><th class=\"k\">run</th><th class=\"k\">metric</th><th>before</th>\
-               <th>after</th><th>delta</th><th class=\"k\"></th></tr>\n";
-        for ch in &cmp.changes {
-            let _ = writeln!(
-                h,
-                "<tr class=\"{}\"><td class=\"k\">{}</td><td class=\"k\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"k\">{}</td></tr>",
-                if ch.regression { "failed" } else { "ok" },
-                esc(&ch.run),
-                ch.metric,
-                esc(&ch.before),
-                esc(&ch.after),
-                esc(&ch.delta),
-                if ch.regression { "worse" } else { "better" }
-            );
-        }
-        *h += "</table></div>\n";
+    let worse: Vec<&Change> = cmp.changes.iter().filter(|c| c.regression).collect();
+    let better: Vec<&Change> = cmp.changes.iter().filter(|c| !c.regression).collect();
+    // Every regression counts, but the first screen shows the first few.
+    change_table(h, &worse[..worse.len().min(FOLD)]);
+    if worse.len() > FOLD {
+        let _ = write!(h, "<details><summary>{} more regressions</summary>", worse.len() - FOLD);
+        change_table(h, &worse[FOLD..]);
+        *h += "</details>\n";
     }
-    for (what, list) in [("Only in the previous batch", &cmp.missing), ("New in the latest batch", &added)] {
+    // Improvements matter less in the morning: many of them fold away.
+    if better.len() > FOLD {
+        let _ = write!(h, "<details><summary>{} improvements</summary>", better.len());
+        change_table(h, &better);
+        *h += "</details>\n";
+    } else {
+        change_table(h, &better);
+    }
+    for (what, list) in [("Only in the previous batch", &cmp.missing), ("New in the latest batch", &ch.added)] {
         if !list.is_empty() {
             let _ = writeln!(h, "<p>{what} ({}): {}</p>", list.len(), esc(&list.join(", ")));
         }
     }
+}
+
+/// Regressions past this many, and improvements when more, are folded.
+const FOLD: usize = 8;
+
+fn change_table(h: &mut String, changes: &[&Change]) {
+    if changes.is_empty() {
+        return;
+    }
+    *h += "<div class=\"scroll\"><table>\n<tr><th class=\"k\">run</th><th class=\"k\">metric</th><th>before</th>\
+           <th>after</th><th>delta</th><th class=\"k\"></th></tr>\n";
+    for change in changes {
+        let _ = writeln!(
+            h,
+            "<tr class=\"{}\"><td class=\"k\">{}</td><td class=\"k\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"k\">{}</td></tr>",
+            if change.regression { "failed" } else { "ok" },
+            esc(&change.run),
+            change.metric,
+            esc(&change.before),
+            esc(&change.after),
+            esc(&change.delta),
+            if change.regression { "worse" } else { "better" }
+        );
+    }
+    *h += "</table></div>\n";
 }
 
 /// Per batch and solver: total iterations (mean) and total time (mean) of an energy.

@@ -10,11 +10,12 @@ use crate::report::batch::Batch;
 use crate::report::plots::Plot;
 use crate::report::tables::Table;
 use crate::run_folder::meta::Meta;
-use crate::run_folder::{write_atomic, Status, SummaryRow};
+use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
+mod changes;
 mod external;
 mod figures;
 mod files;
@@ -24,6 +25,7 @@ mod status;
 mod tests;
 mod timing;
 
+use changes::changes_section;
 use external::{external_section, probes};
 use figures::{plots_section, tables_section};
 use files::files_section;
@@ -33,16 +35,16 @@ use status::status_matrix;
 use timing::timing_section;
 
 pub(crate) const STYLE: &str = "\
-body{font-family:system-ui,sans-serif;margin:0 auto;padding:0 12px 40px;max-width:1200px;line-height:1.4;color:#222}\
+body{font-family:system-ui,sans-serif;margin:0 auto;padding:0 12px 40px;max-width:1400px;line-height:1.4;color:#222}\
 h1{font-size:1.5em;margin:.6em 0 .2em}h2{border-bottom:1px solid #ccc;margin-top:1.6em}h3{margin:1.2em 0 .4em}\
 nav a{margin-right:1em}\
 .scroll{overflow-x:auto;-webkit-overflow-scrolling:touch;margin:.4em 0}\
 table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #bbb;padding:3px 7px;text-align:right;vertical-align:top}td{white-space:nowrap}\
 th{background:#eee}td.k,th.k{text-align:left;white-space:nowrap}\
-table.status td,table.status th{text-align:center;white-space:nowrap}table.status td.k{text-align:left;background:#fff}\
+table.status{font-size:.75em}table.status td,table.status th{text-align:center;white-space:nowrap;padding:1px 3px}table.status th{white-space:normal;vertical-align:bottom}table.status td.k{text-align:left;background:#fff}\
 .ds{position:sticky;left:0;z-index:1}table.status th.ds{background:#eee}\
 .ok{background:#d8f0d8}.nc{background:#fff0c2}.failed{background:#f6d0d3}.skipped{background:#e4e4e4;color:#666}\
-table.status td.failed{text-align:left;white-space:normal;min-width:12em;max-width:22em;word-break:break-word}\
+ol.notes,ul.problems{font-size:.85em;word-break:break-word}ul.problems li{margin:2px 0}.verdict{font-size:1.1em;margin:.6em 0}\
 td.none{background:#f4f4f4;color:#999}td a{color:inherit;text-decoration:none}td small{color:#555}\
 img{max-width:100%;height:auto}\
 .grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(min(100%,400px),1fr));gap:14px}\
@@ -78,14 +80,14 @@ pub fn write_index(
         "<!doctype html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
          <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
          <title>mapbench: {n}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n\
-         <h1>mapbench report: {n}</h1>\n<p>task <b>{t}</b>; {c}</p>\n\
-         <nav><a href=\"#status\">status</a><a href=\"#tables\">tables</a><a href=\"#plots\">plots</a>\
+         <h1>mapbench report: {n}</h1>\n<p class=\"caption\">task <b>{t}</b></p>\n\
+         <nav><a href=\"#changes\">changes</a><a href=\"#status\">status</a><a href=\"#tables\">tables</a><a href=\"#plots\">plots</a>\
          {x}<a href=\"#files\">files</a><a href=\"#provenance\">provenance</a></nav>\n",
         n = esc(name),
         t = esc(&task),
-        c = esc(&counts(summaries)),
         x = if external.is_empty() { "" } else { "<a href=\"#external\">external solvers</a>" },
     );
+    changes_section(&mut h, run_dir, meta.as_ref(), summaries, batch);
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
     status_matrix(&mut h, run_dir, summaries, &external);
@@ -122,16 +124,4 @@ fn read_meta(run_dir: &Path) -> Result<Option<Meta>> {
         return Ok(None);
     }
     Ok(Some(Meta::read(run_dir)?))
-}
-
-fn counts(summaries: &[SummaryRow]) -> String {
-    let n = |st: Status| summaries.iter().filter(|s| s.status == st).count();
-    format!(
-        "{} runs: {} ok, {} not converged, {} failed, {} skipped",
-        summaries.len(),
-        n(Status::Ok),
-        n(Status::NotConverged),
-        n(Status::Failed),
-        n(Status::Skipped)
-    )
 }

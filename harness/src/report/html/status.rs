@@ -1,6 +1,8 @@
-//! The run status matrix: one cell per run, linking to its CSV.
+//! The run status matrix: one short cell per run (linking to its CSV), the full story in the
+//! cell's tooltip, and the reasons of failed and skipped runs once each in numbered notes
+//! under the table, so that 20 solvers fit one screen.
 
-use super::timing::{seconds, timed_seconds};
+use super::timing::{brief, seconds};
 use super::{esc, href};
 use crate::external::probe::Probe;
 use crate::judge::verdict::Verdict;
@@ -11,37 +13,79 @@ use crate::run_folder::{run_stem, Status, SummaryRow};
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Rows: dataset (and energy, when the run has several), columns: solver. Each cell links to
-/// the run's per-iteration CSV when it exists.
+/// A verdict in at most 7 characters, the widest line of a cell (the legend spells them out).
+fn verdict_short(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Solved => "ok",
+        Verdict::Flipped => "flipped",
+        Verdict::StoppedAboveTarget => "above",
+        Verdict::OtherMinimum => "other",
+        Verdict::Unfinished => "unfin.",
+        Verdict::OwnRule => "ok",
+    }
+}
+
+/// The reasons of failed and skipped runs, each once, numbered in order of appearance.
+#[derive(Default)]
+struct Notes(Vec<(String, usize)>);
+
+impl Notes {
+    /// The note number of `reason` (1-based), counting one more cell for it.
+    fn number(&mut self, reason: &str) -> usize {
+        if let Some(i) = self.0.iter().position(|(r, _)| r == reason) {
+            self.0[i].1 += 1;
+            return i + 1;
+        }
+        self.0.push((reason.to_string(), 1));
+        self.0.len()
+    }
+}
+
+/// Whether a run is a problem of the morning: failed, or finished without being solved.
+pub(crate) fn is_problem(s: &SummaryRow) -> bool {
+    matches!(s.status, Status::Failed | Status::NotConverged)
+}
+
+/// A solver's name as a column head: it may wrap after each hyphen.
+fn head(name: &str) -> String {
+    esc(name).replace('-', "-<wbr>")
+}
+
+/// Rows: dataset (and energy, when the run has several), those with a problem first;
+/// columns: solver. Each cell links to the run's per-iteration CSV when it exists.
 pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow], external: &[Probe]) {
     let solvers = unique(summaries.iter().map(|s| s.solver.as_str()));
-    let datasets = unique(summaries.iter().map(|s| s.dataset.as_str()));
+    let mut datasets = unique(summaries.iter().map(|s| s.dataset.as_str()));
+    let troubled = |d: &str| summaries.iter().any(|s| s.dataset == d && is_problem(s));
+    // A stable sort: problem rows first, each part in the summary's order.
+    datasets.sort_by_key(|d| !troubled(d));
     let several_energies = unique(summaries.iter().map(|s| s.energy.as_str())).len() > 1;
-    *h += "<h2 id=\"status\">Run status</h2>\n<p class=\"caption\">Each cell: status, iterations and \
-           time (the median, with the min–max over the repeats in parentheses); click it for the run's \
-           per-iteration CSV. <span class=\"ok\">ok</span> converged; \
-           <span class=\"nc\">yellow</span> stopped by another rule (shown); \
-           <span class=\"failed\">failed</span> with its error; <span class=\"skipped\">skipped</span>: not \
-           run, the solver is not defined for the energy (the reason shown; left out of every aggregate and \
-           ranking). “k shifted”: k iterations solved their Newton system with a Tikhonov shift above the \
-           base (regularized Newton); “k CG-capped”: k steps of a truncated solver stopped CG at its \
-           iteration cap short of the forcing term; “k clamped”: k iterations clamped SLIM weights (the solver run \
-           outside the energies it is defined for; tables and profiles name it “slim (clamped)”).";
+    *h += "<h2 id=\"status\">Run status</h2>\n<p class=\"caption\">Rows with a failed or unsolved run come first. \
+           Each cell: iterations over the time in seconds (the median over the repeats); hover it for the \
+           whole story (the spread of the repeats, the run's own stop, memory) and click it for the run's \
+           per-iteration CSV. <span class=\"ok\">green</span> converged; \
+           <span class=\"nc\">yellow</span> stopped by another rule (named in the cell); \
+           <span class=\"failed\">failed</span> and <span class=\"skipped\">skip</span> (not run: the solver is \
+           not defined for the energy; left out of every aggregate and ranking) give the number of their reason \
+           in the notes under the table. A “+” after the iterations: some iterations solved their Newton system \
+           with a Tikhonov shift above the base (regularized Newton), stopped CG at its iteration cap short of the \
+           forcing term (truncated solvers) or clamped SLIM weights (the solver outside the energies it is \
+           defined for; tables and profiles name it “slim (clamped)”); the tooltip counts them.";
     if let Some(tau) = tightest_target(summaries) {
         let t = tau_text(tau);
         let _ = write!(
             h,
             " The harness judges param and deform runs against the reference minimum E* of their dataset and \
-             energy, whatever the solver's own stop rule said: <span class=\"ok\">ok</span> = solved, the run \
-             reached the {t} target (E0 − E ≥ (1 − {t})(E0 − E*)) with no flipped triangle, and its cell shows \
-             the iterations and time <i>to the target</i> (“to {t}”; the tooltip gives its own stop). A yellow \
-             cell names the harness's verdict and the final gap (E_final − E*)/(E0 − E*), with the iterations \
-             and time to the target when the run reached it, else to its own stop: <b>stopped above target</b> = its own rule called it converged above the \
-             target; <b>other minimum</b> = it stopped with a small gradient farther than the loosest target \
-             from E* (another local minimum or a saddle, not short of this one); <b>unfinished</b> = it stopped \
-             for another reason above the target (iteration cap, time limit, failed line search or linear \
-             solve; the tooltip names it); <b>flipped</b> = it reached the target but its final map flips \
-             triangles. Authalic runs keep their solvers' own rules."
+             energy, whatever the solver's own stop rule said: <span class=\"ok\">green</span> = solved, the run \
+             reached the {t} target (E0 − E ≥ (1 − {t})(E0 − E*)) with no flipped triangle, and its cell counts \
+             the iterations and time <i>to the target</i> (the tooltip gives its own stop). A yellow cell names \
+             the harness's verdict over the final gap (E_final − E*)/(E0 − E*): <b>above</b> = stopped above \
+             target, its own rule called it converged above the target; <b>other</b> = other minimum, it stopped \
+             with a small gradient farther than the loosest target from E* (another local minimum or a saddle, \
+             not short of this one); <b>unfin.</b> = unfinished, it stopped for another reason above the target \
+             (iteration cap, time limit, failed line search or linear solve; the tooltip names it); \
+             <b>flipped</b> = it reached the target but its final map flips triangles. Authalic runs keep their \
+             solvers' own rules (<b>nc</b>: not converged)."
         );
     }
     *h += "</p>\n";
@@ -56,17 +100,18 @@ pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[Summary
                 let version = p.version.as_deref().unwrap_or("version not recorded");
                 let _ = write!(
                     h,
-                    "<th title=\"external solver: {}\">{}<br><a href=\"#external\" class=\"caption\">external</a></th>",
+                    "<th title=\"external solver: {}\">{}<br><a href=\"#external\" class=\"caption\">ext.</a></th>",
                     esc(version),
-                    esc(s)
+                    head(s)
                 );
             }
             None => {
-                let _ = write!(h, "<th>{}</th>", esc(s));
+                let _ = write!(h, "<th>{}</th>", head(s));
             }
         }
     }
     *h += "</tr>\n";
+    let mut notes = Notes::default();
     for d in datasets {
         let energies = unique(summaries.iter().filter(|s| s.dataset == d).map(|s| s.energy.as_str()));
         for (i, e) in energies.iter().enumerate() {
@@ -80,12 +125,24 @@ pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[Summary
             }
             for solver in &solvers {
                 let run = summaries.iter().find(|s| s.dataset == d && s.energy == *e && s.solver == *solver);
-                status_cell(h, run_dir, run);
+                status_cell(h, run_dir, run, &mut notes);
             }
             *h += "</tr>\n";
         }
     }
     *h += "</table></div>\n";
+    if !notes.0.is_empty() {
+        *h += "<ol class=\"notes\" id=\"status-notes\">\n";
+        for (reason, cells) in &notes.0 {
+            let _ = writeln!(
+                h,
+                "<li>{}<small> ({cells} cell{})</small></li>",
+                esc(reason),
+                if *cells == 1 { "" } else { "s" }
+            );
+        }
+        *h += "</ol>\n";
+    }
 }
 
 /// The line naming the (dataset, energy) groups whose reference minimum E* a run of this batch
@@ -112,7 +169,7 @@ pub(super) fn reference_note(h: &mut String, summaries: &[SummaryRow]) {
     );
 }
 
-pub(super) fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>) {
+fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: &mut Notes) {
     let Some(s) = run else {
         *h += "<td class=\"none\">–</td>";
         return;
@@ -121,14 +178,6 @@ pub(super) fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRo
     let target = reached_target(s);
     let shown = to_target(s);
     let time = Timed::time_s(&shown);
-    let to = target.map(|t| format!(" to {}", tau_text(t.tau))).unwrap_or_default();
-    let mut detail = match (shown.iterations, &time) {
-        (Some(i), Some(t)) => format!("{i} it, {}{to}", timed_seconds(t)),
-        (Some(i), None) => format!("{i} it{to}"),
-        _ => String::new(),
-    };
-    // What the tooltip adds: the run's own stop when the cell shows the target, the repeats
-    // behind the time and the regularization.
     let mut more = String::new();
     if let (Some(t), Some(i)) = (target, shown.iterations) {
         let own = match (s.iterations, s.time_s) {
@@ -138,6 +187,9 @@ pub(super) fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRo
         };
         let at = time.map(|t| format!(" ({})", seconds(t.value))).unwrap_or_default();
         let _ = write!(more, "; reached the {} target at iteration {i}{at}; its own stop: {own}", tau_text(t.tau));
+    } else if let Some(i) = shown.iterations {
+        let at = time.map(|t| format!(", {}", seconds(t.value))).unwrap_or_default();
+        let _ = write!(more, "; {i} iterations{at}");
     }
     if let Some(t) = time.filter(|t| !t.single_sample()) {
         let _ = write!(more, "; time = median of {} repeats, min–max {}–{}", t.samples, seconds(t.lo), seconds(t.hi));
@@ -145,30 +197,32 @@ pub(super) fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRo
         more += "; time = a single sample";
     }
     if let Some(mb) = s.peak_rss_mb {
-        let _ = write!(more, "; peak resident memory of the process during the run {mb:.0} MB");
+        let _ = write!(more, "; peak resident memory {mb:.0} MB");
     }
+    let mut marked = false;
     if let Some(k) = s.shifted_iters.filter(|k| *k > 0) {
-        let _ = write!(detail, ", {k} shifted");
+        marked = true;
         let _ = write!(more, "; {k} iterations solved with a Tikhonov shift above the base (regularized)");
     }
     if let Some(k) = s.cg_capped_iters.filter(|k| *k > 0) {
-        let _ = write!(detail, ", {k} CG-capped");
+        marked = true;
         let _ = write!(more, "; {k} steps stopped CG at max_cg_iters short of its forcing term (truncated Newton)");
     }
     if let Some(k) = s.clamped_iters.filter(|k| *k > 0) {
-        let _ = write!(detail, ", {k} clamped");
+        marked = true;
         let _ =
             write!(more, "; {k} iterations clamped SLIM weights (tables name the run {})", clamped_label(&s.solver));
     }
+    let iterations = shown.iterations.map(|i| format!("{i}{}", if marked { "+" } else { "" })).unwrap_or_default();
+    let secs = time.map(|t| brief(t.value)).unwrap_or_default();
     // The harness's verdict on a judged run it did not call solved.
     let verdict = s.verdict.filter(|v| !matches!(v, Verdict::Solved | Verdict::OwnRule));
-    let (class, head, tip, small) = match (s.status, verdict) {
-        (Status::Ok, _) if s.verdict == Some(Verdict::Solved) => {
-            ("ok", "ok".to_string(), format!("solved (own stop: {}){more}", s.stop_column()), detail)
+    let (class, top, bottom, tip) = match (s.status, verdict) {
+        (Status::Ok, _) => {
+            let what = if s.verdict == Some(Verdict::Solved) { "solved (own stop: " } else { "converged (" };
+            ("ok", iterations, secs, format!("{what}{}){more}", s.stop_column()))
         }
-        (Status::Ok, _) => ("ok", "ok".to_string(), format!("converged ({}){more}", s.stop_column()), detail),
         (Status::NotConverged, Some(v)) => {
-            let gap = s.final_gap.map(|g| format!("gap {g:.1e}; ")).unwrap_or_default();
             let flips = match (v, s.flips) {
                 (Verdict::Flipped, Some(f)) => format!("; {f} flipped triangles"),
                 _ => String::new(),
@@ -179,15 +233,22 @@ pub(super) fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRo
                 s.final_gap.map_or("unknown".to_string(), |g| format!("{g:.3e}")),
                 s.stop_column()
             );
-            ("nc", verdict_text(v).to_string(), tip, format!("{gap}{detail}"))
+            let gap = s.final_gap.map(|g| format!("{g:.0e}")).unwrap_or_default();
+            ("nc", verdict_short(v).to_string(), gap, tip)
         }
         (Status::NotConverged, None) => {
-            ("nc", s.stop_column().to_string(), format!("not converged: {}{more}", s.stop_column()), detail)
+            ("nc", "nc".to_string(), iterations, format!("not converged: {}{more}", s.stop_column()))
         }
-        (Status::Failed, _) => ("failed", "failed".to_string(), "failed".to_string(), s.error.clone()),
-        (Status::Skipped, _) => ("skipped", "skipped".to_string(), format!("skipped: {}", s.error), s.error.clone()),
+        (Status::Failed, _) => {
+            let n = notes.number(&format!("failed: {}", s.error));
+            ("failed", "failed".to_string(), format!("[{n}]"), format!("failed: {}", s.error))
+        }
+        (Status::Skipped, _) => {
+            let n = notes.number(&format!("skipped: {}", s.error));
+            ("skipped", "skip".to_string(), format!("[{n}]"), format!("skipped: {}", s.error))
+        }
     };
-    let body = format!("<b>{}</b><br><small>{}</small>", esc(&head), esc(&small));
+    let body = format!("<b>{}</b><br><small>{}</small>", esc(&top), esc(&bottom));
     let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));
     if run_dir.join(&csv).exists() {
         let _ = write!(h, "<td class=\"{class}\" title=\"{}\"><a href=\"{}\">{body}</a></td>", esc(&tip), href(&csv));

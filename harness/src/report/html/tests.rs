@@ -1,9 +1,11 @@
+use super::status::status_matrix;
 use super::timing::seconds;
 use super::*;
 use crate::judge::verdict::Verdict;
 use crate::report::plots::tests::{png_size, tiny_run};
 use crate::report::plots::PlotKind;
 use crate::run_folder::summary::RefSource;
+use crate::run_folder::Status;
 
 fn table(title: &str) -> Table {
     Table {
@@ -87,13 +89,22 @@ fn index_states_repeats_calibration_spreads_shifts_and_skipped_pairs() {
     assert!(html.contains("median 0.510 s over 3 samples, spread 3.9%"), "calibration stated");
     assert!(!html.contains("class=\"warn\""), "steady machine: no warning");
     // The time spread in the cell, the repeats in its tooltip, the shifted iterations in both.
-    assert!(html.contains("0.250 s (0.240–0.310), 2 shifted, 4 CG-capped"), "spread, shifts, caps in the cell");
+    // The cell: iterations (+: some regularized or capped) over the median time; the rest in
+    // its tooltip.
+    assert!(html.contains("<b>3+</b><br><small>0.25</small>"), "iterations marked, time in the cell");
     assert!(html.contains("4 steps stopped CG at max_cg_iters"), "caps in the tooltip");
     assert!(html.contains("time = median of 5 repeats, min–max 0.240 s–0.310 s"));
     assert!(html.contains("2 iterations solved with a Tikhonov shift above the base"));
     // The skipped pair: grey, with its reason, counted, and in the tables as skipped.
-    assert!(html.contains("<td class=\"skipped\" title=\"skipped: akvf is not defined for sd here\">"));
-    assert!(html.contains("5 runs: 2 ok, 1 not converged, 1 failed, 1 skipped"));
+    assert!(html.contains(
+        "<td class=\"skipped\" title=\"skipped: akvf is not defined for sd here\"><b>skip</b><br><small>[2]</small>"
+    ));
+    // The reasons once each, numbered, under the matrix.
+    assert!(html.contains(
+        "<li>failed: factorization failed: pivot &lt; 0 &amp; NaN in &lt;K&gt;<small> (1 cell)</small></li>"
+    ));
+    assert!(html.contains("<li>skipped: akvf is not defined for sd here<small> (1 cell)</small></li>"));
+    assert!(html.contains("5 runs: 2 converged, 1 not converged, 1 failed, 1 skipped"));
     assert!(html.contains("<td>skipped</td>"), "the per-mesh table marks the skipped pair");
     assert!(html.contains("id=\"table-aggregates\""), "the aggregates table is on the page");
     // An unsteady machine: a visible warning with the samples.
@@ -131,19 +142,20 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
     let tables = crate::report::tables(&crate::report::at_target(&rows), &Batch::default());
     write_index(p, &rows, &tables, &plots, &Batch::default()).unwrap();
     let html = std::fs::read_to_string(p.join("index.html")).unwrap();
-    assert!(html.contains("<b>ok</b><br><small>2 it, 0.200 s to 1e-6</small>"), "the solved cell");
+    assert!(html.contains("<b>2</b><br><small>0.20</small>"), "the solved cell counts to the target");
     assert!(html.contains(
         "solved (own stop: grad_tol); reached the 1e-6 target at iteration 2 (0.200 s); its own stop: 3 it, 0.250 s"
     ));
-    assert!(
-        html.contains("<b>stopped above target</b><br><small>gap 3.2e-4; 3 it, 0.250 s</small>"),
-        "the verdict cell"
-    );
+    assert!(html.contains("<b>above</b><br><small>3e-4</small>"), "the verdict cell: verdict and gap");
     assert!(html.contains("not solved: stopped above target; final gap 3.200e-4; own stop: max_iters"));
     // The legend explains the verdicts; the batch's references are named.
-    for words in
-        ["<b>other minimum</b> = ", "<b>unfinished</b> = ", "<b>flipped</b> = ", "to the target</i> (“to 1e-6”"]
-    {
+    for words in [
+        "<b>above</b> = stopped above target",
+        "<b>other</b> = other minimum",
+        "<b>unfin.</b> = unfinished",
+        "<b>flipped</b> = ",
+        "the iterations and time <i>to the target</i>",
+    ] {
         assert!(html.contains(words), "{words}");
     }
     assert!(html.contains("E* from this batch (ref_source = batch) for 1 group: tiny / sd."));
@@ -160,8 +172,8 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
     }
     write_index(p, &rows, &[], &[], &Batch::default()).unwrap();
     let html = std::fs::read_to_string(p.join("index.html")).unwrap();
-    assert!(html.contains("<b>other minimum</b><br><small>gap 3.2e-4; 3 it, 0.250 s</small>"));
-    assert!(html.contains("<b>flipped</b><br><small>gap 0.0e0; 2 it, 0.200 s to 1e-6</small>"));
+    assert!(html.contains("<b>other</b><br><small>3e-4</small>"));
+    assert!(html.contains("<b>flipped</b><br><small>0e0</small>"));
     assert!(html.contains("not solved: flipped; 4 flipped triangles"));
     assert!(!html.contains("E* from this batch"), "stored references: no line");
 }
@@ -191,4 +203,182 @@ fn formats_dates_and_seconds() {
     assert_eq!(seconds(0.04312), "0.0431 s");
     assert_eq!(seconds(6.594), "6.59 s");
     assert_eq!(seconds(123.4), "123 s");
+    assert_eq!(
+        [0.004312, 0.2149, 6.594, 12.4, 123.4, 0.0].map(super::timing::brief),
+        ["0.0043", "0.21", "6.6", "12", "123", "0.00"]
+    );
+}
+
+/// The widest line of a status cell (characters): 20 solvers of such columns fit one
+/// 1400-pixel screen.
+const CELL_CHARS: usize = 7;
+
+/// The visible lines of each `<td>` / `<th>` of the first `<table class="status">`: tags
+/// dropped, `<br>` and `<wbr>` as line breaks, entities as one character.
+fn status_cells(html: &str, tag: &str) -> Vec<Vec<String>> {
+    let start = html.find("<table class=\"status\">").expect("a status matrix");
+    let table = &html[start..start + html[start..].find("</table>").unwrap()];
+    let open = format!("<{tag}");
+    let close = format!("</{tag}>");
+    let mut out = Vec::new();
+    for piece in table.split(&open).skip(1) {
+        let body = &piece[piece.find('>').unwrap() + 1..piece.find(&close).unwrap()];
+        let body = body.replace("<wbr>", "\n").replace("<br>", "\n");
+        let mut text = String::new();
+        let mut in_tag = false;
+        for c in body.chars() {
+            match c {
+                '<' => in_tag = true,
+                '>' => in_tag = false,
+                c if !in_tag => text.push(c),
+                _ => {}
+            }
+        }
+        for (entity, c) in [("&amp;", "&"), ("&lt;", "<"), ("&gt;", ">"), ("&quot;", "\""), ("&#39;", "'")] {
+            text = text.replace(entity, c);
+        }
+        out.push(text.lines().map(str::to_string).collect());
+    }
+    out
+}
+
+#[test]
+fn the_status_matrix_of_20_solvers_stays_narrow_and_lists_problem_rows_first() {
+    use crate::run_folder::summary::ToTarget;
+    let mut names: Vec<String> =
+        solvers::solver::catalogue::names_for(crate::plan::Task::Param).iter().map(|s| s.to_string()).collect();
+    names.extend(["igl-slim", "external-trust-region-6x6", "example-gd"].map(String::from));
+    names.truncate(20);
+    assert_eq!(names.len(), 20);
+    let long = "the factorization failed at pivot 1234 of 56789: the matrix is not positive definite, \
+                which happens when the element Hessians are left unprojected on a mesh with slivers";
+    let mut rows = Vec::new();
+    for (d, dataset) in ["calm", "bumpy", "stormy"].iter().enumerate() {
+        for (k, solver) in names.iter().enumerate() {
+            let base = SummaryRow {
+                dataset: dataset.to_string(),
+                task: crate::plan::Task::Param,
+                energy: "sd".into(),
+                solver: solver.clone(),
+                iterations: Some(12_345),
+                time_s: Some(1234.5678),
+                repeats: Some(5),
+                time_s_min: Some(1200.0),
+                time_s_max: Some(1300.0),
+                peak_rss_mb: Some(15_000.0),
+                shifted_iters: Some(7),
+                ..Default::default()
+            };
+            rows.push(match (d, k % 5) {
+                // calm: every run solved, far from the top after sorting.
+                (0, _) | (_, 0) => SummaryRow {
+                    status: Status::Ok,
+                    verdict: Some(Verdict::Solved),
+                    to_targets: vec![ToTarget { tau: 1e-6, iters: Some(9_999), time_s: Some(999.9) }],
+                    ..base
+                },
+                (_, 1) => SummaryRow { status: Status::Failed, error: format!("{long} ({solver})"), ..base },
+                (_, 2) => {
+                    SummaryRow { status: Status::Skipped, error: format!("{solver} is not defined for sd"), ..base }
+                }
+                (_, 3) => SummaryRow {
+                    status: Status::NotConverged,
+                    verdict: Some(Verdict::Unfinished),
+                    final_gap: Some(3.25e-4),
+                    ..base
+                },
+                _ => SummaryRow {
+                    status: Status::NotConverged,
+                    verdict: Some(Verdict::StoppedAboveTarget),
+                    final_gap: Some(1.5e-123),
+                    ..base
+                },
+            });
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut html = String::new();
+    status_matrix(&mut html, dir.path(), &rows, &[]);
+    let heads = status_cells(&html, "th");
+    assert_eq!(heads.len(), 21, "the dataset column and one per solver");
+    for head in &heads {
+        assert!(head.iter().all(|l| l.chars().count() <= 10), "a column head wider than 10 characters: {head:?}");
+    }
+    let cells = status_cells(&html, "td");
+    assert_eq!(cells.len(), 3 * 21);
+    for cell in &cells[..] {
+        for line in cell {
+            assert!(line.chars().count() <= CELL_CHARS, "a cell line wider than {}: {cell:?}", CELL_CHARS);
+        }
+    }
+    // The rows with problems first (bumpy, stormy in the summary's order), then calm.
+    let firsts: Vec<&str> = cells.iter().step_by(21).map(|c| c[0].as_str()).collect();
+    assert_eq!(firsts, ["bumpy", "stormy", "calm"]);
+    // The reasons once each, under the table: 4 failures and 4 skips per problem row, each
+    // text naming its solver, so 8 reasons of 2 cells each.
+    assert_eq!(html.matches("<li>").count(), 8);
+    assert_eq!(html.matches("(2 cells)</small></li>").count(), 8, "each reason counted on both rows");
+}
+
+/// Two batches of one config in a history database, the second with a made regression: its
+/// first screen (`id="changes"`, before the status matrix) says so, with the solved counts
+/// then and now, the new run and the problems; the first batch says it is the first.
+#[test]
+fn the_first_screen_shows_what_changed_since_the_previous_batch() {
+    use crate::history::{record, Outcome};
+    let db_dir = tempfile::tempdir().unwrap();
+    let db = db_dir.path().join("history.sqlite");
+    let night = |rows: &[SummaryRow], rev: &str| {
+        let (dir, _) = tiny_run();
+        let p = dir.path();
+        let mut meta: serde_json::Value = serde_json::from_slice(&std::fs::read(p.join("meta.json")).unwrap()).unwrap();
+        meta["git_revision"] = rev.into();
+        std::fs::write(p.join("meta.json"), meta.to_string()).unwrap();
+        crate::run_folder::write_summary(&p.join("summary.csv"), rows).unwrap();
+        let r = record(&db, p).unwrap();
+        let outcome = Outcome::Appended {
+            db: db.clone(),
+            batch_id: r.batch_id,
+            runs: r.runs,
+            config: r.config,
+            trend: None,
+            trend_error: None,
+        };
+        outcome.write_into(p).unwrap();
+        write_index(p, rows, &[], &[], &Batch::default()).unwrap();
+        (std::fs::read_to_string(p.join("index.html")).unwrap(), dir)
+    };
+    let (_, before) = tiny_run();
+    let (first, _keep1) = night(&before, "1111111aaaa");
+    assert!(first.contains("First batch of config <b>tiny-config</b> in the history"), "{first}");
+    // The regression: kp-newton needs 5 iterations instead of 3; cm, failed before, converges;
+    // a run that was not there.
+    let mut after = before.clone();
+    after[0].iterations = Some(5);
+    (after[2].status, after[2].error) = (Status::Ok, String::new());
+    after.push(SummaryRow { solver: "akvf".into(), ..after[0].clone() });
+    let (html, _keep2) = night(&after, "2222222bbbb");
+    let changes = html.find("id=\"changes\"").expect("a changes section");
+    assert!(changes < html.find("id=\"status\"").unwrap(), "changes come before the status matrix");
+    let section = &html[changes..html.find("</section>").unwrap()];
+    for needle in [
+        "5 runs: 4 converged, 1 not converged, 0 failed, 0 skipped",
+        "Batch 2 (<code>2222222+</code>) since batch 1 (<code>1111111+</code>",
+        "<b>1 regression</b>, 1 improvement, 1 new run, 0 missing",
+        "cm 0/1 → 1/1, akvf – → 1/1",
+        "<td class=\"k\">tiny param sd kp-newton</td><td class=\"k\">iterations</td><td>3</td><td>5</td><td>+2</td><td class=\"k\">worse</td>",
+        "New in the latest batch (1): tiny param sd akvf",
+        "<h3>Problems (1: 1 not converged)</h3>",
+        "<a href=\"runs/tiny__sd__slim.csv\">tiny / sd / slim</a>: not converged: max_iters",
+    ] {
+        assert!(section.contains(needle), "{needle}\nnot in\n{section}");
+    }
+    // The regression comes before the improvement.
+    assert!(section.find(">worse<").unwrap() < section.find(">better<").unwrap());
+    // Out of any history: said so.
+    let (dir, rows) = tiny_run();
+    write_index(dir.path(), &rows, &[], &[], &Batch::default()).unwrap();
+    let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
+    assert!(html.contains("This batch is not in a history database"), "{html}");
+    assert!(html.contains("<li class=\"failed\"><a href=\"runs/tiny__sd__cm.csv\">tiny / sd / cm</a>: failed: factorization failed: pivot &lt; 0"));
 }

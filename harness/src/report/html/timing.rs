@@ -3,7 +3,6 @@
 use super::esc;
 use crate::calibration::SPREAD_WARNING;
 use crate::report::batch::Batch;
-use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 use std::fmt::Write as _;
 
@@ -62,11 +61,8 @@ pub(super) fn significant(t: f64) -> String {
     format!("{t:.digits$}")
 }
 
-/// `0.0538 s`, or with a spread over repeats `0.0538 s (0.0521–0.0560)`.
-pub(super) fn timed_seconds(t: &Timed) -> String {
-    if t.single_sample() {
-        seconds(t.value)
-    } else {
-        format!("{} ({}–{})", seconds(t.value), significant(t.lo), significant(t.hi))
-    }
+/// 2 significant digits, for the status cells (0.0043, 0.21, 6.6, 12, 123).
+pub(super) fn brief(t: f64) -> String {
+    let digits = if t <= 0.0 { 2 } else { (1 - t.abs().log10().floor() as i64).clamp(0, 6) as usize };
+    format!("{t:.digits$}")
 }

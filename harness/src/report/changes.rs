@@ -1,0 +1,115 @@
+//! What changed between two batches of one config in the history database, by the rules of
+//! `check` (iterations, status, final energy, flips, the final gap), with each solver's
+//! solved count then and now and the runs only one batch has. The report's first screen
+//! (`html/changes.rs`), the trend page and `history --fail-on-regression` read it.
+
+use crate::gate::check::{self, Baseline, Comparison, DEFAULT_ENERGY_RTOL};
+use crate::gate::rules::Record;
+use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
+use crate::run_folder::Status;
+
+/// One solver's solved runs out of its runs that were not skipped, in each batch (`None`:
+/// the solver has no such run there).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Solved {
+    pub solver: String,
+    pub before: Option<(usize, usize)>,
+    pub after: Option<(usize, usize)>,
+}
+
+impl Solved {
+    pub fn changed(&self) -> bool {
+        self.before != self.after
+    }
+}
+
+/// From one batch to the next of a config.
+#[derive(Clone, Debug)]
+pub struct Changes {
+    pub before: BatchRow,
+    pub after: BatchRow,
+    pub comparison: Comparison,
+    /// Runs of `after` that `before` does not have (`dataset task energy solver`).
+    pub added: Vec<String>,
+    pub solved: Vec<Solved>,
+}
+
+impl Changes {
+    pub fn between(before: (&BatchRow, &[RunRow]), after: (&BatchRow, &[RunRow])) -> Changes {
+        let (b, b_runs) = before;
+        let (a, a_runs) = after;
+        let base = Baseline { energy_rtol: DEFAULT_ENERGY_RTOL, runs: b_runs.iter().map(record).collect() };
+        let now: Vec<Record> = a_runs.iter().map(record).collect();
+        let comparison = check::compare(&base, &now);
+        let added = now.iter().filter(|r| !base.runs.iter().any(|p| p.key() == r.key())).map(Record::label).collect();
+        let solvers = crate::report::unique(b_runs.iter().chain(a_runs).map(|r| r.solver.as_str()));
+        let solved = solvers
+            .into_iter()
+            .map(|s| Solved { solver: s.to_string(), before: solved_count(b_runs, s), after: solved_count(a_runs, s) })
+            .collect();
+        Changes { before: b.clone(), after: a.clone(), comparison, added, solved }
+    }
+
+    /// The two batches ran different configs or plans: changes may come from the settings.
+    pub fn settings_differ(&self) -> bool {
+        self.before.config_hash != self.after.config_hash
+    }
+
+    pub fn regressions(&self) -> usize {
+        self.comparison.regressions()
+    }
+
+    pub fn improvements(&self) -> usize {
+        self.comparison.improvements()
+    }
+
+    /// Nothing moved and no run came or went.
+    pub fn is_quiet(&self) -> bool {
+        self.comparison.changes.is_empty() && self.comparison.missing.is_empty() && self.added.is_empty()
+    }
+}
+
+/// A solver's (solved, runs not skipped) in a batch: solved = `ok`, which for a judged run
+/// is the harness's verdict at the target.
+fn solved_count(runs: &[RunRow], solver: &str) -> Option<(usize, usize)> {
+    let mine: Vec<&RunRow> = runs.iter().filter(|r| r.solver == solver && r.status != Status::Skipped).collect();
+    (!mine.is_empty()).then(|| (mine.iter().filter(|r| r.status == Status::Ok).count(), mine.len()))
+}
+
+/// What `check`'s rules compare of a history row.
+pub fn record(r: &RunRow) -> Record {
+    Record {
+        dataset: r.dataset.clone(),
+        task: r.task,
+        energy: r.energy.clone(),
+        solver: r.solver.clone(),
+        iterations: r.iterations.and_then(|i| usize::try_from(i).ok()),
+        final_energy: r.final_energy,
+        status: r.status,
+        flips: r.flips.and_then(|i| usize::try_from(i).ok()),
+        iterations_tolerance: None,
+        time_s: r.time_s,
+        final_gap: r.final_gap,
+    }
+}
+
+/// Where batch `batch_id` stands in its config's history.
+#[derive(Clone, Debug)]
+pub enum Since {
+    /// The first batch of the config in this database.
+    First { config: String },
+    /// The changes from the batch before it (in time order).
+    Previous(Box<Changes>),
+}
+
+/// The changes of batch `batch_id` of `config` since the batch before it.
+pub fn since_previous(db: &HistoryDb, config: &str, batch_id: i64) -> Result<Option<Since>, HistoryError> {
+    let batches = db.batches(Some(config), None)?;
+    let Some(at) = batches.iter().position(|b| b.id == batch_id) else { return Ok(None) };
+    if at == 0 {
+        return Ok(Some(Since::First { config: config.to_string() }));
+    }
+    let (before, after) = (&batches[at - 1], &batches[at]);
+    let (b_runs, a_runs) = (db.runs(before.id)?, db.runs(after.id)?);
+    Ok(Some(Since::Previous(Box::new(Changes::between((before, &b_runs), (after, &a_runs))))))
+}

@@ -1,0 +1,234 @@
+//! The first screen of `index.html` (`id="changes"`): the batch's verdict in one line, what
+//! changed since the previous batch of the config in the history database, and the problems
+//! (failed and unsolved runs) as a short list; the status matrix and the rest follow.
+
+use super::status::is_problem;
+use super::timing::significant;
+use super::{esc, href, utc};
+use crate::history::{HistoryDb, Outcome};
+use crate::judge::verdict::Verdict;
+use crate::report::batch::Batch;
+use crate::report::changes::{since_previous, Changes, Since};
+use crate::report::trend::changes_body;
+use crate::report::{tau_text, tightest_target, verdict_text};
+use crate::run_folder::meta::Meta;
+use crate::run_folder::{run_stem, Status, SummaryRow};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The problems listed on the first screen; the status matrix has them all.
+pub(crate) const PROBLEMS_SHOWN: usize = 12;
+/// Errors are cut to this many characters in the list (the status notes have them whole).
+const ERROR_CHARS: usize = 140;
+
+pub(super) fn changes_section(
+    h: &mut String,
+    run_dir: &Path,
+    meta: Option<&Meta>,
+    summaries: &[SummaryRow],
+    batch: &Batch,
+) {
+    *h += "<section id=\"changes\">\n";
+    let _ = writeln!(h, "<p class=\"verdict\"><b>{}</b></p>", esc(&verdict_line(summaries)));
+    if batch.calibration.as_ref().is_some_and(|c| c.unsteady()) {
+        *h += "<p class=\"warn\">The machine changed speed during this batch: time rankings are less certain \
+               (<a href=\"#timing\">calibration</a>).</p>\n";
+    }
+    since_section(h, run_dir, meta);
+    problems(h, summaries);
+    *h += "</section>\n";
+}
+
+/// `600 runs: 540 solved at the 1e-6 target, 30 not solved, 5 failed, 25 skipped`.
+pub(crate) fn verdict_line(summaries: &[SummaryRow]) -> String {
+    let n = |st: Status| summaries.iter().filter(|s| s.status == st).count();
+    let ok = match tightest_target(summaries) {
+        Some(tau) => format!("solved at the {} target", tau_text(tau)),
+        None => "converged".to_string(),
+    };
+    format!(
+        "{} runs: {} {ok}, {} not {}, {} failed, {} skipped",
+        summaries.len(),
+        n(Status::Ok),
+        n(Status::NotConverged),
+        if tightest_target(summaries).is_some() { "solved" } else { "converged" },
+        n(Status::Failed),
+        n(Status::Skipped)
+    )
+}
+
+/// "Since the previous batch of this config", from the history database `meta.json` names.
+fn since_section(h: &mut String, run_dir: &Path, meta: Option<&Meta>) {
+    *h += "<h3>Since the previous batch</h3>\n";
+    let outcome = meta.and_then(|m| m.history_outcome.clone()).and_then(|o| serde_json::from_value::<Outcome>(o).ok());
+    let config = meta.and_then(Meta::config_name).unwrap_or("run");
+    let in_history = outcome.as_ref().and_then(Outcome::in_history);
+    let Some((db, batch_id, _)) = in_history else {
+        let why = match &outcome {
+            Some(Outcome::NotAppended { reason, .. }) => format!("not appended to the history ({reason})"),
+            Some(Outcome::Failed { error, .. }) => format!("appending to the history failed ({error})"),
+            _ => "not in a history database (--no-history, or a shard)".to_string(),
+        };
+        let _ = writeln!(
+            h,
+            "<p>This batch is {}: nothing to compare with here. <code>mapbench compare A B</code> compares two run \
+             folders.</p>",
+            esc(&why)
+        );
+        return;
+    };
+    let since = HistoryDb::open_existing(db).and_then(|d| since_previous(&d, config, batch_id));
+    match since {
+        Ok(Some(Since::First { config })) => {
+            let _ = writeln!(
+                h,
+                "<p>First batch of config <b>{}</b> in the history (<code>{}</code>): nothing to compare with yet.</p>",
+                esc(&config),
+                esc(&db.display().to_string())
+            );
+        }
+        Ok(Some(Since::Previous(changes))) => previous(h, run_dir, &changes),
+        Ok(None) => {
+            let _ = writeln!(
+                h,
+                "<p>Batch {batch_id} is no longer in the history <code>{}</code>.</p>",
+                esc(&db.display().to_string())
+            );
+        }
+        Err(e) => {
+            let _ = writeln!(h, "<p class=\"warn\">The history could not be read: {}</p>", esc(&e.to_string()));
+        }
+    }
+}
+
+fn previous(h: &mut String, run_dir: &Path, ch: &Changes) {
+    let b = &ch.before;
+    let folder = Path::new(&b.run_dir).join("index.html");
+    let _ = writeln!(
+        h,
+        "<p>Batch {} (<code>{}</code>) since batch {} (<code>{}</code>, {}, <a href=\"{}\">its report</a>): \
+         <b>{} regression{}</b>, {} improvement{}, {} new run{}, {} missing.</p>",
+        ch.after.id,
+        esc(&ch.after.short_revision()),
+        b.id,
+        esc(&b.short_revision()),
+        b.started_unix.map_or("start unknown".to_string(), |s| utc(s.max(0) as u64)),
+        href(&crate::paths::relative_link(run_dir, &folder)),
+        ch.regressions(),
+        plural(ch.regressions()),
+        ch.improvements(),
+        plural(ch.improvements()),
+        ch.added.len(),
+        plural(ch.added.len()),
+        ch.comparison.missing.len()
+    );
+    let moved: Vec<String> = ch
+        .solved
+        .iter()
+        .filter(|s| s.changed())
+        .map(|s| format!("{} {} → {}", s.solver, count(s.before), count(s.after)))
+        .collect();
+    let unchanged = ch.solved.len() - moved.len();
+    let _ = writeln!(
+        h,
+        "<p>Solved runs per solver (solved / run, then → now): {}{}.</p>",
+        if moved.is_empty() { "no solver's count changed".to_string() } else { esc(&moved.join(", ")) },
+        if moved.is_empty() || unchanged == 0 { String::new() } else { format!("; {unchanged} solvers unchanged") }
+    );
+    *h += "<details><summary>every solver's solved count</summary><div class=\"scroll\"><table>\n\
+           <tr><th class=\"k\">solver</th><th>before</th><th>now</th></tr>\n";
+    for s in &ch.solved {
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"k\">{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&s.solver),
+            count(s.before),
+            count(s.after)
+        );
+    }
+    *h += "</table></div></details>\n";
+    changes_body(h, ch);
+}
+
+fn count(c: Option<(usize, usize)>) -> String {
+    c.map_or("–".to_string(), |(solved, runs)| format!("{solved}/{runs}"))
+}
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 {
+        ""
+    } else {
+        "s"
+    }
+}
+
+/// The failed and unsolved runs, at most [`PROBLEMS_SHOWN`], each linking to its CSV.
+fn problems(h: &mut String, summaries: &[SummaryRow]) {
+    let mut list: Vec<&SummaryRow> = summaries.iter().filter(|s| is_problem(s)).collect();
+    // The worst first: failures, then runs that ended far from the target, then those their
+    // own rule stopped just above it.
+    list.sort_by_key(|s| match (s.status, s.verdict) {
+        (Status::Failed, _) => 0,
+        (_, Some(Verdict::Flipped)) => 1,
+        (_, Some(Verdict::StoppedAboveTarget)) => 3,
+        _ => 2,
+    });
+    if list.is_empty() {
+        *h += "<h3>Problems</h3>\n<p>None: every run that ran was solved.</p>\n";
+        return;
+    }
+    let mut kinds: Vec<(String, usize)> = Vec::new();
+    for s in &list {
+        let kind = match (s.status, s.verdict) {
+            (Status::Failed, _) => "failed",
+            (_, Some(v)) if v != Verdict::OwnRule => verdict_text(v),
+            _ => "not converged",
+        };
+        match kinds.iter_mut().find(|(k, _)| k == kind) {
+            Some((_, n)) => *n += 1,
+            None => kinds.push((kind.to_string(), 1)),
+        }
+    }
+    let kinds: Vec<String> = kinds.iter().map(|(k, n)| format!("{n} {k}")).collect();
+    let _ = writeln!(h, "<h3>Problems ({}: {})</h3>\n<ul class=\"problems\">", list.len(), esc(&kinds.join(", ")));
+    for s in list.iter().take(PROBLEMS_SHOWN) {
+        let what = match (s.status, s.verdict) {
+            (Status::Failed, _) => {
+                let mut e: String = s.error.chars().take(ERROR_CHARS).collect();
+                if e.len() < s.error.len() {
+                    e.push('…');
+                }
+                format!("failed: {e}")
+            }
+            (_, Some(v)) if v != Verdict::OwnRule => {
+                let gap = s.final_gap.map(|g| format!(", final gap {g:.1e}")).unwrap_or_default();
+                let iters = s.iterations.map(|i| format!(" after {i} iterations")).unwrap_or_default();
+                format!("{}{gap}{iters} (own stop: {})", verdict_text(v), s.stop_column())
+            }
+            _ => format!(
+                "not converged: {}{}",
+                s.stop_column(),
+                s.time_s.map(|t| format!(" after {} s", significant(t))).unwrap_or_default()
+            ),
+        };
+        let stem = run_stem(&s.dataset, &s.energy, &s.solver);
+        let _ = writeln!(
+            h,
+            "<li class=\"{}\"><a href=\"runs/{}.csv\">{} / {} / {}</a>: {}</li>",
+            if s.status == Status::Failed { "failed" } else { "nc" },
+            href(&stem),
+            esc(&s.dataset),
+            esc(&s.energy),
+            esc(&s.solver),
+            esc(&what)
+        );
+    }
+    *h += "</ul>\n";
+    if list.len() > PROBLEMS_SHOWN {
+        let _ = writeln!(
+            h,
+            "<p>… and {} more: the <a href=\"#status\">status matrix</a> lists them first.</p>",
+            list.len() - PROBLEMS_SHOWN
+        );
+    }
+}
