@@ -2,7 +2,7 @@
 //! its color and marker, the axes' house style and the tick label formats.
 
 use super::canvas::{encode_png, register_font};
-use super::colors::PALETTE;
+use super::colors::{looks, Look, MARKERS};
 use anyhow::Result;
 use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
@@ -42,8 +42,8 @@ impl Curve {
 /// One solver's curve in a plot.
 pub(super) struct Series<'a> {
     pub(super) solver: &'a str,
-    /// The solver's index in summary order: picks its color and marker in every plot.
-    pub(super) style: usize,
+    /// The solver's color and marker, the same in every plot of the page.
+    pub(super) style: Look,
     /// Not converged runs are drawn dashed.
     pub(super) converged: bool,
     pub(super) curve: Curve,
@@ -51,14 +51,26 @@ pub(super) struct Series<'a> {
 
 impl Series<'_> {
     fn color(&self) -> RGBColor {
-        PALETTE[self.style % PALETTE.len()]
+        self.style.color
     }
 }
 
-/// A solver's style index: its position in summary order (`solvers`), so it keeps its color
-/// and marker in every plot.
-pub(super) fn style(solvers: &[&str], solver: &str) -> usize {
-    solvers.iter().position(|s| *s == solver).unwrap_or(0)
+/// A solver's look among `solvers` (the summary's order, every solver of the page), so it
+/// keeps its color and marker in every plot.
+pub(super) fn style(solvers: &[&str], solver: &str) -> Look {
+    let at = solvers.iter().position(|s| *s == solver);
+    match at {
+        Some(i) => looks(solvers)[i],
+        None => looks(&[solver])[0],
+    }
+}
+
+/// For each series, the first earlier series with the very same iterates (iterations and
+/// energy gaps), whose curve it would hide: such a series is drawn dashed over it and the
+/// legend names the twin.
+pub(super) fn twins(curves: &[Series]) -> Vec<Option<usize>> {
+    let same = |a: &Curve, b: &Curve| a.iter == b.iter && a.gap == b.gap && !a.iter.is_empty();
+    (0..curves.len()).map(|i| (0..i).find(|&j| same(&curves[i].curve, &curves[j].curve))).collect()
 }
 
 /// The look every curve plot's axes share: label sizes and light grid lines.
@@ -87,27 +99,37 @@ pub(super) fn draw_series<'a, DB, CT>(
     chart: &mut ChartContext<'a, DB, CT>,
     curves: &[Series],
     points: &[Vec<(f64, f64)>],
-    x_max: f64,
+    x_axis: XAxis,
 ) -> Result<()>
 where
     DB: DrawingBackend + 'a,
     DB::ErrorType: 'static,
     CT: CoordTranslate<From = (f64, f64)>,
 {
-    let slot = x_max / MARKERS_PER_AXIS;
-    for (s, pts) in curves.iter().zip(points) {
+    let to_axis = |x: f64| match x_axis {
+        XAxis::Linear { .. } => x,
+        XAxis::Log { lo, .. } => (x.max(lo) / lo).ln(),
+    };
+    let slot = to_axis(x_axis.max()) / MARKERS_PER_AXIS;
+    let shift = |marker: usize| slot * (marker % 4) as f64 / 4.0;
+    let twins = twins(curves);
+    for (n, (s, pts)) in curves.iter().zip(points).enumerate() {
         let line = s.color().stroke_width(2);
-        if s.converged {
+        if twins[n].is_some() {
+            // Over its twin: short dashes, so both colors show along the one curve.
+            chart.draw_series(DashedLineSeries::new(pts.iter().copied(), 4, 6, line))?;
+        } else if s.converged {
             chart.draw_series(LineSeries::new(pts.iter().copied(), line))?;
         } else {
             chart.draw_series(DashedLineSeries::new(pts.iter().copied(), 8, 5, line))?;
         }
-        let shift = slot * (s.style % 4) as f64 / 4.0;
         let mut last_slot = None;
         for (i, p) in pts.iter().enumerate() {
-            let k = ((p.0 + shift) / slot).floor() as i64;
+            // Slots in the axis's own terms (log or linear), shifted per marker so that
+            // coinciding curves show their markers side by side.
+            let k = ((to_axis(p.0) + shift(s.style.marker)) / slot).floor() as i64;
             if last_slot != Some(k) || i + 1 == pts.len() {
-                draw_marker(chart.plotting_area(), s.style, *p, s.color())?;
+                draw_marker(chart.plotting_area(), s.style.marker, *p, s.color())?;
                 last_slot = Some(k);
             }
         }
@@ -115,8 +137,57 @@ where
     Ok(())
 }
 
-/// Draw the marker of the solver with index `style` at `p`: circle, triangle, square, cross.
-fn draw_marker<DB, CT>(area: &DrawingArea<DB, CT>, style: usize, p: CT::From, color: RGBColor) -> Result<()>
+/// The x axis of a curve chart: linear from 0, or logarithmic from `lo` (where x = 0 is
+/// drawn) when the curves' lengths span decades.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum XAxis {
+    Linear { max: f64 },
+    Log { lo: f64, max: f64 },
+}
+
+impl XAxis {
+    /// Iterations: logarithmic when the longest curve has at least [`LOG_AXIS_RATIO`] times
+    /// the iterations of the shortest (with at least 10), so that Newton's few iterations are
+    /// not squeezed against the axis by a first-order method's thousand.
+    pub(super) fn for_iterations(lengths: impl Iterator<Item = f64>) -> XAxis {
+        let (lo, hi) = lengths.fold((f64::INFINITY, 0.0f64), |(lo, hi), n| (lo.min(n.max(1.0)), hi.max(n)));
+        let max = if hi > 0.0 { hi * 1.02 } else { 1.0 };
+        if hi >= 10.0 && hi >= LOG_AXIS_RATIO * lo {
+            XAxis::Log { lo: 0.8, max: hi * 1.1 }
+        } else {
+            XAxis::Linear { max }
+        }
+    }
+
+    pub(super) fn max(self) -> f64 {
+        match self {
+            XAxis::Linear { max } | XAxis::Log { max, .. } => max,
+        }
+    }
+
+    /// A point's x on this axis: 0 sits at the left end of a log axis.
+    pub(super) fn place(self, x: f64) -> f64 {
+        match self {
+            XAxis::Log { lo, .. } => x.max(lo),
+            XAxis::Linear { .. } => x,
+        }
+    }
+
+    /// The axis description: `what`, and how 0 is drawn on a log axis.
+    pub(super) fn describe(self, what: &str) -> String {
+        match self {
+            XAxis::Linear { .. } => what.to_string(),
+            XAxis::Log { .. } => format!("{what} (log scale; 0 at the left edge)"),
+        }
+    }
+}
+
+/// How many times the iterations of the shortest curve the longest must have for a log axis.
+pub(super) const LOG_AXIS_RATIO: f64 = 10.0;
+
+/// Draw marker shape `marker` (of [`MARKERS`]) at `p`: circle, triangle, square, cross,
+/// diamond, downward triangle, ring, plus.
+fn draw_marker<DB, CT>(area: &DrawingArea<DB, CT>, marker: usize, p: CT::From, color: RGBColor) -> Result<()>
 where
     DB: DrawingBackend,
     DB::ErrorType: 'static,
@@ -124,12 +195,19 @@ where
     CT::From: Clone,
 {
     let filled = color.filled();
+    let stroke = color.stroke_width(2);
     let at = || EmptyElement::at(p.clone());
-    match style % 4 {
+    match marker % MARKERS {
         0 => area.draw(&(at() + Circle::new((0, 0), 4, filled)))?,
         1 => area.draw(&(at() + TriangleMarker::new((0, 0), 5, filled)))?,
         2 => area.draw(&(at() + Rectangle::new([(-4, -4), (4, 4)], filled)))?,
-        _ => area.draw(&(at() + Cross::new((0, 0), 4, color.stroke_width(2))))?,
+        3 => area.draw(&(at() + Cross::new((0, 0), 4, stroke)))?,
+        4 => area.draw(&(at() + Polygon::new(vec![(0, -5), (5, 0), (0, 5), (-5, 0)], filled)))?,
+        5 => area.draw(&(at() + Polygon::new(vec![(-5, -3), (5, -3), (0, 5)], filled)))?,
+        6 => area.draw(&(at() + Circle::new((0, 0), 4, stroke)))?,
+        _ => area.draw(
+            &(at() + PathElement::new(vec![(-5, 0), (5, 0)], stroke) + PathElement::new(vec![(0, -5), (0, 5)], stroke)),
+        )?,
     }
     Ok(())
 }
@@ -160,23 +238,38 @@ pub(super) fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, ent
 where
     DB::ErrorType: 'static,
 {
-    let row = 22;
     let (top, left) = (50, 4);
+    // 22 pixels a row, closer for many solvers so that 24 still leave room for the notes.
+    let row = 22.min((CURVE_SIZE.1 as i32 - top - 60) / entries.len().max(1) as i32).max(15);
     let height = row * entries.len() as i32 + 10;
     let width = LEGEND_WIDTH as i32 - 2 * left - 4;
     area.draw(&Rectangle::new([(left, top), (left + width, top + height)], BLACK.mix(0.6).stroke_width(1)))?;
     let font = TextStyle::from(("sans-serif", 14).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    let twins = twins(entries);
     for (k, s) in entries.iter().enumerate() {
         let y = top + 5 + row * k as i32 + row / 2;
         let line = s.color().stroke_width(2);
-        if s.converged {
+        if twins[k].is_some() {
+            for x in [4, 14, 24] {
+                area.draw(&PathElement::new(vec![(left + x, y), (left + x + 4, y)], line))?;
+            }
+        } else if s.converged {
             area.draw(&PathElement::new(vec![(left + 6, y), (left + 34, y)], line))?;
         } else {
             area.draw(&PathElement::new(vec![(left + 4, y), (left + 12, y)], line))?;
             area.draw(&PathElement::new(vec![(left + 28, y), (left + 36, y)], line))?;
         }
-        draw_marker(area, s.style, (left + 20, y), s.color())?;
-        area.draw(&Text::new(s.solver.to_string(), (left + 42, y), font.clone()))?;
+        draw_marker(area, s.style.marker, (left + 20, y), s.color())?;
+        let label = match twins[k] {
+            Some(j) => format!("{} = {}", s.solver, entries[j].solver),
+            None => s.solver.to_string(),
+        };
+        area.draw(&Text::new(label, (left + 42, y), font.clone()))?;
+    }
+    if twins.iter().any(Option::is_some) {
+        let note = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Left, VPos::Top));
+        let y = top + height + if entries.iter().any(|s| !s.converged) { 24 } else { 6 };
+        area.draw(&Text::new("a = b: the same iterates as b", (left + 2, y), note))?;
     }
     if entries.iter().any(|s| !s.converged) {
         let note = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Left, VPos::Top));

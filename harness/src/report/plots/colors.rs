@@ -2,19 +2,76 @@
 
 use plotters::style::RGBColor;
 
-/// The tab10 palette; a solver's color is its index in order of first appearance in the summary.
-pub(super) const PALETTE: [RGBColor; 10] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-    RGBColor(188, 189, 34),
-    RGBColor(23, 190, 207),
+/// The shades of each family of solvers, the family's hue from dark to light (tab10 and
+/// ColorBrewer colors), so that the solvers of one family read as related and families apart.
+/// Indexed by [`family`].
+const FAMILY_SHADES: [&[RGBColor]; 7] = [
+    // Newton, analytic projection: blues.
+    &[
+        RGBColor(31, 119, 180),
+        RGBColor(8, 48, 107),
+        RGBColor(107, 174, 214),
+        RGBColor(23, 190, 207),
+        RGBColor(82, 82, 163),
+    ],
+    // Newton, numeric projection: greens.
+    &[RGBColor(44, 160, 44), RGBColor(0, 90, 50), RGBColor(152, 223, 138), RGBColor(188, 189, 34)],
+    // Newton, filtered or plain: purples.
+    &[RGBColor(148, 103, 189), RGBColor(84, 39, 143), RGBColor(206, 147, 216)],
+    // Proxies and majorizers: warm colors.
+    &[RGBColor(255, 127, 14), RGBColor(214, 39, 40), RGBColor(140, 86, 75), RGBColor(230, 171, 2)],
+    // Quasi-Newton: greys.
+    &[RGBColor(127, 127, 127), RGBColor(30, 30, 30), RGBColor(185, 185, 185)],
+    // Authalic: teals.
+    &[RGBColor(0, 128, 128), RGBColor(102, 194, 165), RGBColor(64, 224, 208)],
+    // External solvers and names the catalogue does not know: pinks.
+    &[RGBColor(227, 119, 194), RGBColor(231, 41, 138), RGBColor(174, 1, 126), RGBColor(250, 159, 181)],
 ];
+
+/// How many marker shapes there are (`chart::draw_marker`).
+pub(super) const MARKERS: usize = 8;
+
+/// A solver's look in the plots of one page: its color and marker shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Look {
+    pub(super) color: RGBColor,
+    pub(super) marker: usize,
+}
+
+/// The family index of a solver (a row of [`FAMILY_SHADES`]): the catalogue's family, the
+/// last row for anything else (external solvers). Tables call SLIM with clamped weights
+/// `slim (clamped)`: the same family as `slim`.
+fn family(solver: &str) -> usize {
+    use solvers::solver::catalogue::{find, Family};
+    let name = solver.strip_suffix(" (clamped)").unwrap_or(solver);
+    match find(name).map(|e| e.family) {
+        Some(Family::AnalyticNewton) => 0,
+        Some(Family::NumericNewton) => 1,
+        Some(Family::FilteredNewton) => 2,
+        Some(Family::Proxy) => 3,
+        Some(Family::QuasiNewton) => 4,
+        Some(Family::Authalic) => 5,
+        None => 6,
+    }
+}
+
+/// The looks of `solvers` (in the order given, which is the summary's): the k-th solver of a
+/// family takes its family's k-th shade and the marker `family + k`, so within a family
+/// colors differ (markers too once shades repeat) and the first solvers of different
+/// families do not all share one marker.
+pub(super) fn looks(solvers: &[&str]) -> Vec<Look> {
+    let mut seen = [0usize; FAMILY_SHADES.len()];
+    solvers
+        .iter()
+        .map(|s| {
+            let f = family(s);
+            let k = seen[f];
+            seen[f] += 1;
+            let shades = FAMILY_SHADES[f];
+            Look { color: shades[k % shades.len()], marker: (f + k) % MARKERS }
+        })
+        .collect()
+}
 
 /// What the map coloring shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -155,6 +212,44 @@ fn format_tick(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// 24 solvers (the catalogue's and three external ones): no two alike in color and
+    /// marker, colors of different solvers apart by a visible margin, families together.
+    #[test]
+    fn twenty_four_solvers_look_different_and_families_related() {
+        let mut names: Vec<&str> = solvers::solver::catalogue::SOLVERS.iter().map(|e| e.name).collect();
+        names.extend(["igl-slim", "example-gd", "their-newton", "slim (clamped)"]);
+        names.truncate(24);
+        assert_eq!(names.len(), 24);
+        let looks = looks(&names);
+        let rgb = |l: &Look| [l.color.0, l.color.1, l.color.2].map(f64::from);
+        for i in 0..looks.len() {
+            assert_ne!(rgb(&looks[i]), [255.0; 3], "{} drawn white", names[i]);
+            for j in 0..i {
+                let (a, b) = (rgb(&looks[i]), rgb(&looks[j]));
+                let distance = (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>().sqrt();
+                assert!(
+                    distance > 40.0 || looks[i].marker != looks[j].marker,
+                    "{} and {} look alike: {:?} {:?}",
+                    names[i],
+                    names[j],
+                    looks[i],
+                    looks[j]
+                );
+                assert!(distance > 25.0, "{} and {} share a color: {a:?} {b:?}", names[i], names[j]);
+            }
+        }
+        // Families: every kp-newton variant blue, every fp-* green, the externals pink.
+        let of = |n: &str| looks[names.iter().position(|x| *x == n).unwrap()].color;
+        for n in ["kp-newton", "kp-newton-cg", "kp-newton-noscale"] {
+            assert!(FAMILY_SHADES[0].contains(&of(n)), "{n}");
+        }
+        for n in ["fp-newton-4x4", "fp-newton-6x6", "fp-abs-6x6"] {
+            assert!(FAMILY_SHADES[1].contains(&of(n)), "{n}");
+        }
+        assert!(FAMILY_SHADES[6].contains(&of("igl-slim")));
+        assert_eq!(family("slim (clamped)"), family("slim"));
+    }
 
     #[test]
     fn the_color_scale_snaps_to_the_99th_percentile() {

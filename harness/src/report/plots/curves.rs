@@ -1,7 +1,7 @@
 //! Convergence curves of one (dataset, energy) group: energy gap vs iteration and vs time,
 //! #negative eigenvalues vs iteration (the complex-view paper's Figures 2-3).
 
-use super::chart::{self, draw_series, format_count, format_linear, house_style, render_framed, Curve, Series};
+use super::chart::{self, draw_series, format_count, format_linear, house_style, render_framed, Curve, Series, XAxis};
 use super::{Plot, PlotKind};
 use crate::report::converged;
 use crate::run_folder::{write_atomic, SummaryRow};
@@ -63,6 +63,14 @@ fn gap_floor(curves: &[Series]) -> f64 {
 fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<u8>> {
     render_framed(curves, |chart_area| {
         let floor = gap_floor(curves);
+        let x_axis = match kind {
+            PlotKind::EnergyTime => {
+                let t_max = curves.iter().flat_map(|c| c.curve.time.iter().copied()).filter(|t| t.is_finite());
+                let t_max = t_max.fold(0.0, f64::max);
+                XAxis::Linear { max: if t_max > 0.0 { t_max * 1.02 } else { 1.0 } }
+            }
+            _ => XAxis::for_iterations(curves.iter().map(|c| c.curve.iter.last().copied().unwrap_or(0.0))),
+        };
         let points: Vec<Vec<(f64, f64)>> = curves
             .iter()
             .map(|Series { curve: c, .. }| {
@@ -71,44 +79,63 @@ fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<
                     PlotKind::NegEigIter => c.neg_eig.clone(),
                     _ => c.gap.iter().map(|g| if g.is_finite() && *g <= floor { floor } else { *g }).collect(),
                 };
-                let pts = xs.iter().zip(ys).map(|(x, y)| (*x, y)).filter(|(x, y)| x.is_finite() && y.is_finite());
-                pts.collect()
+                let pts = xs.iter().zip(ys).map(|(x, y)| (x_axis.place(*x), y));
+                pts.filter(|(x, y)| x.is_finite() && y.is_finite()).collect()
             })
             .collect();
-        let all = points.iter().flatten();
-        let x_max = all.clone().map(|p| p.0).fold(0.0, f64::max);
-        let x_max = if x_max > 0.0 { x_max * 1.02 } else { 1.0 };
-        let y_max = all.map(|p| p.1).fold(0.0, f64::max);
-        let x_desc = if *kind == PlotKind::EnergyTime { "time (s)" } else { "iteration" };
+        let y_max = points.iter().flatten().map(|p| p.1).fold(0.0, f64::max);
+        let x_desc = x_axis.describe(if *kind == PlotKind::EnergyTime { "time (s)" } else { "iteration" });
         let mut builder = ChartBuilder::on(chart_area);
         builder.caption(title, ("sans-serif", 20)).margin(12).x_label_area_size(42).y_label_area_size(70);
-        match kind {
-            PlotKind::NegEigIter => {
-                let y_max = if y_max > 0.0 { y_max * 1.05 } else { 1.0 };
-                let mut chart = builder.build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
+        // The four charts differ only in their axes' types (linear or log x, counts or log y).
+        macro_rules! chart {
+            ($x:expr, $y:expr, $y_desc:expr, $y_fmt:expr) => {{
+                let mut chart = builder.build_cartesian_2d($x, $y)?;
                 let mut mesh = chart.configure_mesh();
-                mesh.x_desc(x_desc)
-                    .y_desc("#negative eigenvalues")
-                    .y_label_formatter(&|v| format_count(*v))
+                mesh.x_desc(x_desc.as_str())
+                    .y_desc($y_desc)
+                    .y_label_formatter(&$y_fmt)
                     .x_label_formatter(&|v| format_linear(*v));
                 house_style(&mut mesh).draw()?;
-                draw_series(&mut chart, curves, &points, x_max)?;
+                draw_series(&mut chart, curves, &points, x_axis)?;
+            }};
+        }
+        let counts = |v: &f64| format_count(*v);
+        let exponent = |v: &f64| format!("{v:.0e}");
+        let gap_desc = "E − E*  (≤ 0 drawn at the bottom)";
+        match (kind, x_axis) {
+            (PlotKind::NegEigIter, XAxis::Linear { max }) => {
+                chart!(0.0..max, 0.0..neg_eig_max(y_max), "#negative eigenvalues", counts)
             }
-            _ => {
-                let y_max = if y_max > floor { y_max * 2.0 } else { floor * 10.0 };
-                // A little room below the floor so the markers drawn there are not clipped.
-                let mut chart = builder.build_cartesian_2d(0.0..x_max, (floor / 2.0..y_max).log_scale())?;
-                let mut mesh = chart.configure_mesh();
-                mesh.x_desc(x_desc)
-                    .y_desc("E − E*  (≤ 0 drawn at the bottom)")
-                    .y_label_formatter(&|v| format!("{v:.0e}"))
-                    .x_label_formatter(&|v| format_linear(*v));
-                house_style(&mut mesh).draw()?;
-                draw_series(&mut chart, curves, &points, x_max)?;
+            (PlotKind::NegEigIter, XAxis::Log { lo, max }) => {
+                chart!((lo..max).log_scale(), 0.0..neg_eig_max(y_max), "#negative eigenvalues", counts)
+            }
+            // A little room below the floor so the markers drawn there are not clipped.
+            (_, XAxis::Linear { max }) => {
+                chart!(0.0..max, (floor / 2.0..gap_max(y_max, floor)).log_scale(), gap_desc, exponent)
+            }
+            (_, XAxis::Log { lo, max }) => {
+                chart!((lo..max).log_scale(), (floor / 2.0..gap_max(y_max, floor)).log_scale(), gap_desc, exponent)
             }
         }
         Ok(())
     })
+}
+
+fn neg_eig_max(y_max: f64) -> f64 {
+    if y_max > 0.0 {
+        y_max * 1.05
+    } else {
+        1.0
+    }
+}
+
+fn gap_max(y_max: f64, floor: f64) -> f64 {
+    if y_max > floor {
+        y_max * 2.0
+    } else {
+        floor * 10.0
+    }
 }
 
 #[cfg(test)]
@@ -124,7 +151,12 @@ mod tests {
             gap,
             best: 4.0,
         };
-        let series = |solver, style, converged, gap| Series { solver, style, converged, curve: curve(gap) };
+        let series = |solver, _: usize, converged, gap| Series {
+            solver,
+            style: chart::style(&["a", "b"], solver),
+            converged,
+            curve: curve(gap),
+        };
         let curves = vec![series("a", 0, true, vec![6.0, 1e-3, 0.0]), series("b", 1, false, vec![6.0, -1e-9])];
         let floor = gap_floor(&curves);
         assert_eq!(floor, 1e-5);

@@ -4,8 +4,8 @@
 //! data profiles (`profile__<energy>__data.png`): [`crate::report::corpus::data_profiles`] of
 //! the time to the target on a log10 budget axis.
 
-use super::chart::Curve;
 use super::chart::{self, draw_series, format_linear, house_style, iter_gap_points, render_framed, Series};
+use super::chart::{Curve, XAxis};
 use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::corpus::{
     data_profiles, performance_profiles, DataProfiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME,
@@ -164,7 +164,7 @@ fn render_fractions(
             .x_label_formatter(x_label)
             .y_label_formatter(&fraction);
         house_style(&mut mesh).draw()?;
-        draw_series(&mut chart, &curves, &points, x_max)?;
+        draw_series(&mut chart, &curves, &points, XAxis::Linear { max: x_max })?;
         Ok(())
     })
 }

@@ -1,8 +1,10 @@
 //! Scaling plots over every dataset of an energy: time per iteration and iterations against
 //! the vertex count (the composite-majorization paper's Figure 6 shape).
 
-use super::chart::Curve;
-use super::chart::{draw_series, format_count, format_linear, house_style, iter_gap_points, render_framed, Series};
+use super::chart::{
+    self, draw_series, format_count, format_linear, house_style, iter_gap_points, render_framed, Series,
+};
+use super::chart::{Curve, XAxis};
 use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::{converged, finished, is_authalic};
 use crate::run_folder::{write_atomic, SummaryRow};
@@ -40,7 +42,7 @@ pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: 
                 _ => r.iterations.map(|i| i as f64),
             };
             let mut curves = Vec::new();
-            for (style, solver) in solvers.iter().enumerate() {
+            for solver in solvers {
                 let mut pts: Vec<(f64, f64)> = runs
                     .iter()
                     .filter(|r| r.solver == *solver)
@@ -57,7 +59,7 @@ pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: 
                     ..Default::default()
                 };
                 let converged = runs.iter().filter(|r| r.solver == *solver).all(|r| converged(r));
-                curves.push(Series { solver, style, converged, curve });
+                curves.push(Series { solver, style: chart::style(solvers, solver), converged, curve });
             }
             if curves.is_empty() {
                 continue;
@@ -97,7 +99,7 @@ fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> R
                 .x_label_formatter(&|v| format_linear(*v))
                 .y_label_formatter(&|v| format_linear(*v));
             house_style(&mut mesh).draw()?;
-            draw_series(&mut chart, curves, &points, every_point)?;
+            draw_series(&mut chart, curves, &points, XAxis::Linear { max: every_point })?;
         } else {
             let mut chart = builder.build_cartesian_2d(xr.log_scale(), 0.0..(y_max * 1.1))?;
             let mut mesh = chart.configure_mesh();
@@ -106,7 +108,7 @@ fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> R
                 .x_label_formatter(&|v| format_linear(*v))
                 .y_label_formatter(&|v| format_count(*v));
             house_style(&mut mesh).draw()?;
-            draw_series(&mut chart, curves, &points, every_point)?;
+            draw_series(&mut chart, curves, &points, XAxis::Linear { max: every_point })?;
         }
         Ok(())
     })

@@ -3,8 +3,8 @@
 //! curve plots (legend column, markers per solver).
 
 use super::canvas::{encode_png, register_font};
-use super::chart::Curve;
 use super::chart::{draw_legend, draw_series, format_linear, house_style, style, Series, CURVE_SIZE, LEGEND_WIDTH};
+use super::chart::{Curve, XAxis};
 use anyhow::{bail, Result};
 use plotters::prelude::*;
 use plotters::style::FontTransform;
@@ -80,7 +80,7 @@ pub fn render_trend(
             .x_label_style(("sans-serif", 12).into_font().transform(FontTransform::Rotate90))
             .draw()?;
         // A marker at every point: a marker slot far smaller than the spacing of batches.
-        draw_series(&mut chart, &series, &points, 1e-9)?;
+        draw_series(&mut chart, &series, &points, XAxis::Linear { max: 1e-9 })?;
         draw_legend(&legend_area, &series)?;
         root.present()?;
     }
