@@ -168,4 +168,38 @@ mod tests {
         assert_eq!(gap_floor(&zeros), 4e-16);
         render_curves("t", &PlotKind::EnergyIter, &zeros).unwrap();
     }
+
+    #[test]
+    fn the_iteration_axis_is_logarithmic_when_curve_lengths_span_a_decade() {
+        let axis = |lengths: &[f64]| XAxis::for_iterations(lengths.iter().copied());
+        assert_eq!(axis(&[3.0, 1000.0]), XAxis::Log { lo: 0.8, max: 1100.0 });
+        assert_eq!(axis(&[0.0, 12.0]), XAxis::Log { lo: 0.8, max: 12.0 * 1.1 }, "a run of 0 iterations counts as 1");
+        assert_eq!(axis(&[5.0, 20.0]), XAxis::Linear { max: 20.0 * 1.02 });
+        assert_eq!(axis(&[0.0, 8.0]), XAxis::Linear { max: 8.0 * 1.02 }, "under 10 iterations: linear");
+        assert_eq!(axis(&[]), XAxis::Linear { max: 1.0 });
+        // Iteration 0 sits at the left end of a log axis.
+        assert_eq!(axis(&[3.0, 1000.0]).place(0.0), 0.8);
+        assert_eq!(axis(&[5.0, 20.0]).place(0.0), 0.0);
+    }
+
+    #[test]
+    fn a_curve_with_the_same_iterates_as_an_earlier_one_is_its_twin() {
+        let curve =
+            |gap: Vec<f64>| Curve { iter: (0..gap.len()).map(|i| i as f64).collect(), gap, ..Default::default() };
+        let names = ["kp-newton", "cm", "slim", "kp-newton-eig8"];
+        let series = |i: usize, gap: Vec<f64>| Series {
+            solver: names[i],
+            style: chart::style(&names, names[i]),
+            converged: true,
+            curve: curve(gap),
+        };
+        let curves = vec![
+            series(0, vec![4.0, 1.0, 0.0]),
+            series(1, vec![4.0, 1.0, 0.0]),
+            series(2, vec![4.0, 2.0, 0.5]),
+            series(3, vec![4.0, 1.0, 0.0]),
+        ];
+        assert_eq!(chart::twins(&curves), [None, Some(0), None, Some(0)]);
+        render_curves("t", &PlotKind::EnergyIter, &curves).unwrap();
+    }
 }
