@@ -13,7 +13,7 @@ use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 
 /// The schema this build writes. README "History database" documents it.
-pub const SCHEMA_VERSION: i64 = 5;
+pub const SCHEMA_VERSION: i64 = 6;
 
 /// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).
 pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
@@ -73,6 +73,12 @@ pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
     // v5: the truncated solvers' steps at the CG cap (`summary.csv`'s `cg_capped_iters`),
     // counted like `shifted_iters` and `clamped_iters`.
     "ALTER TABLE runs ADD COLUMN cg_capped_iters INTEGER;",
+    // v6: the tightest target a judged run was held to and, when it reached it, the
+    // iterations and time to it (`summary.csv`'s `iters_to_*` and `time_to_*`): the trend
+    // page's solved counts and means to the target.
+    "ALTER TABLE runs ADD COLUMN target_tau REAL;
+    ALTER TABLE runs ADD COLUMN iters_to_target INTEGER;
+    ALTER TABLE runs ADD COLUMN time_s_to_target REAL;",
 ];
 
 /// Where a batch came from (`batches.source`).
@@ -165,6 +171,10 @@ pub struct RunRow {
     pub final_gap: Option<f64>,
     pub verdict: Option<String>,
     pub cg_capped_iters: Option<i64>,
+    /// The tightest target of a judged run, and the iterations and time to it when reached.
+    pub target_tau: Option<f64>,
+    pub iters_to_target: Option<i64>,
+    pub time_s_to_target: Option<f64>,
 }
 
 impl RunRow {
@@ -198,6 +208,9 @@ impl RunRow {
             final_gap: s.final_gap,
             verdict: s.verdict.map(|x| x.as_str().to_string()),
             cg_capped_iters: int(s.cg_capped_iters),
+            target_tau: s.to_targets.last().map(|t| t.tau),
+            iters_to_target: s.to_targets.last().and_then(|t| int(t.iters)),
+            time_s_to_target: s.to_targets.last().and_then(|t| t.time_s),
         }
     }
 }
@@ -365,7 +378,8 @@ impl HistoryDb {
                 "SELECT batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
                  final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, \
                  shifted_iters, clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, \
-                 cg_capped_iters FROM runs WHERE batch_id = ?1 ORDER BY rowid",
+                 cg_capped_iters, target_tau, iters_to_target, time_s_to_target FROM runs WHERE batch_id = ?1 \
+                 ORDER BY rowid",
             )
             .map_err(&sql)?;
         let rows = stmt
@@ -400,6 +414,9 @@ impl HistoryDb {
                     final_gap: r.get(23)?,
                     verdict: r.get(24)?,
                     cg_capped_iters: r.get(25)?,
+                    target_tau: r.get(26)?,
+                    iters_to_target: r.get(27)?,
+                    time_s_to_target: r.get(28)?,
                 })
             })
             .map_err(&sql)?
@@ -462,9 +479,9 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
     let mut stmt = tx.prepare(
         "INSERT INTO runs (batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
          final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
-         clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, cg_capped_iters) VALUES (?1, \
-         ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, \
-         ?25, ?26)",
+         clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, cg_capped_iters, target_tau, \
+         iters_to_target, time_s_to_target) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, \
+         ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29)",
     )?;
     for r in runs {
         stmt.execute(params![
@@ -494,6 +511,9 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.final_gap,
             r.verdict,
             r.cg_capped_iters,
+            r.target_tau,
+            r.iters_to_target,
+            r.time_s_to_target,
         ])
         .map_err(|source| InsertError::Run {
             run: crate::run_folder::run_stem(&r.dataset, &r.energy, &r.solver),

@@ -24,6 +24,11 @@ fn run(dataset: &str, solver: &str, iterations: usize, energy: f64) -> RunRow {
         status: Status::Ok,
         peak_rss_mb: Some(96.5),
         cg_capped_iters: (solver == "kp-newton-cg").then_some(3),
+        to_targets: vec![crate::run_folder::summary::ToTarget {
+            tau: 1e-6,
+            iters: iterations.checked_sub(1),
+            time_s: Some(0.4),
+        }],
         ..Default::default()
     })
 }
@@ -64,6 +69,10 @@ fn a_new_database_gets_the_current_schema_and_round_trips_a_batch() {
     (failed.status, failed.stop_reason, failed.iterations, failed.final_energy) = (Status::Failed, None, None, None);
     let runs = vec![run("a", "kp-newton", 7, 2.01), run("a", "kp-newton-cg", 9, 2.01), failed];
     assert_eq!(runs[1].cg_capped_iters, Some(3));
+    assert_eq!(
+        (runs[1].target_tau, runs[1].iters_to_target, runs[1].time_s_to_target),
+        (Some(1e-6), Some(8), Some(0.4))
+    );
     let id = db.insert_batch(&batch("param", "abcdef0123", 100), &runs).unwrap();
     let back = db.runs(id).unwrap();
     let expect: Vec<RunRow> = runs.iter().map(|r| RunRow { batch_id: id, ..r.clone() }).collect();
@@ -118,8 +127,15 @@ fn an_older_schema_is_migrated_in_place() {
     assert_eq!((b.len(), b[0].source, b[0].short_revision()), (1, Source::Run, "1234567".to_string()));
     let r = db.runs(1).unwrap();
     assert_eq!(
-        (r[0].iterations, r[0].status, r[0].stop_reason.clone(), r[0].peak_rss_mb, r[0].cg_capped_iters),
-        (Some(9), Status::Ok, Some(StopReason::GradientTolerance), None, None)
+        (
+            r[0].iterations,
+            r[0].status,
+            r[0].stop_reason.clone(),
+            r[0].peak_rss_mb,
+            r[0].cg_capped_iters,
+            r[0].target_tau
+        ),
+        (Some(9), Status::Ok, Some(StopReason::GradientTolerance), None, None, None)
     );
     // version 0 (an empty file, as `sqlite3 FILE` or `touch` leaves it) becomes a history
     // when a batch is appended, and is left alone by a reader

@@ -5,6 +5,7 @@
 //! previous one of the same config, by the rules of `check`.
 
 use super::changes::Changes;
+use super::corpus::{ITERATION_SHIFT, TIME_NORM_SHIFT, TIME_SHIFT_S};
 use super::html::{esc, href, utc, STYLE};
 use super::plots::trend::{render_trend, TrendLine};
 use super::unique;
@@ -13,6 +14,7 @@ use crate::gate::rules::Change;
 use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
 use crate::paths::relative_link;
 use crate::run_folder::{write_atomic, Status};
+use crate::stats::shifted_geometric_mean;
 use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -67,39 +69,78 @@ impl TimeColumn {
             TimeColumn::Raw => "time_s (seconds, not normalized)",
         }
     }
+
+    /// The shift of its geometric mean (the report's aggregates use the same).
+    fn shift(self) -> f64 {
+        match self {
+            TimeColumn::Norm => TIME_NORM_SHIFT,
+            TimeColumn::Raw => TIME_SHIFT_S,
+        }
+    }
 }
 
-/// Totals of one (batch, energy, solver) cell over its counted runs.
+/// The cost of a run to the target as the trend counts it: a solved run's iterations and
+/// time to its tightest target (to its own stop when it was not judged), `None` for an
+/// unsolved one (it enters at the cap).
+fn cost(r: &RunRow, time: TimeColumn) -> Option<(f64, Option<f64>)> {
+    if r.status != Status::Ok {
+        return None;
+    }
+    let iterations = r.iters_to_target.or(r.iterations)? as f64;
+    // The time to the target scales the run's time by time_to / time_s (as the report's tables).
+    let k = match (r.time_s_to_target, r.time_s) {
+        (Some(to), Some(t)) if t > 0.0 => to / t,
+        (Some(_), Some(_)) => 0.0,
+        _ => 1.0,
+    };
+    Some((iterations, time.of(r).map(|t| t * k)))
+}
+
+/// The caps an unsolved run enters the means at, per energy over the whole history shown: the
+/// most iterations and the longest time any run of the energy took to its own stop (the
+/// history does not keep `max_iters` or the timeout).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Caps {
+    iterations: f64,
+    time: Option<f64>,
+}
+
+impl Caps {
+    fn of(c: &ConfigHistory, energy: &str, time: TimeColumn) -> Caps {
+        let runs = || c.batches.iter().flat_map(|(_, r)| r.iter()).filter(|r| r.energy == energy && counted(r));
+        let iterations = runs().filter_map(|r| r.iterations).max().unwrap_or(0) as f64;
+        let time = runs().filter_map(|r| time.of(r)).filter(|t| t.is_finite()).reduce(f64::max);
+        Caps { iterations, time }
+    }
+}
+
+/// One (batch, energy, solver) of the trend: solved at the target out of the runs that were
+/// not skipped, and the shifted geometric means to the target with unsolved runs at the caps
+/// (the report's aggregates rule).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Cell {
     runs: usize,
-    iterations: i64,
-    time: f64,
-    /// Runs of the cell without the chosen time column (left out of `time`).
-    untimed: usize,
+    solved: usize,
+    sgm_iterations: Option<f64>,
+    sgm_time: Option<f64>,
 }
 
-impl Cell {
-    fn mean_iterations(&self) -> f64 {
-        self.iterations as f64 / self.runs as f64
+fn cell(runs: &[RunRow], energy: &str, solver: &str, time: TimeColumn, caps: Caps) -> Option<Cell> {
+    let mine: Vec<&RunRow> =
+        runs.iter().filter(|r| r.energy == energy && r.solver == solver && r.status != Status::Skipped).collect();
+    if mine.is_empty() {
+        return None;
     }
-    fn mean_time(&self) -> Option<f64> {
-        let timed = self.runs - self.untimed;
-        (timed > 0).then(|| self.time / timed as f64)
-    }
-}
-
-fn cell(runs: &[RunRow], energy: &str, solver: &str, time: TimeColumn) -> Option<Cell> {
-    let mut c = Cell::default();
-    for r in runs.iter().filter(|r| r.energy == energy && r.solver == solver && counted(r)) {
-        c.runs += 1;
-        c.iterations += r.iterations.unwrap_or(0);
-        match time.of(r) {
-            Some(t) => c.time += t,
-            None => c.untimed += 1,
-        }
-    }
-    (c.runs > 0).then_some(c)
+    let costs: Vec<Option<(f64, Option<f64>)>> = mine.iter().map(|r| cost(r, time)).collect();
+    // Never below the run's own value: a solved run's cost stays what it is.
+    let iterations: Vec<f64> = costs.iter().map(|c| c.map_or(caps.iterations, |c| c.0)).collect();
+    let times: Option<Vec<f64>> = costs.iter().map(|c| c.map_or(caps.time, |c| c.1)).collect();
+    Some(Cell {
+        runs: mine.len(),
+        solved: costs.iter().filter(|c| c.is_some()).count(),
+        sgm_iterations: shifted_geometric_mean(&iterations, ITERATION_SHIFT),
+        sgm_time: times.and_then(|t| shifted_geometric_mean(&t, time.shift())),
+    })
 }
 
 /// Render the trend page of `config` (every config when `None`) from the last `last`
@@ -193,14 +234,34 @@ fn time_column(c: &ConfigHistory, energy: &str) -> TimeColumn {
     TimeColumn::pick(&runs)
 }
 
-/// The two charts of each energy of a config: mean iterations and mean time per batch.
+/// What a trend chart plots of a cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Measure {
+    Solved,
+    Iterations,
+    Time,
+}
+
+impl Measure {
+    fn of(self, c: &Cell) -> Option<f64> {
+        match self {
+            Measure::Solved => Some(c.solved as f64),
+            Measure::Iterations => c.sgm_iterations,
+            Measure::Time => c.sgm_time,
+        }
+    }
+}
+
+/// The three charts of each energy of a config, per batch: solved runs, and the shifted
+/// geometric means of iterations and time to the target (unsolved at the caps).
 fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
     let (energies, solvers) = names(c);
     let labels: Vec<String> = c.batches.iter().map(|(b, _)| b.short_revision()).collect();
     let mut out = Vec::new();
     for energy in &energies {
         let time = time_column(c, energy);
-        for iterations in [true, false] {
+        let caps = Caps::of(c, energy, time);
+        for measure in [Measure::Solved, Measure::Iterations, Measure::Time] {
             let values: Vec<(String, Vec<(usize, f64)>)> = solvers
                 .iter()
                 .map(|s| {
@@ -208,11 +269,7 @@ fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
                         .batches
                         .iter()
                         .enumerate()
-                        .filter_map(|(i, (_, runs))| {
-                            let cell = cell(runs, energy, s, time)?;
-                            let v = if iterations { Some(cell.mean_iterations()) } else { cell.mean_time() };
-                            v.map(|v| (i, v))
-                        })
+                        .filter_map(|(i, (_, runs))| measure.of(&cell(runs, energy, s, time, caps)?).map(|v| (i, v)))
                         .collect();
                     (s.clone(), pts)
                 })
@@ -221,10 +278,18 @@ fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
             if values.is_empty() {
                 continue;
             }
-            let (suffix, what, y_desc) = if iterations {
-                ("iterations", "mean iterations per batch", "mean iterations".to_string())
-            } else {
-                ("time", "mean time per batch", format!("mean {}", time.label()))
+            let (suffix, what, y_desc) = match measure {
+                Measure::Solved => ("solved", "runs solved per batch", "solved runs (at the target)".to_string()),
+                Measure::Iterations => (
+                    "iterations",
+                    "shifted geometric mean of iterations to the target",
+                    format!("iterations, sgm (shift {ITERATION_SHIFT}), unsolved at the cap"),
+                ),
+                Measure::Time => (
+                    "time",
+                    "shifted geometric mean of time to the target",
+                    format!("{}, sgm (shift {})", time.label(), time.shift()),
+                ),
             };
             out.push(Chart {
                 config: c.name.clone(),
@@ -256,8 +321,11 @@ fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
         esc(&title)
     );
     h += "<p class=\"caption\">Each point is one batch (night), labelled with its short git revision (+: the tree \
-          was dirty). Means and totals count the runs that ran to a stop (ok or not converged); failed and skipped \
-          runs are left out. Changes use the rules of <code>mapbench check</code>.</p>\n";
+          was dirty). Per energy and solver: the runs solved at the target (the harness's verdict; ok for runs it \
+          does not judge), and the shifted geometric means of iterations and time to the target over the runs \
+          that were not skipped, an unsolved run (not converged or failed) entering at the cap: the most \
+          iterations and the longest time any run of the energy took in the batches shown. A solver that starts \
+          failing earlier therefore moves up, not down. Changes use the rules of <code>mapbench check</code>.</p>\n";
     if configs.len() > 1 {
         h += "<nav>";
         for c in configs {
@@ -415,15 +483,19 @@ fn change_table(h: &mut String, changes: &[&Change]) {
     *h += "</table></div>\n";
 }
 
-/// Per batch and solver: total iterations (mean) and total time (mean) of an energy.
+/// Per batch and solver: solved / runs and the two means to the target.
 fn totals_table(h: &mut String, c: &ConfigHistory, energy: &str, solvers: &[String]) {
     let time = time_column(c, energy);
+    let caps = Caps::of(c, energy, time);
     let _ = write!(
         h,
-        "<details><summary>{} per batch: total iterations (mean) and total {} (mean), runs counted</summary>\
-         <div class=\"scroll\"><table>\n<tr><th class=\"k\">batch</th>",
+        "<details><summary>{} per batch: solved / runs, and the shifted geometric means of iterations and of {} \
+         to the target (unsolved runs at the caps: {} iterations, {})</summary><div class=\"scroll\"><table>\n\
+         <tr><th class=\"k\">batch</th>",
         esc(energy),
-        time.label()
+        time.label(),
+        caps.iterations,
+        caps.time.map_or("no time".to_string(), |t| format!("{t:.3}"))
     );
     for s in solvers {
         let _ = write!(h, "<th>{}</th>", esc(s));
@@ -432,15 +504,16 @@ fn totals_table(h: &mut String, c: &ConfigHistory, energy: &str, solvers: &[Stri
     for (b, runs) in c.batches.iter().rev() {
         let _ = write!(h, "<tr><td class=\"k\">{} <code>{}</code></td>", b.id, esc(&b.short_revision()));
         for s in solvers {
-            match cell(runs, energy, s, time) {
+            match cell(runs, energy, s, time, caps) {
                 Some(x) => {
-                    let t = x.mean_time().map_or("-".to_string(), |m| format!("{:.3} ({m:.3})", x.time));
+                    let mean = |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |v| format!("{v:.digits$}"));
                     let _ = write!(
                         h,
-                        "<td>{} ({:.1})<br><small>{t}, n = {}</small></td>",
-                        x.iterations,
-                        x.mean_iterations(),
-                        x.runs
+                        "<td>{}/{}<br><small>{} it, {}</small></td>",
+                        x.solved,
+                        x.runs,
+                        mean(x.sgm_iterations, 1),
+                        mean(x.sgm_time, 3)
                     );
                 }
                 None => *h += "<td class=\"none\"></td>",
@@ -516,11 +589,73 @@ mod tests {
         // cm did not change: only kp-newton's iterations are listed
         assert!(!html.contains("a param sd cm"), "{html}");
         let trend = page.index.parent().unwrap();
-        assert_eq!(page.plots, ["plots/nightly__sd__iterations.png", "plots/nightly__sd__time.png"]);
+        assert_eq!(
+            page.plots,
+            ["plots/nightly__sd__solved.png", "plots/nightly__sd__iterations.png", "plots/nightly__sd__time.png"]
+        );
         for png in &page.plots {
             assert_eq!(png_size(&trend.join(png)), (800, 500));
         }
         let h = HistoryDb::open_existing(&db).unwrap();
         assert_eq!(h.last_batch_of(&absolute(&dir.path().join("night2")).display().to_string()).unwrap(), Some(2));
+    }
+
+    fn judged(solver: &str, dataset: &str, status: Status, iterations: i64, to: Option<(i64, f64)>) -> RunRow {
+        RunRow {
+            dataset: dataset.into(),
+            task: Task::Param,
+            energy: "sd".into(),
+            solver: solver.into(),
+            iterations: Some(iterations),
+            status,
+            time_s: Some(0.1 * iterations as f64),
+            time_norm: Some(0.2 * iterations as f64),
+            target_tau: Some(1e-6),
+            iters_to_target: to.map(|t| t.0),
+            time_s_to_target: to.map(|t| t.1),
+            ..Default::default()
+        }
+    }
+
+    /// A solver that starts failing earlier: its solved count drops and its means rise (the
+    /// failed run enters at the cap), where the old mean over the runs that stopped fell.
+    /// Solved runs count to the target, not to their own stop; skipped runs are left out.
+    #[test]
+    fn trend_cells_count_solved_runs_and_means_to_the_target_with_unsolved_at_the_cap() {
+        let night = |runs: Vec<RunRow>| (BatchRow::default(), runs);
+        let c = ConfigHistory {
+            name: "n".into(),
+            batches: vec![
+                night(vec![
+                    judged("cm", "a", Status::Ok, 30, Some((20, 2.0))),
+                    judged("cm", "b", Status::Ok, 30, Some((20, 2.0))),
+                    judged("slim", "a", Status::NotConverged, 100, None),
+                ]),
+                night(vec![
+                    judged("cm", "a", Status::Ok, 30, Some((20, 2.0))),
+                    judged("cm", "b", Status::NotConverged, 3, None),
+                    judged("slim", "a", Status::Skipped, 0, None),
+                ]),
+            ],
+        };
+        let time = time_column(&c, "sd");
+        assert_eq!(time, TimeColumn::Norm);
+        let caps = Caps::of(&c, "sd", time);
+        assert_eq!(caps, Caps { iterations: 100.0, time: Some(20.0) });
+        let first = cell(&c.batches[0].1, "sd", "cm", time, caps).unwrap();
+        let second = cell(&c.batches[1].1, "sd", "cm", time, caps).unwrap();
+        assert_eq!((first.runs, first.solved, second.runs, second.solved), (2, 2, 2, 1));
+        // 20 iterations to the target (not the 30 of its own stop); time_norm 6.0 x 2.0 / 3.0.
+        let close = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9);
+        assert!(close(first.sgm_iterations, 20.0), "{first:?}");
+        assert!(close(first.sgm_time, 4.0), "{first:?}");
+        // The unsolved run at the cap: sqrt((20 + 10)(100 + 10)) - 10.
+        assert!(close(second.sgm_iterations, (30.0f64 * 110.0).sqrt() - 10.0), "{second:?}");
+        assert!(second.sgm_iterations > first.sgm_iterations);
+        assert!(close(second.sgm_time, ((4.0 + TIME_NORM_SHIFT) * (20.0 + TIME_NORM_SHIFT)).sqrt() - TIME_NORM_SHIFT));
+        // Skipped: no cell; unsolved only: at the cap, 0 solved.
+        assert_eq!(cell(&c.batches[1].1, "sd", "slim", time, caps), None);
+        let slim = cell(&c.batches[0].1, "sd", "slim", time, caps).unwrap();
+        assert_eq!((slim.solved, slim.sgm_iterations.map(f64::round)), (0, Some(100.0)));
     }
 }

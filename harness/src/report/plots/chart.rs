@@ -12,7 +12,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 /// Curve plots: wide enough for a legend column right of the chart.
 pub(super) const CURVE_SIZE: (u32, u32) = (800, 500);
 /// Width of the legend column of curve plots.
-pub(super) const LEGEND_WIDTH: u32 = 190;
+pub(super) const LEGEND_WIDTH: u32 = 230;
 
 /// The columns of a per-iteration CSV the plots use. Non-finite values are kept (and skipped
 /// when drawn) so a diverging run still shows its finite part.
@@ -269,7 +269,7 @@ where
     if twins.iter().any(Option::is_some) {
         let note = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Left, VPos::Top));
         let y = top + height + if entries.iter().any(|s| !s.converged) { 24 } else { 6 };
-        area.draw(&Text::new("a = b: the same iterates as b", (left + 2, y), note))?;
+        area.draw(&Text::new("a = b: the same curve as b", (left + 2, y), note))?;
     }
     if entries.iter().any(|s| !s.converged) {
         let note = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Left, VPos::Top));
