@@ -75,10 +75,12 @@ pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
     "ALTER TABLE runs ADD COLUMN cg_capped_iters INTEGER;",
     // v6: the tightest target a judged run was held to and, when it reached it, the
     // iterations and time to it (`summary.csv`'s `iters_to_*` and `time_to_*`): the trend
-    // page's solved counts and means to the target.
+    // page's solved counts and means to the target; and the run's own peak memory
+    // (`summary.csv`'s `peak_growth_mb`).
     "ALTER TABLE runs ADD COLUMN target_tau REAL;
     ALTER TABLE runs ADD COLUMN iters_to_target INTEGER;
-    ALTER TABLE runs ADD COLUMN time_s_to_target REAL;",
+    ALTER TABLE runs ADD COLUMN time_s_to_target REAL;
+    ALTER TABLE runs ADD COLUMN peak_growth_mb REAL;",
 ];
 
 /// Where a batch came from (`batches.source`).
@@ -175,6 +177,7 @@ pub struct RunRow {
     pub target_tau: Option<f64>,
     pub iters_to_target: Option<i64>,
     pub time_s_to_target: Option<f64>,
+    pub peak_growth_mb: Option<f64>,
 }
 
 impl RunRow {
@@ -211,6 +214,7 @@ impl RunRow {
             target_tau: s.to_targets.last().map(|t| t.tau),
             iters_to_target: s.to_targets.last().and_then(|t| int(t.iters)),
             time_s_to_target: s.to_targets.last().and_then(|t| t.time_s),
+            peak_growth_mb: s.peak_growth_mb,
         }
     }
 }
@@ -378,7 +382,7 @@ impl HistoryDb {
                 "SELECT batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
                  final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, \
                  shifted_iters, clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, \
-                 cg_capped_iters, target_tau, iters_to_target, time_s_to_target FROM runs WHERE batch_id = ?1 \
+                 cg_capped_iters, target_tau, iters_to_target, time_s_to_target, peak_growth_mb FROM runs WHERE batch_id = ?1 \
                  ORDER BY rowid",
             )
             .map_err(&sql)?;
@@ -417,6 +421,7 @@ impl HistoryDb {
                     target_tau: r.get(26)?,
                     iters_to_target: r.get(27)?,
                     time_s_to_target: r.get(28)?,
+                    peak_growth_mb: r.get(29)?,
                 })
             })
             .map_err(&sql)?
@@ -480,8 +485,8 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
         "INSERT INTO runs (batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
          final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
          clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, cg_capped_iters, target_tau, \
-         iters_to_target, time_s_to_target) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, \
-         ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29)",
+         iters_to_target, time_s_to_target, peak_growth_mb) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, \
+         ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30)",
     )?;
     for r in runs {
         stmt.execute(params![
@@ -514,6 +519,7 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.target_tau,
             r.iters_to_target,
             r.time_s_to_target,
+            r.peak_growth_mb,
         ])
         .map_err(|source| InsertError::Run {
             run: crate::run_folder::run_stem(&r.dataset, &r.energy, &r.solver),

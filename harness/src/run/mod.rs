@@ -476,10 +476,11 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                             };
                             monitor.start(worker);
                             let mut result = run_one(plan, p, loaded.mesh.as_ref(), &ctx);
-                            let peak = monitor.finish(worker);
+                            let memory = monitor.finish(worker);
                             // An external run has its child's own peak.
                             if result.summary.status != Status::Skipped && plan.external(p).is_none() {
-                                result.summary.peak_rss_mb = peak;
+                                result.summary.peak_rss_mb = memory.process_mb;
+                                result.summary.peak_growth_mb = memory.growth_mb;
                             }
                             if result.map_uv.is_some() {
                                 result.mesh_file = loaded.mesh_file();

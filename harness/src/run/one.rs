@@ -228,7 +228,7 @@ fn run_external(
     record_outcome(&mut summary, &executed.outcome, None, &executed.rows, executed.wall_s, run, mesh);
     // Our safety-net counts mean nothing of its columns, whatever they are called.
     (summary.shifted_iters, summary.clamped_iters, summary.cg_capped_iters) = (None, None, None);
-    summary.peak_rss_mb = executed.peak_rss_mb;
+    (summary.peak_rss_mb, summary.peak_growth_mb) = (executed.peak_rss_mb, executed.peak_rss_mb);
     summary.verified_snapshots = Some(executed.verified);
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &executed.outcome.x));
     RunResult { map_uv, ..result(summary, executed.rows) }

@@ -26,8 +26,9 @@ pub(super) struct Repeats {
     rows: Vec<Vec<Timings>>,
     /// Why a repeat did not reproduce the first (the run then fails with this message).
     mismatch: Option<String>,
-    /// The largest peak resident set of the repeats (MiB).
+    /// The largest peak resident set of the repeats (MiB), the process's and the run's own.
     peak_rss_mb: Option<f64>,
+    peak_growth_mb: Option<f64>,
 }
 
 impl Repeats {
@@ -38,6 +39,7 @@ impl Repeats {
             rows: vec![first.rows.iter().map(timings).collect()],
             mismatch: None,
             peak_rss_mb: first.summary.peak_rss_mb,
+            peak_growth_mb: first.summary.peak_growth_mb,
         }
     }
 
@@ -77,9 +79,12 @@ impl Repeats {
                 Some(format!("repeat {n} does not reproduce repeat 1 ({what}): the solver is not deterministic"));
             return;
         }
-        if let Some(m) = again.summary.peak_rss_mb {
-            self.peak_rss_mb = Some(self.peak_rss_mb.map_or(m, |p| p.max(m)));
-        }
+        let larger = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        };
+        self.peak_rss_mb = larger(self.peak_rss_mb, again.summary.peak_rss_mb);
+        self.peak_growth_mb = larger(self.peak_growth_mb, again.summary.peak_growth_mb);
         if let Some(t) = again.summary.time_s {
             self.times.push(t);
             self.rows.push(again.rows.iter().map(timings).collect());
@@ -102,7 +107,7 @@ impl Repeats {
         s.time_s = median(&mut times);
         s.time_s_min = times.first().copied();
         s.time_s_max = times.last().copied();
-        s.peak_rss_mb = self.peak_rss_mb;
+        (s.peak_rss_mb, s.peak_growth_mb) = (self.peak_rss_mb, self.peak_growth_mb);
         for (i, row) in result.rows.iter_mut().enumerate() {
             let column =
                 |c: usize| median(&mut self.rows.iter().filter_map(|r| r.get(i).map(|t| t[c])).collect::<Vec<_>>());

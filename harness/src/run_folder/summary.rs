@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 /// the energy span the gaps are fractions of, and the snapshots of an external solver the
 /// harness verified (appended: a file written before them reads them as empty). After them, for each target `tau`
 /// of the batch, `iters_to_<tau>` and `time_to_<tau>` ([`target_columns`]).
-pub const SUMMARY_COLUMNS: [&str; 41] = [
+pub const SUMMARY_COLUMNS: [&str; 42] = [
     "dataset",
     "task",
     "energy",
@@ -62,6 +62,7 @@ pub const SUMMARY_COLUMNS: [&str; 41] = [
     "cg_capped_iters",
     "gap_scale",
     "verified_snapshots",
+    "peak_growth_mb",
 ];
 
 /// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
@@ -309,6 +310,12 @@ pub struct SummaryRow {
     /// norm, flips); empty for the catalogue's solvers, whose iterates are our own code's.
     #[serde(default)]
     pub verified_snapshots: Option<usize>,
+    /// How far the process's resident memory rose above its level at the run's start (MiB),
+    /// when no other run was in flight beside it (`run::memory`: the run's own peak, less
+    /// what it reused of memory the allocator kept from earlier runs); an external solver's
+    /// own process group's peak. Empty otherwise.
+    #[serde(default)]
+    pub peak_growth_mb: Option<f64>,
     /// Iterations and time to each target, the loosest first.
     #[serde(skip)]
     pub to_targets: Vec<ToTarget>,
@@ -533,7 +540,7 @@ mod tests {
         let at = header.iter().position(|c| *c == "cg_capped_iters").unwrap();
         assert_eq!(
             (header[at - 1], header[at + 1], header[at + 2], header[at + 3]),
-            ("verdict", "gap_scale", "verified_snapshots", "iters_to_1e-6")
+            ("verdict", "gap_scale", "verified_snapshots", "peak_growth_mb")
         );
         let cells: Vec<Vec<&str>> = text.lines().skip(1).map(|l| l.split(',').collect()).collect();
         assert_eq!((cells[0][at], cells[1][at]), ("210", ""));
@@ -553,8 +560,8 @@ mod tests {
         assert_eq!(back[0].to_targets, rows[0].to_targets);
     }
 
-    /// `gap_scale` and `verified_snapshots` round-trip as the last fixed columns; a summary
-    /// written before they existed reads them as empty.
+    /// `gap_scale`, `verified_snapshots` and `peak_growth_mb` round-trip as the last fixed
+    /// columns; a summary written before they existed reads them as empty.
     #[test]
     fn gap_scale_round_trips_and_an_older_file_reads_without_it() {
         let dir = tempfile::tempdir().unwrap();
@@ -566,19 +573,23 @@ mod tests {
             status: Status::Ok,
             gap_scale: scale,
             verified_snapshots: scale.map(|_| 12),
+            peak_growth_mb: scale.map(|_| 41.5),
             ..Default::default()
         };
         let rows = vec![row("kp-newton", Some(0.2103)), row("aqp", None)];
         let path = dir.path().join("summary.csv");
         write_summary(&path, &rows).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.lines().next().unwrap().ends_with(",cg_capped_iters,gap_scale,verified_snapshots"));
+        assert!(text.lines().next().unwrap().ends_with(",cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb"));
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
-        let cut = |l: &str| l.rsplitn(3, ',').nth(2).unwrap().to_string() + "\n";
-        let older: String = text.lines().map(cut).collect();
-        std::fs::write(&path, older).unwrap();
-        let back = read_summary(dir.path()).unwrap();
-        assert_eq!(back.iter().map(|r| (r.gap_scale, r.verified_snapshots)).collect::<Vec<_>>(), [(None, None); 2]);
+        for (cut_columns, left) in [(1, (Some(0.2103), Some(12))), (3, (None, None))] {
+            let cut = |l: &str| l.rsplitn(cut_columns + 1, ',').nth(cut_columns).unwrap().to_string() + "\n";
+            let older: String = text.lines().map(cut).collect();
+            std::fs::write(&path, older).unwrap();
+            let back = read_summary(dir.path()).unwrap();
+            assert_eq!((back[0].gap_scale, back[0].verified_snapshots), left);
+            assert_eq!((back[0].peak_growth_mb, back[1].peak_growth_mb), (None, None));
+        }
     }
 
     #[test]

@@ -196,8 +196,14 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
     } else if time.is_some() {
         more += "; time = a single sample";
     }
-    if let Some(mb) = s.peak_rss_mb {
-        let _ = write!(more, "; peak resident memory {mb:.0} MB");
+    match (s.peak_growth_mb, s.peak_rss_mb) {
+        (Some(own), Some(all)) => {
+            let _ = write!(more, "; peak resident memory of the process {all:.0} MB, {own:.0} MB above its start");
+        }
+        (None, Some(all)) => {
+            let _ = write!(more, "; peak resident memory of the process with other runs in flight {all:.0} MB");
+        }
+        _ => {}
     }
     let mut marked = false;
     if let Some(k) = s.shifted_iters.filter(|k| *k > 0) {

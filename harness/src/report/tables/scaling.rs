@@ -8,7 +8,7 @@ use crate::run_folder::SummaryRow;
 
 /// The composite-majorization paper's Figure 6 as a table: per energy, the datasets sorted by
 /// size, and for each solver its iterations, median time per iteration and run time (with
-/// its min–max over the repeats) and the process's peak resident memory during the run. It
+/// its min–max over the repeats) and the growth of the resident memory during the run. It
 /// ranks nothing (no bold). `None` unless some energy has
 /// runs on at least three mesh sizes (`param` or `deform`); failed and skipped runs are left out.
 pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
@@ -55,7 +55,13 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
                         row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
                         row.push(r.iter_ms_median.map(|t| format!("{t:.1}")).unwrap_or_default());
                         row.push(Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default());
-                        row.push(r.peak_rss_mb.map(|m| format!("{m:.0}")).unwrap_or_default());
+                        // The growth during the run; the process's peak (marked ~) when runs shared it.
+                        let memory = match (r.peak_growth_mb, r.peak_rss_mb) {
+                            (Some(own), _) => format!("{own:.0}"),
+                            (None, Some(all)) => format!("~{all:.0}"),
+                            _ => String::new(),
+                        };
+                        row.push(memory);
                     }
                     None => row.extend(std::iter::repeat_n(String::new(), 4)),
                 }
@@ -67,9 +73,12 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
         title: "Iterations and time vs mesh size (composite-majorization paper, Figure 6)".into(),
         columns,
         rows: out,
-        caption: format!("Datasets sorted by vertices; ms/iter = median wall time of one iteration; time = whole run \
-                  (the median over repeats, min–max in parentheses); peak MB = the process's peak resident memory \
-                  while the run ran (MiB; with --jobs above 1 the runs beside it count too); * = did not converge; failed runs and \
+        caption: format!(
+            "Datasets sorted by vertices; ms/iter = median wall time of one iteration; time = whole run \
+                  (the median over repeats, min–max in parentheses); peak MB = how far the process's resident memory \
+                  rose above its level at the run's start (MiB, measured when no other run was in flight beside it, as \
+                  with --jobs 1: the run's own peak less memory it reused from earlier runs); ~N = the process's peak, \
+                  the runs beside it included, when they shared it; * = did not converge; failed runs and \
                   skipped pairs are left out (empty cells). Plotted in plots/scaling__<energy>__*.png.{}",
             with_space(target_rule(runs.iter().copied()))
         ),
@@ -96,6 +105,7 @@ mod tests {
             time_s: Some(ms * it as f64 / 1e3),
             status: Status::Ok,
             peak_rss_mb: Some(ms * 2.0),
+            peak_growth_mb: (s == "kp-newton").then_some(ms),
             ..Default::default()
         };
         let mut rows = vec![p("big", 50_000, "kp-newton", 30, 400.0), p("small", 1_000, "kp-newton", 10, 5.0)];
@@ -105,7 +115,7 @@ mod tests {
         let t = scaling_table(&rows).unwrap();
         let order: Vec<&str> = t.rows.iter().map(|r| r[1].as_str()).collect();
         assert_eq!(order, ["small", "mid", "big"]);
-        assert_eq!(t.rows[1], ["sd", "mid", "10000", "20", "50.0", "1.00", "100", "200", "20.0", "4.00", "40"]);
+        assert_eq!(t.rows[1], ["sd", "mid", "10000", "20", "50.0", "1.00", "50", "200", "20.0", "4.00", "~40"]);
         assert_eq!(t.rows[0][7..], ["", "", "", ""]);
     }
 }
