@@ -101,6 +101,62 @@ fn all_keeps_every_map_and_the_same_map_as_best() {
     assert_eq!(names(tmp.path(), "objs").len(), 3);
 }
 
+/// `maps_keep` keeps the named solvers' maps beside the best, and the report shows them side
+/// by side under their group; merge keeps them too. Wrong uses are refused.
+#[test]
+fn maps_keep_shows_named_solvers_maps_beside_the_best() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (cfg, out, _) = run(tmp.path(), "maps_keep = [\"slim\"]\n", &[]);
+    let best = best_solver(&out);
+    assert_ne!(best, "slim", "slim stops first on bumpy_1k");
+    let mut want = vec![format!("bumpy_1k__sd__{best}.uv.gz"), "bumpy_1k__sd__slim.uv.gz".to_string()];
+    want.sort();
+    assert_eq!(names(&out, "uv"), want);
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let maps = &html[html.find("<div class=\"maps\">").expect("the maps of the group")..];
+    let maps = &maps[..maps.find("</div>").unwrap()];
+    assert_eq!(maps.matches("<figure>").count(), 2, "{maps}");
+    assert!(maps.contains("bumpy_1k__sd__slim__map.png") && maps.contains(&format!("bumpy_1k__sd__{best}__map.png")));
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+    assert_eq!(meta["maps_keep"], serde_json::json!(["slim"]));
+    // Two shards merged keep the same maps.
+    let shards: Vec<PathBuf> = (1..=2).map(|i| tmp.path().join(format!("s{i}"))).collect();
+    for (i, dir) in shards.iter().enumerate() {
+        let shard = format!("{}/2", i + 1);
+        let o = mapbench(
+            &["run", cfg.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--shard", &shard, "--no-history"],
+            tmp.path(),
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    let merged = tmp.path().join("merged");
+    let o = mapbench(
+        &[
+            "merge",
+            shards[0].to_str().unwrap(),
+            shards[1].to_str().unwrap(),
+            "--out",
+            merged.to_str().unwrap(),
+            "--no-history",
+        ],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert_eq!(names(&merged, "uv"), want);
+    // Refused: a solver not in the config, and maps_keep with maps other than best.
+    for (extra, says) in [
+        ("maps_keep = [\"aqp\"]\n", "maps_keep names \"aqp\", not a solver of this config"),
+        ("maps = \"all\"\nmaps_keep = [\"slim\"]\n", "maps_keep applies to maps = \"best\""),
+    ] {
+        let cfg = write_config(tmp.path(), &format!("{THREE_RUNS}{extra}"));
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "never"], tmp.path());
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(says), "{}", text(&o));
+        assert!(!tmp.path().join("never").exists());
+    }
+}
+
 #[test]
 fn none_writes_no_map_and_the_report_still_renders() {
     let tmp = tempfile::tempdir().unwrap();

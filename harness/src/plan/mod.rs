@@ -71,6 +71,8 @@ pub struct Plan {
     pub history: Option<std::path::PathBuf>,
     /// Which final maps the run folder keeps.
     pub maps: config::Maps,
+    /// The solvers whose maps `best` keeps besides the best (`maps_keep`).
+    pub maps_keep: Vec<String>,
     /// The tolerances of the convergence test, loosest first (`targets`); empty for the
     /// authalic task, which its solvers' own rules judge.
     pub targets: Vec<f64>,
@@ -137,6 +139,7 @@ impl Plan {
             repeat,
             history,
             maps: c.maps.unwrap_or_default(),
+            maps_keep: c.maps_keep.clone().unwrap_or_default(),
             task: c.task,
             threads_per_run: c.threads_per_run,
             config: cfg,

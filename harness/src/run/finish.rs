@@ -189,7 +189,7 @@ pub(super) fn judge_and_write(
     crate::run_folder::write_summary(&summary_csv(out_dir), &rows)?;
     // Every map was written as its run finished; now that the groups are complete, drop those
     // `maps` does not keep (`best`: all but one per dataset and energy).
-    let missing = crate::run_folder::keep::prune(out_dir, plan.maps, &rows);
+    let missing = crate::run_folder::keep::prune(out_dir, plan.maps, &plan.maps_keep, &rows);
     if !missing.is_empty() {
         progress.notice(&format!(
             "maps = \"{}\" keeps the maps of {} runs whose map this folder does not have (resumed from a batch \

@@ -239,7 +239,7 @@ fn stage(
     crate::judge::judge_batch(staging, rows, &references, &targets, grad_tol)?;
     write_summary(&summary_csv(staging), rows)?;
     // Each shard kept its own best per group; the merged folder keeps the batch's.
-    keep::prune(staging, Maps::of_meta(&metas[0]), rows);
+    keep::prune(staging, Maps::of_meta(&metas[0]), metas[0].maps_keep.as_deref().unwrap_or_default(), rows);
     let mut meta = metas[0].clone();
     meta.shard = None;
     meta.references = Some(serde_json::to_value(&references)?);

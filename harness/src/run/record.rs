@@ -85,6 +85,7 @@ impl BatchRecord<'_> {
             linear_ordering: Some(ordering.as_str().into()),
             mapbench_version: Some(env!("CARGO_PKG_VERSION").into()),
             maps: Some(plan.maps),
+            maps_keep: (!plan.maps_keep.is_empty()).then(|| plan.maps_keep.clone()),
             merged_from: None,
             meshes_dir: std::env::var(crate::plan::registry::MESHES_ENV).ok(),
             only: Some(plan.only.clone()),

@@ -67,13 +67,15 @@ pub fn best_of_group(runs: &[&SummaryRow]) -> Option<usize> {
     best
 }
 
-/// For each of `rows`, whether `maps` keeps its map.
-pub fn kept(maps: Maps, rows: &[SummaryRow]) -> Vec<bool> {
+/// For each of `rows`, whether `maps` keeps its map, `also` naming the solvers whose maps
+/// `best` keeps besides the best of each group (`maps_keep`).
+pub fn kept(maps: Maps, also: &[String], rows: &[SummaryRow]) -> Vec<bool> {
     match maps {
         Maps::All => rows.iter().map(|r| matches!(r.status, Status::Ok | Status::NotConverged)).collect(),
         Maps::None => vec![false; rows.len()],
         Maps::Best => {
-            let mut keep = vec![false; rows.len()];
+            let finished = |r: &SummaryRow| matches!(r.status, Status::Ok | Status::NotConverged);
+            let mut keep: Vec<bool> = rows.iter().map(|r| finished(r) && also.contains(&r.solver)).collect();
             let mut groups: Vec<(&str, &str)> = Vec::new();
             for r in rows {
                 if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
@@ -96,8 +98,8 @@ pub fn kept(maps: Maps, rows: &[SummaryRow]) -> Vec<bool> {
 /// Remove the maps of `rows` that `maps` does not keep (either format), and the mesh copies
 /// of datasets none of whose kept maps is left. Returns the runs whose map is kept but
 /// absent (a resumed run of an earlier batch that did not keep it).
-pub fn prune(dir: &Path, maps: Maps, rows: &[SummaryRow]) -> Vec<String> {
-    let keep = kept(maps, rows);
+pub fn prune(dir: &Path, maps: Maps, also: &[String], rows: &[SummaryRow]) -> Vec<String> {
+    let keep = kept(maps, also, rows);
     let mut missing = Vec::new();
     let mut meshes_used: Vec<&str> = Vec::new();
     let mut datasets: Vec<&str> = Vec::new();
@@ -177,9 +179,13 @@ mod tests {
             row("b", "sd", "kp", NotConverged, Some(3.0)),
             row("b", "sd", "cm", Failed, None),
         ];
-        assert_eq!(kept(Maps::Best, &rows), [false, true, true, true, false]);
-        assert_eq!(kept(Maps::All, &rows), [true, true, true, true, false]);
-        assert_eq!(kept(Maps::None, &rows), [false; 5]);
+        assert_eq!(kept(Maps::Best, &[], &rows), [false, true, true, true, false]);
+        assert_eq!(kept(Maps::All, &[], &rows), [true, true, true, true, false]);
+        assert_eq!(kept(Maps::None, &[], &rows), [false; 5]);
+        // maps_keep: kp's maps beside each best (cm's failed run has none to keep).
+        let also = ["kp".to_string(), "cm".to_string()];
+        assert_eq!(kept(Maps::Best, &also, &rows), [true, true, true, true, false]);
+        assert_eq!(kept(Maps::Best, &also[1..], &rows), [false, true, true, true, false]);
     }
 
     #[test]
@@ -209,15 +215,15 @@ mod tests {
             std::fs::create_dir_all(d.join("meshes")).unwrap();
             std::fs::write(mesh_path(d, m), b"x").unwrap();
         }
-        assert!(prune(d, Maps::Best, &rows).is_empty());
+        assert!(prune(d, Maps::Best, &[], &rows).is_empty());
         assert!(!uv_path(d, "a__sd__kp").exists() && uv_path(d, "a__sd__cm").exists());
         // b's kept map is a legacy OBJ (self-contained): its mesh copy is not needed.
         assert!(mesh_path(d, "a").exists() && !mesh_path(d, "b").exists());
         assert!(legacy_obj_path(d, "b__sd__kp").exists());
         // none: everything goes, folders too.
-        assert!(prune(d, Maps::None, &rows).is_empty());
+        assert!(prune(d, Maps::None, &[], &rows).is_empty());
         assert!(!d.join("uv").exists() && !d.join("meshes").exists());
         // all, with nothing left: every finished run's map is reported missing.
-        assert_eq!(prune(d, Maps::All, &rows).len(), 3);
+        assert_eq!(prune(d, Maps::All, &[], &rows).len(), 3);
     }
 }

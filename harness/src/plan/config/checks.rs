@@ -26,6 +26,7 @@ impl Config {
         }
         self.check_names()?;
         self.check_solver_options()?;
+        self.check_maps_keep()?;
         if self.task != Task::Deform && self.deform.is_some() {
             bail!("[deform] applies only to task = \"deform\"");
         }
@@ -136,6 +137,25 @@ impl Config {
             let mut seen = std::collections::HashSet::new();
             if let Some(dup) = list.iter().find(|x| !seen.insert(x.as_str())) {
                 bail!("{key}: '{dup}' appears twice");
+            }
+        }
+        Ok(())
+    }
+
+    /// `maps_keep` names solvers of this config, and only with `maps = "best"`.
+    fn check_maps_keep(&self) -> Result<()> {
+        let Some(keep) = &self.maps_keep else { return Ok(()) };
+        let maps = self.maps.unwrap_or_default();
+        if maps != super::Maps::Best {
+            bail!(
+                "maps_keep applies to maps = \"best\" (maps = \"{}\" keeps {} map already)",
+                maps.as_str(),
+                if maps == super::Maps::All { "every" } else { "no" }
+            );
+        }
+        for s in keep {
+            if !self.solvers.contains(s) {
+                bail!("maps_keep names {s:?}, not a solver of this config (solvers = [{}])", self.solvers.join(", "));
             }
         }
         Ok(())

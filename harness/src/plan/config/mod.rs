@@ -131,6 +131,9 @@ pub struct Config {
     /// Which final maps the run folder keeps: `all`, `best` (default: per dataset and energy
     /// the best run's) or `none`.
     pub maps: Option<Maps>,
+    /// With `maps = "best"`, the solvers whose maps are kept besides the best, so that the
+    /// report shows them side by side with it.
+    pub maps_keep: Option<Vec<String>>,
     /// The tolerances of the convergence test (`param`, `deform`): a run solves its problem
     /// at `tau` once its energy is within `tau` of the way from its start to the reference
     /// minimum; it is `ok` at the tightest. Default `[1e-3, 1e-6]`.

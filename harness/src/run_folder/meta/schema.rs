@@ -73,6 +73,9 @@ pub struct Meta {
     pub mapbench_version: Option<String>,
     /// Which final maps the folder keeps; merge prunes by it.
     pub maps: Option<Maps>,
+    /// The solvers whose maps `best` kept besides the best (`maps_keep`), when any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maps_keep: Option<Vec<String>>,
     /// The shards a merged folder was made of; only merged folders have the key.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub merged_from: Option<Vec<MergedShard>>,
