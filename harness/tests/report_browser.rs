@@ -1,6 +1,8 @@
 //! The report page in a real browser: a small batch's `index.html` opened by headless
-//! Chromium, every image must load and the tables must be there. A screenshot goes to
-//! `target/ci-artifacts/report.png` for people to look at.
+//! Chromium, every image must load and the tables must be there; the next night's page, with
+//! 18 solvers and a made regression, opens on what changed and its status matrix fits a
+//! 1400-pixel window. Screenshots go to `target/ci-artifacts/report.png` and
+//! `first-screen.png` for people to look at.
 //!
 //! Needs Debian's `chromium` (`.ci/run` installs it and sets `MAPBENCH_REQUIRE_CHROMIUM=1`,
 //! which turns a missing browser into a failure instead of a skip).
@@ -17,9 +19,19 @@ window.addEventListener('load', async () => {
   await Promise.all(imgs.map(i => i.complete ? null : new Promise(r => { i.onload = r; i.onerror = r; })));
   const broken = imgs.filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.getAttribute('src'));
   const titles = [...document.querySelectorAll('h3')].map(h => h.textContent);
+  const changes = document.getElementById('changes');
+  const status = document.querySelector('table.status');
+  const box = status ? status.parentElement : null;
   const pre = document.createElement('pre');
   pre.id = 'mapbench-check';
-  pre.textContent = JSON.stringify({images: imgs.length, broken, tables: document.querySelectorAll('table').length, titles});
+  pre.textContent = JSON.stringify({
+    images: imgs.length, broken, tables: document.querySelectorAll('table').length, titles,
+    viewport: [innerWidth, innerHeight],
+    page_width: document.documentElement.scrollWidth,
+    changes_top: changes ? changes.getBoundingClientRect().top : null,
+    status_width: status ? status.getBoundingClientRect().width : null,
+    status_box: box ? [box.clientWidth, box.scrollWidth] : null,
+  });
   document.body.appendChild(pre);
 });
 </script>"#;
@@ -95,6 +107,96 @@ fn the_report_page_loads_every_image_and_shows_the_tables() {
     let _ = std::fs::remove_file(&shot);
     let o = headless(&browser)
         .args(["--window-size=1200,2400", "--virtual-time-budget=20000"])
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("file://{}", out.join("index.html").display()))
+        .output()
+        .unwrap();
+    assert!(shot.is_file(), "no screenshot: {}", String::from_utf8_lossy(&o.stderr));
+    first_screen(&browser, tmp.path(), &artifacts);
+}
+
+/// What the check script found in the page `dir/index.html` in a `width` x `height` window.
+fn check(browser: &Path, dir: &Path, (width, height): (u32, u32)) -> serde_json::Value {
+    let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    let check = dir.join("check.html");
+    std::fs::write(&check, page.replace("</body>", &format!("{CHECK_SCRIPT}</body>"))).unwrap();
+    let dom = headless(browser)
+        .arg(format!("--window-size={width},{height}"))
+        .args(["--virtual-time-budget=20000", "--dump-dom"])
+        .arg(format!("file://{}", check.display()))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    let marker = "<pre id=\"mapbench-check\">";
+    let start = dom.find(marker).expect("the check script ran") + marker.len();
+    let json = &dom[start..start + dom[start..].find("</pre>").unwrap()];
+    serde_json::from_str(&json.replace("&quot;", "\"").replace("&amp;", "&")).unwrap()
+}
+
+/// Two nights of 18 solvers, the second with a made regression (a tighter iteration cap):
+/// in a 1400 x 900 window its page opens on the changes, the regressions and the problems,
+/// and nothing scrolls sideways, the status matrix included.
+fn first_screen(browser: &Path, tmp: &Path, artifacts: &Path) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let solvers = [
+        "kp-newton",
+        "kp-newton-cg",
+        "kp-newton-cg-laplacian",
+        "kp-newton-noscale",
+        "kp-newton-eig8",
+        "fp-newton-4x4",
+        "fp-newton-6x6",
+        "cm",
+        "newton",
+        "slim",
+        "akvf",
+        "pn-abs",
+        "fp-abs-6x6",
+        "pn-trust-region",
+        "fp-trust-region-6x6",
+        "lbfgs",
+        "lbfgs-laplacian",
+        "aqp",
+    ];
+    let night = |max_iters: usize, out: &str| {
+        let cfg = tmp.join("night.toml");
+        std::fs::write(
+            &cfg,
+            format!(
+                "registry = {:?}\nname = \"night\"\ndatasets = [\"bumpy_1k\", \"cap_2k\", \"strip_thin\"]\n\
+                 energies = [\"sd\", \"nh\"]\nsolvers = {:?}\n[stop]\nmax_iters = {max_iters}\n",
+                root.join("datasets.toml").display().to_string(),
+                solvers
+            ),
+        )
+        .unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
+            .args(["run", cfg.to_str().unwrap(), "--out", out])
+            .current_dir(tmp)
+            .env_remove("MAPBENCH_MESHES")
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        tmp.join(out)
+    };
+    night(100, "night-1");
+    let out = night(8, "night-2");
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    // The history in tmp/reports has the first test batch as 1: the nights are 2 and 3.
+    assert!(page.contains("since batch 2"), "the changes since the first night");
+    assert!(page.contains("regression") && !page.contains("<b>0 regressions</b>"), "a regression is named");
+    let report = check(browser, &out, (1400, 900));
+    assert_eq!(report["broken"], serde_json::json!([]), "{report}");
+    let top = report["changes_top"].as_f64().expect("a changes section");
+    assert!(top < 400.0, "the changes open the page: {report}");
+    let width = report["viewport"][0].as_f64().unwrap();
+    assert!(report["page_width"].as_f64().unwrap() <= width, "the page scrolls sideways: {report}");
+    let [inside, content] = [0, 1].map(|i| report["status_box"][i].as_f64().unwrap());
+    assert!(content <= inside, "the status matrix of 18 solvers scrolls sideways: {report}");
+    let shot = artifacts.join("first-screen.png");
+    let _ = std::fs::remove_file(&shot);
+    let o = headless(browser)
+        .args(["--window-size=1400,900", "--virtual-time-budget=20000"])
         .arg(format!("--screenshot={}", shot.display()))
         .arg(format!("file://{}", out.join("index.html").display()))
         .output()
