@@ -60,14 +60,14 @@ fn two_batches_of_one_config_make_two_nights_on_the_trend_page() {
 
     let o = mapbench(&["history", "--out", "trend", "--last", "5"], tmp.path());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    assert!(text(&o).contains("trend page of 2 batches (2 plots)"), "{}", text(&o));
+    assert!(text(&o).contains("trend page of 2 batches (3 plots)"), "{}", text(&o));
     let page = std::fs::read_to_string(tmp.path().join("trend/index.html")).unwrap();
     for needle in
         [revisions[0].as_str(), revisions[1].as_str(), "h: 2 batches", "What changed: batch 2", "../night1/index.html"]
     {
         assert!(page.contains(needle), "{needle} not in the trend page:\n{page}");
     }
-    for png in ["h__sd__iterations.png", "h__sd__time.png"] {
+    for png in ["h__sd__solved.png", "h__sd__iterations.png", "h__sd__time.png"] {
         let bytes = std::fs::read(tmp.path().join("trend/plots").join(png)).unwrap();
         assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{png}");
     }
@@ -256,4 +256,41 @@ fn the_history_outcome_is_said_and_recorded_as_it_happened() {
     assert_eq!(m["history_outcome"]["outcome"], "failed", "{m}");
     assert!(m["history"].is_null() && !text(&o).contains("appended to"), "{m}");
     assert!(!std::fs::read_to_string(out.join("index.html")).unwrap().contains("History:"));
+}
+
+/// The nightly gate: `history --fail-on-regression` says "first" and exits 0 after one batch,
+/// exits 0 when the next night changed nothing, 1 with the regression named when a night needs
+/// more iterations (a tighter tolerance stands in for a worse solver), and 2 when a night lost
+/// runs.
+#[test]
+fn the_nightly_gate_on_the_history_exits_by_the_rules_of_check() {
+    let tmp = tempfile::tempdir().unwrap();
+    let night = |n: usize, extra: &str| {
+        let cfg = write_config(tmp.path(), &format!("{CONFIG}{extra}"));
+        let out = tmp.path().join(format!("n{n}"));
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        let o = mapbench(&["history", "--config", "h", "--out", "trend", "--fail-on-regression"], tmp.path());
+        (o.status.code(), text(&o))
+    };
+    let (code, said) = night(1, "");
+    assert_eq!(code, Some(0), "{said}");
+    assert!(said.contains("batch 1 is the first of config h"), "{said}");
+    let (code, said) = night(2, "");
+    assert_eq!(code, Some(0), "{said}");
+    assert!(said.contains("batch 2 (") && said.contains("0 regressions"), "{said}");
+    let (code, said) = night(3, "[stop]\ngrad_tol = 1e-14\n");
+    assert_eq!(code, Some(1), "{said}");
+    assert!(said.contains("REGRESSIONS") && said.contains("bumpy_1k param sd kp-newton"), "{said}");
+    assert!(said.contains("config hash differs"), "{said}");
+    // The same settings again: nothing moved.
+    let (code, said) = night(4, "[stop]\ngrad_tol = 1e-14\n");
+    assert_eq!(code, Some(0), "{said}");
+    let fewer = CONFIG.replace("\"kp-newton\", ", "");
+    let cfg = write_config(tmp.path(), &format!("{fewer}[stop]\ngrad_tol = 1e-14\n"));
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "n5"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = mapbench(&["history", "--config", "h", "--out", "trend", "--fail-on-regression"], tmp.path());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("kp-newton"), "the missing run is named: {}", text(&o));
 }

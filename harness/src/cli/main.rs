@@ -105,7 +105,8 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
         /// Print what changed in the config's latest batch since the one before it and exit 1
-        /// on a regression (the rules of `check`): the nightly's gate.
+        /// on a regression, 2 when runs of the previous batch are missing (the rules of
+        /// `check`): the nightly's gate.
         #[arg(long, requires = "config")]
         fail_on_regression: bool,
     },
@@ -321,22 +322,29 @@ fn task_parser() -> impl clap::builder::TypedValueParser<Value = solvers::mesh::
 }
 
 /// `history --fail-on-regression`: what changed in `config`'s latest batch since the one
-/// before it, as `check` prints it; exit 1 on a regression.
+/// before it, as `check` prints it; exit 1 on a regression, 2 when runs went missing.
 fn latest_changes(h: &history::HistoryDb, config: &str) -> Result<ExitCode> {
     let Some(latest) = h.batches(Some(config), Some(1))?.pop() else {
         anyhow::bail!("no batch of config {config:?} in {}", h.path().display());
     };
     match report::changes::since_previous(h, config, latest.id)? {
         Some(report::changes::Since::Previous(ch)) => {
+            let settings = if ch.settings_differ() {
+                "note: the two batches ran different configs or plans (config hash differs): changes may come \
+                 from the settings, not the code\n"
+            } else {
+                ""
+            };
             out(format_args!(
-                "batch {} ({}) since batch {} ({}):\n{}",
+                "batch {} ({}) since batch {} ({}):\n{settings}{}",
                 ch.after.id,
                 ch.after.short_revision(),
                 ch.before.id,
                 ch.before.short_revision(),
                 check::render(&ch.comparison)
             ))?;
-            Ok(if ch.regressions() > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+            // As `check`: 2 when runs of the previous batch are missing, 1 on a regression.
+            Ok(ExitCode::from(ch.comparison.exit_code()))
         }
         _ => {
             out(format_args!("batch {} is the first of config {config}: nothing to compare with\n", latest.id))?;

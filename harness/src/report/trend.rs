@@ -86,6 +86,8 @@ fn cost(r: &RunRow, time: TimeColumn) -> Option<(f64, Option<f64>)> {
     if r.status != Status::Ok {
         return None;
     }
+    // A judged run recorded before the history kept the target (schema 6) counts to its own
+    // stop: the page says so.
     let iterations = r.iters_to_target.or(r.iterations)? as f64;
     // The time to the target scales the run's time by time_to / time_s (as the report's tables).
     let k = match (r.time_s_to_target, r.time_s) {
@@ -132,7 +134,8 @@ fn cell(runs: &[RunRow], energy: &str, solver: &str, time: TimeColumn, caps: Cap
         return None;
     }
     let costs: Vec<Option<(f64, Option<f64>)>> = mine.iter().map(|r| cost(r, time)).collect();
-    // Never below the run's own value: a solved run's cost stays what it is.
+    // An unsolved run at the cap, which is at least its own iterations (the most any run
+    // took); a failed run has none of its own.
     let iterations: Vec<f64> = costs.iter().map(|c| c.map_or(caps.iterations, |c| c.0)).collect();
     let times: Option<Vec<f64>> = costs.iter().map(|c| c.map_or(caps.time, |c| c.1)).collect();
     Some(Cell {
@@ -325,7 +328,9 @@ fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
           does not judge), and the shifted geometric means of iterations and time to the target over the runs \
           that were not skipped, an unsolved run (not converged or failed) entering at the cap: the most \
           iterations and the longest time any run of the energy took in the batches shown. A solver that starts \
-          failing earlier therefore moves up, not down. Changes use the rules of <code>mapbench check</code>.</p>\n";
+          failing earlier therefore moves up, not down. Batches recorded before the history kept the target \
+          (schema 6) count their solved runs to their own stop. Changes use the rules of \
+          <code>mapbench check</code>.</p>\n";
     if configs.len() > 1 {
         h += "<nav>";
         for c in configs {

@@ -6,7 +6,9 @@
 //! (`VmRSS` of `/proc/self/status`) every [`PERIOD`] while runs are in flight, and each run
 //! keeps the largest value seen between its start and its end (both also sampled): the
 //! process's peak, the loaded meshes and the runs beside it included. A run that had the
-//! process to itself (no other run in flight at any moment of it: always with `--jobs 1`)
+//! process to itself (no other worker busy with a run or its mesh at any moment of it: always
+//! with `--jobs 1`, where only the batch's own thread writing the previous run's files runs
+//! beside it)
 //! also resets the kernel's high-water mark at its start (`5` written to
 //! `/proc/self/clear_refs`, Linux 4.0 and later: one small write, no page walk) and reads it
 //! (`VmHWM`) at its end, so that its peak is exact and not sampled; its growth is that peak
@@ -17,7 +19,7 @@
 //! in flight the memory cannot be told apart in one process, and `peak_growth_mb` stays
 //! empty. Where `/proc` is not there (not Linux) both columns stay empty.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Condvar, Mutex};
 use std::time::Duration;
 
@@ -64,18 +66,41 @@ fn vm_field(status: &str, key: &str) -> Option<u64> {
 pub struct Monitor {
     /// Largest resident set (kB) seen during each worker's current run; 0 when idle.
     peaks: Vec<AtomicU64>,
+    /// Whether each worker is measuring a run (what the sampler samples for).
     active: Vec<AtomicBool>,
-    /// Each worker's resident set (kB) when its current run started.
-    base: Vec<AtomicU64>,
-    /// Whether another run was in flight at some moment of each worker's current run.
-    shared: Vec<AtomicBool>,
-    /// Whether the current run of each worker reset the kernel's high-water mark.
-    exact: Vec<AtomicBool>,
-    in_flight: AtomicUsize,
+    /// Who is doing what, under one lock: runs start and end a few times a second at most.
+    flight: Mutex<Flight>,
     stopped: Mutex<bool>,
     wake: Condvar,
     /// Whether the OS reports the resident set at all.
     supported: bool,
+}
+
+/// The workers' state: busy from taking a run to handing it over (its mesh loaded and
+/// released included), measuring while the run itself runs.
+struct Flight {
+    busy: Vec<bool>,
+    measuring: Vec<bool>,
+    /// Another worker was busy at some moment of each measuring worker's run.
+    shared: Vec<bool>,
+    /// The run reset the kernel's high-water mark at its start.
+    exact: Vec<bool>,
+    /// The resident set (kB) at the run's start.
+    base: Vec<u64>,
+}
+
+/// A worker's busy spell; it ends when dropped.
+pub struct Busy<'a> {
+    monitor: &'a Monitor,
+    worker: usize,
+}
+
+impl Drop for Busy<'_> {
+    fn drop(&mut self) {
+        if let Some(b) = self.monitor.flight().busy.get_mut(self.worker) {
+            *b = false;
+        }
+    }
 }
 
 impl Monitor {
@@ -83,14 +108,21 @@ impl Monitor {
         Monitor {
             peaks: (0..workers).map(|_| AtomicU64::new(0)).collect(),
             active: (0..workers).map(|_| AtomicBool::new(false)).collect(),
-            base: (0..workers).map(|_| AtomicU64::new(0)).collect(),
-            shared: (0..workers).map(|_| AtomicBool::new(false)).collect(),
-            exact: (0..workers).map(|_| AtomicBool::new(false)).collect(),
-            in_flight: AtomicUsize::new(0),
+            flight: Mutex::new(Flight {
+                busy: vec![false; workers],
+                measuring: vec![false; workers],
+                shared: vec![false; workers],
+                exact: vec![false; workers],
+                base: vec![0; workers],
+            }),
             stopped: Mutex::new(false),
             wake: Condvar::new(),
             supported: resident_kb().is_some(),
         }
+    }
+
+    fn flight(&self) -> std::sync::MutexGuard<'_, Flight> {
+        self.flight.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// Record one sample for every worker with a run in flight.
@@ -121,44 +153,55 @@ impl Monitor {
         self.wake.notify_all();
     }
 
-    /// `worker` starts a run.
-    pub fn start(&self, worker: usize) {
-        let Some(active) = self.active.get(worker) else { return };
-        let alone = self.in_flight.fetch_add(1, Ordering::AcqRel) == 0;
-        if !alone {
-            // Every run in flight now shares the process with this one (and it with them).
-            for (a, s) in self.active.iter().zip(&self.shared) {
-                if a.load(Ordering::Acquire) {
-                    s.store(true, Ordering::Release);
-                }
+    /// `worker` took a run: until the returned guard drops, every run measured beside it
+    /// shares the process with it.
+    pub fn busy(&self, worker: usize) -> Busy<'_> {
+        let mut f = self.flight();
+        if worker < f.busy.len() {
+            f.busy[worker] = true;
+            let Flight { measuring, shared, .. } = &mut *f;
+            for (m, s) in measuring.iter().zip(shared.iter_mut()) {
+                *s |= *m;
             }
         }
-        self.shared[worker].store(!alone, Ordering::Release);
-        self.exact[worker].store(alone && self.supported && reset_high_water(), Ordering::Release);
-        let kb = resident_kb().unwrap_or(0);
-        self.base[worker].store(kb, Ordering::Release);
-        self.peaks[worker].store(kb, Ordering::Release);
-        active.store(true, Ordering::Release);
+        Busy { monitor: self, worker }
     }
 
-    /// `worker`'s run ended: what it measured (nothing without OS support).
-    pub fn finish(&self, worker: usize) -> RunMemory {
-        let (Some(peak), Some(active)) = (self.peaks.get(worker), self.active.get(worker)) else {
-            return RunMemory::default();
-        };
-        let last = resident_kb();
-        if active.swap(false, Ordering::AcqRel) {
-            self.in_flight.fetch_sub(1, Ordering::AcqRel);
+    /// `worker` starts measuring its run.
+    pub fn start(&self, worker: usize) {
+        let mut f = self.flight();
+        if worker >= f.busy.len() {
+            return;
         }
-        let Some(last) = last else { return RunMemory::default() };
-        let mut kb = peak.swap(0, Ordering::AcqRel).max(last);
-        let alone = !self.shared[worker].load(Ordering::Acquire);
-        if alone && self.exact[worker].load(Ordering::Acquire) {
+        let others = (0..f.busy.len()).any(|w| w != worker && f.busy[w]);
+        f.shared[worker] = others;
+        f.exact[worker] = !others && self.supported && reset_high_water();
+        let kb = resident_kb().unwrap_or(0);
+        f.base[worker] = kb;
+        f.measuring[worker] = true;
+        self.peaks[worker].store(kb, Ordering::Release);
+        self.active[worker].store(true, Ordering::Release);
+    }
+
+    /// `worker`'s run ended: what it measured (nothing without OS support, nor for a worker
+    /// that was not measuring).
+    pub fn finish(&self, worker: usize) -> RunMemory {
+        let mut f = self.flight();
+        if !f.measuring.get(worker).copied().unwrap_or(false) {
+            return RunMemory::default();
+        }
+        f.measuring[worker] = false;
+        self.active[worker].store(false, Ordering::Release);
+        let peak = self.peaks[worker].swap(0, Ordering::AcqRel);
+        let Some(last) = resident_kb() else { return RunMemory::default() };
+        let mut kb = peak.max(last);
+        let alone = !f.shared[worker];
+        if alone && f.exact[worker] {
             kb = kb.max(high_water_kb().unwrap_or(0));
         }
         let mb = |kb: u64| kb as f64 / 1024.0;
-        let own = alone.then(|| mb(kb.saturating_sub(self.base[worker].load(Ordering::Acquire))));
-        RunMemory { process_mb: Some(mb(kb)), growth_mb: own }
+        let growth = alone.then(|| mb(kb.saturating_sub(f.base[worker])));
+        RunMemory { process_mb: Some(mb(kb)), growth_mb: growth }
     }
 }
 
@@ -182,6 +225,7 @@ mod tests {
     #[cfg(target_os = "linux")]
     fn a_run_that_allocates_sees_its_peak() {
         let monitor = Monitor::new(2);
+        let _busy = monitor.busy(1);
         monitor.start(1);
         {
             // Every page touched, so resident.
@@ -194,7 +238,8 @@ mod tests {
         // It was alone in the monitor: it has an own peak (tests beside it in this process
         // make its size unknowable here: tests/memory.rs measures it in a process of its own).
         assert!(peak.growth_mb.is_some_and(|own| own <= peak.process_mb.unwrap()), "{peak:?}");
-        // an idle worker's run has no samples: only what finish reads
+        // a run with no sample between its start and end: what start and finish read
+        monitor.start(0);
         assert!(monitor.finish(0).process_mb.unwrap() > 0.0);
         std::thread::scope(|s| {
             s.spawn(|| monitor.sample_until_stopped());
@@ -208,18 +253,33 @@ mod tests {
         assert!(monitor.finish(0).process_mb.unwrap() > 0.0);
     }
 
-    /// Two runs in flight together have no own peak, a later one alone has.
+    /// A run with another worker busy beside it (running, or loading a mesh) at any moment
+    /// has no growth; a later one alone has; a worker that did not start measures nothing.
     #[test]
     #[cfg(target_os = "linux")]
-    fn overlapping_runs_have_no_own_peak() {
+    fn runs_beside_other_busy_workers_have_no_growth() {
         let monitor = Monitor::new(2);
+        // Both at once.
+        let (b0, b1) = (monitor.busy(0), monitor.busy(1));
         monitor.start(0);
         monitor.start(1);
         let (a, b) = (monitor.finish(0), monitor.finish(1));
         assert_eq!((a.growth_mb, b.growth_mb), (None, None), "overlapping runs");
         assert!(a.process_mb.is_some() && b.process_mb.is_some());
+        drop((b0, b1));
+        // Worker 1 takes a run (loads its mesh) while worker 0's run is measured.
+        let b0 = monitor.busy(0);
+        monitor.start(0);
+        let b1 = monitor.busy(1);
+        drop(b1);
+        assert_eq!(monitor.finish(0).growth_mb, None, "another worker was busy during the run");
+        drop(b0);
+        // Alone.
+        let b1 = monitor.busy(1);
         monitor.start(1);
         assert!(monitor.finish(1).growth_mb.is_some(), "alone again");
-        assert_eq!(monitor.in_flight.load(Ordering::Acquire), 0);
+        drop(b1);
+        assert_eq!(monitor.finish(1), RunMemory::default(), "not measuring");
+        assert!(monitor.flight().busy.iter().all(|b| !b));
     }
 }

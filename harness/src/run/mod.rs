@@ -429,6 +429,8 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                     else {
                         break;
                     };
+                    // Busy from here to the hand-over: a run measured beside it shares the process.
+                    let busy = monitor.busy(worker);
                     let p = mine[i];
                     let ds = plan.dataset(p);
                     let again = if round > 0 { format!(" (repeat {})", round + 1) } else { String::new() };
@@ -489,6 +491,7 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                         }
                     };
                     meshes.done(p.dataset);
+                    drop(busy);
                     let key = key.filter(|_| !result.unkeyed);
                     if tx.send(Done { index: i, worker, result, origin, key }).is_err() {
                         break;

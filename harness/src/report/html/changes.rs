@@ -35,7 +35,7 @@ pub(super) fn changes_section(
                (<a href=\"#timing\">calibration</a>).</p>\n";
     }
     since_section(h, run_dir, meta);
-    problems(h, summaries);
+    problems(h, run_dir, summaries);
     *h += "</section>\n";
 }
 
@@ -162,11 +162,12 @@ fn plural(n: usize) -> &'static str {
     }
 }
 
-/// The failed and unsolved runs, at most [`PROBLEMS_SHOWN`], each linking to its CSV.
-fn problems(h: &mut String, summaries: &[SummaryRow]) {
+/// The failed and unsolved runs, at most [`PROBLEMS_SHOWN`], each linking to its CSV when it
+/// has one.
+fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
     let mut list: Vec<&SummaryRow> = summaries.iter().filter(|s| is_problem(s)).collect();
-    // The worst first: failures, then runs that ended far from the target, then those their
-    // own rule stopped just above it.
+    // The worst first: failures, then flipped maps (at the target, but unusable), then the runs
+    // that stopped short of it for another reason, last those their own rule stopped above it.
     list.sort_by_key(|s| match (s.status, s.verdict) {
         (Status::Failed, _) => 0,
         (_, Some(Verdict::Flipped)) => 1,
@@ -211,15 +212,13 @@ fn problems(h: &mut String, summaries: &[SummaryRow]) {
                 s.time_s.map(|t| format!(" after {} s", significant(t))).unwrap_or_default()
             ),
         };
-        let stem = run_stem(&s.dataset, &s.energy, &s.solver);
+        let name = format!("{} / {} / {}", esc(&s.dataset), esc(&s.energy), esc(&s.solver));
+        let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));
+        let name = if run_dir.join(&csv).exists() { format!("<a href=\"{}\">{name}</a>", href(&csv)) } else { name };
         let _ = writeln!(
             h,
-            "<li class=\"{}\"><a href=\"runs/{}.csv\">{} / {} / {}</a>: {}</li>",
+            "<li class=\"{}\">{name}: {}</li>",
             if s.status == Status::Failed { "failed" } else { "nc" },
-            href(&stem),
-            esc(&s.dataset),
-            esc(&s.energy),
-            esc(&s.solver),
             esc(&what)
         );
     }

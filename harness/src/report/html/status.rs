@@ -64,7 +64,8 @@ pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[Summary
            Each cell: iterations over the time in seconds (the median over the repeats); hover it for the \
            whole story (the spread of the repeats, the run's own stop, memory) and click it for the run's \
            per-iteration CSV. <span class=\"ok\">green</span> converged; \
-           <span class=\"nc\">yellow</span> stopped by another rule (named in the cell); \
+           <span class=\"nc\">yellow</span> stopped by another rule (the verdict in the cell, the rule in its \
+           tooltip); \
            <span class=\"failed\">failed</span> and <span class=\"skipped\">skip</span> (not run: the solver is \
            not defined for the energy; left out of every aggregate and ranking) give the number of their reason \
            in the notes under the table. A “+” after the iterations: some iterations solved their Newton system \

@@ -61,8 +61,12 @@ pub(super) fn significant(t: f64) -> String {
     format!("{t:.digits$}")
 }
 
-/// 2 significant digits, for the status cells (0.0043, 0.21, 6.6, 12, 123).
+/// 2 significant digits in at most 7 characters, for the status cells (0.0043, 0.21, 6.6, 12,
+/// 123; 4e-5 below a millisecond).
 pub(super) fn brief(t: f64) -> String {
+    if t > 0.0 && t < 1e-3 {
+        return format!("{t:.0e}");
+    }
     let digits = if t <= 0.0 { 2 } else { (1 - t.abs().log10().floor() as i64).clamp(0, 6) as usize };
     format!("{t:.digits$}")
 }

@@ -65,12 +65,11 @@ pub(super) fn style(solvers: &[&str], solver: &str) -> Look {
     }
 }
 
-/// For each series, the first earlier series with the very same iterates (iterations and
-/// energy gaps), whose curve it would hide: such a series is drawn dashed over it and the
-/// legend names the twin.
-pub(super) fn twins(curves: &[Series]) -> Vec<Option<usize>> {
-    let same = |a: &Curve, b: &Curve| a.iter == b.iter && a.gap == b.gap && !a.iter.is_empty();
-    (0..curves.len()).map(|i| (0..i).find(|&j| same(&curves[i].curve, &curves[j].curve))).collect()
+/// For each curve of a chart (its plotted points), the first earlier curve with the very same
+/// points, which it would hide: such a curve is drawn dashed over it and the legend names the
+/// twin.
+pub(super) fn twins(points: &[Vec<(f64, f64)>]) -> Vec<Option<usize>> {
+    (0..points.len()).map(|i| (0..i).find(|&j| !points[i].is_empty() && points[i] == points[j])).collect()
 }
 
 /// The look every curve plot's axes share: label sizes and light grid lines.
@@ -112,7 +111,7 @@ where
     };
     let slot = to_axis(x_axis.max()) / MARKERS_PER_AXIS;
     let shift = |marker: usize| slot * (marker % 4) as f64 / 4.0;
-    let twins = twins(curves);
+    let twins = twins(points);
     for (n, (s, pts)) in curves.iter().zip(points).enumerate() {
         let line = s.color().stroke_width(2);
         if twins[n].is_some() {
@@ -233,8 +232,13 @@ pub(super) fn format_count(v: f64) -> String {
     }
 }
 
-/// A boxed legend in its own column, so it never covers data.
-pub(super) fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, entries: &[Series]) -> Result<()>
+/// A boxed legend in its own column, so it never covers data; `twins` as [`twins`] of the
+/// chart's points.
+pub(super) fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[Series],
+    twins: &[Option<usize>],
+) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -245,11 +249,11 @@ where
     let width = LEGEND_WIDTH as i32 - 2 * left - 4;
     area.draw(&Rectangle::new([(left, top), (left + width, top + height)], BLACK.mix(0.6).stroke_width(1)))?;
     let font = TextStyle::from(("sans-serif", 14).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
-    let twins = twins(entries);
+    let twin = |k: usize| twins.get(k).copied().flatten();
     for (k, s) in entries.iter().enumerate() {
         let y = top + 5 + row * k as i32 + row / 2;
         let line = s.color().stroke_width(2);
-        if twins[k].is_some() {
+        if twin(k).is_some() {
             for x in [4, 14, 24] {
                 area.draw(&PathElement::new(vec![(left + x, y), (left + x + 4, y)], line))?;
             }
@@ -260,7 +264,7 @@ where
             area.draw(&PathElement::new(vec![(left + 28, y), (left + 36, y)], line))?;
         }
         draw_marker(area, s.style.marker, (left + 20, y), s.color())?;
-        let label = match twins[k] {
+        let label = match twin(k) {
             Some(j) => format!("{} = {}", s.solver, entries[j].solver),
             None => s.solver.to_string(),
         };
@@ -279,9 +283,10 @@ where
 }
 
 /// A curve chart's PNG: `draw` fills the chart area on the left, the legend of `curves` takes
-/// the column on the right.
+/// the column on the right (`points`: what `draw` plots of each curve, for its twins).
 pub(super) fn render_framed(
     curves: &[Series],
+    points: &[Vec<(f64, f64)>],
     draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
 ) -> Result<Vec<u8>> {
     register_font();
@@ -291,7 +296,7 @@ pub(super) fn render_framed(
         root.fill(&WHITE)?;
         let (chart_area, legend_area) = root.split_horizontally(CURVE_SIZE.0 - LEGEND_WIDTH);
         draw(&chart_area)?;
-        draw_legend(&legend_area, curves)?;
+        draw_legend(&legend_area, curves, &twins(points))?;
         root.present()?;
     }
     encode_png(&buf, CURVE_SIZE)

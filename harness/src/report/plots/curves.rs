@@ -61,28 +61,28 @@ fn gap_floor(curves: &[Series]) -> f64 {
 }
 
 fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<u8>> {
-    render_framed(curves, |chart_area| {
-        let floor = gap_floor(curves);
-        let x_axis = match kind {
-            PlotKind::EnergyTime => {
-                let t_max = curves.iter().flat_map(|c| c.curve.time.iter().copied()).filter(|t| t.is_finite());
-                let t_max = t_max.fold(0.0, f64::max);
-                XAxis::Linear { max: if t_max > 0.0 { t_max * 1.02 } else { 1.0 } }
-            }
-            _ => XAxis::for_iterations(curves.iter().map(|c| c.curve.iter.last().copied().unwrap_or(0.0))),
-        };
-        let points: Vec<Vec<(f64, f64)>> = curves
-            .iter()
-            .map(|Series { curve: c, .. }| {
-                let xs = if *kind == PlotKind::EnergyTime { &c.time } else { &c.iter };
-                let ys: Vec<f64> = match kind {
-                    PlotKind::NegEigIter => c.neg_eig.clone(),
-                    _ => c.gap.iter().map(|g| if g.is_finite() && *g <= floor { floor } else { *g }).collect(),
-                };
-                let pts = xs.iter().zip(ys).map(|(x, y)| (x_axis.place(*x), y));
-                pts.filter(|(x, y)| x.is_finite() && y.is_finite()).collect()
-            })
-            .collect();
+    let floor = gap_floor(curves);
+    let x_axis = match kind {
+        PlotKind::EnergyTime => {
+            let t_max = curves.iter().flat_map(|c| c.curve.time.iter().copied()).filter(|t| t.is_finite());
+            let t_max = t_max.fold(0.0, f64::max);
+            XAxis::Linear { max: if t_max > 0.0 { t_max * 1.02 } else { 1.0 } }
+        }
+        _ => XAxis::for_iterations(curves.iter().map(|c| c.curve.iter.last().copied().unwrap_or(0.0))),
+    };
+    let points: Vec<Vec<(f64, f64)>> = curves
+        .iter()
+        .map(|Series { curve: c, .. }| {
+            let xs = if *kind == PlotKind::EnergyTime { &c.time } else { &c.iter };
+            let ys: Vec<f64> = match kind {
+                PlotKind::NegEigIter => c.neg_eig.clone(),
+                _ => c.gap.iter().map(|g| if g.is_finite() && *g <= floor { floor } else { *g }).collect(),
+            };
+            let pts = xs.iter().zip(ys).map(|(x, y)| (x_axis.place(*x), y));
+            pts.filter(|(x, y)| x.is_finite() && y.is_finite()).collect()
+        })
+        .collect();
+    render_framed(curves, &points, |chart_area| {
         let y_max = points.iter().flatten().map(|p| p.1).fold(0.0, f64::max);
         let x_desc = x_axis.describe(if *kind == PlotKind::EnergyTime { "time (s)" } else { "iteration" });
         let mut builder = ChartBuilder::on(chart_area);
@@ -199,7 +199,12 @@ mod tests {
             series(2, vec![4.0, 2.0, 0.5]),
             series(3, vec![4.0, 1.0, 0.0]),
         ];
-        assert_eq!(chart::twins(&curves), [None, Some(0), None, Some(0)]);
+        let points = crate::report::plots::chart::iter_gap_points(&curves);
+        assert_eq!(chart::twins(&points), [None, Some(0), None, Some(0)]);
+        // The same iterates at other times are no twins in the time plot.
+        let mut timed = points.clone();
+        timed[1][2].0 += 1.0;
+        assert_eq!(chart::twins(&timed), [None, None, None, Some(0)]);
         render_curves("t", &PlotKind::EnergyIter, &curves).unwrap();
     }
 }

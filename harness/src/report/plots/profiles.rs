@@ -150,8 +150,8 @@ fn render_fractions(
             Series { solver, style: chart::style(solvers, solver), converged: true, curve }
         })
         .collect();
-    render_framed(&curves, |chart_area| {
-        let points = iter_gap_points(&curves);
+    let points = iter_gap_points(&curves);
+    render_framed(&curves, &points, |chart_area| {
         let mut builder = ChartBuilder::on(chart_area);
         builder.caption(title, ("sans-serif", 18)).margin(12).x_label_area_size(42).y_label_area_size(60);
         // Room above 1 and below 0 and at both ends so the markers on the edges are not clipped.

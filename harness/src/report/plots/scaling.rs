@@ -81,8 +81,8 @@ pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: 
 /// A plot of `curve.iter` (x, log axis: vertices) against `curve.gap` (y, log axis when
 /// `log_y`) with a marker at every point.
 fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> Result<Vec<u8>> {
-    render_framed(curves, |chart_area| {
-        let points = iter_gap_points(curves);
+    let points = iter_gap_points(curves);
+    render_framed(curves, &points, |chart_area| {
         let all = || points.iter().flatten();
         let (x_min, x_max) = (all().map(|p| p.0).fold(f64::INFINITY, f64::min), all().map(|p| p.0).fold(0.0, f64::max));
         let (y_min, y_max) = (all().map(|p| p.1).fold(f64::INFINITY, f64::min), all().map(|p| p.1).fold(0.0, f64::max));

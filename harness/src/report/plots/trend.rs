@@ -3,7 +3,9 @@
 //! curve plots (legend column, markers per solver).
 
 use super::canvas::{encode_png, register_font};
-use super::chart::{draw_legend, draw_series, format_linear, house_style, style, Series, CURVE_SIZE, LEGEND_WIDTH};
+use super::chart::{
+    draw_legend, draw_series, format_linear, house_style, style, twins, Series, CURVE_SIZE, LEGEND_WIDTH,
+};
 use super::chart::{Curve, XAxis};
 use anyhow::{bail, Result};
 use plotters::prelude::*;
@@ -81,7 +83,7 @@ pub fn render_trend(
             .draw()?;
         // A marker at every point: a marker slot far smaller than the spacing of batches.
         draw_series(&mut chart, &series, &points, XAxis::Linear { max: 1e-9 })?;
-        draw_legend(&legend_area, &series)?;
+        draw_legend(&legend_area, &series, &twins(&points))?;
         root.present()?;
     }
     encode_png(&buf, CURVE_SIZE)

@@ -78,7 +78,8 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
                   (the median over repeats, min–max in parentheses); peak MB = how far the process's resident memory \
                   rose above its level at the run's start (MiB, measured when no other run was in flight beside it, as \
                   with --jobs 1: the run's own peak less memory it reused from earlier runs); ~N = the process's peak, \
-                  the runs beside it included, when they shared it; * = did not converge; failed runs and \
+                  the runs beside it included, when they shared it; an external solver's own process group's \
+                  peak; * = did not converge; failed runs and \
                   skipped pairs are left out (empty cells). Plotted in plots/scaling__<energy>__*.png.{}",
             with_space(target_rule(runs.iter().copied()))
         ),
