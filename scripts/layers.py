@@ -43,6 +43,7 @@ RANKS = {
     "convergence": 0,
     "signals": 0,
     "calibration": 0,
+    "hardware": 0,
     "column_names": 0,
     "run_folder": 1,
     "plan": 2,

@@ -24,6 +24,7 @@ pub mod export;
 pub mod external;
 pub mod fuzzing;
 pub mod gate;
+pub mod hardware;
 pub mod hash;
 pub mod history;
 pub mod judge;

@@ -252,6 +252,7 @@ fn stage(
             ended_unix: m.ended_unix,
             git_dirty: m.git_dirty,
             git_revision: m.git_revision.clone(),
+            hardware: m.hardware.clone(),
             host: m.host.clone(),
             interrupted: m.interrupted,
             shard: m.shard.clone(),
@@ -259,6 +260,9 @@ fn stage(
         })
         .collect();
     meta.merged_from = Some(merged_from.clone());
+    // One machine for the batch only when every shard ran on it.
+    let first = metas[0].hardware.as_ref();
+    meta.hardware = first.filter(|h| metas.iter().all(|m| m.hardware.as_ref() == Some(*h))).cloned();
     meta.external = merged_external(metas);
     let ends: Vec<Option<u64>> = metas.iter().map(|m| m.ended_unix).collect();
     meta.started_unix = metas.iter().filter_map(|m| m.started_unix).min();

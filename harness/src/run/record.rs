@@ -75,6 +75,7 @@ impl BatchRecord<'_> {
             external: (!self.external.is_empty()).then(|| serde_json::to_value(&self.external).ok()).flatten(),
             git_dirty: dirty,
             git_revision: rev,
+            hardware: Some(crate::hardware::Hardware::detect()),
             history: self.history.as_ref().and_then(Outcome::meta_history),
             history_outcome: self.history.as_ref().and_then(|o| serde_json::to_value(o).ok()),
             host: std::env::var("HOSTNAME")

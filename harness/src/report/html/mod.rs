@@ -90,6 +90,7 @@ pub fn write_index(
     changes_section(&mut h, run_dir, meta.as_ref(), summaries, batch);
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
+    provenance::hardware_note(&mut h, meta.as_ref());
     status_matrix(&mut h, run_dir, summaries, &external);
     external_section(&mut h, &external, summaries);
     tables_section(&mut h, run_dir, tables, plots, summaries);

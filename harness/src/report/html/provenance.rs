@@ -20,6 +20,34 @@ pub(crate) fn utc(secs: u64) -> String {
     format!("{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC", rem / 3600, rem % 3600 / 60, rem % 60)
 }
 
+/// When the shards of a merged folder ran on different machines: a visible warning naming
+/// them, since only `time_norm` (each shard's times over its own calibration) compares then.
+pub(super) fn hardware_note(h: &mut String, meta: Option<&Meta>) {
+    let Some(shards) = meta.and_then(|m| m.merged_from.as_ref()) else { return };
+    let known: Vec<(&str, &crate::hardware::Hardware)> = shards
+        .iter()
+        .filter_map(|s| Some((s.shard.as_deref().unwrap_or(s.dir.as_str()), s.hardware.as_ref()?)))
+        .collect();
+    let machines = crate::hardware::distinct(known);
+    if machines.len() < 2 {
+        return;
+    }
+    let list: Vec<String> = machines
+        .iter()
+        .map(|(hw, names)| {
+            format!("{} ran shard{} {}", hw.describe(), if names.len() == 1 { "" } else { "s" }, names.join(", "))
+        })
+        .collect();
+    let _ = writeln!(
+        h,
+        "<p class=\"warn\" id=\"hardware\"><b>The shards ran on {} different machines:</b> {}. Their time_s do not \
+         compare across shards; time_norm (each shard's times over its own machine calibration) is the comparable \
+         time, and the tables and profiles use it when every run has one.</p>",
+        machines.len(),
+        esc(&list.join("; "))
+    );
+}
+
 pub(super) fn provenance_section(h: &mut String, meta: Option<&Meta>) {
     *h += "<h2 id=\"provenance\">Provenance</h2>\n";
     let Some(m) = meta else {
@@ -43,6 +71,9 @@ pub(super) fn provenance_section(h: &mut String, meta: Option<&Meta>) {
         ("crates", shown(&m.crates)),
         ("config file", shown(&m.config_path)),
         ("host", shown(&m.host)),
+        ("machine", m.hardware.as_ref().map(|h| h.describe())),
+        ("memory", m.hardware.as_ref().and_then(|h| h.memory_mb).map(|mb| format!("{mb} MiB"))),
+        ("operating system", m.hardware.as_ref().and_then(|h| h.os.clone())),
         ("cores", shown(&m.cores)),
         ("--jobs", shown(&m.jobs)),
         ("threads per run", shown(&m.threads_per_run)),

@@ -5,6 +5,7 @@
 //! means. The keys keep the names and order (sorted) they always had on disk.
 
 use crate::calibration::Calibration;
+use crate::hardware::Hardware;
 use crate::run_folder::keep::Maps;
 use crate::run_folder::write_atomic;
 use serde::{Deserialize, Serialize};
@@ -60,6 +61,10 @@ pub struct Meta {
     pub external: Option<Value>,
     pub git_dirty: Option<bool>,
     pub git_revision: Option<String>,
+    /// The machine's fingerprint (`crate::hardware`); in a merged folder the shards' common
+    /// one, absent when they differ (each shard's is in `merged_from`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hardware: Option<Hardware>,
     /// The history database the batch is in (`None`: not, or not yet).
     pub history: Option<String>,
     /// What became of the batch in the history, set once the batch is over: a
@@ -129,6 +134,8 @@ pub struct MergedShard {
     pub ended_unix: Option<u64>,
     pub git_dirty: Option<bool>,
     pub git_revision: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hardware: Option<Hardware>,
     pub host: Option<String>,
     pub interrupted: Option<bool>,
     pub shard: Option<String>,
