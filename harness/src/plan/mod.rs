@@ -2,6 +2,7 @@
 //! into a [`Plan`], and every verb (`run`, `export-system`, `meta.json`, `--resume` keys,
 //! `merge`'s checks) consumes the plan instead of reading config sections.
 
+pub mod balance;
 pub mod config;
 pub mod external;
 pub mod handles;
