@@ -118,7 +118,7 @@ mod tests {
         assert_eq!(plan(&[1.0; 4], 2).shards, [vec![0, 2], vec![1, 3]]);
     }
 
-    /// The scale: 100,000 runs of mixed cost into 1,000 shards, every run in exactly
+    /// A cluster's scale: 100,000 runs of mixed cost into 1,000 shards, every run in exactly
     /// one shard and the predicted makespan within 5% of the lower bound (how long planning
     /// takes is the `shard_plan` benchmark's).
     #[test]

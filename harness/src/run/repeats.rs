@@ -26,7 +26,7 @@ pub(super) struct Repeats {
     rows: Vec<Vec<Timings>>,
     /// Why a repeat did not reproduce the first (the run then fails with this message).
     mismatch: Option<String>,
-    /// The largest peak resident set of the repeats (MiB), the process's and the run's own.
+    /// The largest peak resident set of the repeats (MiB), and the largest growth.
     peak_rss_mb: Option<f64>,
     peak_growth_mb: Option<f64>,
 }
