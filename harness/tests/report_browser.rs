@@ -79,18 +79,7 @@ fn the_report_page_loads_every_image_and_shows_the_tables() {
         .unwrap();
     assert_eq!(o.status.code(), Some(1), "the broken mesh fails its runs: {}", String::from_utf8_lossy(&o.stderr));
     let page = std::fs::read_to_string(out.join("index.html")).unwrap();
-    let check = out.join("check.html");
-    std::fs::write(&check, page.replace("</body>", &format!("{CHECK_SCRIPT}</body>"))).unwrap();
-    let dom = headless(&browser)
-        .args(["--virtual-time-budget=20000", "--dump-dom"])
-        .arg(format!("file://{}", check.display()))
-        .output()
-        .unwrap();
-    let dom = String::from_utf8_lossy(&dom.stdout);
-    let marker = "<pre id=\"mapbench-check\">";
-    let start = dom.find(marker).expect("the check script ran") + marker.len();
-    let json = &dom[start..start + dom[start..].find("</pre>").unwrap()];
-    let report: serde_json::Value = serde_json::from_str(&json.replace("&quot;", "\"").replace("&amp;", "&")).unwrap();
+    let report = check(&browser, &out, (1200, 2400));
     // 2 datasets x 2 energies: 3 curve plots each, plus the group's map (maps = "best": one
     // per dataset and energy), plus the performance profiles
     assert!(report["images"].as_u64().unwrap() >= 16, "{report}");
@@ -103,16 +92,21 @@ fn the_report_page_loads_every_image_and_shows_the_tables() {
     // A screenshot for people (CI keeps target/ci-artifacts/).
     let artifacts = root.join("target/ci-artifacts");
     std::fs::create_dir_all(&artifacts).unwrap();
-    let shot = artifacts.join("report.png");
-    let _ = std::fs::remove_file(&shot);
-    let o = headless(&browser)
-        .args(["--window-size=1200,2400", "--virtual-time-budget=20000"])
+    screenshot(&browser, &out, (1200, 2400), &artifacts.join("report.png"));
+    first_screen(&browser, tmp.path(), &artifacts);
+}
+
+/// A screenshot of `dir/index.html` in a `width` x `height` window, to `shot`.
+fn screenshot(browser: &Path, dir: &Path, (width, height): (u32, u32), shot: &Path) {
+    let _ = std::fs::remove_file(shot);
+    let o = headless(browser)
+        .arg(format!("--window-size={width},{height}"))
+        .arg("--virtual-time-budget=20000")
         .arg(format!("--screenshot={}", shot.display()))
-        .arg(format!("file://{}", out.join("index.html").display()))
+        .arg(format!("file://{}", dir.join("index.html").display()))
         .output()
         .unwrap();
     assert!(shot.is_file(), "no screenshot: {}", String::from_utf8_lossy(&o.stderr));
-    first_screen(&browser, tmp.path(), &artifacts);
 }
 
 /// What the check script found in the page `dir/index.html` in a `width` x `height` window.
@@ -193,13 +187,5 @@ fn first_screen(browser: &Path, tmp: &Path, artifacts: &Path) {
     assert!(report["page_width"].as_f64().unwrap() <= width, "the page scrolls sideways: {report}");
     let [inside, content] = [0, 1].map(|i| report["status_box"][i].as_f64().unwrap());
     assert!(content <= inside, "the status matrix of 18 solvers scrolls sideways: {report}");
-    let shot = artifacts.join("first-screen.png");
-    let _ = std::fs::remove_file(&shot);
-    let o = headless(browser)
-        .args(["--window-size=1400,900", "--virtual-time-budget=20000"])
-        .arg(format!("--screenshot={}", shot.display()))
-        .arg(format!("file://{}", out.join("index.html").display()))
-        .output()
-        .unwrap();
-    assert!(shot.is_file(), "no screenshot: {}", String::from_utf8_lossy(&o.stderr));
+    screenshot(browser, &out, (1400, 900), &artifacts.join("first-screen.png"));
 }

@@ -264,16 +264,18 @@ fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
     for energy in &energies {
         let time = time_column(c, energy);
         let caps = Caps::of(c, energy, time);
+        // Per solver, its cell in each batch: the three charts plot three measures of them.
+        let cells: Vec<Vec<Option<Cell>>> = solvers
+            .iter()
+            .map(|s| c.batches.iter().map(|(_, runs)| cell(runs, energy, s, time, caps)).collect())
+            .collect();
         for measure in [Measure::Solved, Measure::Iterations, Measure::Time] {
             let values: Vec<(String, Vec<(usize, f64)>)> = solvers
                 .iter()
-                .map(|s| {
-                    let pts = c
-                        .batches
-                        .iter()
-                        .enumerate()
-                        .filter_map(|(i, (_, runs))| measure.of(&cell(runs, energy, s, time, caps)?).map(|v| (i, v)))
-                        .collect();
+                .zip(&cells)
+                .map(|(s, row)| {
+                    let pts =
+                        row.iter().enumerate().filter_map(|(i, x)| measure.of(x.as_ref()?).map(|v| (i, v))).collect();
                     (s.clone(), pts)
                 })
                 .filter(|(_, p): &(String, Vec<_>)| !p.is_empty())

@@ -17,7 +17,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// The problems listed on the first screen; the status matrix has them all.
-pub(crate) const PROBLEMS_SHOWN: usize = 12;
+const PROBLEMS_SHOWN: usize = 12;
 /// Errors are cut to this many characters in the list (the status notes have them whole).
 const ERROR_CHARS: usize = 140;
 
@@ -40,18 +40,17 @@ pub(super) fn changes_section(
 }
 
 /// `600 runs: 540 solved at the 1e-6 target, 30 not solved, 5 failed, 25 skipped`.
-pub(crate) fn verdict_line(summaries: &[SummaryRow]) -> String {
+fn verdict_line(summaries: &[SummaryRow]) -> String {
     let n = |st: Status| summaries.iter().filter(|s| s.status == st).count();
-    let ok = match tightest_target(summaries) {
-        Some(tau) => format!("solved at the {} target", tau_text(tau)),
-        None => "converged".to_string(),
+    let (ok, word) = match tightest_target(summaries) {
+        Some(tau) => (format!("solved at the {} target", tau_text(tau)), "solved"),
+        None => ("converged".to_string(), "converged"),
     };
     format!(
-        "{} runs: {} {ok}, {} not {}, {} failed, {} skipped",
+        "{} runs: {} {ok}, {} not {word}, {} failed, {} skipped",
         summaries.len(),
         n(Status::Ok),
         n(Status::NotConverged),
-        if tightest_target(summaries).is_some() { "solved" } else { "converged" },
         n(Status::Failed),
         n(Status::Skipped)
     )
@@ -162,6 +161,19 @@ fn plural(n: usize) -> &'static str {
     }
 }
 
+/// An unsolved run the harness did not judge (authalic).
+const NOT_CONVERGED: &str = "not converged";
+
+/// What kind of problem a failed or unsolved run is: `failed`, the harness's verdict, or
+/// [`NOT_CONVERGED`].
+fn problem_kind(s: &SummaryRow) -> &'static str {
+    match (s.status, s.verdict) {
+        (Status::Failed, _) => "failed",
+        (_, Some(v)) if v != Verdict::OwnRule => verdict_text(v),
+        _ => NOT_CONVERGED,
+    }
+}
+
 /// The failed and unsolved runs, at most [`PROBLEMS_SHOWN`], each linking to its CSV when it
 /// has one.
 fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
@@ -178,36 +190,33 @@ fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
         *h += "<h3>Problems</h3>\n<p>None: every run that ran was solved.</p>\n";
         return;
     }
-    let mut kinds: Vec<(String, usize)> = Vec::new();
+    let mut kinds: Vec<(&str, usize)> = Vec::new();
     for s in &list {
-        let kind = match (s.status, s.verdict) {
-            (Status::Failed, _) => "failed",
-            (_, Some(v)) if v != Verdict::OwnRule => verdict_text(v),
-            _ => "not converged",
-        };
-        match kinds.iter_mut().find(|(k, _)| k == kind) {
+        let kind = problem_kind(s);
+        match kinds.iter_mut().find(|(k, _)| *k == kind) {
             Some((_, n)) => *n += 1,
-            None => kinds.push((kind.to_string(), 1)),
+            None => kinds.push((kind, 1)),
         }
     }
     let kinds: Vec<String> = kinds.iter().map(|(k, n)| format!("{n} {k}")).collect();
     let _ = writeln!(h, "<h3>Problems ({}: {})</h3>\n<ul class=\"problems\">", list.len(), esc(&kinds.join(", ")));
     for s in list.iter().take(PROBLEMS_SHOWN) {
-        let what = match (s.status, s.verdict) {
-            (Status::Failed, _) => {
+        let kind = problem_kind(s);
+        let what = match s.status {
+            Status::Failed => {
                 let mut e: String = s.error.chars().take(ERROR_CHARS).collect();
                 if e.len() < s.error.len() {
                     e.push('…');
                 }
-                format!("failed: {e}")
+                format!("{kind}: {e}")
             }
-            (_, Some(v)) if v != Verdict::OwnRule => {
+            _ if kind != NOT_CONVERGED => {
                 let gap = s.final_gap.map(|g| format!(", final gap {g:.1e}")).unwrap_or_default();
                 let iters = s.iterations.map(|i| format!(" after {i} iterations")).unwrap_or_default();
-                format!("{}{gap}{iters} (own stop: {})", verdict_text(v), s.stop_column())
+                format!("{kind}{gap}{iters} (own stop: {})", s.stop_column())
             }
             _ => format!(
-                "not converged: {}{}",
+                "{kind}: {}{}",
                 s.stop_column(),
                 s.time_s.map(|t| format!(" after {} s", significant(t))).unwrap_or_default()
             ),
