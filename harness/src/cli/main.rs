@@ -9,6 +9,7 @@ use mapbench::gate::{check, compare};
 use mapbench::history::{self, HistoryChoice};
 use mapbench::output::Output;
 use mapbench::plan::select::Shard;
+use mapbench::plan::shard_plan::ShardPlanFile;
 use mapbench::plan::Plan;
 use mapbench::plan::{config, registry};
 use mapbench::run::{self, merge, progress};
@@ -50,6 +51,10 @@ enum Command {
         /// Give each shard its own --out and combine them with `merge`.
         #[arg(long)]
         shard: Option<Shard>,
+        /// With --shard I/N: run the runs shard I of this plan holds (`shards.json`, as `submit`
+        /// writes it: shards balanced by expected time) instead of every N-th run.
+        #[arg(long, requires = "shard", value_name = "FILE")]
+        shard_plan: Option<PathBuf>,
         /// Repeat every run N times, round-robin over the batch (overrides `repeat`);
         /// `time_s` is the median, `time_s_min`/`time_s_max` the spread.
         #[arg(long)]
@@ -382,14 +387,20 @@ fn is_closed_pipe(e: &anyhow::Error) -> bool {
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Run { config, out, only, resume, jobs, shard, repeat, force, history } => {
+        Command::Run { config, out, only, resume, jobs, shard, shard_plan, repeat, force, history } => {
             // First, before any thread starts: every thread inherits the blocked signals.
             let interrupt = Arc::new(AtomicBool::new(false));
             let signal = signals::on_interrupt(interrupt.clone());
             config::check_jobs(jobs, config::available_cores())?;
             let plan = run_plan(&config, &only, repeat, &history.choice(), shard.is_some())?;
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
-            let opts = run::RunOptions { resume, jobs, shard, force, interrupt };
+            let shard_runs = match (&shard_plan, shard) {
+                (Some(file), Some(shard)) => Some(
+                    ShardPlanFile::read(file)?.runs_of(shard, &plan).with_context(|| file.display().to_string())?,
+                ),
+                _ => None,
+            };
+            let opts = run::RunOptions { resume, jobs, shard, shard_runs, force, interrupt };
             let progress = progress::for_stderr();
             let report = run::run_batch(&plan, &out, &opts, progress.as_ref(), &report::Renderer)?;
             say_batch(&report);

@@ -10,6 +10,7 @@ pub mod paths;
 pub mod registry;
 pub mod select;
 pub mod settings;
+pub mod shard_plan;
 
 use anyhow::{bail, Context, Result};
 use config::LoadedConfig;

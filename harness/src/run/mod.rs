@@ -69,6 +69,8 @@ pub struct RunOptions {
     /// Runs at once (worker threads); default: the machine's cores.
     pub jobs: Option<usize>,
     pub shard: Option<Shard>,
+    /// With a shard plan (`--shard-plan`): the runs of `shard`, instead of every N-th run.
+    pub shard_runs: Option<std::collections::BTreeSet<String>>,
     /// Delete the results of another batch in the output folder instead of refusing it.
     pub force: bool,
     /// Set (by Ctrl-C) to stop: running runs are abandoned, no new run starts.
@@ -144,7 +146,10 @@ pub fn run_batch(
         .runs
         .iter()
         .enumerate()
-        .filter(|(i, _)| opts.shard.is_none_or(|s| s.selects(*i)))
+        .filter(|(i, p)| match (&opts.shard_runs, opts.shard) {
+            (Some(planned), _) => planned.contains(&p.stem),
+            (None, shard) => shard.is_none_or(|s| s.selects(*i)),
+        })
         .map(|(_, p)| p)
         .collect();
     let cores = crate::plan::config::available_cores();
