@@ -134,6 +134,19 @@ pub struct BatchRow {
     pub source: Source,
 }
 
+/// A past run's time (`HistoryDb::past_times`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PastTime {
+    pub config_name: String,
+    pub dataset: String,
+    pub task: Task,
+    pub energy: String,
+    pub solver: String,
+    pub time_norm: f64,
+    /// The calibration time of the run's batch (seconds), when it was calibrated.
+    pub calibration_median_s: Option<f64>,
+}
+
 impl BatchRow {
     /// The revision's first 7 hex digits, `+` when the tree was dirty, `?` when unknown.
     pub fn short_revision(&self) -> String {
@@ -422,6 +435,36 @@ impl HistoryDb {
                     iters_to_target: r.get(27)?,
                     time_s_to_target: r.get(28)?,
                     peak_growth_mb: r.get(29)?,
+                })
+            })
+            .map_err(&sql)?
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(&sql)?;
+        Ok(rows)
+    }
+
+    /// Every run's `time_norm` with its batch's config and calibration, oldest batch first:
+    /// what `submit` predicts a run's time from.
+    pub fn past_times(&self) -> Result<Vec<PastTime>, HistoryError> {
+        let sql = sql_error(&self.path);
+        let mut stmt = self
+            .conn
+            .prepare(
+                "SELECT b.config_name, r.dataset, r.task, r.energy, r.solver, r.time_norm, b.calibration_median_s \
+                 FROM runs r JOIN batches b ON b.id = r.batch_id WHERE r.time_norm IS NOT NULL \
+                 ORDER BY b.started_unix, b.id, r.rowid",
+            )
+            .map_err(&sql)?;
+        let rows = stmt
+            .query_map([], |r| {
+                Ok(PastTime {
+                    config_name: r.get(0)?,
+                    dataset: r.get(1)?,
+                    task: parse_text(r, 2, |t| t.parse::<Task>())?,
+                    energy: r.get(3)?,
+                    solver: r.get(4)?,
+                    time_norm: r.get(5)?,
+                    calibration_median_s: r.get(6)?,
                 })
             })
             .map_err(&sql)?
