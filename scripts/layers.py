@@ -6,7 +6,7 @@ rank or below:
 
     0  leaves        hash, paths, stats, names, escape, convergence, signals, calibration
     1  run_folder    every file of a run folder, meta.json typed and versioned
-    2  the batch     plan, run, judge, history, gate, export, output, evaluate, external
+    2  the batch     plan, run, judge, history, gate, export, output, evaluate, external, slurm
     3  report        tables, plots, the report and trend pages, the comparison page
     4  edges         cli (the binary) and fuzzing (what the fuzz targets call)
 
@@ -55,6 +55,7 @@ RANKS = {
     "output": 2,
     "evaluate": 2,
     "external": 2,
+    "slurm": 2,
     "report": 3,
     "cli": 4,
     "fuzzing": 4,

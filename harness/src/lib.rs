@@ -6,12 +6,13 @@
 //! tables, plots and the HTML pages (a run folder's, the history's trend, `compare`'s),
 //! `gate` compares a run folder with a baseline, `export` writes the Newton systems of a
 //! plan, `calibration` times the machine's reference workload, `history` keeps every batch in
-//! an SQLite database, `signals` turns Ctrl-C, SIGTERM and SIGHUP into a clean stop.
+//! an SQLite database, `signals` turns Ctrl-C, SIGTERM and SIGHUP into a clean stop, `slurm`
+//! submits a batch to a Slurm cluster in shards balanced by expected time.
 //!
 //! The modules are layered one way (`scripts/layers.py` checks it): the leaves (`hash`,
 //! `paths`, `stats`, `names`, `escape`, `convergence`, `signals`, `calibration`) name nothing
 //! above them; `run_folder` only leaves; `plan`, `run`, `judge`, `history`, `gate`, `export`
-//! `output`, `evaluate` and `external` those two and each other, in no circle; `report` all of them; `cli` and
+//! `output`, `evaluate`, `external` and `slurm` those two and each other, in no circle; `report` all of them; `cli` and
 //! `fuzzing` are the edges. `run` and `merge` end with pages the report renders, so they are
 //! handed a `run::Pages` rather than naming the report.
 
@@ -36,4 +37,5 @@ pub mod report;
 pub mod run;
 pub mod run_folder;
 pub mod signals;
+pub mod slurm;
 pub mod stats;

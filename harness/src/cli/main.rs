@@ -13,7 +13,7 @@ use mapbench::plan::shard_plan::ShardPlanFile;
 use mapbench::plan::Plan;
 use mapbench::plan::{config, registry};
 use mapbench::run::{self, merge, progress};
-use mapbench::{export, report, run_folder, signals};
+use mapbench::{export, report, run_folder, signals, slurm};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -63,6 +63,45 @@ enum Command {
         /// refusing to write there (mapbench's own files only).
         #[arg(long, conflicts_with = "resume")]
         force: bool,
+        #[command(flatten)]
+        history: HistoryArgs,
+    },
+    /// Run a batch on a Slurm cluster: shards balanced by expected time (the history's past
+    /// times, else an estimate) in an array job, then a merge job into --out that appends the
+    /// batch to the history once. Prints the job ids; with --wait, exits with the merge's code.
+    Submit {
+        /// The config (not with --resume).
+        #[arg(required_unless_present = "resume", conflicts_with = "resume")]
+        config: Option<PathBuf>,
+        /// Shards (array tasks); at most the batch's runs.
+        #[arg(long, required_unless_present = "resume", conflicts_with = "resume")]
+        shards: Option<usize>,
+        /// The folder the shards are merged into (default: reports/<name>); the submission's
+        /// plan, scripts, shard folders and logs go to its slurm/.
+        #[arg(long, conflicts_with = "resume")]
+        out: Option<PathBuf>,
+        #[arg(long, conflicts_with = "resume")]
+        only: Vec<String>,
+        #[arg(long, conflicts_with = "resume")]
+        repeat: Option<usize>,
+        /// Cores of each task (`--cpus-per-task`), which its `run --jobs` uses.
+        #[arg(long, default_value_t = 1, conflicts_with = "resume")]
+        cpus_per_task: usize,
+        /// An sbatch argument for every job, e.g. --sbatch=--partition=short --sbatch=--time=2:00:00
+        /// (repeat for several).
+        #[arg(long = "sbatch", value_name = "ARG", allow_hyphen_values = true, conflicts_with = "resume")]
+        sbatch: Vec<String>,
+        /// Write the plan and the scripts and print the plan; submit nothing.
+        #[arg(long, conflicts_with = "resume")]
+        dry_run: bool,
+        /// Wait for the merge job and exit with its code (2 when a shard failed: the merge never
+        /// starts; `--resume` then completes the batch).
+        #[arg(long, conflicts_with = "dry_run")]
+        wait: bool,
+        /// Resubmit the shards of the submission in DIR that are missing or incomplete (a
+        /// cancelled or failed task), then the merge.
+        #[arg(long, value_name = "DIR")]
+        resume: Option<PathBuf>,
         #[command(flatten)]
         history: HistoryArgs,
     },
@@ -395,9 +434,9 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let plan = run_plan(&config, &only, repeat, &history.choice(), shard.is_some())?;
             let out = out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
             let shard_runs = match (&shard_plan, shard) {
-                (Some(file), Some(shard)) => Some(
-                    ShardPlanFile::read(file)?.runs_of(shard, &plan).with_context(|| file.display().to_string())?,
-                ),
+                (Some(file), Some(shard)) => {
+                    Some(ShardPlanFile::read(file)?.runs_of(shard, &plan).with_context(|| file.display().to_string())?)
+                }
                 _ => None,
             };
             let opts = run::RunOptions { resume, jobs, shard, shard_runs, force, interrupt };
@@ -408,6 +447,35 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             // A signal at any moment, after the last run too (the batch is then complete).
             Ok(run_exit(signal.load(Ordering::SeqCst), written, report.failed))
         }
+        Command::Submit {
+            config,
+            shards,
+            out,
+            only,
+            repeat,
+            cpus_per_task,
+            sbatch,
+            dry_run,
+            wait,
+            resume,
+            history,
+        } => match (resume, config, shards) {
+            (Some(dir), _, _) => submit_resume(&dir, wait),
+            (None, Some(config), Some(shards)) => {
+                let request = slurm::Request {
+                    config,
+                    shards,
+                    out,
+                    only,
+                    repeat,
+                    cpus_per_task,
+                    sbatch,
+                    history: history.choice(),
+                };
+                submit(&request, dry_run, wait)
+            }
+            _ => anyhow::bail!("give CONFIG and --shards N, or --resume DIR"),
+        },
         Command::References { config, only, store } => references(&config, &only, store),
         Command::ExportSystem { config, out, only, iteration } => {
             let cfg = LoadedConfig::load(&config)?;
@@ -573,6 +641,136 @@ fn references(config: &std::path::Path, only: &[String], store: Option<PathBuf>)
         return Ok(ExitCode::from(128 + signalled.clamp(1, 127) as u8));
     }
     Ok(if missing > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+/// How often `submit --wait` looks at the queue.
+const POLL: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// `submit CONFIG`: plan, write, submit (unless --dry-run), and wait when asked.
+fn submit(request: &slurm::Request, dry_run: bool, wait: bool) -> Result<ExitCode> {
+    let prepared = slurm::prepare(request, || {
+        eprintln!("submit: no past times in the history: timing the calibration workload here to scale the estimates");
+        let mut c = mapbench::calibration::Calibration::new();
+        c.sample(1, 1)
+    })?;
+    for n in &prepared.notices {
+        eprintln!("{n}");
+    }
+    slurm::write(&prepared)?;
+    let out_dir = prepared.submission.commands.out.clone();
+    eprint!("{}", slurm::describe(&prepared.plan_file));
+    let refs = &prepared.missing_references;
+    if !refs.is_empty() {
+        eprintln!(
+            "{} reference minima are not in the stores (first: {} {}): a job computes them before the shards",
+            refs.len(),
+            refs[0].0,
+            refs[0].1
+        );
+    }
+    let dir = slurm::script::slurm_dir(&out_dir);
+    if dry_run {
+        eprintln!(
+            "dry run: wrote {} (shards.json, array.sh, merge.sh, references.sh); nothing submitted",
+            dir.display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    let mut submission = prepared.submission;
+    let tasks: Vec<usize> = (1..=submission.commands.shards).collect();
+    let round = slurm::submit(&slurm::scheduler::Slurm, &mut submission, &tasks, !refs.is_empty())?;
+    say_round(&round, &out_dir);
+    if !wait {
+        return Ok(ExitCode::SUCCESS);
+    }
+    waited(&submission, &round)
+}
+
+/// `submit --resume DIR`.
+fn submit_resume(dir: &std::path::Path, wait: bool) -> Result<ExitCode> {
+    let resumed = slurm::resume(&slurm::scheduler::Slurm, dir)?;
+    for id in &resumed.cancelled {
+        eprintln!("cancelled merge job {id}: its shards had failed, so it could never start");
+    }
+    for (i, state) in &resumed.shards {
+        eprintln!("shard {i}: {}", say_state(state));
+    }
+    let Some(round) = resumed.round else {
+        eprintln!("nothing to resume: every shard is complete and the merge succeeded");
+        return Ok(ExitCode::SUCCESS);
+    };
+    let submission = slurm::Submission::read(dir)?;
+    say_round(&round, &submission.commands.out);
+    if !wait {
+        return Ok(ExitCode::SUCCESS);
+    }
+    waited(&submission, &round)
+}
+
+fn say_state(state: &slurm::ShardState) -> String {
+    match state {
+        slurm::ShardState::Complete => "complete".into(),
+        slurm::ShardState::Missing => "missing (no run folder)".into(),
+        slurm::ShardState::Incomplete { done, of } => format!("incomplete ({done} of {of} runs)"),
+    }
+}
+
+/// The job ids of a round: on stdout as `key=id` lines for scripts, in words on stderr.
+fn say_round(round: &slurm::Submitted, out_dir: &std::path::Path) {
+    if let Some(r) = &round.references {
+        eprintln!("submitted references job {r} (the missing reference minima)");
+    }
+    if let Some(a) = &round.array {
+        eprintln!("submitted array job {a} (shards {})", slurm::array_spec(&round.tasks));
+    }
+    eprintln!(
+        "submitted merge job {} (starts once every shard succeeded; merges into {})",
+        round.merge,
+        out_dir.display()
+    );
+    let mut ids = String::new();
+    for (k, v) in [("references_job", &round.references), ("array_job", &round.array)] {
+        if let Some(v) = v {
+            ids += &format!("{k}={v}\n");
+        }
+    }
+    ids += &format!("merge_job={}\n", round.merge);
+    let _ = out(format_args!("{ids}"));
+}
+
+/// `--wait`: the merge's exit code, or 2 with what failed.
+fn waited(submission: &slurm::Submission, round: &slurm::Submitted) -> Result<ExitCode> {
+    let dir = &submission.commands.out;
+    match slurm::wait(&slurm::scheduler::Slurm, submission, round, POLL)? {
+        slurm::Waited::Merged(code) => {
+            eprintln!("merge job {} exited with {code}", round.merge);
+            Ok(ExitCode::from(u8::try_from(code).unwrap_or(2)))
+        }
+        slurm::Waited::ShardsFailed(shards) => {
+            for (i, state) in &shards {
+                eprintln!(
+                    "shard {i}: {} (log: {})",
+                    say_state(state),
+                    slurm::script::logs_dir(dir).join(format!("shard-{i}.out")).display()
+                );
+            }
+            eprintln!(
+                "the merge job {} could never start and was cancelled; `mapbench submit --resume {}` resubmits the \
+                 shards that did not finish",
+                round.merge,
+                dir.display()
+            );
+            Ok(ExitCode::from(2))
+        }
+        slurm::Waited::MergeLost => {
+            eprintln!(
+                "the merge job {} left the queue without an exit code (cancelled or killed); see {}",
+                round.merge,
+                slurm::script::logs_dir(dir).display()
+            );
+            Ok(ExitCode::from(2))
+        }
+    }
 }
 
 /// `list`: the solvers, energies or datasets.

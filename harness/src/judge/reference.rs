@@ -261,6 +261,28 @@ pub fn prepare(
     Ok(out)
 }
 
+/// The (dataset, energy) groups of `plan` whose reference no store holds yet (what a
+/// `references` run would compute). Looks only; a group whose key cannot be made (its mesh
+/// unreadable) is not counted: its runs will fail on their own.
+pub fn missing(plan: &Plan) -> Result<Vec<(String, String)>> {
+    let Some(stores) = &plan.references else { return Ok(Vec::new()) };
+    let book = Book::open(stores)?;
+    let mut out: Vec<(String, String)> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for run in &plan.runs {
+        let group = (plan.dataset(run).name.clone(), run.energy.clone());
+        if !seen.insert(group.clone()) {
+            continue;
+        }
+        if let Ok(Some(k)) = key(plan, run) {
+            if book.get(&k).is_none() {
+                out.push(group);
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// The elastic energies of `run`'s `deform` problem.
 fn elastic(plan: &Plan, run: &PlannedRun, energy: EnergyKind, settings: &DeformSettings) -> Result<Elastic> {
     let ds = plan.dataset(run);

@@ -113,6 +113,10 @@ pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
 pub const OWN_ENTRIES: [&str; 9] =
     ["summary.csv", "meta.json", "index.html", "runs", "uv", "meshes", "plots", "tables", "external"];
 
+/// The folder `mapbench submit` keeps its scripts, shard plan and shard folders in, inside the
+/// folder the shards are merged into. Not one of [`OWN_ENTRIES`]: a merge or `--force` leaves it.
+pub const SUBMISSION_DIR: &str = "slurm";
+
 /// Whether `dir` is a run folder: it has the `meta.json` and `summary.csv` every batch writes.
 pub fn is_run_folder(dir: &Path) -> bool {
     meta_json(dir).is_file() && summary_csv(dir).is_file()

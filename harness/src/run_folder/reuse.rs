@@ -60,8 +60,9 @@ pub enum Reuse {
 /// Decide whether the batch `mine` may write into `dir`: a run folder of another batch only
 /// with `force` (the caller then [`clean`]s it).
 pub fn check(dir: &Path, mine: &Identity, force: bool) -> Result<Reuse> {
+    // A submission's folder (`mapbench submit`) alone is not a batch's result.
     let empty = match std::fs::read_dir(dir) {
-        Ok(mut entries) => entries.next().is_none(),
+        Ok(entries) => entries.flatten().all(|e| e.file_name() == super::SUBMISSION_DIR),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => true,
         Err(e) => return Err(e).with_context(|| format!("{}: cannot read the output folder", dir.display())),
     };
@@ -99,7 +100,9 @@ fn only_own_entries(dir: &Path) -> bool {
     std::fs::read_dir(dir).is_ok_and(|entries| {
         entries.flatten().all(|e| {
             let name = e.file_name().to_string_lossy().into_owned();
-            OWN_ENTRIES.contains(&name.as_str()) || (name.starts_with('.') && name.contains(".tmp"))
+            OWN_ENTRIES.contains(&name.as_str())
+                || name == super::SUBMISSION_DIR
+                || (name.starts_with('.') && name.contains(".tmp"))
         })
     })
 }
