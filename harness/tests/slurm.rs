@@ -47,7 +47,7 @@ fn a_dry_run_plans_balanced_shards_and_writes_the_scripts() {
     let (bound, makespan) = (plan["lower_bound_s"].as_f64().unwrap(), plan["makespan_s"].as_f64().unwrap());
     assert!(makespan >= bound && makespan <= 1.05 * bound, "{makespan} against {bound}");
     let array = std::fs::read_to_string(out.join("slurm/array.sh")).unwrap();
-    assert!(array.contains("--shard \"$i/4\"") && array.contains("'--no-history'"), "{array}");
+    assert!(array.contains("--shard \"$i/4\"") && array.contains(" --no-history"), "{array}");
     let merge = std::fs::read_to_string(out.join("slurm/merge.sh")).unwrap();
     assert!(merge.contains("slurm/shard-4-of-4'"), "{merge}");
     // the folder is not a run folder yet; a dry run may be planned again, a run shard of it
@@ -195,20 +195,34 @@ fn live_cluster_shards_match_a_plain_run_and_a_cancelled_shard_is_resumed() {
     let runs = summary_rows(&plain) as i64;
     assert_eq!(batches(&db), [("ci".to_string(), "merge".to_string(), runs)], "one history batch");
 
-    // the failure path: shard 2 cancelled while it runs
+    // the failure path: shard 2 cancelled while it runs, under `submit --wait`
     let (cancelled, db2) = (path("cancelled"), path("history2.sqlite"));
-    let o = mapbench(&["submit", &config, "--shards", "3", "--out", &s(&cancelled), "--history", &s(&db2)], work);
-    assert!(o.status.success(), "{}", text(&o));
-    let ids = job_ids(&o);
-    let (array, merge) = (ids["array_job"].clone(), ids["merge_job"].clone());
+    let waiting = Command::new(env!("CARGO_BIN_EXE_mapbench"))
+        .args(["submit", &config, "--shards", "3", "--out", &s(&cancelled), "--history", &s(&db2), "--wait"])
+        .current_dir(work)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let record = cancelled.join("slurm/submission.json");
+    wait_for("the submission", Duration::from_secs(120), || {
+        std::fs::read_to_string(&record).is_ok_and(|t| t.contains("\"merge\""))
+    });
+    let submitted: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&record).unwrap()).unwrap();
+    let array = submitted["jobs"][0]["array"].as_str().unwrap().to_string();
+    let merge = submitted["jobs"][0]["merge"].as_str().unwrap().to_string();
     let shard2 = cancelled.join("slurm/shard-2-of-3");
     wait_for("shard 2's first run", Duration::from_secs(300), || summary_rows(&shard2) > 0);
     let o = Command::new("scancel").arg(format!("{array}_2")).output().unwrap();
     assert!(o.status.success(), "{}", text(&o));
-    wait_for("the shards to leave the queue", Duration::from_secs(600), || squeue(&array).trim().is_empty());
-    // the merge waits for every task to succeed: it can never start now
-    wait_for("the merge's dependency to fail", Duration::from_secs(120), || {
-        squeue(&merge).contains("DependencyNeverSatisfied")
+    // --wait sees that the merge can never start, cancels it, names shard 2 and exits 2
+    let o = waiting.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("shard 2: incomplete (") && !t.contains("shard 1:") && !t.contains("shard 3:"), "{t}");
+    assert!(t.contains(&format!("the merge job {merge} could never start and was cancelled")), "{t}");
+    wait_for("the cancelled jobs to leave the queue", Duration::from_secs(120), || {
+        squeue(&format!("{array},{merge}")).trim().is_empty()
     });
     let meta2: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(shard2.join("meta.json")).unwrap()).unwrap();
@@ -224,11 +238,10 @@ fn live_cluster_shards_match_a_plain_run_and_a_cancelled_shard_is_resumed() {
     assert!(text(&o).contains("planned runs are in no shard"), "{}", text(&o));
     assert!(text(&o).contains(&format!("shard {} was interrupted", shards[1])), "{}", text(&o));
 
-    // --resume: the never-starting merge cancelled, shard 2 alone resubmitted, then the merge
+    // --resume: shard 2 alone resubmitted, then the merge
     let o = mapbench(&["submit", "--resume", &s(&cancelled), "--wait"], work);
     assert!(o.status.success(), "{}", text(&o));
     let t = text(&o);
-    assert!(t.contains(&format!("cancelled merge job {merge}")), "{t}");
     assert!(t.contains("shard 2: incomplete ("), "{t}");
     assert!(t.contains("(shards 2)"), "{t}");
     assert!(!t.contains("shard 1:") && !t.contains("shard 3:"), "{t}");

@@ -31,10 +31,22 @@ die() { say "$*"; exit 1; }
 
 running() { pgrep -x "$1" >/dev/null 2>&1; }
 
+# The daemons live in /usr/sbin, which a user's PATH may lack.
+have() { command -v "$1" >/dev/null 2>&1 || [ -x "/usr/sbin/$1" ]; }
+
+# Where each daemon writes its pid (slurm.conf below and munged's default).
+pidfile() {
+  case "$1" in
+    munged) echo /run/munge/munged.pid ;;
+    slurmctld) echo /run/slurmctld.pid ;;
+    slurmd) echo /run/slurmd.pid ;;
+  esac
+}
+
 install_packages() {
   local missing=()
-  command -v slurmctld >/dev/null 2>&1 || missing+=(slurmctld slurmd slurm-client)
-  command -v munged >/dev/null 2>&1 || missing+=(munge)
+  have slurmctld || missing+=(slurmctld slurmd slurm-client)
+  have munged || missing+=(munge)
   if [ ${#missing[@]} -gt 0 ]; then
     say "installing ${missing[*]} (apt)"
     $SUDO apt-get update -qq
@@ -57,9 +69,12 @@ node_line() {
 write_config() {
   local host node
   host=$(hostname -s)
-  if [ -f "$CONF_DIR/slurm.conf" ] && ! grep -qF "$MARK" "$CONF_DIR/slurm.conf"; then
-    die "$CONF_DIR/slurm.conf exists and was not written by this script: not replacing it"
-  fi
+  local f
+  for f in slurm.conf cgroup.conf; do
+    if [ -f "$CONF_DIR/$f" ] && ! grep -qF "$MARK" "$CONF_DIR/$f"; then
+      die "$CONF_DIR/$f exists and was not written by this script: not replacing it"
+    fi
+  done
   node=$(node_line)
   $SUDO mkdir -p "$CONF_DIR" /var/spool/slurmctld /var/spool/slurmd /var/log/slurm
   $SUDO tee "$CONF_DIR/slurm.conf" >/dev/null <<EOF
@@ -112,8 +127,20 @@ start_munge() {
   $SUDO chmod 0700 /etc/munge
   $SUDO chmod 0400 /etc/munge/munge.key
   $SUDO runuser -u munge -- munged
-  echo munged | $SUDO tee -a "$STATE_DIR/started" >/dev/null
-  say "started munged"
+  remember munged
+}
+
+# Note a daemon `up` started, with the pid from its pid file, so `down` stops that process.
+remember() {
+  local name=$1 pid="" i
+  for ((i = 0; i < 40; i++)); do
+    pid=$($SUDO cat "$(pidfile "$name")" 2>/dev/null || true)
+    [ -n "$pid" ] && break
+    sleep 0.25
+  done
+  [ -n "$pid" ] || die "$name started but wrote no pid file ($(pidfile "$name"))"
+  echo "$name $pid" | $SUDO tee -a "$STATE_DIR/started" >/dev/null
+  say "started $name (pid $pid)"
 }
 
 start_daemon() {
@@ -122,12 +149,12 @@ start_daemon() {
     return
   fi
   $SUDO "$name"
-  echo "$name" | $SUDO tee -a "$STATE_DIR/started" >/dev/null
-  say "started $name"
+  remember "$name"
 }
 
+# The node's state, empty while the controller does not answer yet.
 node_state() {
-  sinfo -h -N -o '%T' 2>/dev/null | head -n 1 | tr -d '*~#'
+  { sinfo -h -N -o '%T' 2>/dev/null || true; } | head -n 1 | tr -d '*~#'
 }
 
 wait_idle() {
@@ -161,25 +188,28 @@ up() {
 }
 
 down() {
-  local started=() name pid i
+  local lines=() line name pid i
   if [ -f "$STATE_DIR/started" ]; then
-    mapfile -t started < "$STATE_DIR/started"
+    mapfile -t lines < "$STATE_DIR/started"
   fi
-  # Slurm before munge, which its daemons authenticate with.
+  # Slurm before munge, which its daemons authenticate with; only the processes `up` started.
   for name in slurmd slurmctld munged; do
-    if printf '%s\n' "${started[@]}" | grep -qx "$name" && running "$name"; then
-      $SUDO pkill -TERM -x "$name" || true
+    for line in "${lines[@]}"; do
+      [ "${line%% *}" = "$name" ] || continue
+      pid=${line#* }
+      # the pid is still that daemon (not reused by another process)
+      [ "$(ps -o comm= -p "$pid" 2>/dev/null || true)" = "$name" ] || continue
+      $SUDO kill -TERM "$pid" || true
       for ((i = 0; i < 40; i++)); do
-        running "$name" || break
+        $SUDO kill -0 "$pid" 2>/dev/null || break
         sleep 0.25
       done
-      if running "$name"; then
-        pid=$(pgrep -x "$name" | tr '\n' ' ')
+      if $SUDO kill -0 "$pid" 2>/dev/null; then
         say "$name ($pid) did not stop on SIGTERM: killing it"
-        $SUDO pkill -KILL -x "$name" || true
+        $SUDO kill -KILL "$pid" || true
       fi
-      say "stopped $name"
-    fi
+      say "stopped $name (pid $pid)"
+    done
   done
   $SUDO rm -f "$STATE_DIR/started"
 }

@@ -88,8 +88,8 @@ enum Command {
         #[arg(long, default_value_t = 1, conflicts_with = "resume")]
         cpus_per_task: usize,
         /// An sbatch argument for every job, e.g. --sbatch=--partition=short --sbatch=--time=2:00:00
-        /// (repeat for several).
-        #[arg(long = "sbatch", value_name = "ARG", allow_hyphen_values = true, conflicts_with = "resume")]
+        /// (repeat for several); with --resume, instead of the submission's (a longer --time).
+        #[arg(long = "sbatch", value_name = "ARG", allow_hyphen_values = true)]
         sbatch: Vec<String>,
         /// Write the plan and the scripts and print the plan; submit nothing.
         #[arg(long, conflicts_with = "resume")]
@@ -460,7 +460,12 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             resume,
             history,
         } => match (resume, config, shards) {
-            (Some(dir), _, _) => submit_resume(&dir, wait),
+            (Some(dir), _, _) => {
+                if history.history.is_some() || history.no_history {
+                    anyhow::bail!("--history and --no-history are the submission's: not with --resume");
+                }
+                submit_resume(&dir, (!sbatch.is_empty()).then_some(sbatch), wait)
+            }
             (None, Some(config), Some(shards)) => {
                 let request = slurm::Request {
                     config,
@@ -660,7 +665,8 @@ fn submit(request: &slurm::Request, dry_run: bool, wait: bool) -> Result<ExitCod
     let out_dir = prepared.submission.commands.out.clone();
     eprint!("{}", slurm::describe(&prepared.plan_file));
     let refs = &prepared.missing_references;
-    if !refs.is_empty() {
+    let references = !refs.is_empty() && prepared.submission.commands.history != HistoryChoice::Off;
+    if references {
         eprintln!(
             "{} reference minima are not in the stores (first: {} {}): a job computes them before the shards",
             refs.len(),
@@ -678,7 +684,7 @@ fn submit(request: &slurm::Request, dry_run: bool, wait: bool) -> Result<ExitCod
     }
     let mut submission = prepared.submission;
     let tasks: Vec<usize> = (1..=submission.commands.shards).collect();
-    let round = slurm::submit(&slurm::scheduler::Slurm, &mut submission, &tasks, !refs.is_empty())?;
+    let round = slurm::submit(&slurm::scheduler::Slurm, &mut submission, &tasks, references)?;
     say_round(&round, &out_dir);
     if !wait {
         return Ok(ExitCode::SUCCESS);
@@ -687,8 +693,8 @@ fn submit(request: &slurm::Request, dry_run: bool, wait: bool) -> Result<ExitCod
 }
 
 /// `submit --resume DIR`.
-fn submit_resume(dir: &std::path::Path, wait: bool) -> Result<ExitCode> {
-    let resumed = slurm::resume(&slurm::scheduler::Slurm, dir)?;
+fn submit_resume(dir: &std::path::Path, sbatch: Option<Vec<String>>, wait: bool) -> Result<ExitCode> {
+    let resumed = slurm::resume(&slurm::scheduler::Slurm, dir, sbatch)?;
     for id in &resumed.cancelled {
         eprintln!("cancelled merge job {id}: its shards had failed, so it could never start");
     }
@@ -712,6 +718,7 @@ fn say_state(state: &slurm::ShardState) -> String {
         slurm::ShardState::Complete => "complete".into(),
         slurm::ShardState::Missing => "missing (no run folder)".into(),
         slurm::ShardState::Incomplete { done, of } => format!("incomplete ({done} of {of} runs)"),
+        slurm::ShardState::Unreadable(e) => format!("unreadable ({e})"),
     }
 }
 
@@ -738,6 +745,13 @@ fn say_round(round: &slurm::Submitted, out_dir: &std::path::Path) {
     let _ = out(format_args!("{ids}"));
 }
 
+fn say_unfinished(dir: &std::path::Path, shards: &[(usize, slurm::ShardState)]) {
+    for (i, state) in shards {
+        let log = slurm::script::logs_dir(dir).join(format!("shard-{i}.out"));
+        eprintln!("shard {i}: {} (log: {})", say_state(state), log.display());
+    }
+}
+
 /// `--wait`: the merge's exit code, or 2 with what failed.
 fn waited(submission: &slurm::Submission, round: &slurm::Submitted) -> Result<ExitCode> {
     let dir = &submission.commands.out;
@@ -747,13 +761,7 @@ fn waited(submission: &slurm::Submission, round: &slurm::Submitted) -> Result<Ex
             Ok(ExitCode::from(u8::try_from(code).unwrap_or(2)))
         }
         slurm::Waited::ShardsFailed(shards) => {
-            for (i, state) in &shards {
-                eprintln!(
-                    "shard {i}: {} (log: {})",
-                    say_state(state),
-                    slurm::script::logs_dir(dir).join(format!("shard-{i}.out")).display()
-                );
-            }
+            say_unfinished(dir, &shards);
             eprintln!(
                 "the merge job {} could never start and was cancelled; `mapbench submit --resume {}` resubmits the \
                  shards that did not finish",
@@ -762,11 +770,14 @@ fn waited(submission: &slurm::Submission, round: &slurm::Submitted) -> Result<Ex
             );
             Ok(ExitCode::from(2))
         }
-        slurm::Waited::MergeLost => {
+        slurm::Waited::MergeLost(shards) => {
+            say_unfinished(dir, &shards);
             eprintln!(
-                "the merge job {} left the queue without an exit code (cancelled or killed); see {}",
+                "the merge job {} left the queue without an exit code (cancelled or killed; see {}); `mapbench submit \
+                 --resume {}` submits what is left",
                 round.merge,
-                slurm::script::logs_dir(dir).display()
+                slurm::script::logs_dir(dir).display(),
+                dir.display()
             );
             Ok(ExitCode::from(2))
         }

@@ -56,7 +56,8 @@ pub enum HistoryError {
 }
 
 /// `--history PATH` / `--no-history`, applied over what the config resolved to.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum HistoryChoice {
     /// The config's `history` key, else [`crate::plan::paths::DEFAULT_PATH`].
     #[default]

@@ -51,8 +51,11 @@ pub struct PlannedShard {
 pub struct ShardPlanFile {
     pub version: u32,
     /// The config file the shards run (absolute), and its `name`.
-    pub config: String,
+    pub config: std::path::PathBuf,
     pub config_name: String,
+    /// [`plan_hash`] of the batch planned: its runs with their settings, repeats, timeout and
+    /// targets. A config edited since (a new `max_iters` as much as a new solver) is refused.
+    pub plan_hash: String,
     /// The `--only` globs and the repeats the batch was planned with.
     pub only: Vec<String>,
     pub repeat: usize,
@@ -63,7 +66,7 @@ pub struct ShardPlanFile {
     pub calibration_s: f64,
     pub calibration_source: String,
     /// The history database past times were looked up in, if any.
-    pub history: Option<String>,
+    pub history: Option<std::path::PathBuf>,
     /// How many runs' times came from the history and how many were estimated.
     pub from_history: usize,
     pub estimated: usize,
@@ -98,6 +101,9 @@ impl ShardPlanFile {
 
     /// Shards numbered 1..=N in order, each run in one shard only.
     fn check_layout(&self) -> Result<()> {
+        if self.shards.is_empty() {
+            bail!("no shards");
+        }
         let mut seen = BTreeSet::new();
         for (i, s) in self.shards.iter().enumerate() {
             if s.index != i + 1 {
@@ -141,8 +147,30 @@ impl ShardPlanFile {
         if self.repeat != plan.repeat {
             bail!("the shard plan was made for --repeat {}, this batch repeats {}", self.repeat, plan.repeat);
         }
+        if self.plan_hash != plan_hash(plan) {
+            bail!(
+                "the settings of {} changed since the shards were planned (the same runs, other settings: a stop \
+                 rule, an energy parameter, the timeout or the targets); plan it again",
+                plan.config.path.display()
+            );
+        }
         Ok(self.shards[shard.index - 1].runs.iter().map(|r| r.run.clone()).collect())
     }
+}
+
+/// 16 hex digits of what the shards of `plan` run: each run's name and settings, the repeats,
+/// the timeout and the targets.
+pub fn plan_hash(plan: &Plan) -> String {
+    let mut h = crate::hash::Fnv::new();
+    for r in &plan.runs {
+        h.bytes(r.stem.as_bytes()).bytes(r.settings.key_text().as_bytes());
+    }
+    h.word(plan.repeat as u64);
+    h.word(plan.timeout.map_or(u64::MAX, |t| t.as_nanos() as u64));
+    for t in &plan.targets {
+        h.word(t.to_bits());
+    }
+    format!("{:016x}", h.0)
 }
 
 #[cfg(test)]
@@ -150,6 +178,10 @@ mod tests {
     use super::*;
 
     fn file(shards: &[&[&str]]) -> ShardPlanFile {
+        file_of(shards, &plan())
+    }
+
+    fn file_of(shards: &[&[&str]], p: &Plan) -> ShardPlanFile {
         let shards: Vec<PlannedShard> = shards
             .iter()
             .enumerate()
@@ -166,6 +198,7 @@ mod tests {
             version: SHARD_PLAN_VERSION,
             config: "/c/t.toml".into(),
             config_name: "t".into(),
+            plan_hash: plan_hash(p),
             only: vec![],
             repeat: 1,
             runs: shards.iter().map(|s| s.runs.len()).sum(),
@@ -217,6 +250,16 @@ mod tests {
         let mut repeated = two.clone();
         repeated.repeat = 3;
         assert!(repeated.runs_of(Shard { index: 1, count: 2 }, &p).unwrap_err().to_string().contains("--repeat 3"));
+        // the same runs with another stop rule
+        let mut tighter = plan();
+        if let crate::plan::RunSettings::Param { settings, .. } = &mut tighter.runs[0].settings {
+            settings.solver.stop.max_iters = 3;
+        }
+        let e = two.runs_of(Shard { index: 1, count: 2 }, &tighter).unwrap_err().to_string();
+        assert!(e.contains("the settings of t.toml changed since the shards were planned"), "{e}");
+        assert!(file_of(&[&[RUNS[0], RUNS[3]], &[RUNS[1], RUNS[2]]], &tighter)
+            .runs_of(Shard { index: 1, count: 2 }, &tighter)
+            .is_ok());
 
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("shards.json");
@@ -232,6 +275,10 @@ mod tests {
         newer.write(&path).unwrap();
         let e = format!("{:#}", ShardPlanFile::read(&path).unwrap_err());
         assert!(e.contains("shard plan version 99"), "{e}");
+        let mut empty = file(&[]);
+        empty.runs = 0;
+        empty.write(&path).unwrap();
+        assert!(format!("{:#}", ShardPlanFile::read(&path).unwrap_err()).contains("invalid shard plan: no shards"));
         std::fs::write(&path, "{}").unwrap();
         assert!(format!("{:#}", ShardPlanFile::read(&path).unwrap_err()).contains("not a shard plan"));
     }

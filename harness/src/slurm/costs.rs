@@ -127,10 +127,10 @@ fn family_of(plan: &Plan, run: &PlannedRun) -> Option<Family> {
 }
 
 /// The stated estimate of a run's `time_norm` when the history has none: proportional to the
-/// vertices (a run's iterations cost about linearly in the mesh, and harder meshes need more
-/// of them; measured on the shared corpus the fit is within a factor of about 3 for most runs,
-/// which is enough to keep the large meshes apart), times the solver family's time at 10,000
-/// vertices and the energy's factor. An external solver adds its process start. At least
+/// vertices (a run's iterations cost about linearly in the mesh; how many it needs depends on
+/// the mesh more than on its size, so the estimate is rough, but it keeps the large meshes
+/// apart, which is what balances shards), times the solver family's time at 10,000 vertices
+/// and the energy's factor. An external solver adds its process start. At least
 /// 0.05 (loading and judging a run).
 pub fn estimate_norm(vertices: usize, family: Option<Family>, energy: &str) -> f64 {
     let at_10k = match family {

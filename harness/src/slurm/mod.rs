@@ -125,14 +125,17 @@ pub fn prepare(req: &Request, calibrate: impl FnOnce() -> Result<f64>) -> Result
     let plan = resolve_plan(&config, &req.only, req.repeat)?;
     let name = plan.config.config.name.clone();
     let out = crate::paths::absolute(&req.out.clone().unwrap_or_else(|| PathBuf::from("reports").join(&name)));
+    check_sbatch_args(&req.sbatch)?;
     // A dry run's record (no jobs) may be planned again.
     if Submission::read(&out).is_ok_and(|s| !s.jobs.is_empty())
         || Submission::path(&out).exists() && Submission::read(&out).is_err()
     {
         bail!(
-            "{}: holds a submission already (`mapbench submit --resume {}` completes it; or give another --out)",
+            "{}: holds a submission already: `mapbench submit --resume {}` completes it; to start over, delete {} \
+             (or give each batch its own --out, as a nightly does)",
             out.display(),
-            out.display()
+            out.display(),
+            script::slurm_dir(&out).display()
         );
     }
     // The merge will write there: a folder of another batch is refused now, not at the end.
@@ -162,13 +165,10 @@ pub fn prepare(req: &Request, calibrate: impl FnOnce() -> Result<f64>) -> Result
         repeat: req.repeat,
         cpus_per_task: req.cpus_per_task,
         history: match &req.history {
-            HistoryChoice::FromConfig => vec![],
-            HistoryChoice::Path(p) => vec!["--history".into(), crate::paths::absolute(p).display().to_string()],
-            HistoryChoice::Off => vec!["--no-history".into()],
+            HistoryChoice::Path(p) => HistoryChoice::Path(crate::paths::absolute(p)),
+            other => other.clone(),
         },
-        meshes: std::env::var(crate::plan::registry::MESHES_ENV)
-            .ok()
-            .map(|m| crate::paths::absolute(Path::new(&m)).display().to_string()),
+        meshes: std::env::var_os(crate::plan::registry::MESHES_ENV).map(|m| crate::paths::absolute(Path::new(&m))),
     };
     let submission = Submission {
         version: SUBMISSION_VERSION,
@@ -179,6 +179,22 @@ pub fn prepare(req: &Request, calibrate: impl FnOnce() -> Result<f64>) -> Result
     };
     let missing_references = crate::judge::reference::missing(&plan)?;
     Ok(Prepared { submission, plan_file, missing_references, notices })
+}
+
+/// `sbatch` options `submit` sets itself: given through `--sbatch` they would break the chain
+/// of jobs (`--dependency`), the shards (`--array`) or where the logs are (`--output`).
+const OWN_SBATCH: [&str; 6] = ["--array", "-a", "--dependency", "-d", "--output", "-o"];
+
+/// Refuse an `--sbatch` argument that is one of [`OWN_SBATCH`].
+pub fn check_sbatch_args(args: &[String]) -> Result<()> {
+    for a in args {
+        let name = a.split('=').next().unwrap_or(a);
+        let short = OWN_SBATCH.iter().any(|o| o.len() == 2 && a.starts_with(o));
+        if OWN_SBATCH.contains(&name) || short {
+            bail!("--sbatch {a}: submit sets the array, the dependencies and the log files itself");
+        }
+    }
+    Ok(())
 }
 
 /// The shards of `split` as `shards.json`.
@@ -210,14 +226,15 @@ fn shard_plan_file(
     let estimated = costs.sources.iter().filter(|s| **s == crate::plan::shard_plan::CostSource::Estimate).count();
     ShardPlanFile {
         version: SHARD_PLAN_VERSION,
-        config: config.display().to_string(),
+        config: config.to_path_buf(),
         config_name: plan.config.config.name.clone(),
+        plan_hash: crate::plan::shard_plan::plan_hash(plan),
         only: plan.only.clone(),
         repeat: plan.repeat,
         runs: plan.runs.len(),
         calibration_s: costs.calibration_s,
         calibration_source: costs.calibration_source.clone(),
-        history: history.map(|h| h.display().to_string()),
+        history: history.map(Path::to_path_buf),
         from_history,
         estimated,
         lower_bound_s: split.lower_bound,
@@ -230,12 +247,33 @@ fn shard_plan_file(
 pub fn write(p: &Prepared) -> Result<()> {
     let c = &p.submission.commands;
     let dir = script::slurm_dir(&c.out);
+    clear_stale(&dir)?;
     std::fs::create_dir_all(script::logs_dir(&c.out)).with_context(|| format!("{}: cannot create", dir.display()))?;
     p.plan_file.write(&script::shards_json(&c.out))?;
     for (name, text) in scripts(c) {
         write_atomic(&dir.join(name), text.as_bytes())?;
     }
     p.submission.write()
+}
+
+/// A dry run's leftovers go before a new plan: its shard folders and exit codes would
+/// otherwise be resumed (`run --resume`) as this batch's.
+fn clear_stale(dir: &Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let path = e.path();
+        let shard_folder = name.starts_with("shard-") && name.contains("-of-") && path.is_dir();
+        let removed = if shard_folder {
+            std::fs::remove_dir_all(&path)
+        } else if name.ends_with(".exit") {
+            std::fs::remove_file(&path)
+        } else {
+            continue;
+        };
+        removed.with_context(|| format!("{}: cannot remove the earlier plan's files", path.display()))?;
+    }
+    Ok(())
 }
 
 fn scripts(c: &Commands) -> [(&'static str, String); 3] {
@@ -272,6 +310,37 @@ pub fn describe(f: &ShardPlanFile) -> String {
 /// `references`, the array after it, the merge after every task succeeded. Stale exit codes
 /// of what is resubmitted go first. The round is recorded in `submission.json`.
 pub fn submit(sched: &dyn Scheduler, sub: &mut Submission, tasks: &[usize], references: bool) -> Result<Submitted> {
+    let mut queued: Vec<String> = Vec::new();
+    let round = submit_round(sched, sub, tasks, references, &mut queued);
+    match round {
+        Ok(round) => {
+            sub.jobs.push(round.clone());
+            sub.write()?;
+            Ok(round)
+        }
+        // A round is whole or not at all: what it queued before the failure is cancelled, so
+        // no shard runs twice when the submission is made again.
+        Err(e) => {
+            let failed: Vec<String> = queued.iter().filter(|id| sched.cancel(id).is_err()).cloned().collect();
+            match (queued.is_empty(), failed.is_empty()) {
+                (true, _) => Err(e),
+                (false, true) => Err(e.context(format!("cancelled the jobs it had submitted: {}", queued.join(", ")))),
+                (false, false) => Err(e.context(format!(
+                    "could not cancel the jobs it had submitted: {} (scancel them)",
+                    failed.join(", ")
+                ))),
+            }
+        }
+    }
+}
+
+fn submit_round(
+    sched: &dyn Scheduler,
+    sub: &Submission,
+    tasks: &[usize],
+    references: bool,
+    queued: &mut Vec<String>,
+) -> Result<Submitted> {
     let c = sub.commands.clone();
     let dir = script::slurm_dir(&c.out);
     for i in tasks {
@@ -284,14 +353,21 @@ pub fn submit(sched: &dyn Scheduler, sub: &mut Submission, tasks: &[usize], refe
             format!("--job-name=mapbench-{}-{job}", sub.config_name),
             format!("--output={}", logs.join(log).display()),
             format!("--cpus-per-task={}", c.cpus_per_task),
+            // a resubmitted shard's log follows the earlier attempt's
+            "--open-mode=append".into(),
         ]
     };
     let with_user = |mut args: Vec<String>| {
         args.extend(sub.sbatch.iter().cloned());
         args
     };
+    let mut sbatch = |args: Vec<String>, script: &str| -> Result<String> {
+        let id = sched.submit(&with_user(args), &dir.join(script))?;
+        queued.push(id.clone());
+        Ok(id)
+    };
     let references = match references && !tasks.is_empty() {
-        true => Some(sched.submit(&with_user(common("references", "references-%j.out")), &dir.join("references.sh"))?),
+        true => Some(sbatch(common("references", "references-%j.out"), "references.sh")?),
         false => None,
     };
     let array = if tasks.is_empty() {
@@ -303,17 +379,14 @@ pub fn submit(sched: &dyn Scheduler, sub: &mut Submission, tasks: &[usize], refe
             // The shards compute a reference the job could not themselves.
             args.push(format!("--dependency=afterany:{r}"));
         }
-        Some(sched.submit(&with_user(args), &dir.join("array.sh"))?)
+        Some(sbatch(args, "array.sh")?)
     };
     let mut args = common("merge", "merge-%j.out");
     if let Some(a) = &array {
         args.push(format!("--dependency=afterok:{a}"));
     }
-    let merge = sched.submit(&with_user(args), &dir.join("merge.sh"))?;
-    let round = Submitted { references, array, tasks: tasks.to_vec(), merge, submitted_unix: now_unix() };
-    sub.jobs.push(round.clone());
-    sub.write()?;
-    Ok(round)
+    let merge = sbatch(args, "merge.sh")?;
+    Ok(Submitted { references, array, tasks: tasks.to_vec(), merge, submitted_unix: now_unix() })
 }
 
 fn remove_if_there(p: &Path) -> Result<()> {
@@ -356,19 +429,30 @@ pub enum ShardState {
     Missing,
     /// Some runs are missing, or the batch was stopped (`done` of `of` runs finished).
     Incomplete { done: usize, of: usize },
+    /// Its `meta.json` or `summary.csv` cannot be read (the error names the file).
+    Unreadable(String),
 }
 
 /// The state of shard `index` of the submission in `out`, by its folder and the runs the plan
 /// gives it.
 pub fn shard_state(out: &Path, plan: &ShardPlanFile, index: usize) -> ShardState {
     let dir = script::shard_dir(out, index, plan.shards.len());
-    let Ok(meta) = Meta::read(&dir) else { return ShardState::Missing };
+    if !crate::run_folder::meta_json(&dir).exists() {
+        return ShardState::Missing;
+    }
+    let meta = match Meta::read(&dir) {
+        Ok(m) => m,
+        Err(e) => return ShardState::Unreadable(e.to_string()),
+    };
     let planned: BTreeSet<&str> = plan.shards[index - 1].runs.iter().map(|r| r.run.as_str()).collect();
-    let done = read_summary(&dir)
-        .map(|rows| {
+    // A run recorded failed is done: the shard ran it to its end.
+    let done = match read_summary(&dir) {
+        Ok(rows) => {
             rows.iter().filter(|r| planned.contains(run_stem(&r.dataset, &r.energy, &r.solver).as_str())).count()
-        })
-        .unwrap_or(0);
+        }
+        Err(e) if crate::run_folder::summary_csv(&dir).exists() => return ShardState::Unreadable(e.to_string()),
+        Err(_) => 0,
+    };
     let ended = meta.ended_unix.is_some() && meta.interrupted != Some(true);
     if ended && done == planned.len() {
         ShardState::Complete
@@ -385,10 +469,14 @@ pub enum Waited {
     /// Some shard task failed or was cancelled, so the merge could never start (it was
     /// cancelled): the shards that did not finish, with their states.
     ShardsFailed(Vec<(usize, ShardState)>),
-    /// The merge job left the queue without an exit code (cancelled, or killed at its time
-    /// limit).
-    MergeLost,
+    /// The merge job left the queue without an exit code (cancelled by hand, or by Slurm
+    /// when its dependency failed on a cluster that kills such jobs, or killed at its time
+    /// limit), with the shards that did not finish.
+    MergeLost(Vec<(usize, ShardState)>),
 }
+
+/// Consecutive `squeue` failures `wait` rides out (a busy controller) before giving up.
+const QUEUE_RETRIES: usize = 10;
 
 /// Wait for `round`'s merge job: poll the queue every `poll` until the merge has left it. A
 /// merge that can never start (a shard task failed) is cancelled and the shards' states are
@@ -396,8 +484,20 @@ pub enum Waited {
 pub fn wait(sched: &dyn Scheduler, sub: &Submission, round: &Submitted, poll: Duration) -> Result<Waited> {
     let out = &sub.commands.out;
     let plan = ShardPlanFile::read(&script::shards_json(out))?;
+    let mut failures = 0;
     loop {
-        let queued = sched.queued(std::slice::from_ref(&round.merge))?;
+        let queued = match sched.queued(std::slice::from_ref(&round.merge)) {
+            Ok(q) => {
+                failures = 0;
+                q
+            }
+            Err(_) if failures < QUEUE_RETRIES => {
+                failures += 1;
+                std::thread::sleep(poll);
+                continue;
+            }
+            Err(e) => return Err(e.context(format!("{} times in a row", QUEUE_RETRIES + 1))),
+        };
         match queued.iter().find(|q| base_id(&q.id) == round.merge) {
             Some(q) if q.never_starts() => {
                 sched.cancel(&round.merge)?;
@@ -407,7 +507,7 @@ pub fn wait(sched: &dyn Scheduler, sub: &Submission, round: &Submitted, poll: Du
             None => {
                 return Ok(match read_exit(&script::merge_exit(out)) {
                     Some(code) => Waited::Merged(code),
-                    None => Waited::MergeLost,
+                    None => Waited::MergeLost(unfinished(out, &plan)),
                 });
             }
         }
@@ -446,10 +546,15 @@ pub struct Resumed {
 /// the merge. Refused while a job of the submission still runs or waits (it might complete
 /// them), but a merge that can never start (its shards failed) is cancelled first. The plan
 /// is checked against the config as it is now: a changed config is refused.
-pub fn resume(sched: &dyn Scheduler, out: &Path) -> Result<Resumed> {
+pub fn resume(sched: &dyn Scheduler, out: &Path, sbatch: Option<Vec<String>>) -> Result<Resumed> {
     let out = crate::paths::absolute(out);
     let mut sub = Submission::read(&out)?;
+    if let Some(args) = sbatch {
+        check_sbatch_args(&args)?;
+        sub.sbatch = args;
+    }
     let plan_file = ShardPlanFile::read(&script::shards_json(&out))?;
+    same_environment(&sub.commands)?;
     let c = &sub.commands;
     let plan = resolve_plan(&c.config, &c.only, c.repeat)?;
     plan_file
@@ -461,22 +566,19 @@ pub fn resume(sched: &dyn Scheduler, out: &Path) -> Result<Resumed> {
         .flat_map(|j| j.references.iter().chain(j.array.iter()).chain(std::iter::once(&j.merge)).cloned())
         .collect();
     let queued: Vec<Queued> = sched.queued(&ids)?;
-    let mut cancelled = Vec::new();
-    let mut active = Vec::new();
-    for q in &queued {
-        if q.never_starts() && sub.jobs.iter().any(|j| j.merge == base_id(&q.id)) {
-            sched.cancel(&q.id)?;
-            cancelled.push(q.id.clone());
-        } else {
-            active.push(format!("{} ({})", q.id, q.state));
-        }
-    }
+    let never = |q: &Queued| q.never_starts() && sub.jobs.iter().any(|j| j.merge == base_id(&q.id));
+    let active: Vec<String> = queued.iter().filter(|q| !never(q)).map(|q| format!("{} ({})", q.id, q.state)).collect();
     if !active.is_empty() {
         bail!(
             "{}: jobs of this submission are still queued or running: {}; wait for them or scancel them first",
             out.display(),
             active.join(", ")
         );
+    }
+    let mut cancelled = Vec::new();
+    for q in queued.iter().filter(|q| never(q)) {
+        sched.cancel(&q.id)?;
+        cancelled.push(q.id.clone());
     }
     let shards = unfinished(&out, &plan_file);
     let merged = read_exit(&script::merge_exit(&out)) == Some(0);
@@ -488,9 +590,35 @@ pub fn resume(sched: &dyn Scheduler, out: &Path) -> Result<Resumed> {
     for (name, text) in scripts(c) {
         write_atomic(&script::slurm_dir(&out).join(name), text.as_bytes())?;
     }
-    let references = !tasks.is_empty() && !crate::judge::reference::missing(&plan)?.is_empty();
+    let references = wants_references(&sub.commands, &plan)?;
     let round = submit(sched, &mut sub, &tasks, references)?;
     Ok(Resumed { shards, cancelled, round: Some(round) })
+}
+
+/// Whether a job should compute reference minima before the shards: some are missing and the
+/// batch may write the store (not with `--no-history`, under which nothing is written outside
+/// the run folders: each shard then computes its own).
+pub fn wants_references(c: &Commands, plan: &Plan) -> Result<bool> {
+    Ok(c.history != HistoryChoice::Off && !crate::judge::reference::missing(plan)?.is_empty())
+}
+
+/// `--resume` resolves the plan as the jobs do: from the directory and with the meshes folder
+/// `submit` recorded, so it sees the same datasets and stores.
+fn same_environment(c: &Commands) -> Result<()> {
+    let here = std::env::current_dir().context("the working directory")?;
+    let meshes = std::env::var_os(crate::plan::registry::MESHES_ENV).map(|m| crate::paths::absolute(Path::new(&m)));
+    if here != c.workdir || meshes != c.meshes {
+        let shown = |m: &Option<PathBuf>| m.as_ref().map_or("unset".to_string(), |p| p.display().to_string());
+        bail!(
+            "resume from where the batch was submitted: in {} with {}={} (here: {} with {})",
+            c.workdir.display(),
+            crate::plan::registry::MESHES_ENV,
+            shown(&c.meshes),
+            here.display(),
+            shown(&meshes)
+        );
+    }
+    Ok(())
 }
 
 #[cfg(test)]

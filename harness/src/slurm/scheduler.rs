@@ -53,8 +53,8 @@ impl Scheduler for Slurm {
         if ids.is_empty() {
             return Ok(Vec::new());
         }
-        // Jobs that left the queue are not listed (squeue fails on an id it never knew only
-        // when every id is unknown, which `--states=all` with a job list does not do).
+        // Jobs that left the queue are not listed; when none of the ids is known any more,
+        // squeue says "Invalid job id", which is an empty queue here.
         let out = Command::new("squeue")
             .args(["-h", "-r", "-o", "%i|%T|%r", "-j", &ids.join(",")])
             .output()

@@ -9,6 +9,7 @@
 //! succeed, still runs; each task's and the merge's own exit code is kept in a file beside
 //! the scripts.
 
+use crate::history::HistoryChoice;
 use std::path::{Path, PathBuf};
 
 /// What the job scripts run, all paths absolute.
@@ -27,9 +28,9 @@ pub struct Commands {
     /// Cores of each task: `--cpus-per-task` and the shard's `run --jobs`.
     pub cpus_per_task: usize,
     /// `--history PATH` or `--no-history`, given to each shard and to the merge.
-    pub history: Vec<String>,
+    pub history: HistoryChoice,
     /// `MAPBENCH_MESHES` at `submit`, set in the jobs so they resolve the same datasets.
-    pub meshes: Option<String>,
+    pub meshes: Option<PathBuf>,
 }
 
 /// The folder `submit` keeps its files in, inside the submission's folder.
@@ -77,14 +78,18 @@ impl Commands {
             quote_path(&self.workdir)
         );
         if let Some(m) = &self.meshes {
-            s += &format!("export MAPBENCH_MESHES={}\n", quote(m));
+            s += &format!("export {}={}\n", crate::plan::registry::MESHES_ENV, quote_path(m));
         }
         s
     }
 
     /// `--history PATH` / `--no-history` as words.
     fn history_words(&self) -> String {
-        self.history.iter().map(|w| format!(" {}", quote(w))).collect()
+        match &self.history {
+            HistoryChoice::FromConfig => String::new(),
+            HistoryChoice::Path(p) => format!(" --history {}", quote_path(p)),
+            HistoryChoice::Off => " --no-history".into(),
+        }
     }
 
     /// The array job: task `$SLURM_ARRAY_TASK_ID` runs its shard of `shards.json`.
@@ -113,6 +118,8 @@ impl Commands {
              pid=$!\n\
              wait \"$pid\"; code=$?\n\
              while kill -0 \"$pid\" 2>/dev/null; do wait \"$pid\"; code=$?; done\n\
+             # mapbench's own status (bash keeps it), also when it ended between the two waits\n\
+             wait \"$pid\"; code=$?\n\
              echo \"$code\" > {}\"/shard-$i.exit\"\n\
              # 1: the shard ran to its end and some runs failed (the report shows them).\n\
              if [ \"$code\" = 1 ]; then exit 0; fi\n\
@@ -163,7 +170,7 @@ mod tests {
             only: vec!["*__sd__*".into()],
             repeat: Some(2),
             cpus_per_task: 4,
-            history: vec!["--history".into(), "/h/db.sqlite".into()],
+            history: HistoryChoice::Path("/h/db.sqlite".into()),
             meshes: Some("/data/meshes".into()),
         }
     }
@@ -190,14 +197,14 @@ mod tests {
             a.contains(
                 "'/opt/mapbench/bin/mapbench' run '/home/a/configs/ci.toml' --shard-plan '/scratch/it'\\''s \
                  here/slurm/shards.json' --shard \"$i/3\" --out '/scratch/it'\\''s here/slurm'\"/shard-$i-of-3\" \
-                 --resume --jobs 4 --only '*__sd__*' --repeat 2 '--history' '/h/db.sqlite' &"
+                 --resume --jobs 4 --only '*__sd__*' --repeat 2 --history '/h/db.sqlite' &"
             ),
             "{a}"
         );
         assert!(a.contains("if [ \"$code\" = 1 ]; then exit 0; fi"), "{a}");
         let m = c.merge_script();
         assert!(m.contains("merge \\\n  '/scratch/it'\\''s here/slurm/shard-1-of-3' \\\n"), "{m}");
-        assert!(m.contains("--out '/scratch/it'\\''s here' '--history' '/h/db.sqlite'\ncode=$?"), "{m}");
+        assert!(m.contains("--out '/scratch/it'\\''s here' --history '/h/db.sqlite'\ncode=$?"), "{m}");
         assert!(m.contains("echo \"$code\" > '/scratch/it'\\''s here/slurm/merge.exit'"), "{m}");
         let r = c.references_script();
         assert!(r.ends_with("'/opt/mapbench/bin/mapbench' references '/home/a/configs/ci.toml' --only '*__sd__*'\n"));

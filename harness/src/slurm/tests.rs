@@ -5,6 +5,8 @@ use std::cell::RefCell;
 /// A scheduler that records what it is given and answers `queued` from a script of states.
 #[derive(Default)]
 struct Fake {
+    /// `submit` fails from this call on (1-based), as a refusing sbatch.
+    fail_from: Option<usize>,
     submitted: RefCell<Vec<(Vec<String>, PathBuf)>>,
     cancelled: RefCell<Vec<String>>,
     /// Answers of successive `queued` calls (the last one repeats).
@@ -14,6 +16,9 @@ struct Fake {
 impl Scheduler for Fake {
     fn submit(&self, args: &[String], script: &Path) -> Result<String> {
         let mut s = self.submitted.borrow_mut();
+        if self.fail_from.is_some_and(|n| s.len() + 1 >= n) {
+            anyhow::bail!("sbatch: error: Batch job submission failed: Invalid job array specification");
+        }
         s.push((args.to_vec(), script.to_path_buf()));
         Ok((100 + s.len()).to_string())
     }
@@ -116,7 +121,8 @@ fn waiting_ends_with_the_merge_or_cancels_a_merge_that_can_never_start() {
     assert_eq!(wait(&fake, &sub, &round, Duration::ZERO).unwrap(), Waited::Merged(0));
     // gone without an exit code
     std::fs::remove_file(script::merge_exit(&out)).unwrap();
-    assert_eq!(wait(&fake, &sub, &round, Duration::ZERO).unwrap(), Waited::MergeLost);
+    let lost = wait(&fake, &sub, &round, Duration::ZERO).unwrap();
+    assert_eq!(lost, Waited::MergeLost(vec![(1, ShardState::Missing), (2, ShardState::Missing)]));
     // a shard failed: the merge never starts, it is cancelled and every shard reported
     *fake.queue.borrow_mut() = vec![vec![queued(&merge, "PENDING", "DependencyNeverSatisfied")]];
     let Waited::ShardsFailed(shards) = wait(&fake, &sub, &round, Duration::ZERO).unwrap() else { panic!() };
@@ -173,11 +179,14 @@ fn resume_resubmits_only_the_missing_and_incomplete_shards() {
     // a job of the submission still running: refused
     let task3 = format!("{}_3", first.array.as_deref().unwrap());
     *fake.queue.borrow_mut() = vec![vec![queued(&task3, "RUNNING", "None")]];
-    let e = resume(&fake, &out).unwrap_err().to_string();
+    *fake.queue.borrow_mut() =
+        vec![vec![queued(&task3, "RUNNING", "None"), queued(&first.merge, "PENDING", "DependencyNeverSatisfied")]];
+    let e = resume(&fake, &out, None).unwrap_err().to_string();
     assert!(e.contains(&format!("still queued or running: {task3} (RUNNING)")), "{e}");
+    assert!(fake.cancelled.borrow().is_empty(), "nothing cancelled when resume refuses");
     // only the merge that can never start is left: cancelled, shards 2 and 3 resubmitted
     *fake.queue.borrow_mut() = vec![vec![queued(&first.merge, "PENDING", "DependencyNeverSatisfied")]];
-    let r = resume(&fake, &out).unwrap();
+    let r = resume(&fake, &out, None).unwrap();
     assert_eq!(r.cancelled, std::slice::from_ref(&first.merge));
     assert_eq!(r.shards.iter().map(|s| s.0).collect::<Vec<_>>(), [2, 3]);
     let round = r.round.unwrap();
@@ -187,27 +196,100 @@ fn resume_resubmits_only_the_missing_and_incomplete_shards() {
     assert_eq!(Submission::read(&out).unwrap().jobs.len(), 2);
     drop(calls);
 
-    // every shard complete and merged: nothing to do
+    // new sbatch arguments replace the submission's; its own are refused
     *fake.queue.borrow_mut() = vec![vec![]];
+    let e = resume(&fake, &out, Some(vec!["--dependency=afterok:1".into()])).unwrap_err().to_string();
+    assert!(e.contains("submit sets the array, the dependencies and the log files itself"), "{e}");
+    resume(&fake, &out, Some(vec!["--time=9:00:00".into()])).unwrap();
+    assert!(fake.submitted.borrow().last().unwrap().0.ends_with(&["--time=9:00:00".to_string()]));
+    assert_eq!(Submission::read(&out).unwrap().sbatch, ["--time=9:00:00"]);
+
+    // every shard complete and merged: nothing to do (a run recorded failed is a finished one)
     run_shard(&sub, 3);
+    let summary = crate::run_folder::summary_csv(&script::shard_dir(&out, 3, 3));
+    let text = std::fs::read_to_string(&summary).unwrap();
+    let failed = text.replacen(",ok,", ",failed,", 1).replacen(",not_converged,", ",failed,", 1);
+    assert_ne!(failed, text);
+    std::fs::write(&summary, failed).unwrap();
     std::fs::write(
         &meta,
         std::fs::read_to_string(&meta).unwrap().replace("\"interrupted\": true", "\"interrupted\": false"),
     )
     .unwrap();
     std::fs::write(script::merge_exit(&out), "0\n").unwrap();
-    let r = resume(&fake, &out).unwrap();
+    let r = resume(&fake, &out, None).unwrap();
     assert!(r.shards.is_empty() && r.round.is_none());
     // complete shards whose merge failed: the merge alone again
     std::fs::write(script::merge_exit(&out), "2\n").unwrap();
-    let r = resume(&fake, &out).unwrap();
+    let r = resume(&fake, &out, None).unwrap();
     let round = r.round.unwrap();
     assert!(round.tasks.is_empty() && round.array.is_none());
     assert!(!fake.submitted.borrow().last().unwrap().0.iter().any(|a| a.starts_with("--dependency")));
 
-    // a config changed since: refused
+    // resumed from elsewhere: refused, naming where
+    let elsewhere = tempfile::tempdir().unwrap();
+    let here = std::env::current_dir().unwrap();
+    let mut moved = Submission::read(&out).unwrap();
+    moved.commands.workdir = elsewhere.path().to_path_buf();
+    moved.write().unwrap();
+    let e = resume(&fake, &out, None).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!("resume from where the batch was submitted: in {}", elsewhere.path().display())),
+        "{e}"
+    );
+    assert!(e.contains(&format!("(here: {}", here.display())), "{e}");
+    moved.commands.workdir = here;
+    moved.write().unwrap();
+
+    // a config changed since (another stop rule, the same runs): refused
+    let text = std::fs::read_to_string(&sub.commands.config).unwrap().replace("max_iters = 5", "max_iters = 6");
+    std::fs::write(&sub.commands.config, &text).unwrap();
+    let e = format!("{:#}", resume(&fake, &out, None).unwrap_err());
+    assert!(e.contains("cannot resume") && e.contains("settings") && e.contains("changed"), "{e}");
+    std::fs::write(&sub.commands.config, text.replace("max_iters = 6", "max_iters = 5")).unwrap();
+    // ... or another solver
     let text = std::fs::read_to_string(&sub.commands.config).unwrap().replace("\"cm\"", "\"slim\"");
     std::fs::write(&sub.commands.config, text).unwrap();
-    let e = format!("{:#}", resume(&fake, &out).unwrap_err());
+    let e = format!("{:#}", resume(&fake, &out, None).unwrap_err());
     assert!(e.contains("cannot resume") && e.contains("plan it again"), "{e}");
+}
+
+#[test]
+fn a_round_that_fails_half_way_cancels_what_it_queued_and_records_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = prepare(&request(dir.path(), 2), || Ok(0.2)).unwrap();
+    write(&p).unwrap();
+    let mut sub = p.submission;
+    // the array is accepted, the merge refused
+    let fake = Fake { fail_from: Some(2), ..Fake::default() };
+    let e = format!("{:#}", submit(&fake, &mut sub, &[1, 2], false).unwrap_err());
+    assert!(e.contains("cancelled the jobs it had submitted: 101") && e.contains("Invalid job array"), "{e}");
+    assert_eq!(*fake.cancelled.borrow(), ["101"]);
+    let out = dir.path().join("night");
+    assert!(Submission::read(&out).unwrap().jobs.is_empty());
+    // nothing recorded: the submission may be made again
+    assert!(prepare(&request(dir.path(), 2), || Ok(0.2)).is_ok());
+}
+
+#[test]
+fn submit_refuses_its_own_sbatch_options_and_a_new_plan_clears_a_dry_runs_leftovers() {
+    for own in ["--array=1-3", "-a", "--dependency=afterok:1", "-dafterok:1", "--output=x", "-o"] {
+        assert!(check_sbatch_args(&[own.to_string()]).is_err(), "{own}");
+    }
+    check_sbatch_args(&["--time=1:00:00".into(), "--partition=short".into(), "-p".into(), "short".into()]).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let p = prepare(&request(dir.path(), 2), || Ok(0.2)).unwrap();
+    write(&p).unwrap();
+    let out = dir.path().join("night");
+    std::fs::create_dir_all(script::shard_dir(&out, 1, 2).join("runs")).unwrap();
+    std::fs::write(script::shard_exit(&out, 1), "0\n").unwrap();
+    let p = prepare(&request(dir.path(), 2), || Ok(0.2)).unwrap();
+    write(&p).unwrap();
+    assert!(!script::shard_dir(&out, 1, 2).exists() && !script::shard_exit(&out, 1).exists());
+    assert!(script::shards_json(&out).is_file());
+    // --no-history: no job writes the reference store
+    let mut off = p.submission.commands.clone();
+    off.history = HistoryChoice::Off;
+    let plan = resolve_plan(&off.config, &[], None).unwrap();
+    assert!(!wants_references(&off, &plan).unwrap());
 }
