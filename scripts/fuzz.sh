@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Build the fuzz targets of fuzz/ with stable Rust and run each one (README.md "Fuzzing").
+# Build the fuzz targets of fuzz/ with stable Rust and run each one (docs/src/design/testing.md).
 #   scripts/fuzz.sh [RUNS] [TARGET...]   RUNS inputs per target (default 1000000), all targets
 #   FUZZ_SECONDS=S scripts/fuzz.sh ...     also stop each target after S seconds (the CI smoke run)
 # libFuzzer comes from the libfuzzer-sys crate (its C++ source, built with cc); the coverage

@@ -1,4 +1,4 @@
-//! What each fuzz target (`fuzz/`, see README.md "Fuzzing") does with one input. The bodies
+//! What each fuzz target (`fuzz/`, see docs/src/design/testing.md) does with one input. The bodies
 //! live here, not in the targets, so the regression tests (`harness/tests/hardening_fuzz.rs`)
 //! feed the checked-in crash inputs to exactly the code the fuzzer ran.
 //!

@@ -158,7 +158,7 @@ fn a_history_that_cannot_be_written_keeps_the_run_folder_and_exits_2() {
     assert!(!tmp.path().join("reports").exists());
 }
 
-/// The README's benchmark: 30 nights of one run folder (`MAPBENCH_BENCH_RUN`, e.g. a
+/// The history's benchmark (docs/src/results/benchmarks.md): 30 nights of one run folder (`MAPBENCH_BENCH_RUN`, e.g. a
 /// `configs/param.toml` run) appended with distinct revisions and start times into
 /// `MAPBENCH_BENCH_DB`; prints the database size and how long the trend page took. Run with
 /// `cargo test -p mapbench --test history -- --ignored --nocapture thirty`.

@@ -12,7 +12,7 @@ use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
 use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 
-/// The schema this build writes. README "History database" documents it.
+/// The schema this build writes. docs/src/reference/history-schema.md documents it.
 pub const SCHEMA_VERSION: i64 = 6;
 
 /// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).

@@ -180,7 +180,7 @@ fn insert(db: &Path, folder: &Path, recorded_as: &Path) -> Result<Recorded, Hist
 }
 
 /// What became of a batch in the history: `meta.json`'s `history_outcome`, and what `run` and
-/// `merge` print (README "History database").
+/// `merge` print (the book's "The history database").
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "outcome", rename_all = "snake_case")]
 pub enum Outcome {

@@ -2,7 +2,7 @@
 //! (`crate::convergence`) against a reference minimum (`reference`), each run's verdict
 //! (`verdict`), its final gap, and its iterations and time to each target. A run is `ok`
 //! when it solved its problem at the tightest target, whatever its own stop rule said.
-//! `authalic` runs keep their solvers' own rules (README "The harness's verdict").
+//! `authalic` runs keep their solvers' own rules (docs/src/reference/statuses.md).
 
 pub mod reference;
 pub mod verdict;

@@ -185,7 +185,7 @@ pub fn prepare(req: &Request, calibrate: impl FnOnce() -> Result<f64>) -> Result
 /// of jobs (`--dependency`), the shards (`--array`) or where the logs are (`--output`).
 const OWN_SBATCH: [&str; 6] = ["--array", "-a", "--dependency", "-d", "--output", "-o"];
 
-/// Refuse an `--sbatch` argument that is one of [`OWN_SBATCH`].
+/// Refuse an `--sbatch` argument that is one of `OWN_SBATCH`.
 pub fn check_sbatch_args(args: &[String]) -> Result<()> {
     for a in args {
         let name = a.split('=').next().unwrap_or(a);

@@ -26,7 +26,7 @@ fn json<T: Serialize>(v: &Option<T>) -> Option<Value> {
     v.as_ref().and_then(|v| serde_json::to_value(v).ok())
 }
 
-/// What differs between two `meta.json`: the keys of [`run_keys`], the config as written
+/// What differs between two `meta.json`: the keys of `run_keys`, the config as written
 /// (`config.*`, `(unset)` where a side leaves a key to its default) and the settings each
 /// energy resolved to (`settings[energies].*`, one line for the energies that differ alike).
 pub fn settings_diff(a: &Meta, b: &Meta) -> Vec<SettingDiff> {

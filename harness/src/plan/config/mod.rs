@@ -1,5 +1,5 @@
 //! The run configuration (design.md "Config"): TOML, unknown keys are an error, every key has
-//! a documented default (see README.md).
+//! a documented default (docs/src/reference/config.md).
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};

@@ -5,7 +5,7 @@
 //! (`plots/profiles.rs`) only format and draw what these return. The report passes judged
 //! runs as [`crate::report::to_target`] ranks them: iterations and time to the tightest target.
 //!
-//! The rules, stated once (the captions and the README repeat them):
+//! The rules, stated once (the captions and the book repeat them):
 //! - Skipped pairs are left out entirely; `runs` counts the others, `solved` the converged.
 //! - Shifts: [`ITERATION_SHIFT`] iterations; [`TIME_SHIFT_S`] seconds, or
 //!   [`TIME_NORM_SHIFT`] calibration units when times are normalized.
@@ -35,14 +35,13 @@ pub use profiles::{data_profiles, performance_profiles, DataProfile, DataProfile
 
 /// Shift of the shifted geometric mean of iterations (the methodology note's example).
 pub const ITERATION_SHIFT: f64 = 10.0;
-/// Shift of the shifted geometric mean of seconds. Our runs take milliseconds to minutes
-/// (the CI batch: 5 ms to 5 s, median 0.3 s); below about 0.1 s fixed costs and timer noise
-/// dominate a run, and a 1 s shift would turn the mean of most runs back into an arithmetic
+/// Shift of the shifted geometric mean of seconds. Our runs take milliseconds to minutes;
+/// below about 0.1 s fixed costs and timer noise dominate a run, and a 1 s shift would turn the mean of most runs back into an arithmetic
 /// mean that the few large meshes decide.
 pub const TIME_SHIFT_S: f64 = 0.1;
-/// Shift in calibration units (`time_norm`): the reference workload takes about 0.4 s on the
-/// 2-core machine (0.35–0.41 s measured), so this is about [`TIME_SHIFT_S`]; a constant, so
-/// that normalized means compare across batches and machines.
+/// Shift in calibration units (`time_norm`): a quarter of the reference workload, which on
+/// the machines we run takes a few tenths of a second, so about [`TIME_SHIFT_S`]; a constant,
+/// so that normalized means compare across batches and machines.
 pub const TIME_NORM_SHIFT: f64 = 0.25;
 /// Profiles floor a cost here (a run that converged at its initial map made 0 iterations).
 pub const PROFILE_MIN_ITERATIONS: f64 = 1.0;
