@@ -22,8 +22,11 @@ const SLOTS_PER_TASK: usize = 262144;
 /// Lower-triangular CSC pattern of the element-coupling graph with interleaved dofs.
 #[derive(Clone, Debug)]
 pub struct Pattern {
+    /// Matrix dimension: twice the number of vertices.
     pub n: usize,
+    /// Start of each column in `row_idx` (length `n + 1`).
     pub col_ptr: Vec<usize>,
+    /// Row of each stored entry, sorted within each column (rows `>=` the column).
     pub row_idx: Vec<usize>,
     /// Value slot of each diagonal entry.
     pub diag: Vec<usize>,
@@ -77,6 +80,7 @@ pub fn pack_lower(m: &Matrix6<f64>) -> Lower6 {
 
 /// A 6x6 block the assembly can read: entry `k` of [`LOWER`].
 pub trait FaceBlock: Sync {
+    /// The block's entry `LOWER[k]`.
     fn lower(&self, k: usize) -> f64;
 }
 
@@ -207,6 +211,7 @@ impl Pattern {
         Pattern { n, col_ptr, row_idx, diag, scatter, edge_scatter, chunk, chunk_ptr, chunk_elements }
     }
 
+    /// Number of stored (lower-triangle) entries: the length of the values array.
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
     }
@@ -281,6 +286,7 @@ pub struct SymmetricRows {
 }
 
 impl SymmetricRows {
+    /// Both triangles of `pattern`, each row's columns sorted.
     pub fn new(pattern: &Pattern) -> SymmetricRows {
         let n = pattern.n;
         let mut count = vec![0usize; n + 1];

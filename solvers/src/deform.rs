@@ -19,6 +19,7 @@ use crate::solver::{Observer, Outcome, Settings, StartMap, StopSettings};
 /// Settings of a `deform` run.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DeformSettings {
+    /// Stopping rule, line search, linear solves and solver options.
     pub solver: Settings,
     /// Penalty weight `lambda` (on the area-1 mesh).
     pub lambda: f64,
@@ -146,7 +147,9 @@ pub fn deform_start(
 /// than on `E0 - E*` alone.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ElasticEnergies {
+    /// At the rest pose (the normalized mesh itself).
     pub rest: f64,
+    /// At the start map (`init`, or the rest pose).
     pub start: f64,
 }
 

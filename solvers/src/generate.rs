@@ -58,6 +58,7 @@ pub const GENERATED: &[(&str, &str)] = &[
     ("planar_limbs_8k", "deform: the four-limbed figure at twice the resolution, ~8k vertices (Table 7 scaling)"),
 ];
 
+/// A name that names no generated mesh.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 #[error("unknown generated mesh '{0}' (known: {known})", known = generated_names().join(", "))]
 pub struct UnknownGenerated(pub String);
@@ -450,7 +451,8 @@ mod tests {
 
     #[test]
     fn the_hard_shapes_have_their_sizes_and_the_sliver_meshes_the_scans_angles() {
-        // pinned: tag:default's iteration counts (README) belong to exactly these meshes
+        // pinned: tag:default's iteration counts (docs/src/results/judged-nightlies.md) belong to
+        // exactly these meshes
         for (name, vertices, faces) in [
             ("hilbert_3k", 3069, 4088),
             ("hilbert_10k", 10225, 16352),

@@ -21,16 +21,22 @@ pub enum TutteBoundary {
     Arclength,
 }
 
+/// Why Tutte's embedding could not be built.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum InitError {
+    /// The mesh does not have exactly one boundary loop (the count it has).
     #[error("the mesh has {0} boundary loops; Tutte's embedding needs exactly one")]
     BoundaryLoops(usize),
+    /// The boundary loop has fewer than 3 vertices (the count it has).
     #[error("the boundary loop has only {0} vertices (at least 3 needed)")]
     ShortBoundary(usize),
+    /// An interior vertex (this one) belongs to no proper face.
     #[error("interior vertex {0} has no neighbours")]
     IsolatedVertex(usize),
+    /// The linear solver failed on the interior Laplacian system.
     #[error("the Tutte system could not be solved: {0}")]
     Linear(#[from] LinearError),
+    /// The embedding has this many triangles with non-positive signed area.
     #[error("the Tutte embedding flips {0} triangles (non-convex boundary or bad input)")]
     Flipped(usize),
 }

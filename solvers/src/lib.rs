@@ -5,10 +5,12 @@
 //! Solvers are pure: no printing, no files, no global state. Each iteration is reported
 //! to an [`solver::Observer`]; the harness turns observations into CSV rows.
 //!
-//! Conventions (design.md): variables are interleaved, dof `2v` = u and `2v + 1` = v of
+//! Conventions (`../shared/design.md`, docs/src/design/numerics.md): variables are interleaved, dof `2v` = u and `2v + 1` = v of
 //! vertex `v`; meshes are scaled to total area 1 and energies are area-weighted means,
 //! so the symmetric Dirichlet energy scores exactly 2 at an isometry.
 
+// Every public item says in one line what it is (the book's reference builds on them).
+#![warn(missing_docs)]
 // `!(a > b)` is deliberate throughout: NaN must take the failure branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 

@@ -72,8 +72,11 @@ pub fn max_injective_step(problem: &MapProblem, x: &[f64], d: &[f64]) -> f64 {
 /// Accepted step of a line search.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Accepted {
+    /// The accepted step length along `d`.
     pub t: f64,
+    /// Energy at `x + t d`.
     pub energy: f64,
+    /// Energy evaluations spent, the accepted one included.
     pub evals: usize,
 }
 

@@ -14,15 +14,18 @@ use nalgebra::{Matrix4x6, Vector4, Vector6};
 pub struct LocalOp {
     /// Source area (positive).
     pub area: f64,
-    /// Real and imaginary parts of the three complex coefficients `D_k`.
+    /// Real parts of the three complex coefficients `D_k`.
     pub d_re: [f64; 3],
+    /// Imaginary parts of the `D_k` (`d_re` holds the real parts).
     pub d_im: [f64; 3],
 }
 
 /// Wirtinger derivatives of the linear map of one triangle, as real 2-vectors.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wirtinger {
+    /// `f_z` as `[re, im]`.
     pub fz: [f64; 2],
+    /// `f_zbar` as `[re, im]`.
     pub fzb: [f64; 2],
 }
 

@@ -15,26 +15,70 @@ use crate::solver::{RawOptions, SolveError};
 /// Why a `param` or `deform` run could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum MapError {
+    /// The solver is unknown, runs another task, or refuses the energy or its options.
     #[error(transparent)]
     Solver(#[from] SolverError),
+    /// The energy's parameters are unusable (also: an iterate's Newton system failed, in `system`).
     #[error("{0}")]
     Energy(String),
+    /// The mesh could not be read or failed validation for the task.
     #[error(transparent)]
     Mesh(#[from] MeshError),
+    /// A face of the normalized mesh has no local operator.
     #[error(transparent)]
     Degenerate(#[from] DegenerateFace),
+    /// The Tutte start of a `param` run could not be built.
     #[error("{source_name}: initialization failed: {err}")]
-    Init { source_name: String, err: InitError },
+    Init {
+        /// The mesh source.
+        source_name: String,
+        /// Why Tutte's embedding failed.
+        err: InitError,
+    },
+    /// A `deform` run was given no handles.
     #[error("{source_name}: no handles; the deform task needs positional constraints")]
-    NoHandles { source_name: String },
+    NoHandles {
+        /// The mesh source.
+        source_name: String,
+    },
+    /// A handle names a vertex the mesh does not have.
     #[error("{source_name}: handle {index} names vertex {vertex}, but the mesh has {n} vertices")]
-    HandleOutOfRange { source_name: String, index: usize, vertex: usize, n: usize },
+    HandleOutOfRange {
+        /// The mesh source.
+        source_name: String,
+        /// Position of the handle in the list (0-based).
+        index: usize,
+        /// The vertex it names.
+        vertex: usize,
+        /// Number of vertices of the mesh.
+        n: usize,
+    },
+    /// A handle's target has a NaN or infinite coordinate.
     #[error("{source_name}: handle {index} has a non-finite target {target:?}")]
-    BadTarget { source_name: String, index: usize, target: [f64; 2] },
+    BadTarget {
+        /// The mesh source.
+        source_name: String,
+        /// Position of the handle in the list (0-based).
+        index: usize,
+        /// The target as given, in the file's frame.
+        target: [f64; 2],
+    },
+    /// The given initial map of a `deform` run has the wrong length or a non-finite point.
     #[error("{source_name}: initial map: {detail}")]
-    BadInit { source_name: String, detail: String },
+    BadInit {
+        /// The mesh source.
+        source_name: String,
+        /// What is wrong with it.
+        detail: String,
+    },
+    /// The solver could not start: the start map cannot be evaluated or the linear setup failed.
     #[error("{source_name}: {err}")]
-    Solve { source_name: String, err: SolveError },
+    Solve {
+        /// The mesh source.
+        source_name: String,
+        /// Why it could not start.
+        err: SolveError,
+    },
 }
 
 /// The catalogue's `solver` for `task` and `energy` with its `options`, once the energy's

@@ -2,12 +2,12 @@
 //!
 //! faer ships AMD only. Nested dissection (METIS `NodeND`) of the vertex graph cuts the fill
 //! and the flops at mesh sizes of 50k+ vertices (`../shared/notes/rust-stack.md` sections 2
-//! and 3: faer with AMD is 1.3-2.1x MKL Pardiso, with METIS + postorder 1.0-1.2x). Two
-//! details matter:
+//! and 3; our timings against Pardiso: docs/src/results/linear-solvers.md). Two details
+//! matter:
 //! - The graph is the *vertex* graph (the two dofs of a vertex share one node), expanded to
 //!   the dofs afterwards: the same fill as ordering the dof graph, in less time.
 //! - The order is postordered along the elimination tree before faer sees it: faer merges
-//!   only contiguous columns into supernodes, and raw METIS output gave 2.6x more
+//!   only contiguous columns into supernodes, and raw METIS output gives many more
 //!   supernodes and a slower factorization than AMD.
 
 use crate::linear_error::LinearError;
@@ -22,12 +22,13 @@ pub enum Ordering {
     /// faer's approximate minimum degree.
     Amd,
     /// METIS nested dissection of the vertex graph, postordered (the default: faster to
-    /// factorize from about 5k vertices up, measured in `benches/pipeline.rs`).
+    /// factorize on all but small meshes; `benches/pipeline.rs` compares the two).
     #[default]
     Metis,
 }
 
 impl Ordering {
+    /// The name in configs (`amd`, `metis`).
     pub fn as_str(&self) -> &'static str {
         match self {
             Ordering::Amd => "amd",
@@ -69,7 +70,7 @@ pub fn metis_order(
 }
 
 /// [`metis_order`], also returning how long the call waited for another thread's METIS
-/// call ([`METIS_LOCK`]), so the analysis time can leave the wait out.
+/// call (`METIS_LOCK`), so the analysis time can leave the wait out.
 pub fn metis_order_timed(
     n: usize,
     col_ptr: &[usize],

@@ -14,7 +14,9 @@ use crate::solver::{Observer, Outcome, Settings, StartMap, StopSettings};
 /// Settings of a `param` run.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ParamSettings {
+    /// Stopping rule, line search, linear solves and solver options.
     pub solver: Settings,
+    /// How the Tutte start places the boundary on the circle.
     pub tutte_boundary: TutteBoundary,
     /// Jump threshold of the global-scaling heuristic (Section 4.2; the paper uses 0.1).
     pub scaling_jump: f64,
@@ -23,7 +25,7 @@ pub struct ParamSettings {
 }
 
 /// design.md defaults: `|grad| <= 1e-3`, 1000 iterations, and the energy's own decrease
-/// rule if it has one (SARAP's, [`Density::energy_decrease_tol`]).
+/// rule if it has one (SARAP's, `energy_decrease_tol`).
 pub fn default_stop(energy: &EnergyKind) -> StopSettings {
     StopSettings { energy_decrease_tol: energy.energy_decrease_tol(), ..StopSettings::default() }
 }

@@ -17,26 +17,49 @@ use rayon::prelude::*;
 /// rayon splits the work (deterministic results for any thread count).
 const CHUNK: usize = 2048;
 
+/// Why a map could not be evaluated; always the lowest failing element.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum EvalError {
+    /// The map inverts or collapses an element: outside the energy's domain `det J > 0`.
     #[error("element {element} is inverted or degenerate (det J = {det:e})")]
-    NotInDomain { element: usize, det: f64 },
+    NotInDomain {
+        /// The face index.
+        element: usize,
+        /// Jacobian determinant `|f_z|^2 - |f_zbar|^2` of the element (not positive, or NaN).
+        det: f64,
+    },
+    /// The energy density or its gradient is NaN or infinite on an element.
     #[error("element {element} has a non-finite energy or derivative (psi = {psi})")]
-    NonFinite { element: usize, psi: f64 },
+    NonFinite {
+        /// The face index.
+        element: usize,
+        /// The element's energy density (finite when only the gradient is not).
+        psi: f64,
+    },
 }
 
+/// A source face with no local operator, so no problem can be built on the mesh.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 #[error("{source_name}: face {face} is degenerate (zero area) and has no local frame")]
 pub struct DegenerateFace {
+    /// The mesh source (file path or `generated:<name>`).
     pub source_name: String,
+    /// The first degenerate face.
     pub face: usize,
 }
 
+/// The source mesh's per-face operators with an energy and optional extra terms: all a
+/// solver needs to evaluate a map.
 pub struct MapProblem {
+    /// Number of vertices; the map has twice as many dofs.
     pub n_vertices: usize,
+    /// The source mesh's faces.
     pub faces: Vec<[usize; 3]>,
+    /// The local operator of each face, in face order.
     pub ops: Vec<LocalOp>,
+    /// Sum of the source areas of `ops`: the normalizer of the energy.
     pub total_area: f64,
+    /// The distortion energy density `psi`.
     pub energy: EnergyKind,
     /// Soft positional constraints of the `deform` task.
     pub penalty: Option<Penalty>,
@@ -50,17 +73,20 @@ pub struct MapProblem {
 /// Hessian `2 lambda`, one consistent convention); added to the normalized energy.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Penalty {
+    /// Weight of the handle term (on the area-1 mesh).
     pub lambda: f64,
     /// `(vertex, target)` pairs.
     pub handles: Vec<(usize, [f64; 2])>,
 }
 
 impl Penalty {
+    /// The handle term `lambda * sum |z_P - c|^2` at the map `x`.
     pub fn value(&self, x: &[f64]) -> f64 {
         self.lambda
             * self.handles.iter().map(|&(v, c)| (x[2 * v] - c[0]).powi(2) + (x[2 * v + 1] - c[1]).powi(2)).sum::<f64>()
     }
 
+    /// Add the handle term's gradient `2 lambda (z_P - c)` at `x` into `grad`.
     pub fn add_gradient(&self, x: &[f64], grad: &mut [f64]) {
         for &(v, c) in &self.handles {
             grad[2 * v] += 2.0 * self.lambda * (x[2 * v] - c[0]);
@@ -77,8 +103,11 @@ impl Penalty {
 /// Result of a full evaluation (energy, gradient, per-element states and Hessian inertia).
 #[derive(Clone, Debug, Default)]
 pub struct Evaluation {
+    /// The full objective: normalized energy plus handle and smoothness terms.
     pub energy: f64,
+    /// Gradient of `energy`, interleaved like the map.
     pub grad: Vec<f64>,
+    /// Each face's state at the map, in face order (input to the element Hessians).
     pub states: Vec<ElementState>,
     /// Negative eigenvalues summed over the unmodified element Hessians.
     pub neg_eig: usize,
@@ -108,6 +137,8 @@ impl MapProblem {
         }
     }
 
+    /// The problem of `energy` on `mesh`, without handles or smoothness term; fails on the
+    /// first face with no local operator.
     pub fn new(mesh: &Mesh, energy: EnergyKind) -> Result<Self, DegenerateFace> {
         let ops = local_ops(mesh).map_err(|face| DegenerateFace { source_name: mesh.source.clone(), face })?;
         let total_area = ops.iter().map(|o| o.area).sum();
@@ -130,14 +161,17 @@ impl MapProblem {
         self
     }
 
+    /// Number of unknowns: `u` and `v` of every vertex.
     pub fn n_dofs(&self) -> usize {
         2 * self.n_vertices
     }
 
+    /// Number of faces (elements).
     pub fn n_faces(&self) -> usize {
         self.faces.len()
     }
 
+    /// The image of face `t` under the map `x`: its three corners `[u, v]`.
     #[inline]
     pub fn target(&self, x: &[f64], t: usize) -> [[f64; 2]; 3] {
         let f = self.faces[t];
@@ -395,7 +429,7 @@ impl MapProblem {
         form
     }
 
-    /// Area weight of element `t` in the normalized energy.
+    /// The weight of an element's area in the normalized energy: one over the total area.
     #[inline]
     pub fn weight(&self) -> f64 {
         1.0 / self.total_area

@@ -18,7 +18,9 @@ use crate::hessian::ElementState;
 use crate::local::LocalOp;
 use nalgebra::{Matrix2, Matrix4, SMatrix, SVector, SymmetricEigen, Vector2, Vector4};
 
+/// An 8x8 matrix of an edge pair: its operator `M` or a Hessian block.
 pub type Matrix8 = SMatrix<f64, 8, 8>;
+/// A vector in the 8 dofs (u, v of each vertex in [`EdgePair::verts`] order) of an edge pair.
 pub type Vector8 = SVector<f64, 8>;
 
 /// How the edge Hessians are made PSD.
@@ -37,6 +39,7 @@ pub enum Projection {
 /// Two faces sharing an interior edge.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EdgePair {
+    /// The two faces, lower index first.
     pub faces: [usize; 2],
     /// The edge's vertices `a, b` then the opposite vertices of `faces[0]` and `faces[1]`.
     pub verts: [usize; 4],
@@ -50,13 +53,19 @@ pub struct EdgePair {
 /// and operator `M`.
 #[derive(Clone, Debug)]
 pub struct Smoothness {
+    /// The weight `w`.
     pub weight: f64,
+    /// How the edge blocks are made PSD for the Newton system.
     pub projection: Projection,
+    /// The interior edges, sorted by their vertices.
     pub pairs: Vec<EdgePair>,
+    /// Per pair, the operator `M` from its 8 dofs to `(f_iz, f_izbar, f_jz, f_jzbar)` ([`edge_operator`]).
     pub ops: Vec<Matrix8>,
 }
 
 impl Smoothness {
+    /// The term of weight `weight` over the interior edges of the rest mesh (`faces`, `positions`),
+    /// with the faces' operators `face_ops`.
     pub fn new(
         weight: f64,
         projection: Projection,

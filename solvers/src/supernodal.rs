@@ -2,7 +2,7 @@
 //!
 //! faer's supernodal factorization visits the supernodes one after the other and can only
 //! parallelize the dense kernels inside each, and on the 2D meshes' nested-dissection
-//! orderings most supernodes are small (README "The parallel factorization").
+//! orderings most supernodes are small (docs/src/results/parallel-factorization.md).
 //! Two supernodes in disjoint subtrees of the supernodal elimination tree read only their
 //! own descendants and write only their own columns, so whole subtrees can be factorized
 //! at once. This module computes the same left-looking factorization as faer, into faer's
@@ -70,7 +70,12 @@ pub enum ScheduleError {
     /// The supernodes are not numbered in a postorder of their tree.
     NotPostordered,
     /// An entry of `A` has no slot in the factor (the pattern is not the analysed one).
-    NotInPattern { row: usize, col: usize },
+    NotInPattern {
+        /// Row of the entry in the unpermuted `A`.
+        row: usize,
+        /// Column of the entry in the unpermuted `A`.
+        col: usize,
+    },
 }
 
 /// The columns `begin..end` of supernode `s`.

@@ -17,10 +17,15 @@ use std::fmt::Write as _;
 /// A symmetric system `A d = b` with `A` as its lower triangle in CSC form.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NewtonSystem {
+    /// Number of unknowns (two per vertex).
     pub n: usize,
+    /// Start of each column in `row_idx` and `values` (`n + 1` entries).
     pub col_ptr: Vec<usize>,
+    /// Row of each stored entry.
     pub row_idx: Vec<usize>,
+    /// Value of each stored entry, shifted and scaled as factorized.
     pub values: Vec<f64>,
+    /// The right-hand side `-S grad`, scaled to match.
     pub rhs: Vec<f64>,
     /// The iteration the system belongs to (0 = the initial map).
     pub iteration: usize,
@@ -72,7 +77,7 @@ pub fn param_system(
 }
 
 impl NewtonSystem {
-    /// The system a solver reported to [`Observer::system`], shifted and scaled as its
+    /// The system a solver reported to [`crate::solver::Observer::system`], shifted and scaled as its
     /// factorization does ([`regularize`]).
     pub fn from_view(view: &SystemView) -> Result<NewtonSystem, crate::linear::LinearError> {
         let (mut values, mut scale) = (Vec::new(), Vec::new());

@@ -16,9 +16,10 @@ pub enum Task {
 }
 
 impl Task {
-    /// Every task, in the README's order.
+    /// Every task, in the book's order.
     pub const ALL: [Task; 3] = [Task::Param, Task::Deform, Task::Authalic];
 
+    /// The task's name in configs, CSV and messages.
     pub fn as_str(&self) -> &'static str {
         match self {
             Task::Param => "param",

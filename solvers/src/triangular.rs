@@ -9,11 +9,11 @@
 //! (`x[rows] -= L[rows, s] x_s`); backward, one gather of those rows and a dot product per
 //! column in four partial sums (one running sum would wait on the adder's latency); the
 //! right-hand sides interleaved so that one value serves all of them while it is in a
-//! register (README "The parallel factorization" measures it against faer's solves).
+//! register (docs/src/results/parallel-factorization.md measures it against faer's solves).
 //!
 //! Large factors are solved on the calling pool's threads: disjoint subtrees of the
 //! elimination tree run as tasks and the supernodes above them on one thread, with every
-//! row receiving the same operations in the same order as in the sequential solve ([`Tasks`]),
+//! row receiving the same operations in the same order as in the sequential solve (`Tasks`),
 //! so the result is the same bits on every call and for any pool (it differs from faer's in
 //! the rounding of the sums: `tests::equals_faers_solve`).
 

@@ -82,6 +82,7 @@ struct Trial {
     extras: Extras,
 }
 
+/// Run `aem-cg` (or `aem-cg-safe` when `safe`) from the variables `z0`.
 pub fn aem_cg(
     problem: &AuthalicProblem,
     z0: Vec<f64>,

@@ -17,8 +17,11 @@ const CHUNK: usize = 2048;
 /// Full symmetric `n x n` CSR pattern of a mesh's vertex graph with per-face value slots.
 #[derive(Clone, Debug)]
 pub struct LaplacianPattern {
+    /// Number of vertices (rows and columns).
     pub n: usize,
+    /// Start of each row in `col` (length `n + 1`).
     pub row_ptr: Vec<usize>,
+    /// Column of each entry: the vertex itself and its neighbours, sorted within each row.
     pub col: Vec<usize>,
     /// Slot of the diagonal entry of each row.
     pub diag: Vec<usize>,
@@ -28,6 +31,7 @@ pub struct LaplacianPattern {
 }
 
 impl LaplacianPattern {
+    /// The pattern of the proper faces of `faces` over `n` vertices; every vertex has its diagonal.
     pub fn new(faces: &[[usize; 3]], n: usize) -> LaplacianPattern {
         // Every vertex's neighbours and itself, sorted; duplicates removed below.
         let (start, all) = grouped(n, || {
@@ -75,6 +79,7 @@ impl LaplacianPattern {
         LaplacianPattern { n, row_ptr, col, diag, face_slots }
     }
 
+    /// Number of stored entries: the length of the values array.
     pub fn nnz(&self) -> usize {
         self.col.len()
     }
@@ -131,9 +136,13 @@ pub fn stretch_weights(faces: &[[usize; 3]], source_area: &[f64], p: &[f64], dim
 /// block (sorted rows, diagonal first in each column) with the full-matrix slot of each entry.
 #[derive(Clone, Debug)]
 pub struct SubBlock {
+    /// Number of vertices in the subset (rows and columns).
     pub n: usize,
+    /// Start of each column in `row_idx` (length `n + 1`).
     pub col_ptr: Vec<usize>,
+    /// Local row of each entry, `>=` its column.
     pub row_idx: Vec<usize>,
+    /// Position in `row_idx` of each column's diagonal entry (its first).
     pub diag: Vec<usize>,
     src: Vec<usize>,
 }

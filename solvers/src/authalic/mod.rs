@@ -34,22 +34,55 @@ const CHUNK: usize = 2048;
 
 pub use crate::energy::AUTHALIC_ENERGY;
 
+/// Why an `authalic` run could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum AuthalicError {
+    /// The solver is unknown or not an authalic solver.
     #[error(transparent)]
     Solver(#[from] SolverError),
+    /// The mesh failed validation for the `authalic` task.
     #[error(transparent)]
     Mesh(#[from] crate::mesh::MeshError),
+    /// A face has no positive area once the mesh is scaled to area `pi`.
     #[error("{source_name}: face {face} has zero source area")]
-    DegenerateFace { source_name: String, face: usize },
+    DegenerateFace {
+        /// The mesh source.
+        source_name: String,
+        /// The first such face.
+        face: usize,
+    },
+    /// The mesh does not have exactly one boundary loop.
     #[error("{source_name}: the mesh has {count} boundary loops; the authalic task needs exactly one (a disk)")]
-    BoundaryLoops { source_name: String, count: usize },
+    BoundaryLoops {
+        /// The mesh source.
+        source_name: String,
+        /// Number of boundary loops found.
+        count: usize,
+    },
+    /// Every vertex lies on the boundary.
     #[error("{source_name}: the mesh has no interior vertex")]
-    NoInterior { source_name: String },
+    NoInterior {
+        /// The mesh source.
+        source_name: String,
+    },
+    /// A linear solve of the initial map's stretch steps failed.
     #[error("{source_name}: initialization failed: {what}: {err}")]
-    Init { source_name: String, what: &'static str, err: LinearError },
+    Init {
+        /// The mesh source.
+        source_name: String,
+        /// The step that failed (`analysis of L_II` or `L_II solve`).
+        what: &'static str,
+        /// The linear solver's error.
+        err: LinearError,
+    },
+    /// The initial map has a NaN or infinite variable.
     #[error("{source_name}: the initial map is not valid: {what}")]
-    InitNotFinite { source_name: String, what: String },
+    InitNotFinite {
+        /// The mesh source.
+        source_name: String,
+        /// Which variable of `z` (`variable <i>`).
+        what: String,
+    },
 }
 
 /// What the fold guard of `aem-cg-safe` rejects.
@@ -134,7 +167,9 @@ pub struct AreaMetrics {
 /// Result of an authalic run: the solver outcome plus the final metrics.
 #[derive(Clone, Debug)]
 pub struct AuthalicOutcome {
+    /// The run; its map `x` is the interleaved image positions, boundary on the unit circle.
     pub outcome: Outcome,
+    /// Area distortion of the last iterate.
     pub metrics: AreaMetrics,
 }
 
@@ -155,6 +190,7 @@ pub struct Terms {
     pub stretch: f64,
     /// Image area from the boundary polygon (Eq. 8).
     pub area: f64,
+    /// Faces with non-positive signed image area.
     pub folded: usize,
     /// Faces with non-zero image area (each contributes two negative eigenvalues).
     pub nonzero: usize,
@@ -162,19 +198,27 @@ pub struct Terms {
 
 /// A disk mesh prepared for the authalic task.
 pub struct AuthalicProblem {
+    /// The mesh source (file path or `generated:<name>`).
     pub source: String,
+    /// The mesh's faces.
     pub faces: Vec<[usize; 3]>,
+    /// Number of vertices.
     pub n: usize,
     /// Source positions scaled to total area `pi`, flat `[x, y, z, ...]`.
     pub positions: Vec<f64>,
     /// Source face areas `|tau|` (summing to `|S| = pi`).
     pub area: Vec<f64>,
+    /// `|S|`, the sum of `area` (`pi` up to rounding).
     pub total_area: f64,
     /// Boundary loop in the faces' orientation (counter-clockwise in the image).
     pub boundary: Vec<usize>,
+    /// Interior vertices in increasing order: the order of `f_I^1` and `f_I^2` in `z`.
     pub interior: Vec<usize>,
+    /// Pattern of `L_S` over all vertices.
     pub pattern: LaplacianPattern,
+    /// The `L_II` block, rows in `interior` order.
     pub block_i: SubBlock,
+    /// The `L_BB` block, rows in `boundary` order (the order of `theta`).
     pub block_b: SubBlock,
     /// Each vertex's corners, for the gradient's per-vertex sums.
     corners: VertexCorners,
@@ -262,10 +306,12 @@ impl AuthalicProblem {
         )
     }
 
+    /// Number of interior vertices.
     pub fn n_interior(&self) -> usize {
         self.interior.len()
     }
 
+    /// Number of boundary vertices: the length of `theta`.
     pub fn n_boundary(&self) -> usize {
         self.boundary.len()
     }
@@ -411,7 +457,7 @@ impl AuthalicProblem {
         [gu, gv]
     }
 
-    /// `nabla_x E_S` per vertex, interleaved (see [`Self::vertex_stretch_gradient`]).
+    /// `nabla_x E_S` per vertex, interleaved (see `vertex_stretch_gradient`).
     pub fn stretch_gradient(&self, x: &[f64]) -> Vec<f64> {
         let mut coef = vec![0.0; self.faces.len()];
         self.stretch_and_coefficients(x, &mut coef);

@@ -19,6 +19,7 @@ use crate::solver::executor::{execute, Method, Start, Step};
 use crate::solver::{Observer, StopReason};
 use std::time::Instant;
 
+/// Run `sem` from the variables `z0`.
 pub fn sem(
     problem: &AuthalicProblem,
     z0: Vec<f64>,

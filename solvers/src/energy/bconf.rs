@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 /// The paper's experiments use k = 0.1.
 pub const DEFAULT_K: f64 = 0.1;
 
+/// Barrier conformal with the barrier weight `k`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Bconf {

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 /// default is mild; set `[energy.exp-sd] s` in the config.
 pub const DEFAULT_S: f64 = 0.1;
 
+/// Exponential symmetric Dirichlet with the exponent weight `s`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ExpSd {

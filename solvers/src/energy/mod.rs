@@ -10,11 +10,17 @@ use serde::{Deserialize, Serialize};
 /// Density value and its first and second derivatives in `(x, y)`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Modifiers {
+    /// `psi`, the density's value.
     pub psi: f64,
+    /// `alpha1 = dpsi/dx`.
     pub a1: f64,
+    /// `alpha2 = dpsi/dy`.
     pub a2: f64,
+    /// `beta1 = d2psi/dx2`.
     pub b1: f64,
+    /// `beta2 = d2psi/dy2`.
     pub b2: f64,
+    /// `beta3 = d2psi/dxdy`.
     pub b3: f64,
 }
 
@@ -67,7 +73,12 @@ pub enum ConvexSplit {
     /// SARAP: `(1/v - 1)^2` is concave for `v > 1.5`, its concave part moves to `h-`.
     Sarap,
     /// Neo-Hookean with the `(||J||_F, det J)` composition.
-    NeoHookean { mu: f64, kappa: f64 },
+    NeoHookean {
+        /// Shear modulus.
+        mu: f64,
+        /// Bulk modulus.
+        kappa: f64,
+    },
 }
 
 /// `Ok` when `v` is positive and finite, else `"<key> = <v> <why>"`.
@@ -92,7 +103,11 @@ macro_rules! energies {
         #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
         #[serde(tag = "name")]
         pub enum EnergyKind {
-            $(#[serde(rename = $name)] $variant($ty),)*
+            $(
+                #[doc = concat!("The `", $name, "` energy ([`", stringify!($ty), "`]).")]
+                #[serde(rename = $name)]
+                $variant($ty),
+            )*
         }
 
         /// All energy names, in the order of the paper's Table 1.
@@ -107,6 +122,7 @@ macro_rules! energies {
                 }
             }
 
+            /// The energy's name in configs and CSVs.
             pub fn name(&self) -> &'static str {
                 match self {
                     $(EnergyKind::$variant(_) => $name,)*

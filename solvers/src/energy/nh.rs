@@ -6,8 +6,10 @@ use serde::{Deserialize, Serialize};
 /// Defaults with `mu / kappa = 0.25` as in the complex-view paper's Figure 4 and
 /// `mu + kappa = 1` as the reference code's single-parameter form.
 pub const DEFAULT_MU: f64 = 0.2;
+/// Default bulk modulus (see [`DEFAULT_MU`]).
 pub const DEFAULT_KAPPA: f64 = 0.8;
 
+/// Neo-Hookean with shear modulus `mu` and bulk modulus `kappa`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Nh {

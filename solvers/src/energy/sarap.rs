@@ -7,6 +7,7 @@
 use super::{from_singular_values, ConvexSplit, Density, Modifiers};
 use serde::{Deserialize, Serialize};
 
+/// The modifiers use `y` floored at `Y_FLOOR * x`, so `alpha2` stays finite at conformal maps.
 pub const Y_FLOOR: f64 = 1e-24;
 
 /// Symmetric ARAP; no parameters.

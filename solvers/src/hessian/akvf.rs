@@ -13,6 +13,7 @@ use super::{ElementState, SystemBlock};
 use crate::local::LocalOp;
 use nalgebra::{Matrix2, Matrix6, Vector2};
 
+/// AKVF's system block: the Killing-energy matrix of P1 vector fields on the current map.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Akvf;
 

@@ -18,6 +18,7 @@ use nalgebra::Matrix6;
 /// skipped (they multiply `f_zbar f_zbar^T` and vanish with it).
 const Y_EPS: f64 = 1e-40;
 
+/// CM's system block for one energy, from its convex-concave split ([`Cm::for_energy`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Cm {
     split: ConvexSplit,

@@ -34,6 +34,7 @@ macro_rules! clamp_psd {
     };
 }
 
+/// `fp-newton-6x6`: the 6x6 element Hessian with its negative eigenvalues clamped at 0.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fp6;
 
@@ -70,6 +71,7 @@ pub fn rq_factor(m: &Matrix4x6<f64>) -> Option<Matrix4<f64>> {
     l.iter().all(|v| v.is_finite()).then_some(l).filter(|_| l22 > 0.0 && l33 > 0.0)
 }
 
+/// `fp-newton-4x4`: the same projection, computed on the reduced 4x4 matrix `L^T K L`.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fp4;
 

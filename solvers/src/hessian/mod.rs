@@ -22,19 +22,25 @@ use nalgebra::{Matrix4, Matrix6, Vector4, Vector6};
 /// One element evaluated at the current map.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ElementState {
+    /// `f_z` as a real 2-vector `[re, im]`.
     pub fz: [f64; 2],
+    /// `f_zbar` as a real 2-vector `[re, im]`.
     pub fzb: [f64; 2],
+    /// The energy's modifiers at `(x, y)`.
     pub m: Modifiers,
 }
 
 impl ElementState {
+    /// The state with the Wirtinger derivatives of `w` and the modifiers `m`.
     pub fn new(w: Wirtinger, m: Modifiers) -> Self {
         ElementState { fz: w.fz, fzb: w.fzb, m }
     }
+    /// `x = |f_z|^2`.
     #[inline]
     pub fn x(&self) -> f64 {
         self.fz[0] * self.fz[0] + self.fz[1] * self.fz[1]
     }
+    /// `y = |f_zbar|^2`.
     #[inline]
     pub fn y(&self) -> f64 {
         self.fzb[0] * self.fzb[0] + self.fzb[1] * self.fzb[1]
@@ -68,10 +74,13 @@ pub fn k_matrix(s: &ElementState) -> Matrix4<f64> {
 /// vector gives a valid eigenbasis.
 #[derive(Clone, Copy, Debug)]
 pub struct KEigen {
+    /// Eigenvalues: `2 a1`, `2 a2`, then the two of the radial block.
     pub values: [f64; 4],
+    /// Orthonormal eigenvectors, in the order of `values`.
     pub vectors: [Vector4<f64>; 4],
 }
 
+/// The analytic eigensystem of `K` at the element state `s`.
 pub fn k_eigen(s: &ElementState) -> KEigen {
     let (x, y) = (s.x(), s.y());
     let (nf, ng) = (x.sqrt(), y.sqrt());

@@ -7,6 +7,7 @@ use super::{element_hessian, ElementState, SystemBlock};
 use crate::local::LocalOp;
 use nalgebra::Matrix6;
 
+/// `newton`: the unmodified element Hessian, with no shift retries after a failed factorization.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Unprojected;
 

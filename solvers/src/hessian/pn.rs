@@ -105,7 +105,9 @@ pub enum Space {
 /// A system block filtered by `filter` in `space`.
 #[derive(Clone, Copy, Debug)]
 pub struct FilteredIn {
+    /// The eigenvalue filter.
     pub filter: Filter,
+    /// What the filter acts on: `K` or the 6x6 element Hessian.
     pub space: Space,
 }
 
@@ -123,7 +125,9 @@ impl SystemBlock for FilteredIn {
 /// [`TrustRegion::system`] in the mode that [`TrustRegion::next`] chose from the last step's fit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrustRegion {
+    /// Clamp when the last step's model fit has `|rho - 1| < tau`, else abs.
     pub tau: f64,
+    /// What the filters act on: `K` or the 6x6 element Hessian.
     pub space: Space,
 }
 

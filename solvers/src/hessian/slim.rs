@@ -23,11 +23,15 @@ pub const MIN_WEIGHT_SQ: f64 = 1e-8;
 /// Signed SVD of the element's Jacobian from its Wirtinger derivatives.
 #[derive(Clone, Copy, Debug)]
 pub struct Svd2 {
+    /// Signed singular values `(|f_z| + |f_zbar|, |f_z| - |f_zbar|)`; the second is negative where the map inverts.
     pub sigma: [f64; 2],
+    /// `U`: the left singular vectors, a rotation.
     pub u: Matrix2<f64>,
+    /// `V`: the right singular vectors, a rotation.
     pub v: Matrix2<f64>,
 }
 
+/// The signed SVD `J = U diag(sigma) V^T` of the element's Jacobian, from `f_z` and `f_zbar`.
 pub fn svd(s: &ElementState) -> Svd2 {
     let (a, b) = (s.x().sqrt(), s.y().sqrt());
     let ta = s.fz[1].atan2(s.fz[0]);
@@ -92,6 +96,7 @@ fn sigma_derivatives(s: &ElementState) -> ([f64; 2], [f64; 2]) {
     (d2, d1)
 }
 
+/// SLIM's system block: the Hessian of its reweighted proxy, with the proximal shift.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Slim;
 

@@ -123,6 +123,7 @@ impl PartialEq for AnalysisCache {
 }
 
 impl AnalysisCache {
+    /// An empty cache.
     pub fn new() -> AnalysisCache {
         AnalysisCache::default()
     }
@@ -133,6 +134,7 @@ impl AnalysisCache {
         slots.iter().filter(|(_, s)| s.lock().unwrap_or_else(|e| e.into_inner()).is_some()).count()
     }
 
+    /// Whether no pattern has a stored analysis.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

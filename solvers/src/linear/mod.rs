@@ -81,9 +81,13 @@ pub fn with_shift_retries(
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{error} ({})", if *.retried { format!("shifts {:e} to {:e}", .first, .last) } else { format!("shift {:e}, no retry", .first) })]
 pub struct ShiftsFailed {
+    /// The failure at the last shift tried.
     pub error: LinearError,
+    /// The base shift, tried first.
     pub first: f64,
+    /// The last (largest) shift tried.
     pub last: f64,
+    /// Whether retries were allowed (`retries > 0`).
     pub retried: bool,
 }
 
@@ -130,6 +134,7 @@ pub fn regularize(
     Ok(())
 }
 
+/// Sparse Cholesky solves on one pattern: its symbolic analysis and the last numeric factor.
 pub struct SpdSolver {
     n: usize,
     analysis: Arc<Analysis>,

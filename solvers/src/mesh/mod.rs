@@ -11,16 +11,31 @@ pub use validate::{validate, validate_for, Problem, ValidationReport};
 /// Why a mesh could not be read or used. Every message names the mesh source.
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
+    /// The file could not be read.
     #[error("{path}: cannot read file: {source}")]
     Io {
+        /// The file path, as displayed.
         path: String,
+        /// The underlying I/O error.
         #[source]
         source: std::io::Error,
     },
+    /// The text is not an OBJ triangle mesh the reader accepts.
     #[error("{path}: malformed OBJ: {message}")]
-    Malformed { path: String, message: String },
+    Malformed {
+        /// The mesh source.
+        path: String,
+        /// What is wrong, naming the line when there is one.
+        message: String,
+    },
+    /// The mesh was read but failed validation.
     #[error("{path}: invalid mesh: {}", validate::summarize_problems(problems, 10, "; "))]
-    Invalid { path: String, problems: Vec<Problem> },
+    Invalid {
+        /// The mesh source (file path or `generated:<name>`).
+        path: String,
+        /// Every defect found, as in [`ValidationReport::problems`].
+        problems: Vec<Problem>,
+    },
 }
 
 /// Signed area of a planar triangle, positive when counter-clockwise.
@@ -32,24 +47,29 @@ pub fn signed_area(y: [[f64; 2]; 3]) -> f64 {
 /// A triangle mesh as read from a file or generated.
 ///
 /// Positions are 3D; planar (2D) inputs carry `z = 0`. Faces index `positions` (0-based)
-/// and are not checked at construction: run [`validate`] before using a mesh from outside.
+/// and are not checked at construction: run [`validate()`] before using a mesh from outside.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mesh {
     /// Where the mesh came from (file path or `generated:<name>`), used in every message.
     pub source: String,
+    /// Vertex positions, in the source's units until [`Mesh::normalized`].
     pub positions: Vec<[f64; 3]>,
+    /// Triangles as three indices into `positions`.
     pub faces: Vec<[usize; 3]>,
 }
 
 impl Mesh {
+    /// A mesh from its source name, positions and faces, unchecked.
     pub fn new(source: impl Into<String>, positions: Vec<[f64; 3]>, faces: Vec<[usize; 3]>) -> Self {
         Mesh { source: source.into(), positions, faces }
     }
 
+    /// Number of vertices.
     pub fn n_vertices(&self) -> usize {
         self.positions.len()
     }
 
+    /// Number of faces.
     pub fn n_faces(&self) -> usize {
         self.faces.len()
     }
@@ -76,6 +96,7 @@ impl Mesh {
         0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
     }
 
+    /// Sum of the unsigned face areas in 3D (1 after [`Mesh::normalized`]).
     pub fn total_area(&self) -> f64 {
         (0..self.n_faces()).map(|f| self.face_area(f)).sum()
     }
@@ -129,7 +150,7 @@ impl Mesh {
     /// Meshes whose areas over- or underflow in the file's units (coordinates beyond about
     /// 1e77 or below 1e-77) get the same transform computed at unit extent; the usual path is
     /// left as it is, so ordinary meshes keep their exact bits. The result is not finite only
-    /// when the coordinates span more than an `f64` holds (reported by [`validate`]).
+    /// when the coordinates span more than an `f64` holds (reported by [`validate()`]).
     pub fn normalization(&self) -> ([f64; 3], f64) {
         let (lo, hi) = self.bbox().unwrap_or(([0.0; 3], [0.0; 3]));
         let mut mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];

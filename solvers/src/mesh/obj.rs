@@ -18,7 +18,7 @@ use std::path::Path;
 /// Unreadable files give [`MeshError::Io`]; anything else wrong with the text (non-triangle
 /// faces, bad numbers, out-of-range indices, non-finite coordinates, no vertices or faces)
 /// gives [`MeshError::Malformed`] naming the line. Topology is not checked here: run
-/// [`validate`](super::validate).
+/// [`validate`](super::validate()).
 pub fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
     let source = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| MeshError::Io { path: source.clone(), source: e })?;

@@ -2,8 +2,8 @@
 //!
 //! Every function tolerates bad input (indices `>= n`, repeated vertices in a face,
 //! non-manifold or inconsistently oriented faces) without panicking or looping forever:
-//! such faces are skipped, so callers can run these before [`validate`](super::validate)
-//! has rejected anything. ([`grouped`] is the exception: a building block whose callers
+//! such faces are skipped, so callers can run these before [`validate`](super::validate())
+//! has rejected anything. (`grouped` is the exception: a building block whose callers
 //! pass only keys in range: vertices of proper faces, or the indices of an analysed sparse
 //! pattern in `ordering`.)
 
@@ -113,7 +113,9 @@ impl VertexCorners {
 /// An undirected edge `a < b` with the faces incident to it, split by traversal direction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Edge {
+    /// Smaller vertex index.
     pub a: usize,
+    /// Larger vertex index.
     pub b: usize,
     /// Number of faces traversing the edge as `a -> b`.
     pub forward: usize,

@@ -9,51 +9,133 @@ use std::fmt;
 /// One defect of a mesh. Vertex and face numbers are 0-based indices into the mesh.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum Problem {
+    /// A face names a vertex index past the end of the vertex list.
     #[error("face {face} refers to vertex {index}, but the mesh has only {n_vertices} vertices")]
-    IndexOutOfRange { face: usize, index: usize, n_vertices: usize },
+    IndexOutOfRange {
+        /// The face holding the bad index.
+        face: usize,
+        /// The first out-of-range vertex index of that face.
+        index: usize,
+        /// Number of vertices the mesh has.
+        n_vertices: usize,
+    },
+    /// Vertices that no face (with indices in range) uses; reported once for all of them.
     #[error("{count} {} not used by any face (first: vertex {first})", if *count == 1 { "vertex is" } else { "vertices are" })]
-    UnreferencedVertices { count: usize, first: usize },
+    UnreferencedVertices {
+        /// How many vertices are unused.
+        count: usize,
+        /// The lowest unused vertex.
+        first: usize,
+    },
+    /// A face with a repeated vertex, or an area at most `1e-14` times the squared bounding-box diagonal.
     #[error("face {face} is degenerate (zero area)")]
-    DegenerateFace { face: usize },
+    DegenerateFace {
+        /// The degenerate face.
+        face: usize,
+    },
+    /// A face with the same three vertices (in any order) as an earlier face.
     #[error("face {face} duplicates face {other} (same three vertices)")]
-    DuplicateFace { face: usize, other: usize },
+    DuplicateFace {
+        /// The repeat, left out of the topology checks.
+        face: usize,
+        /// The first face with these vertices, which stays in the topology.
+        other: usize,
+    },
+    /// An edge shared by more than two faces.
     #[error("edge ({a}, {b}) is shared by {faces} faces (non-manifold)")]
-    NonManifoldEdge { a: usize, b: usize, faces: usize },
+    NonManifoldEdge {
+        /// Smaller vertex of the edge.
+        a: usize,
+        /// Larger vertex of the edge.
+        b: usize,
+        /// Number of faces sharing the edge (more than 2).
+        faces: usize,
+    },
+    /// A vertex whose faces form more than one fan; not reported when it lies on a non-manifold edge.
     #[error("vertex {vertex} is non-manifold (its faces do not form a single fan, e.g. a bow-tie)")]
-    NonManifoldVertex { vertex: usize },
+    NonManifoldVertex {
+        /// The non-manifold vertex.
+        vertex: usize,
+    },
+    /// An edge of two faces that both traverse it in the same direction.
     #[error("edge ({a}, {b}) is traversed in the same direction by both its faces (inconsistent orientation)")]
-    InconsistentOrientation { a: usize, b: usize },
+    InconsistentOrientation {
+        /// Smaller vertex of the edge.
+        a: usize,
+        /// Larger vertex of the edge.
+        b: usize,
+    },
+    /// The faces form more than one connected component.
     #[error("mesh has {count} connected components; a single connected mesh is required")]
-    Components { count: usize },
+    Components {
+        /// Number of connected components.
+        count: usize,
+    },
+    /// Not a topological disk, when one is required (`param`, `authalic`).
     #[error(
         "mesh has {boundary_loops} boundary {} and Euler characteristic {euler}; param/authalic need a \
          topological disk (1 loop, Euler characteristic 1)",
         if *boundary_loops == 1 { "loop" } else { "loops" }
     )]
-    NotDisk { boundary_loops: usize, euler: i64 },
+    NotDisk {
+        /// Number of boundary loops found.
+        boundary_loops: usize,
+        /// Euler characteristic `V - E + F` found.
+        euler: i64,
+    },
+    /// A vertex with a NaN or infinite coordinate.
     #[error("vertex {vertex} has a non-finite coordinate (NaN or infinity)")]
-    NonFinitePosition { vertex: usize },
+    NonFinitePosition {
+        /// The vertex with the non-finite coordinate.
+        vertex: usize,
+    },
+    /// The first axis whose finite coordinates span more than an `f64` holds, or a subnormal span.
     #[error(
         "the {} coordinates run from {lo:e} (vertex {lo_vertex}) to {hi:e} (vertex {hi_vertex}), a span f64 \
          cannot hold; rescale the mesh",
         ["x", "y", "z"][*axis]
     )]
-    CoordinateRange { axis: usize, lo: f64, lo_vertex: usize, hi: f64, hi_vertex: usize },
+    CoordinateRange {
+        /// The axis: 0 for x, 1 for y, 2 for z.
+        axis: usize,
+        /// Smallest finite coordinate on the axis.
+        lo: f64,
+        /// A vertex holding `lo`.
+        lo_vertex: usize,
+        /// Largest finite coordinate on the axis.
+        hi: f64,
+        /// A vertex holding `hi`.
+        hi_vertex: usize,
+    },
+    /// The mesh has no faces.
     #[error("mesh has no faces")]
     Empty,
+    /// Vertices off the plane `z = 0`, for the `deform` task; reported once for all of them.
     #[error(
         "{count} {} off the plane z = 0 (first: vertex {first}, z = {z}); the deform task needs a planar mesh",
         if *count == 1 { "vertex is" } else { "vertices are" }
     )]
-    NotPlanar { count: usize, first: usize, z: f64 },
+    NotPlanar {
+        /// How many vertices are off the plane.
+        count: usize,
+        /// The lowest such vertex.
+        first: usize,
+        /// The z coordinate of `first`, in the file's units.
+        z: f64,
+    },
+    /// A face that is clockwise (or flat) in the normalized rest pose, for the `deform` task.
     #[error("face {face} is clockwise in the plane; the deform task needs counter-clockwise faces (the rest pose)")]
-    ClockwiseFace { face: usize },
+    ClockwiseFace {
+        /// The clockwise face.
+        face: usize,
+    },
+    /// Every vertex lies on the boundary, so the `authalic` task has nothing to move.
     #[error("mesh has no interior vertex; the authalic task moves interior vertices and needs at least one")]
     NoInterior,
 }
 
 impl Problem {
-    /// Plural name of the kind, for "... and N more <kind>" summaries.
+    /// Plural name of the kind, for "... and N more `<kind>`" summaries.
     pub fn kind(&self) -> &'static str {
         match self {
             Problem::IndexOutOfRange { .. } => "out-of-range indices",
@@ -75,7 +157,7 @@ impl Problem {
     }
 }
 
-/// One line per problem, at most `max_per_kind` of each kind followed by "... and N more <kind>".
+/// One line per problem, at most `max_per_kind` of each kind followed by "... and N more `<kind>`".
 /// Keeps messages readable for a mesh with thousands of bad faces.
 pub fn summarize_problems(problems: &[Problem], max_per_kind: usize, sep: &str) -> String {
     let mut parts: Vec<String> = Vec::new();
@@ -97,18 +179,24 @@ pub fn summarize_problems(problems: &[Problem], max_per_kind: usize, sep: &str) 
 pub struct ValidationReport {
     /// The mesh's source (file path or `generated:<name>`).
     pub source: String,
+    /// Number of vertices, used or not.
     pub n_vertices: usize,
+    /// Number of faces, including those left out of the topology checks.
     pub n_faces: usize,
     /// Undirected edges of the faces that take part in topology (see [`validate`]).
     pub n_edges: usize,
+    /// Number of boundary loops of the topology faces.
     pub boundary_loops: usize,
     /// `V - E + F` over referenced vertices and topology faces.
     pub euler: i64,
+    /// Number of connected components of the topology faces (faces sharing a vertex are connected).
     pub components: usize,
+    /// Every defect found, grouped by kind; empty for a usable mesh.
     pub problems: Vec<Problem>,
 }
 
 impl ValidationReport {
+    /// True when no problem was found.
     pub fn is_ok(&self) -> bool {
         self.problems.is_empty()
     }

@@ -298,7 +298,7 @@ mod tests {
     #[test]
     fn reaches_kp_on_two_shared_meshes() {
         // not hand_smpl: from its Tutte map (energy 7e5) AQP ends in a 2-cycle 4.5e-6 above
-        // KP's energy with |grad| 0.45 (README); nor goathead, where it converges to another
+        // KP's energy with |grad| 0.45; nor goathead, where it converges to another
         // local minimum, 2.9e-5 above KP's
         for name in ["cow", "bunnyhead"] {
             if let Some(mesh) = shared_mesh(name) {

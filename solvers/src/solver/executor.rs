@@ -33,9 +33,13 @@ pub struct Step {
     /// The energy's decrease for the energy-decrease rule; `None` leaves the rule's last one
     /// (AQP's iterations in which `f(x)` rose).
     pub decrease: Option<f64>,
+    /// Evaluation and assembly time (`t_assemble_s`).
     pub t_assemble: f64,
+    /// Per-element Hessian modification time (`t_project_s`).
     pub t_project: f64,
+    /// Factorization and solve time (`t_solve_s`).
     pub t_solve: f64,
+    /// Line-search time (`t_linesearch_s`).
     pub t_linesearch: f64,
     /// Work inside the step done only for the row and the stop rule (inertia counts, AQP's
     /// evaluation at `x`): left out of the iteration's time.
@@ -45,6 +49,7 @@ pub struct Step {
     pub t_reused: f64,
     /// The Tikhonov shift of the step's linear system, if it has one.
     pub shift: Option<f64>,
+    /// Energy evaluations of the line search.
     pub ls_evals: usize,
     /// The values of the method's columns, in their order.
     pub extra: Vec<f64>,
@@ -52,6 +57,7 @@ pub struct Step {
 
 /// A method's iteration.
 pub trait Method {
+    /// The state the method advances.
     type Iterate: Iterate;
 
     /// One iteration from `at`, iterate `iter`: on success `at` is the next iterate, evaluated
@@ -68,6 +74,7 @@ pub struct Start<M> {
     pub method: Result<M, StopReason>,
     /// The method's own CSV columns, after design.md's.
     pub columns: Vec<&'static str>,
+    /// How the method obtained its symbolic analysis (`None`: no shared system).
     pub analysis: Option<AnalysisReport>,
     /// Setup work that is part of the method's cost (the numeric factorization of a
     /// constant proxy): charged to iteration 1, as solve time.
@@ -77,7 +84,9 @@ pub struct Start<M> {
 /// A finished run: the outcome and the last iterate (the authalic task computes its metrics
 /// on it).
 pub struct Finished<I> {
+    /// The run's outcome.
     pub outcome: Outcome,
+    /// The last iterate; its map may have been moved into `outcome.x`.
     pub last: I,
 }
 

@@ -54,7 +54,9 @@ pub enum InitialHessian {
 /// One L-BFGS variant: its initial Hessian and history length.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Variant {
+    /// The initial Hessian `H0`.
     pub h0: InitialHessian,
+    /// Curvature pairs kept (`m`).
     pub memory: usize,
 }
 
@@ -79,18 +81,22 @@ pub struct History {
 }
 
 impl History {
+    /// An empty history that keeps at most `m` pairs.
     pub fn new(m: usize) -> History {
         History { m, pairs: VecDeque::with_capacity(m), alpha: Vec::with_capacity(m) }
     }
 
+    /// Number of stored pairs.
     pub fn len(&self) -> usize {
         self.pairs.len()
     }
 
+    /// Whether no pair is stored.
     pub fn is_empty(&self) -> bool {
         self.pairs.is_empty()
     }
 
+    /// Drop every stored pair.
     pub fn clear(&mut self) {
         self.pairs.clear();
     }

@@ -5,7 +5,9 @@ use super::{IterationRecord, SolveError, StopReason};
 use crate::problem::{Evaluation, MapProblem};
 use std::time::Instant;
 
+/// The iterate of the `param` and `deform` solvers: a map with its evaluation.
 pub struct MapIterate<'a> {
+    /// The problem the map is evaluated on.
     pub problem: &'a MapProblem,
     /// The map, interleaved `[u0, v0, u1, v1, ...]`.
     pub x: Vec<f64>,

@@ -33,13 +33,19 @@ use std::sync::Arc;
 /// that produced it (all zero in row 0).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct IterationRecord {
+    /// Accepted steps so far (0: the start map).
     pub iter: usize,
+    /// The objective's value at the iterate.
     pub energy: f64,
+    /// Euclidean norm of the gradient at the iterate.
     pub grad_norm: f64,
     /// Accepted step length `t` (0 in row 0).
     pub step: f64,
+    /// Negative eigenvalues summed over the unmodified element Hessians.
     pub neg_eig: usize,
+    /// Elements whose unmodified Hessian has a negative eigenvalue.
     pub indefinite_elems: usize,
+    /// Inverted or degenerate triangles of the map (the folded faces for `authalic`).
     pub flips: usize,
     /// Derivative evaluation at the new iterate plus scattering into the sparse matrix.
     pub t_assemble_s: f64,
@@ -97,6 +103,7 @@ impl IterationRecord {
 /// What the observer wants next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flow {
+    /// Go on with the next iteration.
     Continue,
     /// Stop after this row (Ctrl-C, SIGTERM); recorded as [`StopReason::Interrupted`].
     Stop,
@@ -115,7 +122,9 @@ impl Flow {
     }
 }
 
+/// Receives a run's rows, and the systems a Newton-type solver factorizes.
 pub trait Observer {
+    /// Take the next row; the answer says whether the solver goes on.
     fn observe(&mut self, record: &IterationRecord) -> Flow;
 
     /// The system a Newton-type solver is about to factorize for the step from iterate
@@ -127,13 +136,19 @@ pub trait Observer {
 /// (before the shift and scaling of `linear`, which the factorization applies) and the
 /// gradient at iterate `iter`.
 pub struct SystemView<'a> {
+    /// The iterate whose step the system is for.
     pub iter: usize,
+    /// Start of each column in `row_idx` and `values`, then their length (CSC).
     pub col_ptr: &'a [usize],
+    /// Row of each stored entry.
     pub row_idx: &'a [usize],
     /// Position of each column's diagonal entry.
     pub diag: &'a [usize],
+    /// Value of each stored entry.
     pub values: &'a [f64],
+    /// The gradient at the iterate (the right-hand side is its negative).
     pub grad: &'a [f64],
+    /// The shift and scaling the factorization applies.
     pub linear: &'a LinearSettings,
 }
 
@@ -170,6 +185,7 @@ impl Observer for TimeoutAt {
 /// An observer that keeps every row (tests, small runs).
 #[derive(Default, Debug)]
 pub struct Recorder {
+    /// Every row reported, in order.
     pub rows: Vec<IterationRecord>,
 }
 
@@ -184,8 +200,10 @@ impl Observer for Recorder {
 /// [`StopReason`] and the run returns the last accepted iterate.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum SolveError {
+    /// The start map cannot be evaluated (an inverted or degenerate element, a non-finite value).
     #[error("initial map: {0}")]
     InitialMap(#[from] crate::problem::EvalError),
+    /// The linear solver's setup (ordering, symbolic analysis) failed.
     #[error("linear solver setup: {0}")]
     Linear(#[from] crate::linear::LinearError),
 }
@@ -197,6 +215,7 @@ pub enum StopReason {
     GradientTolerance,
     /// Energy decrease below `energy_decrease_tol` (SARAP in param, every energy in deform).
     EnergyDecrease,
+    /// `max_iters` steps were taken.
     MaxIterations,
     /// Armijo backtracking shrank the step below `t |d| <= min_step` without sufficient decrease.
     LineSearchFailed,
@@ -243,6 +262,7 @@ impl StopReason {
         StopReason::Skipped,
     ];
 
+    /// The `stop_reason` column's string.
     pub fn as_str(&self) -> &'static str {
         match self {
             StopReason::GradientTolerance => "grad_tol",
@@ -310,9 +330,11 @@ impl<'de> serde::Deserialize<'de> for StopReason {
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StopSettings {
+    /// Stop when `|grad| <= grad_tol`; 0 disables the rule.
     pub grad_tol: f64,
     /// Stop when `E_old - E_new < energy_decrease_tol`; 0 disables the rule.
     pub energy_decrease_tol: f64,
+    /// Stop after this many accepted steps.
     pub max_iters: usize,
 }
 
@@ -346,8 +368,11 @@ impl Default for StopSettings {
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StopOverrides {
+    /// Replaces [`StopSettings::grad_tol`] when set.
     pub grad_tol: Option<f64>,
+    /// Replaces [`StopSettings::energy_decrease_tol`] when set.
     pub energy_decrease_tol: Option<f64>,
+    /// Replaces [`StopSettings::max_iters`] when set.
     pub max_iters: Option<usize>,
 }
 
@@ -365,8 +390,11 @@ impl StopOverrides {
 /// Everything a solver run needs besides the problem.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Settings {
+    /// The stopping rules.
     pub stop: StopSettings,
+    /// The line search's parameters.
     pub line_search: LineSearchSettings,
+    /// The linear solver's shift, scaling and ordering.
     pub linear: LinearSettings,
     /// The run's solver's own options (`[solver.<name>]`) as given, e.g. SLIM's weight
     /// clamping; its catalogue entry reads them (null: none given).
@@ -417,9 +445,11 @@ pub enum StartMap {
 }
 
 impl StartMap {
+    /// Every start map (parsing, listings).
     pub const ALL: [StartMap; 5] =
         [StartMap::TutteScaled, StartMap::Tutte, StartMap::Rest, StartMap::Given, StartMap::ArclengthStretch];
 
+    /// The `start` column's string.
     pub fn as_str(self) -> &'static str {
         match self {
             StartMap::TutteScaled => "tutte-scaled",
@@ -446,11 +476,17 @@ impl std::str::FromStr for StartMap {
 pub struct Outcome {
     /// Final map, interleaved `[u0, v0, u1, v1, ...]`.
     pub x: Vec<f64>,
+    /// Accepted steps taken.
     pub iterations: usize,
+    /// Why the run stopped.
     pub stop_reason: StopReason,
+    /// Energy of the start map (row 0).
     pub init_energy: f64,
+    /// Energy of the final map.
     pub final_energy: f64,
+    /// Gradient norm at the final map.
     pub grad_norm: f64,
+    /// Inverted or degenerate triangles of the final map.
     pub flips: usize,
     /// The system's symbolic analysis (`None` for solvers without a shared system).
     pub analysis: Option<AnalysisReport>,

@@ -31,6 +31,7 @@ pub enum SystemSolve {
 
 /// A Newton-type solver built for one energy: its system-matrix strategy and solve.
 pub struct SolverSpec {
+    /// The system-matrix strategy: how each element's block is built.
     pub block: Box<dyn SystemBlock>,
     /// Overrides how the smoothness term's 8x8 blocks are projected.
     pub smoothness_projection: Option<Projection>,

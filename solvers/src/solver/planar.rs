@@ -6,6 +6,7 @@ use super::{Observer, Outcome, Settings, SolveError};
 use crate::problem::MapProblem;
 use crate::smoothness::Projection;
 
+/// A `param`/`deform` solver built for one energy and its options.
 pub trait PlanarSolver {
     /// Run from the orientation-preserving map `x0`.
     fn solve(

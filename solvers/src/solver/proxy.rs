@@ -13,7 +13,7 @@
 //! invariant). With handles `A` is positive definite and nothing is pinned.
 //!
 //! `A` does not couple the two coordinates and is the same on both: `A = L (x) I_2` with `L`
-//! the `n x n` proxy of one coordinate. [`ScalarProxy`] factors `L` alone (the vertex graph:
+//! the `n x n` proxy of one coordinate. `ScalarProxy` factors `L` alone (the vertex graph:
 //! a quarter of the entries, about an eighth of the factorization's work) and solves for both
 //! coordinates in one pass over its factor: `kp-newton-cg`'s preconditioner.
 
@@ -223,7 +223,7 @@ fn scalar_pattern(problem: &MapProblem) -> (LaplacianPattern, SubBlock) {
 }
 
 /// The proxy of one coordinate, `L`, as a lower CSC block of the vertex graph and its values
-/// (the Dirichlet weights of [`dirichlet_weights`], the handles, the pin).
+/// (the Dirichlet weights of `dirichlet_weights`, the handles, the pin).
 pub fn scalar_laplacian_proxy(problem: &MapProblem, pinned: Option<usize>) -> (SubBlock, Vec<f64>) {
     let (pattern, block) = scalar_pattern(problem);
     let mut weights = Vec::new();

@@ -5,23 +5,51 @@ use crate::mesh::Task;
 /// Why a solver cannot run as asked.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum SolverError {
+    /// No solver has this name.
     #[error("unknown {}solver '{name}' (known: {})", task_qualifier(*task), known.join(", "))]
-    Unknown { name: String, task: Task, known: Vec<&'static str> },
+    Unknown {
+        /// The name asked for.
+        name: String,
+        /// The task it was asked for.
+        task: Task,
+        /// The names of that task's solvers.
+        known: Vec<&'static str>,
+    },
+    /// The solver does not run this task.
     #[error(
         "'{name}' is {} solver: task {task} runs {} only",
         kind_of(runs),
         known.join(", ")
     )]
-    WrongTask { name: &'static str, runs: &'static [Task], task: Task, known: Vec<&'static str> },
+    WrongTask {
+        /// The solver's name.
+        name: &'static str,
+        /// The tasks it runs.
+        runs: &'static [Task],
+        /// The task asked for.
+        task: Task,
+        /// The names of that task's solvers.
+        known: Vec<&'static str>,
+    },
     /// The solver is not defined for this energy (or these parameters), with the reason.
     #[error("{0}")]
     Unsupported(String),
     /// The solver runs the task without a Newton system (nothing to build or export).
     #[error("'{name}' has no Newton system ({description})")]
-    NoSystem { name: &'static str, description: &'static str },
+    NoSystem {
+        /// The solver's name.
+        name: &'static str,
+        /// Its catalogue description.
+        description: &'static str,
+    },
     /// Its `[solver.<name>]` table does not read as its options.
     #[error("[solver.{name}] {message}")]
-    Options { name: &'static str, message: String },
+    Options {
+        /// The solver's name.
+        name: &'static str,
+        /// Why the table does not read.
+        message: String,
+    },
 }
 
 /// "authalic " in "unknown authalic solver": the Newton-type solvers are the unqualified ones.

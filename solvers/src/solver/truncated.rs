@@ -1,7 +1,7 @@
 //! The truncated Newton step of `kp-newton-cg` (the complex-view paper's future work, a
 //! "matrix-free truncated Newton"): the projected Newton system `H d = -g` solved only as far
 //! as the forcing term asks, by conjugate gradients preconditioned with a Laplacian of one
-//! coordinate ([`ScalarProxy`]): weighted per face by the stiffness of its projected block
+//! coordinate (`ScalarProxy`): weighted per face by the stiffness of its projected block
 //! and refactored every iteration (the vertex graph's factorization, a quarter of the
 //! system's at 1M), or, in `kp-newton-cg-laplacian`, the constant Dirichlet Laplacian
 //! factored once ([`Preconditioner`]). Each CG iteration is one product with the assembled
@@ -46,7 +46,7 @@ pub const CG_CAPPED_COLUMN: &str = "cg_capped";
 pub enum Preconditioner {
     /// The constant Dirichlet Laplacian, factored once per run: the cheapest steps, but on
     /// the real meshes' distorted Tutte maps it is far from the system and CG needs tens of
-    /// iterations per step (README "Past the direct solver").
+    /// iterations per step (docs/src/results/kp-newton-cg.md).
     Laplacian,
     /// The Laplacian with each face weighted by its projected block's mean stiffness
     /// (`trace H_t / trace D_t`), refactored every Newton iteration on the same analysis: a
@@ -100,6 +100,7 @@ pub struct Forcing {
 }
 
 impl Forcing {
+    /// The forcing terms of a run: at most `eta_max`, at least `0.5 grad_tol / |g|`.
     pub fn new(eta_max: f64, grad_tol: f64) -> Forcing {
         Forcing { eta_max, grad_tol, last: None }
     }
@@ -138,9 +139,11 @@ pub enum CgStop {
 /// What one truncated step did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CgReport {
+    /// CG iterations taken.
     pub iterations: usize,
     /// `|P r| / |P g|` at the returned direction.
     pub residual: f64,
+    /// Why CG stopped.
     pub stop: CgStop,
 }
 

@@ -59,7 +59,9 @@ pub type SolveAuthalic = fn(&AuthalicProblem, Vec<f64>, &AuthalicSettings, &mut 
 /// How an entry runs: the task family decides what a solver is given.
 #[derive(Clone, Copy)]
 pub enum Build {
+    /// A `param`/`deform` solver, built for an energy and its options.
     Planar(BuildPlanar),
+    /// An authalic solver, run directly on the problem.
     Authalic(SolveAuthalic),
 }
 
@@ -103,6 +105,7 @@ impl Options for SlimOptions {}
 pub struct SolverEntry {
     /// The name in configs, file names and CSVs.
     pub name: &'static str,
+    /// The tasks it runs.
     pub tasks: &'static [Task],
     /// Names of the energies it is defined for (`ENERGY_NAMES`, or the authalic energy).
     /// Some combinations are refused for some parameters, with the reason, when built.
@@ -123,9 +126,11 @@ pub struct SolverEntry {
     pub label: &'static str,
     /// One line for `list solvers`.
     pub description: &'static str,
+    /// How it is built or run.
     pub build: Build,
     /// Where its runs start: the task's common start, unless its method defines its own.
     pub start: Start,
+    /// Its family, which sets its hue in the reports.
     pub family: Family,
 }
 
@@ -435,6 +440,7 @@ pub fn planar_solver(
 }
 
 impl SolverEntry {
+    /// Whether it runs `task`.
     pub fn runs(&self, task: Task) -> bool {
         self.tasks.contains(&task)
     }
