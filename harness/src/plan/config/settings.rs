@@ -82,8 +82,8 @@ impl Config {
         p.smoothness.filter(|w| *w > 0.0).map(|w| (w, p.smoothness_projection.unwrap_or_default()))
     }
 
-    /// The `deform` settings (the same for every energy): `DeformSettings`'s defaults (energy
-    /// decrease < 1e-6, no global scaling) overridden by `[stop]`, `[line_search]`, `[linear]`,
+    /// The `deform` settings (the same for every energy): `DeformSettings`'s defaults
+    /// (|grad| <= 1e-6, no global scaling) overridden by `[stop]`, `[line_search]`, `[linear]`,
     /// `[deform]`.
     pub(super) fn deform_settings(&self) -> DeformSettings {
         let mut s = DeformSettings::default();
