@@ -16,6 +16,8 @@ use mapbench::run::{self, merge, progress};
 use mapbench::{export, report, run_folder, signals, slurm};
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+mod reference;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -30,6 +32,7 @@ struct Cli {
 enum Command {
     /// Run every (dataset, energy, solver) of a config; exit 1 if any run failed.
     Run {
+        /// The config file (TOML; see the book's config reference).
         config: PathBuf,
         /// Output folder (default: reports/<name>).
         #[arg(long)]
@@ -80,8 +83,10 @@ enum Command {
         /// plan, scripts, shard folders and logs go to its slurm/.
         #[arg(long, conflicts_with = "resume")]
         out: Option<PathBuf>,
+        /// Only the runs whose `<dataset>__<energy>__<solver>` matches this glob, as `run --only`.
         #[arg(long, conflicts_with = "resume")]
         only: Vec<String>,
+        /// Repeat every run N times, as `run --repeat`.
         #[arg(long, conflicts_with = "resume")]
         repeat: Option<usize>,
         /// Cores of each task (`--cpus-per-task`), which its `run --jobs` uses.
@@ -108,7 +113,9 @@ enum Command {
     /// Compute the reference minima a config's runs are judged by (param, deform) that no
     /// store holds yet, and list them all; a nightly then starts warm.
     References {
+        /// The config file whose runs' reference minima are wanted.
         config: PathBuf,
+        /// Only the groups of the runs this glob selects, as `run --only`.
         #[arg(long)]
         only: Vec<String>,
         /// The store computed references are added to (default: the config's `references`,
@@ -118,9 +125,13 @@ enum Command {
         store: Option<PathBuf>,
     },
     /// Re-render the tables, plots and index.html of a run folder from its CSVs alone.
-    Report { run_dir: PathBuf },
+    Report {
+        /// A run folder (`run`'s or `merge`'s output).
+        run_dir: PathBuf,
+    },
     /// Combine the folders of `run --shard I/N` batches into one run folder and report.
     Merge {
+        /// The shards' run folders (`run --shard I/N` outputs of one batch).
         #[arg(required = true)]
         shards: Vec<PathBuf>,
         /// Output folder (default: reports/<name> of the shards' config).
@@ -157,10 +168,12 @@ enum Command {
     /// Write the Newton system (Matrix Market) of each selected `param` run of a config at an
     /// iteration, for timing other sparse solvers on it (scripts/bench_linear_solvers.py).
     ExportSystem {
+        /// The config file (`param` task).
         config: PathBuf,
         /// Output folder for `<run>__it<K>.mtx` and `.rhs.mtx`.
         #[arg(long)]
         out: PathBuf,
+        /// Only the runs this glob selects, as `run --only`.
         #[arg(long)]
         only: Vec<String>,
         /// The iterate whose system is written (0 = the initial map).
@@ -170,6 +183,7 @@ enum Command {
     /// Write the classic OBJ (source mesh as v, map as vt) of stored final maps of a run
     /// folder, for any OBJ viewer; exit 2 when a selected run's map was not kept.
     Map {
+        /// A run folder whose final maps were kept (`maps`).
         run_dir: PathBuf,
         /// Runs as `<dataset>__<energy>__<solver>` or globs (`*`, `?`); default: every run.
         runs: Vec<String>,
@@ -183,6 +197,7 @@ enum Command {
     /// Time mapbench's sparse Cholesky (analyse once; factorize + solve, median of --repeat)
     /// on a Matrix Market file written by export-system; prints one JSON line.
     TimeSystem {
+        /// A Matrix Market file `export-system` wrote.
         matrix: PathBuf,
         #[arg(long, value_enum, default_value = "metis")]
         ordering: OrderingArg,
@@ -200,7 +215,9 @@ enum Command {
     /// Compare a run folder with a baseline: exit 1 on a regression (more iterations, higher
     /// final energy, worse status, new flips), 2 when a baseline run is missing.
     Check {
+        /// The run folder to check.
         run_dir: PathBuf,
+        /// The baseline JSON (`mapbench baseline` writes one).
         #[arg(long)]
         baseline: PathBuf,
     },
@@ -209,7 +226,9 @@ enum Command {
     /// `check`), 2 when the folders share no run; times are labelled, never gated unless
     /// --time-regressions.
     Compare {
+        /// The run folder before.
         run_a: PathBuf,
+        /// The run folder after.
         run_b: PathBuf,
         /// Also write the comparison as a self-contained HTML page (`-`: the page on standard
         /// output instead of the Markdown).
@@ -228,6 +247,7 @@ enum Command {
     },
     /// Write a baseline (JSON) from a run folder's summary.csv.
     Baseline {
+        /// The run folder whose summary becomes the baseline.
         run_dir: PathBuf,
         /// The baseline file (`-`: standard output).
         #[arg(long)]
@@ -236,6 +256,7 @@ enum Command {
     /// Print the topology and degeneracy report of one mesh (an OBJ file or generated:<name>);
     /// exit 1 when it is not usable for the task.
     Validate {
+        /// An OBJ file, or `generated:<name>` for a mesh our code generates.
         mesh: String,
         /// `param` and `authalic` need a topological disk (`authalic` an interior vertex);
         /// `deform` allows holes but needs a planar, counter-clockwise shape.
@@ -247,7 +268,9 @@ enum Command {
     /// meshes/<dataset>.obj.gz; MAP: a run folder's uv/<run>.uv.gz or an OBJ with `vt` (as
     /// `mapbench map` writes).
     Evaluate {
+        /// The mesh: an OBJ, or a run folder's `meshes/<dataset>.obj.gz`.
         mesh: PathBuf,
+        /// The map: a run folder's `uv/<run>.uv.gz`, or an OBJ with `vt` lines.
         map: PathBuf,
         /// The task whose energy scores the map (only `param` so far).
         #[arg(long, default_value = "param", value_parser = task_parser())]
@@ -276,6 +299,9 @@ enum Command {
     List {
         #[arg(value_enum, default_value = "datasets")]
         what: ListWhat,
+        /// solvers: the catalogue as the Markdown table of the book's reference page.
+        #[arg(long)]
+        markdown: bool,
         /// The dataset registry (default: ./datasets.toml).
         #[arg(long, default_value = "datasets.toml")]
         registry: PathBuf,
@@ -558,7 +584,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             out(format_args!("{report}\n"))?;
             Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
         }
-        Command::List { what, registry } => list(what, &registry),
+        Command::List { what, registry, markdown } => list(what, &registry, markdown),
         // exit 0 whatever the map's quality: the numbers say it
         Command::Evaluate { mesh, map, task, energy, params, frame, config, dataset, json } => {
             let energy = mapbench::evaluate::energy_of(task, &energy, &params)?;
@@ -785,8 +811,12 @@ fn waited(submission: &slurm::Submission, round: &slurm::Submitted) -> Result<Ex
 }
 
 /// `list`: the solvers, energies or datasets.
-fn list(what: ListWhat, registry: &std::path::Path) -> Result<ExitCode> {
+fn list(what: ListWhat, registry: &std::path::Path, markdown: bool) -> Result<ExitCode> {
+    if markdown && !matches!(what, ListWhat::Solvers) {
+        anyhow::bail!("--markdown lists the solvers only");
+    }
     match what {
+        ListWhat::Solvers if markdown => out(format_args!("{}", reference::solvers_markdown()))?,
         // Every task's solvers, from the one catalogue.
         ListWhat::Solvers => {
             for s in solvers::solver::catalogue::SOLVERS {
@@ -899,5 +929,133 @@ fn run_exit(signalled: i32, written: bool, failed: usize) -> ExitCode {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+    use std::path::Path;
+
+    fn repo() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+    }
+
+    /// The committed page at `rel` is `text`; `MAPBENCH_BLESS_DOCS=1` writes it instead.
+    fn check_page(rel: &str, text: &str) {
+        let path = repo().join(rel);
+        if std::env::var_os("MAPBENCH_BLESS_DOCS").is_some() {
+            std::fs::write(&path, text).unwrap();
+            return;
+        }
+        let committed = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            committed == text,
+            "{rel} is not what the code generates: rerun with MAPBENCH_BLESS_DOCS=1 (cargo test --release --bin \
+             mapbench reference) and commit it"
+        );
+    }
+
+    #[test]
+    fn the_cli_definitions_are_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn reference_pages_are_what_the_code_generates() {
+        check_page("docs/src/reference/cli.md", &reference::cli_markdown(Cli::command()));
+        check_page("docs/src/reference/solvers.md", &reference::solvers_markdown());
+    }
+
+    /// Code blocks of Markdown text: (language, body).
+    fn code_blocks(text: &str) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        let mut current: Option<(String, String)> = None;
+        for line in text.lines() {
+            let fence = line.trim_start().strip_prefix("```");
+            match (&mut current, fence) {
+                (None, Some(lang)) => current = Some((lang.trim().to_string(), String::new())),
+                (Some(_), Some(_)) => out.extend(current.take()),
+                (Some((_, body)), None) => {
+                    body.push_str(line);
+                    body.push('\n');
+                }
+                (None, None) => {}
+            }
+        }
+        out
+    }
+
+    /// The Markdown files users read: README and the book's pages.
+    fn docs() -> Vec<(PathBuf, String)> {
+        let mut files = vec![repo().join("README.md")];
+        let mut stack = vec![repo().join("docs/src")];
+        while let Some(dir) = stack.pop() {
+            for e in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
+                let p = e.path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.extension().is_some_and(|x| x == "md") {
+                    files.push(p);
+                }
+            }
+        }
+        files.sort();
+        files.into_iter().map(|p| (p.clone(), std::fs::read_to_string(&p).unwrap())).collect()
+    }
+
+    /// Every `mapbench VERB --flag` in a code block of README and the book names a verb and
+    /// flags the binary has (a command line continued with `\` is read whole).
+    #[test]
+    fn every_command_line_example_names_an_existing_verb_and_flag() {
+        let cli = Cli::command();
+        let mut checked = 0;
+        let mut bad = Vec::new();
+        for (path, text) in docs() {
+            for (lang, body) in code_blocks(&text) {
+                if !matches!(lang.as_str(), "" | "sh" | "bash" | "console" | "text" | "shell") {
+                    continue;
+                }
+                let joined = body.replace("\\\n", " ");
+                for line in joined.lines() {
+                    let words: Vec<&str> = line.split_whitespace().filter(|w| *w != "$").collect();
+                    // The command's words: after `mapbench` (or a path to it) that starts the line
+                    // but for environment assignments, or after `cargo run ... --`.
+                    let lead = words.iter().position(|w| !w.contains('=')).unwrap_or(words.len());
+                    let start = match words.get(lead) {
+                        Some(w) if *w == "mapbench" || w.ends_with("/mapbench") => lead + 1,
+                        Some(&"cargo") if words.get(lead + 1) == Some(&"run") => {
+                            match words.iter().position(|w| *w == "--") {
+                                Some(dash) => dash + 1,
+                                None => continue,
+                            }
+                        }
+                        _ => continue,
+                    };
+                    let rest: Vec<&str> = words[start..].iter().copied().take_while(|w| !w.starts_with('#')).collect();
+                    let Some(verb) = rest.first().filter(|v| !v.starts_with('-')) else { continue };
+                    let Some(sub) = cli.find_subcommand(verb) else {
+                        bad.push(format!("{}: `{line}`: no verb {verb}", path.display()));
+                        continue;
+                    };
+                    for w in &rest[1..] {
+                        let w = w.trim_start_matches(['[', '(', '|']);
+                        let Some(flag) = w.strip_prefix("--") else { continue };
+                        let flag = flag.split('=').next().unwrap_or(flag);
+                        let flag = flag.trim_end_matches(|c: char| !c.is_ascii_alphanumeric() && c != '-');
+                        if flag.is_empty() || flag == "help" {
+                            continue;
+                        }
+                        if !sub.get_arguments().any(|a| a.get_long() == Some(flag)) {
+                            bad.push(format!("{}: `{line}`: {verb} has no --{flag}", path.display()));
+                        }
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(bad.is_empty(), "{}", bad.join("\n"));
+        assert!(checked > 20, "{checked} flags checked");
     }
 }

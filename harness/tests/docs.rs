@@ -1,0 +1,254 @@
+//! What keeps README and the book (`docs/`) true: every link between them resolves (anchors
+//! included), every TOML example parses as the config or registry it shows, and the columns
+//! page documents exactly the columns the CSV writers write. The generated reference pages
+//! (CLI, solvers) and the command-line examples are checked by the binary's own tests.
+
+mod common;
+
+use common::repo_root;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+/// README and every page of the book, with their text.
+fn docs() -> Vec<(PathBuf, String)> {
+    let mut files = vec![repo_root().join("README.md")];
+    let mut stack = vec![repo_root().join("docs/src")];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "md") {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    files.into_iter().map(|p| (p.clone(), std::fs::read_to_string(&p).unwrap())).collect()
+}
+
+/// Lines outside fenced code blocks.
+fn prose(text: &str) -> Vec<&str> {
+    let mut inside = false;
+    text.lines()
+        .filter(|l| {
+            if l.trim_start().starts_with("```") {
+                inside = !inside;
+                return false;
+            }
+            !inside
+        })
+        .collect()
+}
+
+/// Fenced code blocks: (language, body).
+fn code_blocks(text: &str) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let mut current: Option<(String, String)> = None;
+    for line in text.lines() {
+        let fence = line.trim_start().strip_prefix("```");
+        match (&mut current, fence) {
+            (None, Some(lang)) => current = Some((lang.trim().to_string(), String::new())),
+            (Some(_), Some(_)) => out.extend(current.take()),
+            (Some((_, body)), None) => {
+                body.push_str(line);
+                body.push('\n');
+            }
+            (None, None) => {}
+        }
+    }
+    out
+}
+
+/// The id mdBook gives a heading: lower case, letters, digits, `-` and `_` kept, spaces as `-`.
+fn heading_id(heading: &str) -> String {
+    heading
+        .trim()
+        .chars()
+        .filter_map(|c| match c {
+            c if c.is_alphanumeric() || c == '_' || c == '-' => Some(c.to_lowercase().next().unwrap_or(c)),
+            c if c.is_whitespace() => Some('-'),
+            _ => None,
+        })
+        .collect()
+}
+
+fn anchors(text: &str) -> BTreeSet<String> {
+    prose(text).iter().filter_map(|l| l.strip_prefix('#')).map(|h| heading_id(h.trim_start_matches('#'))).collect()
+}
+
+/// `[text](target)` links of a line.
+fn links(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = line;
+    while let Some(i) = rest.find("](") {
+        let after = &rest[i + 2..];
+        let Some(end) = after.find(')') else { break };
+        out.push(after[..end].to_string());
+        rest = &after[end..];
+    }
+    out
+}
+
+#[test]
+fn every_link_between_the_pages_resolves() {
+    let pages = docs();
+    assert!(pages.len() > 20, "the book has {} pages", pages.len());
+    let mut bad = Vec::new();
+    let mut checked = 0;
+    for (path, text) in &pages {
+        for line in prose(text) {
+            for target in links(line) {
+                let target = target.split_whitespace().next().unwrap_or_default();
+                if target.contains("://") || target.starts_with("mailto:") || target.is_empty() {
+                    continue;
+                }
+                let (file, anchor) = target.split_once('#').map_or((target, None), |(f, a)| (f, Some(a)));
+                let dest: PathBuf = if file.is_empty() { path.clone() } else { path.parent().unwrap().join(file) };
+                checked += 1;
+                if !dest.exists() {
+                    bad.push(format!("{}: {target}: no such file", path.display()));
+                    continue;
+                }
+                if let Some(a) = anchor.filter(|_| dest.extension().is_some_and(|x| x == "md")) {
+                    if !anchors(&std::fs::read_to_string(&dest).unwrap()).contains(a) {
+                        bad.push(format!("{}: {target}: no heading #{a}", path.display()));
+                    }
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    assert!(checked > 50, "{checked} links checked");
+}
+
+#[test]
+fn every_page_is_in_the_books_summary() {
+    let src = repo_root().join("docs/src");
+    let summary = std::fs::read_to_string(src.join("SUMMARY.md")).unwrap();
+    let listed: BTreeSet<String> = links(&summary.replace('\n', " ")).into_iter().collect();
+    for (path, _) in docs().iter().filter(|(p, _)| p.starts_with(&src)) {
+        let rel = path.strip_prefix(&src).unwrap().to_string_lossy().into_owned();
+        if rel != "SUMMARY.md" {
+            assert!(listed.contains(&rel), "{rel} is not in SUMMARY.md");
+        }
+    }
+}
+
+/// A TOML example is a config (keys it lacks that a config needs are added), a dataset
+/// registry, or the corpus manifest; each must parse as what it is.
+#[test]
+fn every_toml_example_parses_as_the_config_or_registry_it_shows() {
+    let mut checked = 0;
+    let mut bad = Vec::new();
+    for (path, text) in docs() {
+        for (lang, body) in code_blocks(&text) {
+            if lang != "toml" {
+                continue;
+            }
+            checked += 1;
+            let starts = |key: &str| body.lines().any(|l| l.trim_start().starts_with(key));
+            let result = if body.contains("[[mesh]]") {
+                toml::from_str::<toml::Value>(&body).map(|_| ()).map_err(|e| e.to_string())
+            } else if body.contains("[[dataset]]") && (starts("generator") || starts("file")) {
+                mapbench::plan::registry::Registry::parse(&body, Path::new("example.toml"))
+                    .map(|_| ())
+                    .map_err(|e| format!("{e:#}"))
+            } else {
+                let mut config = String::new();
+                if !starts("name") {
+                    config += "name = \"example\"\n";
+                }
+                config += &body;
+                mapbench::plan::config::LoadedConfig::parse(&config, Path::new("example.toml"))
+                    .map(|_| ())
+                    .map_err(|e| format!("{e:#}"))
+            };
+            if let Err(e) = result {
+                bad.push(format!("{}: a toml example does not parse: {e}\n{body}", path.display()));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n\n"));
+    assert!(checked > 5, "{checked} examples checked");
+}
+
+/// The columns page has a row for every column the CSV writers write (the summary's, the
+/// per-iteration files' and each solver's extra ones), and no other.
+#[test]
+fn the_columns_page_documents_every_column_written_and_no_other() {
+    let page = std::fs::read_to_string(repo_root().join("docs/src/reference/columns.md")).unwrap();
+    let documented: BTreeSet<String> = page
+        .lines()
+        .filter_map(|l| l.strip_prefix("| `"))
+        .filter_map(|l| l.split_once('`').map(|(c, _)| c.to_string()))
+        .collect();
+    let mut written: BTreeSet<String> = mapbench::run_folder::SUMMARY_COLUMNS.iter().map(|c| c.to_string()).collect();
+    written.extend(["iters_to_<tau>".to_string(), "time_to_<tau>".to_string()]);
+    written.extend(mapbench::run_folder::ITERATION_COLUMNS.iter().map(|c| c.to_string()));
+    for s in solvers::solver::catalogue::SOLVERS {
+        written.extend(s.extra_columns.iter().map(|c| c.to_string()));
+    }
+    let missing: Vec<&String> = written.difference(&documented).collect();
+    let stale: Vec<&String> = documented.difference(&written).collect();
+    assert!(missing.is_empty(), "columns written but not documented in docs/src/reference/columns.md: {missing:?}");
+    assert!(stale.is_empty(), "columns documented but never written: {stale:?}");
+}
+
+#[test]
+fn the_readme_is_short() {
+    let lines = std::fs::read_to_string(repo_root().join("README.md")).unwrap().lines().count();
+    assert!(lines <= 200, "README.md has {lines} lines; the rest belongs in docs/");
+}
+
+/// The keys a config section accepts, as the parser lists them when it refuses an unknown one
+/// (`section` is the table header with what it needs, empty for the top level).
+fn accepted_keys(section: &str) -> BTreeSet<String> {
+    let text = format!("name = \"k\"\nsolvers = [\"kp-newton\"]\n{section}\nzz_not_a_key = 1\n");
+    let e = match mapbench::plan::config::LoadedConfig::parse(&text, Path::new("k.toml")) {
+        Ok(_) => panic!("{section}: an unknown key was accepted"),
+        Err(e) => format!("{e:#}"),
+    };
+    let list = e.split("expected one of ").nth(1).or_else(|| e.split("expected ").nth(1)).unwrap_or_default();
+    let list = list.lines().next().unwrap_or_default();
+    list.split('`').skip(1).step_by(2).map(str::to_string).collect()
+}
+
+/// The config keys page lists, per section, exactly the keys the parser accepts there.
+#[test]
+fn the_config_page_lists_every_key_the_parser_accepts() {
+    let page = std::fs::read_to_string(repo_root().join("docs/src/reference/config.md")).unwrap();
+    let mut documented: std::collections::BTreeMap<String, BTreeSet<String>> = Default::default();
+    let mut heading = String::new();
+    for line in prose(&page) {
+        if let Some(h) = line.strip_prefix("## ") {
+            heading = h.to_string();
+        } else if let Some(cell) = line.strip_prefix("| `") {
+            if let Some((key, _)) = cell.split_once('`') {
+                documented.entry(heading.clone()).or_default().insert(key.to_string());
+            }
+        }
+    }
+    let sections = [
+        ("Top level", ""),
+        ("`[[dataset]]`: inline datasets", "[[dataset]]\nname = \"a\"\npath = \"a.obj\""),
+        ("`[stop]`", "[stop]"),
+        ("`[line_search]`", "[line_search]"),
+        ("`[linear]`", "[linear]"),
+        ("`[init]`", "[init]"),
+        ("`[deform]`", "[deform]"),
+        ("`[authalic]`", "[authalic]"),
+        ("`[external.<name>]`", "[external.x]\ncommand = [\"x\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]"),
+    ];
+    for (heading, section) in sections {
+        let accepted = accepted_keys(section);
+        assert!(!accepted.is_empty(), "{heading}: the parser's list of keys was not found");
+        let mut on_page = documented.get(heading).cloned().unwrap_or_else(|| panic!("no section {heading:?}"));
+        // the top-level table names the sections too
+        if section.is_empty() {
+            on_page
+                .extend(accepted.iter().filter(|k| documented.keys().any(|h| h.contains(&format!("[{k}")))).cloned());
+        }
+        assert_eq!(on_page, accepted, "docs/src/reference/config.md section {heading}");
+    }
+}
