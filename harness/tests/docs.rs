@@ -252,3 +252,77 @@ fn the_config_page_lists_every_key_the_parser_accepts() {
         assert_eq!(on_page, accepted, "docs/src/reference/config.md section {heading}");
     }
 }
+
+/// The backticked names in the first cell of each table body row (not the header) under
+/// `## {heading}` of `page`.
+fn first_cells(page: &str, heading: &str) -> BTreeSet<String> {
+    let mut inside = false;
+    let mut body = false;
+    let mut out = BTreeSet::new();
+    for line in prose(page) {
+        if !line.starts_with('|') {
+            body = false;
+        }
+        if let Some(h) = line.strip_prefix("## ") {
+            inside = h.trim() == heading;
+        } else if line.starts_with("| ---") || line.starts_with("|---") {
+            body = true;
+        } else if inside && body && line.starts_with("| ") {
+            let cell = line[2..].split(" | ").next().unwrap_or_default();
+            out.extend(cell.split('`').skip(1).step_by(2).map(str::to_string));
+        }
+    }
+    out
+}
+
+/// The statuses page lists exactly the values the code writes in `status`, `stop_reason` and
+/// `verdict`, and every start map.
+#[test]
+fn the_statuses_page_lists_every_value_the_code_writes() {
+    use mapbench::run_folder::summary::Verdict;
+    use mapbench::run_folder::Status;
+    use solvers::solver::{StartMap, StopReason};
+    let page = std::fs::read_to_string(repo_root().join("docs/src/reference/statuses.md")).unwrap();
+    let set = |v: Vec<&str>| v.into_iter().map(str::to_string).collect::<BTreeSet<String>>();
+    let statuses =
+        set([Status::Ok, Status::NotConverged, Status::Failed, Status::Skipped].map(|s| s.as_str()).to_vec());
+    assert_eq!(first_cells(&page, "Status"), statuses);
+    // a skipped run's stop_reason says `skipped`, a failed one's `error`
+    let mut reasons = set(StopReason::ALL.iter().map(|r| r.as_str()).collect());
+    reasons.extend(["skipped".to_string(), "error".to_string()]);
+    assert_eq!(first_cells(&page, "Stop reasons"), reasons);
+    assert_eq!(first_cells(&page, "Verdicts"), set(Verdict::ALL.map(|v| v.as_str()).to_vec()));
+    for m in StartMap::ALL {
+        assert!(page.contains(&format!("`{}`", m.as_str())), "start {} is not on the page", m.as_str());
+    }
+}
+
+/// The schema page has every column of both tables as the migrations make them (the runs'
+/// named, or `summary.csv`'s of the same name) and one row per schema version.
+#[test]
+fn the_history_schema_page_matches_the_migrations() {
+    use mapbench::history::{HistoryDb, SCHEMA_VERSION};
+    let page = std::fs::read_to_string(repo_root().join("docs/src/reference/history-schema.md")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("h.sqlite");
+    drop(HistoryDb::open_or_create(&db).unwrap());
+    let c = rusqlite::Connection::open(&db).unwrap();
+    let columns = |table: &str| -> BTreeSet<String> {
+        let mut s = c.prepare(&format!("PRAGMA table_info({table})")).unwrap();
+        s.query_map([], |r| r.get::<_, String>(1)).unwrap().map(|r| r.unwrap()).collect()
+    };
+    assert_eq!(first_cells(&page, "`batches`"), columns("batches"), "batches");
+    let named = first_cells(&page, "`runs`");
+    let summary: BTreeSet<&str> = mapbench::run_folder::SUMMARY_COLUMNS.into_iter().collect();
+    for col in columns("runs") {
+        let keyed = ["batch_id", "dataset", "task", "energy", "solver"].contains(&col.as_str());
+        assert!(
+            named.contains(&col) || summary.contains(col.as_str()) || keyed,
+            "runs.{col} is neither on the page nor a summary.csv column"
+        );
+    }
+    assert!(page.contains(&format!("Schema version {SCHEMA_VERSION} ")), "the page's schema version");
+    let versions: Vec<i64> =
+        prose(&page).iter().filter_map(|l| l.strip_prefix("| ")?.split(" |").next()?.trim().parse().ok()).collect();
+    assert_eq!(versions, (0..=SCHEMA_VERSION).collect::<Vec<_>>(), "one row per schema version");
+}
