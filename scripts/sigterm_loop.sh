@@ -5,12 +5,12 @@
 #
 #   scripts/sigterm_loop.sh [TRIES] [BINARY]     # default 100, target/release/mapbench
 #
-# The batch is issue 41's reproduction: a 9-run config (three generated meshes of 10k-50k
+# The batch reproduces the crash it guards against: a 9-run config (three generated meshes of 10k-50k
 # vertices, three solvers each) run as `--shard 2/3 --jobs 1`, so each of its three runs is
 # on a new mesh and starts with a fresh METIS ordering; the signal goes out right after the
 # first run's `[1/3]` line plus a delay: 300, 325, ..., 775 ms in turn, over the second run's
-# mesh, Tutte map and METIS ordering (bumpy_50k's, about 0.4 s from about 0.5 s on a 2-core
-# machine) and into its iterations. DELAY_MS=<ms> sends every signal at that one delay.
+# mesh, Tutte map and METIS ordering (bumpy_50k's, which start a few tenths of a second after
+# that line on a 2-core machine) and into its iterations. DELAY_MS=<ms> sends every signal at that one delay.
 set -uo pipefail
 tries=${1:-100}
 bin=${2:-target/release/mapbench}

@@ -213,7 +213,7 @@ pub enum SolveError {
 pub enum StopReason {
     /// `|grad| <= grad_tol`.
     GradientTolerance,
-    /// Energy decrease below `energy_decrease_tol` (SARAP in param, every energy in deform).
+    /// Energy decrease below `energy_decrease_tol` (on by default for SARAP in `param` only).
     EnergyDecrease,
     /// `max_iters` steps were taken.
     MaxIterations,
