@@ -326,3 +326,67 @@ fn the_history_schema_page_matches_the_migrations() {
         prose(&page).iter().filter_map(|l| l.strip_prefix("| ")?.split(" |").next()?.trim().parse().ok()).collect();
     assert_eq!(versions, (0..=SCHEMA_VERSION).collect::<Vec<_>>(), "one row per schema version");
 }
+
+/// The keys listed after "expected" in a refusal of the unknown key `zz_not_a_key` in `table`
+/// of a config of `task` running `solver` on `energy`.
+fn accepted_options(task: &str, solver: &str, energy: &str, table: &str) -> BTreeSet<String> {
+    let energies = if task == "authalic" { String::new() } else { format!("energies = [\"{energy}\"]\n") };
+    let text =
+        format!("name = \"k\"\ntask = \"{task}\"\ndatasets = [\"d\"]\nsolvers = [\"{solver}\"]\n{energies}{table}\nzz_not_a_key = 1\n");
+    let e = match mapbench::plan::config::LoadedConfig::parse(&text, Path::new("k.toml")) {
+        Ok(_) => panic!("{table}: an unknown key was accepted"),
+        Err(e) => format!("{e:#}"),
+    };
+    assert!(e.contains("zz_not_a_key"), "{table}: refused for another reason: {e}");
+    let list = e.split("expected ").nth(1).unwrap_or_default();
+    let list = list.lines().next().unwrap_or_default();
+    list.split('`').skip(1).step_by(2).filter(|k| *k != "name").map(str::to_string).collect()
+}
+
+/// The `[solver.<name>]` and `[energy.<name>]` tables of the config page list exactly the keys
+/// each solver's options and each energy's parameters accept.
+#[test]
+fn the_config_page_lists_every_solver_option_and_energy_parameter() {
+    let page = std::fs::read_to_string(repo_root().join("docs/src/reference/config.md")).unwrap();
+    // rows `| `[solver.x]` | `key` | ...` under the two sections
+    let rows = |heading: &str, prefix: &str| {
+        let mut out: std::collections::BTreeMap<String, BTreeSet<String>> = Default::default();
+        let mut inside = false;
+        for line in prose(&page) {
+            if let Some(h) = line.strip_prefix("## ") {
+                inside = h.trim() == heading;
+            } else if inside && line.starts_with("| ") {
+                let cells: Vec<&str> = line.split(" | ").collect();
+                let (Some(table), Some(key)) = (cells.first(), cells.get(1)) else { continue };
+                let table = table.trim_start_matches("| ").to_string();
+                let key = key.trim_matches('`').to_string();
+                let name = table.split(prefix).nth(1).and_then(|t| t.split(']').next()).unwrap_or("*").to_string();
+                if table.starts_with('`') || table.starts_with("any") {
+                    out.entry(if table.starts_with("any") { "*".into() } else { name }).or_default().insert(key);
+                }
+            }
+        }
+        out
+    };
+    let solvers_doc = rows("`[solver.<name>]`", "[solver.");
+    let mut with_options = 0;
+    for s in solvers::solver::catalogue::SOLVERS {
+        let task = s.tasks[0].as_str();
+        let accepted = accepted_options(task, s.name, "sd", &format!("[solver.{}]", s.name));
+        let documented = solvers_doc.get(s.name).cloned().unwrap_or_default();
+        assert_eq!(documented, accepted, "docs/src/reference/config.md: the options of [solver.{}]", s.name);
+        with_options += usize::from(!accepted.is_empty());
+    }
+    assert!(with_options >= 4, "only {with_options} solvers with options found: the refusal's list was not read");
+    let energies_doc = rows("`[energy.<name>]`", "[energy.");
+    for e in solvers::energy::ENERGY_NAMES {
+        let mut accepted = accepted_options("param", "kp-newton", e, &format!("[energy.{e}]"));
+        accepted.retain(|k| !k.starts_with("smoothness"));
+        let documented = energies_doc.get(*e).cloned().unwrap_or_default();
+        assert_eq!(documented, accepted, "docs/src/reference/config.md: the parameters of [energy.{e}]");
+        with_options += usize::from(!accepted.is_empty());
+    }
+    assert!(with_options >= 8, "the energies' parameters were not read");
+    let any: BTreeSet<String> = ["smoothness", "smoothness_projection"].map(String::from).into();
+    assert_eq!(energies_doc.get("*").cloned().unwrap_or_default(), any, "the smoothness keys of any energy");
+}
