@@ -1,7 +1,9 @@
 //! What keeps README and the book (`docs/`) true: every link between them resolves (anchors
 //! included), every TOML example parses as the config or registry it shows, and the columns
-//! page documents exactly the columns the CSV writers write. The generated reference pages
-//! (CLI, solvers) and the command-line examples are checked by the binary's own tests.
+//! page documents exactly the columns the CSV writers write, the other reference pages what
+//! the code accepts and writes, and every command-line example names flags the binary's
+//! `--help` lists. The generated reference pages (CLI, solvers) are checked by the binary's
+//! own tests.
 
 mod common;
 
@@ -389,4 +391,80 @@ fn the_config_page_lists_every_solver_option_and_energy_parameter() {
     assert!(with_options >= 8, "the energies' parameters were not read");
     let any: BTreeSet<String> = ["smoothness", "smoothness_projection"].map(String::from).into();
     assert_eq!(energies_doc.get("*").cloned().unwrap_or_default(), any, "the smoothness keys of any energy");
+}
+
+/// The long flags `mapbench VERB --help` lists; `None` when there is no such verb.
+fn verb_flags(verb: &str) -> Option<BTreeSet<String>> {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mapbench")).args([verb, "--help"]).output().unwrap();
+    if !o.status.success() {
+        return None;
+    }
+    let help = String::from_utf8_lossy(&o.stdout).into_owned();
+    Some(
+        help.split(|c: char| c.is_whitespace() || c == ',' || c == '[' || c == ']')
+            .filter_map(|w| w.strip_prefix("--"))
+            .map(|w| w.split(['=', '<']).next().unwrap_or(w).to_string())
+            .filter(|w| !w.is_empty())
+            .collect(),
+    )
+}
+
+/// Every `mapbench VERB --flag` in a shell block of README and the book names a verb and flags
+/// the binary has (a command line continued with `\` is read whole).
+#[test]
+fn every_command_line_example_names_an_existing_verb_and_flag() {
+    let mut verbs: std::collections::HashMap<String, Option<BTreeSet<String>>> = Default::default();
+    let mut checked = 0;
+    let mut bad = Vec::new();
+    for (path, text) in docs() {
+        for (lang, body) in code_blocks(&text) {
+            // Commands only: a `text` block shows output or a synopsis.
+            if !matches!(lang.as_str(), "sh" | "bash" | "console" | "shell") {
+                continue;
+            }
+            let joined = body.replace("\\\n", " ");
+            for line in joined.lines() {
+                let words: Vec<&str> = line.split_whitespace().filter(|w| *w != "$").collect();
+                // The command's words: after `mapbench` (or a path to it) that starts the line but
+                // for environment assignments, or after `cargo run ... --`.
+                let lead = words.iter().position(|w| !w.contains('=')).unwrap_or(words.len());
+                let start = match words.get(lead) {
+                    Some(w) if *w == "mapbench" || w.ends_with("/mapbench") => lead + 1,
+                    Some(&"cargo") if words.get(lead + 1) == Some(&"run") => {
+                        match words.iter().position(|w| *w == "--") {
+                            Some(dash) => dash + 1,
+                            None => continue,
+                        }
+                    }
+                    _ => continue,
+                };
+                // to a comment, or to where the next command of a pipe or list starts
+                let rest: Vec<&str> = words[start..]
+                    .iter()
+                    .copied()
+                    .take_while(|w| !w.starts_with('#') && !["|", "||", "&&", ";", ">", "2>"].contains(w))
+                    .collect();
+                let Some(verb) = rest.first().filter(|v| !v.starts_with('-')) else { continue };
+                let Some(flags) = verbs.entry(verb.to_string()).or_insert_with(|| verb_flags(verb)) else {
+                    bad.push(format!("{}: `{line}`: no verb {verb}", path.display()));
+                    continue;
+                };
+                for w in &rest[1..] {
+                    let w = w.trim_start_matches(['[', '(', '|']);
+                    let Some(flag) = w.strip_prefix("--") else { continue };
+                    let flag = flag.split('=').next().unwrap_or(flag);
+                    let flag = flag.trim_end_matches(|c: char| !c.is_ascii_alphanumeric() && c != '-');
+                    if flag.is_empty() || flag == "help" {
+                        continue;
+                    }
+                    if !flags.contains(flag) {
+                        bad.push(format!("{}: `{line}`: {verb} has no --{flag}", path.display()));
+                    }
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    assert!(checked > 20, "{checked} flags checked");
 }

@@ -731,7 +731,7 @@ fn submit_resume(dir: &std::path::Path, sbatch: Option<Vec<String>>, wait: bool)
         eprintln!("nothing to resume: every shard is complete and the merge succeeded");
         return Ok(ExitCode::SUCCESS);
     };
-    let submission = slurm::Submission::read(dir)?;
+    let submission = resumed.submission;
     say_round(&round, &submission.commands.out);
     if !wait {
         return Ok(ExitCode::SUCCESS);
@@ -966,103 +966,5 @@ mod tests {
     fn reference_pages_are_what_the_code_generates() {
         check_page("docs/src/reference/cli.md", &reference::cli_markdown(Cli::command()));
         check_page("docs/src/reference/solvers.md", &reference::solvers_markdown());
-    }
-
-    /// Code blocks of Markdown text: (language, body).
-    fn code_blocks(text: &str) -> Vec<(String, String)> {
-        let mut out = Vec::new();
-        let mut current: Option<(String, String)> = None;
-        for line in text.lines() {
-            let fence = line.trim_start().strip_prefix("```");
-            match (&mut current, fence) {
-                (None, Some(lang)) => current = Some((lang.trim().to_string(), String::new())),
-                (Some(_), Some(_)) => out.extend(current.take()),
-                (Some((_, body)), None) => {
-                    body.push_str(line);
-                    body.push('\n');
-                }
-                (None, None) => {}
-            }
-        }
-        out
-    }
-
-    /// The Markdown files users read: README and the book's pages.
-    fn docs() -> Vec<(PathBuf, String)> {
-        let mut files = vec![repo().join("README.md")];
-        let mut stack = vec![repo().join("docs/src")];
-        while let Some(dir) = stack.pop() {
-            for e in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
-                let p = e.path();
-                if p.is_dir() {
-                    stack.push(p);
-                } else if p.extension().is_some_and(|x| x == "md") {
-                    files.push(p);
-                }
-            }
-        }
-        files.sort();
-        files.into_iter().map(|p| (p.clone(), std::fs::read_to_string(&p).unwrap())).collect()
-    }
-
-    /// Every `mapbench VERB --flag` in a code block of README and the book names a verb and
-    /// flags the binary has (a command line continued with `\` is read whole).
-    #[test]
-    fn every_command_line_example_names_an_existing_verb_and_flag() {
-        let cli = Cli::command();
-        let mut checked = 0;
-        let mut bad = Vec::new();
-        for (path, text) in docs() {
-            for (lang, body) in code_blocks(&text) {
-                // Commands only: a `text` block shows output or a synopsis.
-                if !matches!(lang.as_str(), "sh" | "bash" | "console" | "shell") {
-                    continue;
-                }
-                let joined = body.replace("\\\n", " ");
-                for line in joined.lines() {
-                    let words: Vec<&str> = line.split_whitespace().filter(|w| *w != "$").collect();
-                    // The command's words: after `mapbench` (or a path to it) that starts the line
-                    // but for environment assignments, or after `cargo run ... --`.
-                    let lead = words.iter().position(|w| !w.contains('=')).unwrap_or(words.len());
-                    let start = match words.get(lead) {
-                        Some(w) if *w == "mapbench" || w.ends_with("/mapbench") => lead + 1,
-                        Some(&"cargo") if words.get(lead + 1) == Some(&"run") => {
-                            match words.iter().position(|w| *w == "--") {
-                                Some(dash) => dash + 1,
-                                None => continue,
-                            }
-                        }
-                        _ => continue,
-                    };
-                    // to a comment, or to where the next command of a pipe or list starts
-                    let rest: Vec<&str> = words[start..]
-                        .iter()
-                        .copied()
-                        .take_while(|w| !w.starts_with('#') && !["|", "||", "&&", ";", ">", "2>"].contains(w))
-                        .collect();
-                    let Some(verb) = rest.first().filter(|v| !v.starts_with('-')) else { continue };
-                    let Some(sub) = cli.find_subcommand(verb) else {
-                        bad.push(format!("{}: `{line}`: no verb {verb}", path.display()));
-                        continue;
-                    };
-                    for w in &rest[1..] {
-                        let w = w.trim_start_matches(['[', '(', '|']);
-                        let Some(flag) = w.strip_prefix("--") else { continue };
-                        let flag = flag.split('=').next().unwrap_or(flag);
-                        let flag = flag.trim_end_matches(|c: char| !c.is_ascii_alphanumeric() && c != '-');
-                        if flag.is_empty() || flag == "help" {
-                            continue;
-                        }
-                        if !sub.get_arguments().any(|a| a.get_long() == Some(flag)) {
-                            bad.push(format!("{}: `{line}`: {verb} has no --{flag}", path.display()));
-                        }
-                        checked += 1;
-                    }
-                }
-            }
-        }
-        assert!(bad.is_empty(), "{}", bad.join("\n"));
-        assert!(checked > 20, "{checked} flags checked");
-        eprintln!("{checked} flags of command-line examples checked");
     }
 }

@@ -126,10 +126,12 @@ pub fn prepare(req: &Request, calibrate: impl FnOnce() -> Result<f64>) -> Result
     let name = plan.config.config.name.clone();
     let out = crate::paths::absolute(&req.out.clone().unwrap_or_else(|| PathBuf::from("reports").join(&name)));
     check_sbatch_args(&req.sbatch)?;
-    // A dry run's record (no jobs) may be planned again.
-    if Submission::read(&out).is_ok_and(|s| !s.jobs.is_empty())
-        || Submission::path(&out).exists() && Submission::read(&out).is_err()
-    {
+    // A dry run's record (no jobs) may be planned again; a record that cannot be read may not.
+    let submitted = match Submission::read(&out) {
+        Ok(s) => !s.jobs.is_empty(),
+        Err(_) => Submission::path(&out).exists(),
+    };
+    if submitted {
         bail!(
             "{}: holds a submission already: `mapbench submit --resume {}` completes it; to start over, delete {} \
              (or give each batch its own --out, as a nightly does)",
@@ -540,6 +542,8 @@ pub struct Resumed {
     pub cancelled: Vec<String>,
     /// The new round, `None` when there was nothing to do (every shard complete and merged).
     pub round: Option<Submitted>,
+    /// The submission with the new round recorded.
+    pub submission: Submission,
 }
 
 /// Resubmit the shards of the submission in `out` whose folder is missing or incomplete, then
@@ -583,7 +587,7 @@ pub fn resume(sched: &dyn Scheduler, out: &Path, sbatch: Option<Vec<String>>) ->
     let shards = unfinished(&out, &plan_file);
     let merged = read_exit(&script::merge_exit(&out)) == Some(0);
     if shards.is_empty() && merged {
-        return Ok(Resumed { shards, cancelled, round: None });
+        return Ok(Resumed { shards, cancelled, round: None, submission: sub });
     }
     let tasks: Vec<usize> = shards.iter().map(|(i, _)| *i).collect();
     // The scripts again, as this mapbench writes them (the same commands).
@@ -592,7 +596,7 @@ pub fn resume(sched: &dyn Scheduler, out: &Path, sbatch: Option<Vec<String>>) ->
     }
     let references = wants_references(&sub.commands, &plan)?;
     let round = submit(sched, &mut sub, &tasks, references)?;
-    Ok(Resumed { shards, cancelled, round: Some(round) })
+    Ok(Resumed { shards, cancelled, round: Some(round), submission: sub })
 }
 
 /// Whether a job should compute reference minima before the shards: some are missing and the

@@ -103,15 +103,22 @@ fn a_submission_plans_every_run_once_and_chains_its_jobs() {
     assert!(e.contains("holds a submission already"), "{e}");
 }
 
+/// A submission of `shards` shards planned, written and submitted (every shard, no references
+/// job) to a fake scheduler in `dir`: its folder, record, scheduler and round.
+fn submitted(dir: &Path, shards: usize) -> (PathBuf, Submission, Fake, Submitted) {
+    let p = prepare(&request(dir, shards), || Ok(0.2)).unwrap();
+    write(&p).unwrap();
+    let mut sub = p.submission;
+    let fake = Fake::default();
+    let tasks: Vec<usize> = (1..=shards).collect();
+    let round = submit(&fake, &mut sub, &tasks, false).unwrap();
+    (dir.join("night"), sub, fake, round)
+}
+
 #[test]
 fn waiting_ends_with_the_merge_or_cancels_a_merge_that_can_never_start() {
     let dir = tempfile::tempdir().unwrap();
-    let p = prepare(&request(dir.path(), 2), || Ok(0.2)).unwrap();
-    write(&p).unwrap();
-    let out = dir.path().join("night");
-    let mut sub = p.submission;
-    let fake = Fake::default();
-    let round = submit(&fake, &mut sub, &[1, 2], false).unwrap();
+    let (out, sub, fake, round) = submitted(dir.path(), 2);
     assert_eq!(fake.submitted.borrow().len(), 2, "no references job when none is asked");
     let merge = round.merge.clone();
     // queued, running, gone with its exit code
@@ -158,12 +165,7 @@ fn run_shard(sub: &Submission, index: usize) {
 #[test]
 fn resume_resubmits_only_the_missing_and_incomplete_shards() {
     let dir = tempfile::tempdir().unwrap();
-    let p = prepare(&request(dir.path(), 3), || Ok(0.2)).unwrap();
-    write(&p).unwrap();
-    let out = dir.path().join("night");
-    let mut sub = p.submission;
-    let fake = Fake::default();
-    let first = submit(&fake, &mut sub, &[1, 2, 3], false).unwrap();
+    let (out, sub, fake, first) = submitted(dir.path(), 3);
     run_shard(&sub, 1);
     run_shard(&sub, 2);
     // shard 2 stopped by a signal, shard 3 never ran
