@@ -124,7 +124,7 @@ pub fn solve_deform(
 /// The problem of a `deform` run (its energy with the handles' penalty, no smoothness term of a
 /// solver's own projection) and its start, in the normalized frame, after the checks
 /// [`solve_deform`] makes of the mesh, the handles and the energy: what a solver outside the
-/// catalogue is given and judged on.
+/// catalogue is given, and what every run is judged on (the smoothness term included).
 pub fn deform_start(
     mesh: &Mesh,
     handles: &[Handle],
@@ -138,6 +138,30 @@ pub fn deform_start(
     let (mut problem, _, x) = deform_problem(mesh, init, energy, None, settings)?;
     problem.penalty = Some(penalty(mesh, handles, settings.lambda));
     Ok((problem, x, if init.is_some() { StartMap::Given } else { StartMap::Rest }))
+}
+
+/// [`solve_deform`] from the map `x` (normalized frame) instead of the start: how the harness
+/// polishes a map it keeps as a reference minimum or checks that a run stopped at another
+/// minimum.
+pub fn solve_deform_from(
+    mesh: &Mesh,
+    handles: &[Handle],
+    energy: EnergyKind,
+    solver: &str,
+    settings: &DeformSettings,
+    x: Vec<f64>,
+    observer: &mut dyn Observer,
+) -> Result<Outcome, MapError> {
+    let built = checked_solver(mesh, Task::Deform, &energy, solver, &settings.solver.options)?;
+    check_handles(mesh, handles)?;
+    let source_name = mesh.source.clone();
+    if x.len() != 2 * mesh.n_vertices() {
+        let detail = format!("{} coordinates for {} vertices", x.len(), mesh.n_vertices());
+        return Err(MapError::BadInit { source_name, detail });
+    }
+    let (mut problem, _, _) = deform_problem(mesh, None, energy, built.smoothness_projection(), settings)?;
+    problem.penalty = Some(penalty(mesh, handles, settings.lambda));
+    built.solve(&problem, x, &settings.solver, observer).map_err(|err| MapError::Solve { source_name, err })
 }
 
 /// The elastic energy of a `deform` problem (its energy without the handles' penalty) at the

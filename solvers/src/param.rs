@@ -83,6 +83,47 @@ pub fn param_start(
     Ok((problem, x, start))
 }
 
+/// The problem a `param` run with `settings` is judged on (its energy with the smoothness
+/// term, whose value does not depend on how a solver projects its blocks) and the common
+/// start, in the normalized frame: what the harness's reference minima and verdicts measure.
+pub fn judged_problem(
+    mesh: &Mesh,
+    energy: EnergyKind,
+    settings: &ParamSettings,
+) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
+    energy.check().map_err(MapError::Energy)?;
+    crate::mesh::validate_for(mesh, Task::Param).into_result()?;
+    let rest = mesh.normalized();
+    let problem = map_problem(&rest, energy, None, settings.smoothness)?;
+    let (x, start) = start_map(&rest, &problem, Start::Common, settings)?;
+    Ok((problem, x, start))
+}
+
+/// [`solve_param`] from the map `x` (normalized frame, one `u v` pair per vertex) instead of
+/// the solver's start: how the harness polishes a map it keeps as a reference minimum or
+/// checks that a run stopped at another minimum.
+pub fn solve_param_from(
+    mesh: &Mesh,
+    energy: EnergyKind,
+    solver: &str,
+    settings: &ParamSettings,
+    x: Vec<f64>,
+    observer: &mut dyn Observer,
+) -> Result<Outcome, MapError> {
+    let built = checked_solver(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
+    let mesh = mesh.normalized();
+    if x.len() != 2 * mesh.n_vertices() {
+        return Err(MapError::BadInit {
+            source_name: mesh.source.clone(),
+            detail: format!("{} coordinates for {} vertices", x.len(), mesh.n_vertices()),
+        });
+    }
+    let problem = map_problem(&mesh, energy, built.smoothness_projection(), settings.smoothness)?;
+    built
+        .solve(&problem, x, &settings.solver, observer)
+        .map_err(|err| MapError::Solve { source_name: mesh.source.clone(), err })
+}
+
 /// The start of a run with a solver whose catalogue entry says `start`: the common start is
 /// the Tutte map scaled by Section 4.2's rule for the energies that define it (the Tutte map
 /// for the others), the same for every solver; `kp-newton-noscale` keeps the Tutte map.

@@ -227,9 +227,10 @@ impl MapProblem {
         e
     }
 
-    /// Number of triangles whose image has non-positive signed area.
+    /// Number of triangles whose image's signed area is not positive (non-finite included:
+    /// a NaN coordinate flips every face it touches).
     pub fn flips(&self, x: &[f64]) -> usize {
-        (0..self.n_faces()).into_par_iter().filter(|&t| signed_area(self.target(x, t)) <= 0.0).count()
+        (0..self.n_faces()).into_par_iter().filter(|&t| !(signed_area(self.target(x, t)) > 0.0)).count()
     }
 
     /// The signed singular values `(sigma1, sigma2)` of each element's Jacobian at `x`

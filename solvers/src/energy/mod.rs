@@ -62,6 +62,12 @@ pub trait Density {
     fn energy_decrease_tol(&self) -> f64 {
         0.0
     }
+
+    /// Whether the density is differentiable on its whole domain `x > y`, so that the
+    /// gradient vanishes at a minimum (SARAP's is not at conformal maps, `y = 0`).
+    fn smooth(&self) -> bool {
+        true
+    }
 }
 
 /// The convex-concave split of an energy `h(sigma1, sigma2)` that CM uses (complex-view paper,
@@ -223,7 +229,14 @@ impl EnergyKind {
         self.density().energy_decrease_tol()
     }
 
-    /// Stationary value at an isometry (`x = 1, y = 0`), used in tests and reports.
+    /// See [`Density::smooth`].
+    pub fn smooth(&self) -> bool {
+        self.density().smooth()
+    }
+
+    /// The value at an isometry (`x = 1, y = 0`): the density's smallest value, so the
+    /// energy's lower bound on any mesh (every density here is minimal at isometries; tested),
+    /// from which the harness measures a minimum's distortion.
     pub fn isometry_value(&self) -> f64 {
         self.value(1.0, 0.0)
     }
@@ -356,6 +369,29 @@ pub(crate) mod tests {
         assert!((EnergyKind::Barap(Barap { k: 0.1 }).isometry_value() - 0.2).abs() < 1e-15);
         assert!((EnergyKind::Bconf(Bconf { k: 0.1 }).isometry_value() - 0.2).abs() < 1e-15);
         assert!((EnergyKind::ExpSd(ExpSd { s: 0.5 }).isometry_value() - 1f64.exp()).abs() < 1e-14);
+    }
+
+    /// The isometry value bounds every density from below, far from the isometry too (the
+    /// harness's accuracy scale, `E* - E_iso`, is never negative).
+    #[test]
+    fn every_energy_is_smallest_at_isometries() {
+        let mut rng = Lcg(11);
+        for e in all_energies() {
+            let lo = e.isometry_value();
+            for _ in 0..20000 {
+                // singular values from 1e-3 to 1e3, either order of magnitude
+                let s1 = 10f64.powf(rng.range(-3.0, 3.0));
+                let s2 = s1 * 10f64.powf(rng.range(-3.0, 0.0));
+                let (a, b) = (0.5 * (s1 + s2), 0.5 * (s1 - s2));
+                let v = e.value(a * a, b * b);
+                assert!(v >= lo * (1.0 - 1e-15), "{e:?} at ({s1}, {s2}): {v} < {lo}");
+            }
+            // near the isometry, in every direction
+            for (s1, s2) in [(1.0 + 1e-4, 1.0), (1.0, 1.0 - 1e-4), (1.0 + 1e-4, 1.0 - 1e-4), (1.0 - 1e-5, 1.0 - 2e-5)] {
+                let (a, b): (f64, f64) = (0.5 * (s1 + s2), 0.5 * (s1 - s2));
+                assert!(e.value(a * a, b * b) >= lo, "{e:?} at ({s1}, {s2})");
+            }
+        }
     }
 
     #[test]

@@ -49,4 +49,10 @@ impl Density for Sarap {
     fn energy_decrease_tol(&self) -> f64 {
         1e-8
     }
+
+    /// Not differentiable in `f_zbar` at conformal maps: its gradient need not vanish at a
+    /// minimum where an element is conformal.
+    fn smooth(&self) -> bool {
+        false
+    }
 }
