@@ -142,16 +142,16 @@ fn reference(mesh_path: &Path, energy: &EnergyKind) -> Option<(f64, Option<f64>)
 
 /// `E*` and the gap scale of `energy` on `dataset` of the batch `config` plans, from its
 /// reference stores (the committed `references.json` beside the registry, then the one its
-/// batches add to): the same key a run of that config looks up, so the energy's parameters
-/// and the start's settings are the config's. `mesh` must be the dataset's mesh; the scale is
-/// `E0 - E*` at the common start, as the batch judges its runs.
+/// batches add to), verified against its stored map: the same key a run of that config looks
+/// up, so the energy's parameters and the start's settings are the config's. `mesh` must be
+/// the dataset's mesh; the scale is the span the batch judges its runs on.
 pub fn known_reference(config: &Path, dataset: &str, energy: &EnergyKind, mesh: &Mesh) -> Result<(f64, Option<f64>)> {
     use crate::plan::{config::LoadedConfig, Plan, RunSettings};
     let only = [crate::names::run_stem(dataset, energy.name(), "*")];
     let plan = Plan::resolve(LoadedConfig::load(config)?, &only)
         .with_context(|| format!("{}: no run of dataset '{dataset}' with {}", config.display(), energy.name()))?;
     let run = &plan.runs[0];
-    let RunSettings::Param { energy: planned, settings } = &run.settings else {
+    let RunSettings::Param { energy: planned, .. } = &run.settings else {
         bail!("{}: the reference of a {} batch is not a param map's", config.display(), run.settings.task());
     };
     if planned != energy {
@@ -169,16 +169,28 @@ pub fn known_reference(config: &Path, dataset: &str, energy: &EnergyKind, mesh: 
     }
     let key = crate::judge::reference::key(&plan, run)?.context("no reference key")?;
     let stores = plan.references.as_ref().context("no reference stores")?;
-    let book = crate::judge::reference::Book::open(stores)?;
-    let e_star = book.get(&key).map(|r| r.e_star).with_context(|| {
-        format!(
-            "{}: no reference minimum of {dataset} with {} yet (a batch of this config computes it)",
+    let book = crate::judge::reference::store::Book::open(stores)?;
+    let problem = crate::judge::problem::Problem::with_mesh(&plan, run, theirs)?;
+    let refused = std::cell::RefCell::new(Vec::new());
+    let found =
+        crate::judge::reference::lookup(&book, &key, &problem, &|why| refused.borrow_mut().push(why.to_string()));
+    let Some((r, _, _)) = found else {
+        let why = refused.into_inner();
+        if why.is_empty() {
+            bail!(
+                "{}: no reference minimum of {dataset} with {} yet (a batch of this config computes it)",
+                config.display(),
+                energy.name()
+            );
+        }
+        bail!(
+            "{}: no usable reference minimum of {dataset} with {}: {}",
             config.display(),
-            energy.name()
-        )
-    })?;
-    let (problem, x0, _) = solvers::param::param_start(mesh, *energy, settings)?;
-    Ok((e_star, Some(problem.energy(&x0) - e_star)))
+            energy.name(),
+            why.join("; ")
+        );
+    };
+    Ok((r.e_star, Some(crate::convergence::span(problem.e0, r.e_star, problem.ideal))))
 }
 
 /// The energy `evaluate` scores with: `name` with the `KEY=VALUE` parameters of `params`

@@ -28,7 +28,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb,start,ref_energy,ref_source,final_gap,verdict,cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb,iters_to_1e-3,time_to_1e-3,iters_to_1e-6,time_to_1e-6");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb,start,ref_energy,ref_source,final_gap,verdict,cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb,start_energy,ideal_energy,ref_certified,polished_energy,repeats_differ,iters_to_1e-3,time_to_1e-3,iters_to_1e-6,time_to_1e-6");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];
@@ -982,19 +982,19 @@ fn references_computes_what_no_store_holds_and_lists_every_group() {
     };
     let (code, rows, log) = list(&cfg);
     assert_eq!(code, Some(0), "{log}");
-    let origins: Vec<(&str, &str)> = rows.iter().map(|r| (r[0].as_str(), r[3].as_str())).collect();
-    assert_eq!(origins, [("bumpy_1k", "Seed"), ("fan", "Computed")], "{log}");
+    let origins: Vec<(&str, &str, &str)> = rows.iter().map(|r| (r[0].as_str(), r[3].as_str(), r[4].as_str())).collect();
+    assert_eq!(origins, [("bumpy_1k", "yes", "Seed"), ("fan", "yes", "Computed")], "{log}");
     assert!(log.contains("reference minimum of fan param sd: computing"), "{log}");
     let e_star: f64 = rows[1][2].parse().unwrap();
     assert!(e_star.is_finite() && e_star >= 2.0, "SD is at least 2: {e_star}");
     // the next call finds it in the store, and computes nothing
     let (code, rows, log) = list(&cfg);
-    assert_eq!((code, rows[1][3].as_str(), rows[1][2].parse::<f64>().unwrap()), (Some(0), "Store", e_star), "{log}");
+    assert_eq!((code, rows[1][4].as_str(), rows[1][2].parse::<f64>().unwrap()), (Some(0), "Store", e_star), "{log}");
     assert!(!log.contains("computing"), "{log}");
     // a mesh that does not load has no reference: listed as such, exit 1
     std::fs::write(tmp.path().join("fan.obj"), QUAD_OBJ).unwrap();
     let (code, rows, log) = list(&cfg);
-    assert_eq!((code, rows[1][2].as_str(), rows[1][3].as_str()), (Some(1), "-", "Unavailable"), "{log}");
+    assert_eq!((code, rows[1][2].as_str(), rows[1][4].as_str()), (Some(1), "-", "Unavailable"), "{log}");
     // authalic configs have none
     let authalic =
         write_config(tmp.path(), "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"bumpy_1k\"]\nsolvers = [\"sem\"]\n");

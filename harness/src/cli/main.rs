@@ -111,7 +111,8 @@ enum Command {
         history: HistoryArgs,
     },
     /// Compute the reference minima a config's runs are judged by (param, deform) that no
-    /// store holds yet, and list them all; a nightly then starts warm.
+    /// store holds yet (verified against their maps), lower them with the maps of run folders
+    /// (`--from`), and list them all with their certificates; a nightly then starts warm.
     References {
         /// The config file whose runs' reference minima are wanted.
         config: PathBuf,
@@ -123,6 +124,14 @@ enum Command {
         /// the repository's root refreshes the committed seed.
         #[arg(long)]
         store: Option<PathBuf>,
+        /// A run folder of the config whose final maps that end below a reference lower it
+        /// (polished and certified first); repeatable.
+        #[arg(long, value_name = "DIR")]
+        from: Vec<PathBuf>,
+        /// Certify the uncertified references again (polishing them further) by today's
+        /// rules; an entry that is lower or now certified replaces the stored one.
+        #[arg(long)]
+        recertify: bool,
     },
     /// Re-render the tables, plots and index.html of a run folder from its CSVs alone.
     Report {
@@ -507,7 +516,9 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             }
             _ => anyhow::bail!("give CONFIG and --shards N, or --resume DIR"),
         },
-        Command::References { config, only, store } => references(&config, &only, store),
+        Command::References { config, only, store, from, recertify } => {
+            references(&config, &only, store, &from, recertify)
+        }
         Command::ExportSystem { config, out, only, iteration } => {
             let cfg = LoadedConfig::load(&config)?;
             // Before the registry: a config of another task is refused for what it is.
@@ -641,8 +652,15 @@ fn say_batch(report: &run::BatchReport) {
     );
 }
 
-/// `references`: compute the reference minima no store holds yet and list them.
-fn references(config: &std::path::Path, only: &[String], store: Option<PathBuf>) -> Result<ExitCode> {
+/// `references`: compute the reference minima no store holds yet, lower them with the maps of
+/// the run folders `from`, and list them.
+fn references(
+    config: &std::path::Path,
+    only: &[String],
+    store: Option<PathBuf>,
+    from: &[PathBuf],
+    recertify: bool,
+) -> Result<ExitCode> {
     let interrupt = Arc::new(AtomicBool::new(false));
     let signal = signals::on_interrupt(interrupt.clone());
     let mut plan = Plan::resolve(LoadedConfig::load(config)?, only)?;
@@ -658,15 +676,36 @@ fn references(config: &std::path::Path, only: &[String], store: Option<PathBuf>)
     }
     let runs: Vec<&mapbench::plan::PlannedRun> = plan.runs.iter().collect();
     let progress = progress::for_stderr();
-    let groups = mapbench::judge::reference::prepare(&plan, &runs, &|line| progress.notice(line), &interrupt)?;
+    let notice = |line: &str| progress.notice(line);
+    let mut groups = mapbench::judge::reference::prepare(&plan, &runs, &notice, &interrupt)?;
+    if !from.is_empty() {
+        let dirs: Vec<&std::path::Path> = from.iter().map(|p| p.as_path()).collect();
+        let candidates = mapbench::judge::improve::from_folders(&plan, &groups, &dirs)?;
+        mapbench::judge::improve::improve(&plan, &runs, &mut groups, candidates, &notice, &interrupt)?;
+    }
+    if recertify {
+        mapbench::judge::reference::recertify(&plan, &runs, &mut groups, &notice, &interrupt)?;
+    }
     progress.finish();
-    println!("dataset\tenergy\te_star\torigin\tkey");
+    println!("dataset\tenergy\te_star\tcertified\torigin\tkey");
     for g in &groups {
         let e = g.e_star.map_or_else(|| "-".to_string(), |e| format!("{e:.15e}"));
-        println!("{}\t{}\t{e}\t{:?}\t{}", g.dataset, g.energy, g.origin, g.key.as_deref().unwrap_or("-"));
+        let certified = if g.e_star.is_none() {
+            "-"
+        } else if g.certified {
+            "yes"
+        } else {
+            "no"
+        };
+        println!("{}\t{}\t{e}\t{certified}\t{:?}\t{}", g.dataset, g.energy, g.origin, g.key.as_deref().unwrap_or("-"));
     }
     let missing = groups.iter().filter(|g| g.e_star.is_none()).count();
-    eprintln!("{} references in {} ({missing} not available)", groups.len(), store.display());
+    let uncertified = groups.iter().filter(|g| g.e_star.is_some() && !g.certified).count();
+    eprintln!(
+        "{} references in {} ({missing} not available, {uncertified} not certified)",
+        groups.len(),
+        store.display()
+    );
     let signalled = signal.load(Ordering::SeqCst);
     if signalled != 0 {
         return Ok(ExitCode::from(128 + signalled.clamp(1, 127) as u8));

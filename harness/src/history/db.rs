@@ -13,7 +13,7 @@ use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 
 /// The schema this build writes. docs/src/reference/history-schema.md documents it.
-pub const SCHEMA_VERSION: i64 = 6;
+pub const SCHEMA_VERSION: i64 = 7;
 
 /// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).
 pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
@@ -81,6 +81,15 @@ pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
     ALTER TABLE runs ADD COLUMN iters_to_target INTEGER;
     ALTER TABLE runs ADD COLUMN time_s_to_target REAL;
     ALTER TABLE runs ADD COLUMN peak_growth_mb REAL;",
+    // v7: the yardstick a judged run was held to besides `ref_energy` (the common start's
+    // energy, the energy's isometry value, whether E* is certified), so that two batches
+    // judged against different references can be judged again against the lower one; the
+    // polish that confirms another minimum; a repeat that did not reproduce the first.
+    "ALTER TABLE runs ADD COLUMN start_energy REAL;
+    ALTER TABLE runs ADD COLUMN ideal_energy REAL;
+    ALTER TABLE runs ADD COLUMN ref_certified INTEGER;
+    ALTER TABLE runs ADD COLUMN polished_energy REAL;
+    ALTER TABLE runs ADD COLUMN repeats_differ TEXT;",
 ];
 
 /// Where a batch came from (`batches.source`).
@@ -191,6 +200,12 @@ pub struct RunRow {
     pub iters_to_target: Option<i64>,
     pub time_s_to_target: Option<f64>,
     pub peak_growth_mb: Option<f64>,
+    /// `summary.csv`'s yardstick columns, the polish's energy and a differing repeat.
+    pub start_energy: Option<f64>,
+    pub ideal_energy: Option<f64>,
+    pub ref_certified: Option<bool>,
+    pub polished_energy: Option<f64>,
+    pub repeats_differ: Option<String>,
 }
 
 impl RunRow {
@@ -228,6 +243,11 @@ impl RunRow {
             iters_to_target: s.to_targets.last().and_then(|t| int(t.iters)),
             time_s_to_target: s.to_targets.last().and_then(|t| t.time_s),
             peak_growth_mb: s.peak_growth_mb,
+            start_energy: s.start_energy,
+            ideal_energy: s.ideal_energy,
+            ref_certified: s.ref_certified,
+            polished_energy: s.polished_energy,
+            repeats_differ: s.repeats_differ.clone(),
         }
     }
 }
@@ -395,7 +415,8 @@ impl HistoryDb {
                 "SELECT batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
                  final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, \
                  shifted_iters, clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, \
-                 cg_capped_iters, target_tau, iters_to_target, time_s_to_target, peak_growth_mb FROM runs WHERE batch_id = ?1 \
+                 cg_capped_iters, target_tau, iters_to_target, time_s_to_target, peak_growth_mb, start_energy, \
+                 ideal_energy, ref_certified, polished_energy, repeats_differ FROM runs WHERE batch_id = ?1 \
                  ORDER BY rowid",
             )
             .map_err(&sql)?;
@@ -435,6 +456,11 @@ impl HistoryDb {
                     iters_to_target: r.get(27)?,
                     time_s_to_target: r.get(28)?,
                     peak_growth_mb: r.get(29)?,
+                    start_energy: r.get(30)?,
+                    ideal_energy: r.get(31)?,
+                    ref_certified: r.get(32)?,
+                    polished_energy: r.get(33)?,
+                    repeats_differ: r.get(34)?,
                 })
             })
             .map_err(&sql)?
@@ -528,8 +554,9 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
         "INSERT INTO runs (batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
          final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
          clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, cg_capped_iters, target_tau, \
-         iters_to_target, time_s_to_target, peak_growth_mb) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, \
-         ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30)",
+         iters_to_target, time_s_to_target, peak_growth_mb, start_energy, ideal_energy, ref_certified, \
+         polished_energy, repeats_differ) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, \
+         ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30, ?31, ?32, ?33, ?34, ?35)",
     )?;
     for r in runs {
         stmt.execute(params![
@@ -563,6 +590,11 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.iters_to_target,
             r.time_s_to_target,
             r.peak_growth_mb,
+            r.start_energy,
+            r.ideal_energy,
+            r.ref_certified,
+            r.polished_energy,
+            r.repeats_differ,
         ])
         .map_err(|source| InsertError::Run {
             run: crate::run_folder::run_stem(&r.dataset, &r.energy, &r.solver),

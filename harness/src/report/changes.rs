@@ -76,20 +76,27 @@ fn solved_count(runs: &[RunRow], solver: &str) -> Option<(usize, usize)> {
     (!mine.is_empty()).then(|| (mine.iter().filter(|r| r.status == Status::Ok).count(), mine.len()))
 }
 
-/// What `check`'s rules compare of a history row.
+/// What `check`'s rules compare of a history row. SQLite keeps a NaN as NULL: a run that ran
+/// without a final energy had a NaN one, and reads back as such (as `check` and `compare`
+/// read it from `summary.csv`).
 pub fn record(r: &RunRow) -> Record {
+    let ran = matches!(r.status, Status::Ok | Status::NotConverged);
     Record {
         dataset: r.dataset.clone(),
         task: r.task,
         energy: r.energy.clone(),
         solver: r.solver.clone(),
         iterations: r.iterations.and_then(|i| usize::try_from(i).ok()),
-        final_energy: r.final_energy,
+        final_energy: r.final_energy.or(ran.then_some(f64::NAN)),
         status: r.status,
         flips: r.flips.and_then(|i| usize::try_from(i).ok()),
         iterations_tolerance: None,
         time_s: r.time_s,
         final_gap: r.final_gap,
+        ref_energy: r.ref_energy,
+        start_energy: r.start_energy,
+        ideal_energy: r.ideal_energy,
+        target: r.target_tau,
     }
 }
 
@@ -112,4 +119,38 @@ pub fn since_previous(db: &HistoryDb, config: &str, batch_id: i64) -> Result<Opt
     let (before, after) = (&batches[at - 1], &batches[at]);
     let (b_runs, a_runs) = (db.runs(before.id)?, db.runs(after.id)?);
     Ok(Some(Since::Previous(Box::new(Changes::between((before, &b_runs), (after, &a_runs))))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run_folder::SummaryRow;
+
+    /// SQLite keeps a NaN as NULL: a run that ran and reads back without a final energy had a
+    /// NaN one, and the history's gate calls it a regression as `check` and `compare` do; a
+    /// failed run's missing energy stays missing.
+    #[test]
+    fn a_nan_final_energy_in_the_history_is_a_regression_as_in_check() {
+        let row = |e: Option<f64>, status: Status| {
+            let s = SummaryRow {
+                dataset: "d".into(),
+                energy: "sd".into(),
+                solver: "kp-newton".into(),
+                iterations: Some(5),
+                final_energy: Some(2.5),
+                flips: Some(0),
+                status,
+                ..Default::default()
+            };
+            RunRow { final_energy: e, ..RunRow::from_summary(&s) }
+        };
+        let batch = BatchRow::default();
+        let before = [row(Some(2.5), Status::NotConverged)];
+        let after = [row(None, Status::NotConverged)];
+        let c = Changes::between((&batch, &before), (&batch, &after));
+        assert_eq!(c.regressions(), 1, "{:?}", c.comparison.changes);
+        assert_eq!(c.comparison.changes[0].metric, "final_energy");
+        assert!(record(&after[0]).final_energy.is_some_and(f64::is_nan));
+        assert_eq!(record(&row(None, Status::Failed)).final_energy, None);
+    }
 }

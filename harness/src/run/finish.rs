@@ -15,6 +15,13 @@ pub(super) struct Finished {
     summary: SummaryRow,
     resumed: bool,
     wrote: Option<String>,
+    /// Its map that ended below its group's reference.
+    candidate: Option<crate::judge::improve::Candidate>,
+}
+
+/// The maps of the finished runs that ended below their group's reference.
+pub(super) fn take_candidates(finished: &mut [Finished]) -> Vec<crate::judge::improve::Candidate> {
+    finished.iter_mut().filter_map(|f| f.candidate.take()).collect()
 }
 
 /// Writes each run's files as its last repeat comes in, and counts it.
@@ -88,13 +95,15 @@ impl Finisher<'_> {
         report.runs += 1;
         report.resumed += usize::from(resumed);
         self.summary.append(s)?;
-        self.finished.push(Finished { index: i, summary: first.summary, resumed, wrote });
+        let candidate = first.candidate.take();
+        self.finished.push(Finished { index: i, summary: first.summary, resumed, wrote, candidate });
         Ok(())
     }
 
     /// After the last round: the runs whose repeats are all in are finished; those an
     /// interrupt cut short keep their repeats so far for `--resume` (no summary row: they did
-    /// not finish). A run whose repeats disagreed has its result (failed) whatever is missing.
+    /// not finish). A run whose repeats disagreed has its result (repeat 1's, flagged) whatever is
+    /// missing.
     pub fn keep_partials(&mut self, slots: &mut [Option<Slot>], repeat: usize) -> Result<()> {
         for (i, slot) in slots.iter_mut().enumerate() {
             let Some(slot) = slot.take() else { continue };
@@ -177,7 +186,7 @@ pub(super) fn judge_and_write(
         f.summary = j;
     }
     let mut rows: Vec<SummaryRow> = Vec::with_capacity(finished.len());
-    for Finished { index, mut summary, resumed, wrote } in finished {
+    for Finished { index, mut summary, resumed, wrote, .. } in finished {
         if !resumed && summary.time_norm.is_none() {
             summary.time_norm = summary.time_s.and_then(|t| calibration.normalize(t));
             if let Some(key) = wrote {

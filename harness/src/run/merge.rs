@@ -228,9 +228,12 @@ fn stage(
     for m in metas {
         let theirs: Vec<GroupReference> =
             m.references.clone().and_then(|r| serde_json::from_value(r).ok()).unwrap_or_default();
+        // A shard whose run lowered a group's reference has the lowest: every run is judged by it.
         for g in theirs {
-            if !references.iter().any(|r| r.dataset == g.dataset && r.energy == g.energy) {
-                references.push(g);
+            match references.iter_mut().find(|r| r.dataset == g.dataset && r.energy == g.energy) {
+                Some(r) if g.e_star.zip(r.e_star).is_some_and(|(new, old)| new < old) => *r = g,
+                Some(_) => {}
+                None => references.push(g),
             }
         }
     }

@@ -186,7 +186,7 @@ pub fn run_batch(
     meta.write(out_dir, None, false, &calibration)?;
     let report =
         BatchReport { skipped_datasets: plan.notices.clone(), out_dir: out_dir.to_path_buf(), ..Default::default() };
-    let code = code_id(&plan.config.dir);
+    let code = code_id();
     let total = mine.len();
     if plan.repeat > 1 {
         progress.notice(&format!("{total} runs, each repeated {} times round-robin", plan.repeat));
@@ -206,8 +206,18 @@ pub fn run_batch(
         if round > 0 {
             calibrate(&mut calibration, jobs, threads, progress);
         }
-        let workers =
-            Workers { plan, out_dir, mine: &mine, opts, progress, jobs, threads, code: &code, probes: &meta.external };
+        let workers = Workers {
+            plan,
+            out_dir,
+            mine: &mine,
+            opts,
+            progress,
+            jobs,
+            threads,
+            code: &code,
+            probes: &meta.external,
+            references: &meta.references,
+        };
         run_round(&workers, &todo, round, |d| match absorb(&mut slots, d, plan, &mine, progress) {
             Some((i, worker, slot)) => done.finish(i, worker, slot),
             None => Ok(()),
@@ -221,9 +231,29 @@ pub fn run_batch(
     if !opts.interrupt.load(Ordering::Relaxed) {
         calibrate(&mut calibration, jobs, threads, progress);
     }
-    let Finisher { finished, mut report, .. } = done;
+    let Finisher { mut finished, mut report, .. } = done;
     report.interrupted = total - report.runs;
     batch_notices(&report, plan.repeat, &calibration, progress);
+    // References only get better: the runs that ended below theirs lower it before the judge.
+    let candidates = finish::take_candidates(&mut finished);
+    if !candidates.is_empty() && !opts.interrupt.load(Ordering::Relaxed) {
+        let source = crate::judge::reference::BatchSource {
+            config: plan.config.config.name.clone(),
+            code: code.clone(),
+            folder: absolute(out_dir).display().to_string(),
+            run: String::new(),
+            unix_time: SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs()),
+        };
+        let candidates = candidates
+            .into_iter()
+            .map(|c| {
+                let source = crate::judge::reference::BatchSource { run: c.stem.clone(), ..source.clone() };
+                (c, source)
+            })
+            .collect();
+        let notice = |line: &str| progress.notice(line);
+        crate::judge::improve::improve(plan, &mine, &mut meta.references, candidates, &notice, &opts.interrupt)?;
+    }
     let rows = judge_and_write(plan, out_dir, &mine, &meta, &calibration, finished, &mut report, progress)?;
     // meta.json before the report, which states its calibration samples, then the history,
     // which reads the finished folder and records its outcome in meta.json for the report.
@@ -369,6 +399,7 @@ fn absorb(
         // run.
         if let Some(r) = slot.repeats.as_ref().filter(|r| r.mismatched()) {
             progress.fewer_solves(plan.repeat.saturating_sub(r.count() + 1));
+            progress.notice(&format!("{stem}: {} (kept repeat 1's result; flagged in the report)", r.why()));
         }
         return Some((i, worker, slot));
     }
@@ -406,12 +437,14 @@ struct Workers<'a> {
     code: &'a str,
     /// What the batch found out about its external solvers.
     probes: &'a [Probe],
+    /// The groups' references: a run's final map is looked at against its group's.
+    references: &'a [crate::judge::reference::GroupReference],
 }
 
 /// One round: the runs `todo` on `jobs` workers; the calling thread hands each result to
 /// `done` as it arrives.
 fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done) -> Result<()>) -> Result<()> {
-    let Workers { plan, out_dir, mine, opts, progress, jobs, threads, code, probes } = *w;
+    let Workers { plan, out_dir, mine, opts, progress, jobs, threads, code, probes, references } = *w;
     let meshes = MeshCache::new(todo.iter().map(|t| mine[t.index].dataset), plan.datasets.len());
     let next = AtomicUsize::new(0);
     let (tx, rx) = mpsc::channel::<Done>();
@@ -449,14 +482,7 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                         None => code.to_string(),
                     };
                     let key = resume::run_key(plan, p, &code).ok();
-                    let earlier = |summary, rows| RunResult {
-                        summary,
-                        rows,
-                        map_uv: None,
-                        mesh_file: None,
-                        interrupted: false,
-                        unkeyed: false,
-                    };
+                    let earlier = |summary, rows| RunResult { summary, rows, ..Default::default() };
                     let previous = match (&key, opts.resume && round == 0) {
                         (Some(k), true) => resume::previous(out_dir, &p.stem, k, plan.maps)
                             .map(|(summary, rows)| (earlier(summary, rows), Origin::Resumed))
@@ -491,6 +517,27 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                             }
                             if result.map_uv.is_some() {
                                 result.mesh_file = loaded.mesh_file();
+                            }
+                            // What the final map says, once (a repeat reproduces it), untimed.
+                            if let (Some(x), Ok(mesh)) = (result.final_x.take(), loaded.mesh.as_ref()) {
+                                let ran = matches!(result.summary.status, Status::Ok | Status::NotConverged);
+                                if round == 0 && ran {
+                                    let group =
+                                        references.iter().find(|g| g.dataset == ds.name && g.energy == p.energy);
+                                    let loosest = plan.targets.first().copied().unwrap_or(0.0);
+                                    let s = &result.summary;
+                                    let (polished, candidate) = crate::judge::confirm::after_run(
+                                        plan,
+                                        p,
+                                        mesh,
+                                        s,
+                                        x,
+                                        group,
+                                        loosest,
+                                        &opts.interrupt,
+                                    );
+                                    (result.summary.polished_energy, result.candidate) = (polished, candidate);
+                                }
                             }
                             (result, Origin::Ran)
                         }

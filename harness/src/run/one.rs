@@ -50,6 +50,7 @@ impl Observer for Rows<'_> {
 }
 
 /// What one run produced.
+#[derive(Default)]
 pub(super) struct RunResult {
     pub summary: SummaryRow,
     pub rows: Vec<IterationRecord>,
@@ -62,6 +63,11 @@ pub(super) struct RunResult {
     /// Skipped for want of something on this machine (an external solver's program or
     /// package): no `--resume` key, so the run runs once it is installed.
     pub unkeyed: bool,
+    /// The final map (normalized frame) of a `param` or `deform` run, until the worker has
+    /// looked at it (`judge::confirm`).
+    pub final_x: Option<Vec<f64>>,
+    /// The run's map that ended below its group's reference (`judge::improve`).
+    pub candidate: Option<crate::judge::improve::Candidate>,
 }
 
 /// One run; never returns an error or panics: failures become a `failed` summary row.
@@ -81,7 +87,7 @@ pub(super) fn run_one(
     let fail = |mut summary: SummaryRow, error: String| {
         summary.status = Status::Failed;
         summary.error = error;
-        RunResult { summary, rows: Vec::new(), map_uv: None, mesh_file: None, interrupted: false, unkeyed: false }
+        RunResult { summary, ..Default::default() }
     };
     // A pair outside the solver's definition is not solved: no rows, no map, the reason.
     if let Some(reason) = &run.skip {
@@ -91,14 +97,7 @@ pub(super) fn run_one(
         summary.status = Status::Skipped;
         summary.stop_reason = Some(StopReason::Skipped);
         summary.error = reason.clone();
-        return RunResult {
-            summary,
-            rows: Vec::new(),
-            map_uv: None,
-            mesh_file: None,
-            interrupted: false,
-            unkeyed: false,
-        };
+        return RunResult { summary, ..Default::default() };
     }
     let mesh = match mesh {
         Ok(m) => m,
@@ -136,11 +135,24 @@ pub(super) fn run_one(
         Err(panic) => return fail(summary, format!("{}: internal error (panic): {}", mesh.source, panic_text(&panic))),
     };
     let rows = rows.rows;
+    // A map with a non-finite coordinate is not a result (its energy and flips mean nothing).
+    if let Some(v) = outcome.x.iter().position(|c| !c.is_finite()) {
+        let (iterations, stop) = (outcome.iterations, outcome.stop_reason.as_str());
+        let what = format!(
+            "{}: the final map has a non-finite coordinate at vertex {} ({}), after {iterations} iterations ({stop})",
+            mesh.source,
+            v / 2,
+            outcome.x[v]
+        );
+        return fail(summary, what);
+    }
+    let authalic = metrics.is_some();
     record_outcome(&mut summary, &outcome, metrics, &rows, elapsed, run, mesh);
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &outcome.x));
     // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
-    RunResult { summary, rows, map_uv, mesh_file: None, interrupted, unkeyed: false }
+    let final_x = (!authalic).then_some(outcome.x);
+    RunResult { summary, rows, map_uv, interrupted, final_x, ..Default::default() }
 }
 
 /// The message of a caught panic.
@@ -163,8 +175,7 @@ fn run_external(
     ctx: &RunContext,
     mut summary: SummaryRow,
 ) -> RunResult {
-    let result =
-        |summary, rows| RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false, unkeyed: false };
+    let result = |summary, rows| RunResult { summary, rows, ..Default::default() };
     let skip = |mut summary: SummaryRow, reason: String| {
         summary.status = Status::Skipped;
         summary.stop_reason = Some(StopReason::Skipped);
@@ -231,7 +242,8 @@ fn run_external(
     (summary.peak_rss_mb, summary.peak_growth_mb) = (executed.peak_rss_mb, executed.peak_rss_mb);
     summary.verified_snapshots = Some(executed.verified);
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &executed.outcome.x));
-    RunResult { map_uv, ..result(summary, executed.rows) }
+    let final_x = Some(executed.outcome.x);
+    RunResult { map_uv, final_x, ..result(summary, executed.rows) }
 }
 
 /// What a finished solve says of the run: its summary's outcome, times and counts.

@@ -44,7 +44,8 @@ impl BatchRecord<'_> {
     fn meta(&self, ended: Option<SystemTime>, interrupted: bool, calibration: &Calibration) -> Result<Meta, MetaError> {
         let plan = self.plan;
         let secs = |t: SystemTime| t.duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-        let (rev, dirty) = git_revision(&plan.config.dir);
+        let (config_rev, config_dirty) = git_revision(&plan.config.dir);
+        let code = build();
         let settings_error =
             |e: &dyn std::fmt::Display| MetaError::Settings { path: plan.config.path.clone(), what: e.to_string() };
         // Every energy of the config, whatever `--only` kept.
@@ -68,13 +69,16 @@ impl BatchRecord<'_> {
             calibration_median_s: calibration.median_s(),
             calibration_spread: calibration.spread(),
             config: serde_json::to_value(&plan.config.raw).map_err(|e| settings_error(&e))?,
+            config_git_dirty: config_dirty,
+            config_git_revision: config_rev,
             config_path: Some(plan.config.path.display().to_string()),
             cores: Some(std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)),
             crates: Some(env!("MAPBENCH_CRATES").into()),
             ended_unix: ended.map(secs),
             external: (!self.external.is_empty()).then(|| serde_json::to_value(&self.external).ok()).flatten(),
-            git_dirty: dirty,
-            git_revision: rev,
+            git_dirty: code.dirty,
+            git_diff: code.diff,
+            git_revision: code.revision,
             hardware: Some(crate::hardware::Hardware::detect()),
             history: self.history.as_ref().and_then(Outcome::meta_history),
             history_outcome: self.history.as_ref().and_then(|o| serde_json::to_value(o).ok()),
@@ -105,13 +109,38 @@ impl BatchRecord<'_> {
     }
 }
 
-/// What identifies the code of a batch in its runs' `--resume` keys: version and git revision.
-pub fn code_id(dir: &Path) -> String {
-    let (rev, dirty) = git_revision(dir);
-    format!("mapbench {} {} dirty={dirty:?}", env!("CARGO_PKG_VERSION"), rev.unwrap_or_default())
+/// The build this binary is, set at build time (`harness/build.rs`): the code's git revision,
+/// whether the code differed from it, and a hash of the difference.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Build {
+    pub revision: Option<String>,
+    pub dirty: Option<bool>,
+    pub diff: Option<String>,
 }
 
-/// The git revision of the folder holding the config, and whether the tree is dirty.
+/// This binary's [`Build`].
+pub fn build() -> Build {
+    let some = |s: &str| (!s.is_empty()).then(|| s.to_string());
+    Build {
+        revision: some(env!("MAPBENCH_GIT_REVISION")),
+        dirty: some(env!("MAPBENCH_GIT_DIRTY")).map(|d| d == "true"),
+        diff: some(env!("MAPBENCH_GIT_DIFF")),
+    }
+}
+
+/// What identifies the code of a batch in its runs' `--resume` keys and a reference's
+/// provenance: version, the build's revision, and the hash of its uncommitted difference.
+pub fn code_id() -> String {
+    let b = build();
+    let mut id = format!("mapbench {} {}", env!("CARGO_PKG_VERSION"), b.revision.as_deref().unwrap_or("unknown"));
+    if b.dirty == Some(true) {
+        id += &format!("-dirty {}", b.diff.as_deref().unwrap_or(""));
+    }
+    id
+}
+
+/// The git revision of the folder holding the config, and whether its tree is dirty (what
+/// `meta.json` records as `config_git_revision`, beside the code's own).
 fn git_revision(dir: &Path) -> (Option<String>, Option<bool>) {
     let git = |args: &[&str]| {
         std::process::Command::new("git")

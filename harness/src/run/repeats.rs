@@ -1,7 +1,9 @@
 //! Repeats of one run (`repeat = N`): every repeat must reproduce the first one's iterates
-//! bit for bit (anything else is non-determinism, and fails the run); the run's times are
-//! the median over repeats with their min and max, and each timing column of the
-//! per-iteration CSV is the median of that row over repeats.
+//! bit for bit. One that does not is non-determinism: the run keeps repeat 1's result (and
+//! verdict), its `repeats_differ` says where they parted, the report flags it, and no further
+//! repeat runs. The run's times are the median over the repeats that agreed with their min
+//! and max, and each timing column of the per-iteration CSV is the median of that row over
+//! them.
 
 use super::one::{fill_times, RunResult};
 use crate::run_folder::Status;
@@ -24,7 +26,7 @@ pub(super) struct Repeats {
     times: Vec<f64>,
     /// Each repeat's timing columns, row by row.
     rows: Vec<Vec<Timings>>,
-    /// Why a repeat did not reproduce the first (the run then fails with this message).
+    /// Why a repeat did not reproduce the first (`repeats_differ`).
     mismatch: Option<String>,
     /// The largest peak resident set of the repeats (MiB), and the largest growth.
     peak_rss_mb: Option<f64>,
@@ -48,9 +50,14 @@ impl Repeats {
         self.times.len()
     }
 
-    /// A repeat did not reproduce the first: the run fails, whatever repeats are missing.
+    /// A repeat did not reproduce the first: no further repeat runs.
     pub fn mismatched(&self) -> bool {
         self.mismatch.is_some()
+    }
+
+    /// Why a repeat did not reproduce the first (empty when all did).
+    pub fn why(&self) -> &str {
+        self.mismatch.as_deref().unwrap_or("")
     }
 
     /// `time_s` of the latest repeat.
@@ -92,16 +99,11 @@ impl Repeats {
     }
 
     /// Write the repeats into the first result: `time_s` the median with its min and max,
-    /// the timing columns per-row medians, the per-row statistics recomputed from them. A
-    /// mismatch fails the run with its message.
+    /// the timing columns per-row medians, the per-row statistics recomputed from them, over
+    /// the repeats that reproduced the first; a mismatch in `repeats_differ`.
     pub fn apply(self, result: &mut RunResult) {
         let s = &mut result.summary;
-        if let Some(m) = self.mismatch {
-            s.status = Status::Failed;
-            s.converged = false;
-            s.error = if s.error.is_empty() { m } else { format!("{m}; {}", s.error) };
-            return;
-        }
+        s.repeats_differ = self.mismatch;
         let mut times = self.times.clone();
         s.repeats = Some(times.len());
         s.time_s = median(&mut times);
@@ -166,7 +168,7 @@ mod tests {
             time_s: Some(time),
             ..Default::default()
         };
-        RunResult { summary, rows, map_uv: None, mesh_file: None, interrupted: false, unkeyed: false }
+        RunResult { summary, rows, ..Default::default() }
     }
 
     #[test]
@@ -192,26 +194,30 @@ mod tests {
         assert_eq!(s.status, Status::Ok);
     }
 
+    /// A repeat that differs is flagged: the run keeps repeat 1's result and its status,
+    /// the times of the repeats that agreed, and says where they parted.
     #[test]
-    fn a_repeat_that_differs_fails_the_run_with_the_first_differing_iteration() {
+    fn a_repeat_that_differs_is_flagged_and_the_run_keeps_repeat_1() {
         let mut first = result(&[3.0, 2.0, 1.0], 0.3, 0.1);
         let mut r = Repeats::new(&first);
-        r.add(&first, &result(&[3.0, 2.0, 1.0], 0.3, 0.1));
+        r.add(&first, &result(&[3.0, 2.0, 1.0], 0.1, 0.1));
         r.add(&first, &result(&[3.0, 2.0, 1.0 + 1e-15], 0.3, 0.1));
+        assert!(r.mismatched());
         r.apply(&mut first);
-        assert_eq!(first.summary.status, Status::Failed);
-        let e = &first.summary.error;
-        assert!(e.contains("repeat 3 does not reproduce repeat 1") && e.contains("iteration 2"), "{e}");
+        let s = &first.summary;
+        assert_eq!((s.status, s.repeats, s.time_s_min), (Status::Ok, Some(2), Some(0.1)));
+        assert!(s.error.is_empty());
+        let d = s.repeats_differ.as_deref().unwrap_or_default();
+        assert!(d.contains("repeat 3 does not reproduce repeat 1") && d.contains("iteration 2"), "{d}");
+        assert_eq!(first.rows[2].energy, 1.0);
 
         let mut first = result(&[3.0, 2.0, 1.0], 0.3, 0.1);
         let mut r = Repeats::new(&first);
         r.add(&first, &result(&[3.0, 2.0], 0.3, 0.1));
         r.apply(&mut first);
-        assert!(
-            first.summary.error.contains("2 iterations vs 1, first difference at iteration 2"),
-            "{}",
-            first.summary.error
-        );
+        let d = first.summary.repeats_differ.as_deref().unwrap_or_default();
+        assert!(d.contains("2 iterations vs 1, first difference at iteration 2"), "{d}");
+        assert_eq!(first.summary.iterations, Some(2));
     }
 
     #[test]

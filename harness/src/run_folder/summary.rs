@@ -18,9 +18,12 @@ use std::path::{Path, PathBuf};
 /// the start map, the reference minimum and where it came from, the final gap and the
 /// verdict; then the count of the truncated solvers' steps whose CG stopped at its cap and
 /// the energy span the gaps are fractions of, and the snapshots of an external solver the
-/// harness verified (appended: a file written before them reads them as empty). After them, for each target `tau`
+/// harness verified, the peak memory growth; then the yardstick's common start energy, the
+/// energy's isometry value and whether `E*` is certified, the energy a polish from the final
+/// map reached, and why a repeat differed (appended: a file written before them reads them as
+/// empty). After them, for each target `tau`
 /// of the batch, `iters_to_<tau>` and `time_to_<tau>` ([`target_columns`]).
-pub const SUMMARY_COLUMNS: [&str; 42] = [
+pub const SUMMARY_COLUMNS: [&str; 47] = [
     "dataset",
     "task",
     "energy",
@@ -63,6 +66,11 @@ pub const SUMMARY_COLUMNS: [&str; 42] = [
     "gap_scale",
     "verified_snapshots",
     "peak_growth_mb",
+    "start_energy",
+    "ideal_energy",
+    "ref_certified",
+    "polished_energy",
+    "repeats_differ",
 ];
 
 /// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
@@ -74,10 +82,9 @@ pub fn target_columns(tau: f64) -> [String; 2] {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RefSource {
-    /// The reference store's tight solve.
+    /// A reference store's entry (computed, certified, possibly lowered by this batch).
     Reference,
-    /// A run of this batch ended lower (or no reference was available): the batch's best
-    /// final energy without flips.
+    /// No reference could be had: the batch's best final energy without flips, uncertified.
     Batch,
 }
 
@@ -146,20 +153,21 @@ impl std::fmt::Display for Status {
     }
 }
 
-/// The `verdict` column, the harness's word on a finished run: solved when it passed the
-/// convergence test at the tightest target with no flipped triangle, otherwise why not
+/// The `verdict` column, the harness's word on a finished run: solved when its final map has
+/// no flipped triangle and passes the convergence test at the tightest target, otherwise why not
 /// (`judge::verdict` decides it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
     /// Passed the tightest target, no flips: `status = ok`.
     Solved,
-    /// Passed the tightest target but its final map flips triangles.
+    /// Its final map flips triangles (inverts or collapses a face): never solved.
     Flipped,
     /// Its own stop rule called it converged above the tightest target.
     StoppedAboveTarget,
-    /// Stopped with a small gradient far above the reference (past the loosest target): at
-    /// another local minimum or a saddle, not short of this one.
+    /// Stopped with a small gradient far above the reference (past the loosest target), and
+    /// a tight polish from its final map stayed far: at another local minimum, not short of
+    /// this one.
     OtherMinimum,
     /// Stopped for another reason above the target (the iteration cap, the time limit, a
     /// failed line search or linear solve; `stop_reason` says which).
@@ -302,8 +310,8 @@ pub struct SummaryRow {
     #[serde(default)]
     pub cg_capped_iters: Option<usize>,
     /// The span the gaps are fractions of: `final_gap = (E_final - E*) / gap_scale`, and the
-    /// convergence test at `tau` is `E - E* <= tau gap_scale`. `E0 - E*` (Moré and Wild), for
-    /// `deform` at most the shape's own change (`convergence::judged_start`).
+    /// convergence test at `tau` is `E - E* <= tau gap_scale`: `min(E0 - E*, A)`, the common
+    /// start's distance (Moré and Wild) or the minimum's accuracy scale (`convergence::span`).
     #[serde(default)]
     pub gap_scale: Option<f64>,
     /// The maps of an external solver's run that the harness recomputed (energy, gradient
@@ -316,6 +324,27 @@ pub struct SummaryRow {
     /// own process group's peak. Empty otherwise.
     #[serde(default)]
     pub peak_growth_mb: Option<f64>,
+    /// `E0` of the run's group: the common start's energy, whatever start the run took
+    /// (`init_energy` is its own).
+    #[serde(default)]
+    pub start_energy: Option<f64>,
+    /// `E_iso`: the energy at an isometry, its lower bound, from which the accuracy scale
+    /// `max(E* - E_iso, 1e-4 max(1, |E_iso|))` is measured (`convergence::span`).
+    #[serde(default)]
+    pub ideal_energy: Option<f64>,
+    /// Whether the group's `E*` carries a certificate (`judge::reference`): `false` marks the
+    /// run's verdict wherever it appears.
+    #[serde(default)]
+    pub ref_certified: Option<bool>,
+    /// The energy a tight KP-Newton polish from the final map reached, run when the run
+    /// stopped with a small gradient far above `E*`: `other_minimum` only when it stays far
+    /// (`judge::confirm`). Empty otherwise.
+    #[serde(default)]
+    pub polished_energy: Option<f64>,
+    /// A later repeat that did not reproduce repeat 1 (the first difference); the run keeps
+    /// repeat 1's result and verdict, and the report flags it.
+    #[serde(default)]
+    pub repeats_differ: Option<String>,
     /// Iterations and time to each target, the loosest first.
     #[serde(skip)]
     pub to_targets: Vec<ToTarget>,
@@ -580,9 +609,13 @@ mod tests {
         let path = dir.path().join("summary.csv");
         write_summary(&path, &rows).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.lines().next().unwrap().ends_with(",cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb"));
+        assert!(text.lines().next().unwrap().ends_with(
+            ",cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb,start_energy,ideal_energy,ref_certified,\
+             polished_energy,repeats_differ"
+        ));
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
-        for (cut_columns, left) in [(1, (Some(0.2103), Some(12))), (3, (None, None))] {
+        // A file written before the last columns (the yardstick's, 5) reads them as empty.
+        for (cut_columns, left) in [(6, (Some(0.2103), Some(12))), (8, (None, None))] {
             let cut = |l: &str| l.rsplitn(cut_columns + 1, ',').nth(cut_columns).unwrap().to_string() + "\n";
             let older: String = text.lines().map(cut).collect();
             std::fs::write(&path, older).unwrap();

@@ -151,6 +151,9 @@ fn run_shard(sub: &Submission, index: usize) {
     };
     let mut plan = plan;
     plan.history = None;
+    // As `--no-history`: nothing written outside the test's folder (the stores' default is
+    // beside the history database of the working directory).
+    plan.references.iter_mut().for_each(|r| r.persist = false);
     let progress = crate::run::progress::Lines;
     crate::run::run_batch(
         &plan,

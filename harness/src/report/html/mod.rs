@@ -91,7 +91,12 @@ pub fn write_index(
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
     provenance::hardware_note(&mut h, meta.as_ref());
-    status_matrix(&mut h, run_dir, summaries, &external);
+    let references: Vec<crate::judge::reference::GroupReference> = meta
+        .as_ref()
+        .and_then(|m| m.references.clone())
+        .and_then(|r| serde_json::from_value(r).ok())
+        .unwrap_or_default();
+    status_matrix(&mut h, run_dir, summaries, &external, &references);
     external_section(&mut h, &external, summaries);
     tables_section(&mut h, run_dir, tables, plots, summaries);
     plots_section(&mut h, run_dir, plots);

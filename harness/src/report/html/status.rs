@@ -5,6 +5,7 @@
 use super::timing::{brief, seconds};
 use super::{esc, href};
 use crate::external::probe::Probe;
+use crate::judge::reference::{GroupReference, Origin};
 use crate::judge::verdict::Verdict;
 use crate::report::{clamped_label, reached_target, tau_text, tightest_target, to_target, unique, verdict_text};
 use crate::run_folder::summary::RefSource;
@@ -53,7 +54,13 @@ fn head(name: &str) -> String {
 
 /// Rows: dataset (and energy, when the run has several), those with a problem first;
 /// columns: solver. Each cell links to the run's per-iteration CSV when it exists.
-pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[SummaryRow], external: &[Probe]) {
+pub(super) fn status_matrix(
+    h: &mut String,
+    run_dir: &Path,
+    summaries: &[SummaryRow],
+    external: &[Probe],
+    references: &[GroupReference],
+) {
     let solvers = unique(summaries.iter().map(|s| s.solver.as_str()));
     let mut datasets = unique(summaries.iter().map(|s| s.dataset.as_str()));
     let troubled = |d: &str| summaries.iter().any(|s| s.dataset == d && is_problem(s));
@@ -77,20 +84,24 @@ pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[Summary
         let _ = write!(
             h,
             " The harness judges param and deform runs against the reference minimum E* of their dataset and \
-             energy, whatever the solver's own stop rule said: <span class=\"ok\">green</span> = solved, the run \
-             reached the {t} target (E0 − E ≥ (1 − {t})(E0 − E*)) with no flipped triangle, and its cell counts \
-             the iterations and time <i>to the target</i> (the tooltip gives its own stop). A yellow cell names \
-             the harness's verdict over the final gap (E_final − E*)/(E0 − E*): <b>above</b> = stopped above \
-             target, its own rule called it converged above the target; <b>other</b> = other minimum, it stopped \
-             with a small gradient farther than the loosest target from E* (another local minimum or a saddle, \
-             not short of this one); <b>unfin.</b> = unfinished, it stopped for another reason above the target \
-             (iteration cap, time limit, failed line search or linear solve; the tooltip names it); \
-             <b>flipped</b> = it reached the target but its final map flips triangles. Authalic runs keep their \
-             solvers' own rules (<b>nc</b>: not converged)."
+             energy, whatever the solver's own stop rule said, from the common start's energy E0 for every \
+             solver: <span class=\"ok\">green</span> = solved, its final map has no flipped triangle and \
+             E − E* ≤ {t} × span, the span being min(E0 − E*, A) with A = max(E* − E_iso, 10⁻⁴ max(1, |E_iso|)) \
+             the minimum's own distortion (E_iso: the energy at an isometry, SD's 2), so that “solved” is the \
+             same accuracy on every problem; its cell counts the iterations and time <i>to the target</i> (the \
+             tooltip gives its own stop). A yellow cell names the harness's verdict over the final gap \
+             (E_final − E*)/span: <b>above</b> = stopped above target, its own rule called it converged above \
+             the target; <b>other</b> = other minimum, it stopped with a small gradient farther than the loosest \
+             target from E* and a tight Newton polish from its final map stayed there; <b>unfin.</b> = \
+             unfinished, it stopped for another reason above the target (iteration cap, time limit, failed line \
+             search or linear solve; the tooltip names it); <b>flipped</b> = its final map flips triangles. \
+             A <b>†</b> marks the runs of a group whose E* is not certified (its reason in the notes below), a \
+             <b>≠</b> a run whose repeats did not reproduce its first (its first repeat's result is shown). \
+             Authalic runs keep their solvers' own rules (<b>nc</b>: not converged)."
         );
     }
     *h += "</p>\n";
-    reference_note(h, summaries);
+    reference_note(h, summaries, references);
     *h += "<div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
     if several_energies {
         *h += "<th class=\"k\">energy</th>";
@@ -146,28 +157,64 @@ pub(super) fn status_matrix(h: &mut String, run_dir: &Path, summaries: &[Summary
     }
 }
 
-/// The line naming the (dataset, energy) groups whose reference minimum E* a run of this batch
-/// set (`ref_source = batch`): every run of such a group is judged against it.
-pub(super) fn reference_note(h: &mut String, summaries: &[SummaryRow]) {
-    let mut groups: Vec<String> = Vec::new();
+/// The notes on the batch's reference minima: the groups whose E* is not certified (their
+/// verdicts carry a †), those whose E* a run of this batch lowered (every run of the group is
+/// judged against it, and the store keeps it), those without a reference (the batch's best,
+/// `ref_source = batch`), and the stored entries refused.
+pub(super) fn reference_note(h: &mut String, summaries: &[SummaryRow], references: &[GroupReference]) {
+    let judged = |g: &GroupReference| summaries.iter().any(|s| s.dataset == g.dataset && s.energy == g.energy);
+    let mut lines: Vec<String> = Vec::new();
+    let uncertified: Vec<String> = references
+        .iter()
+        .filter(|g| judged(g) && g.e_star.is_some() && !g.certified)
+        .map(|g| {
+            let why = g.certificate.as_deref().unwrap_or("no certificate recorded");
+            format!("{} / {} ({})", g.dataset, g.energy, why)
+        })
+        .collect();
+    if !uncertified.is_empty() {
+        lines.push(format!(
+            "† E* not certified for {} group{} (its verdicts are against the best minimum known, which no \
+             certificate vouches for): {}.",
+            uncertified.len(),
+            if uncertified.len() == 1 { "" } else { "s" },
+            uncertified.join("; ")
+        ));
+    }
+    let lowered: Vec<String> = references
+        .iter()
+        .filter(|g| judged(g) && g.origin == Origin::Improved)
+        .map(|g| format!("{} / {} ({})", g.dataset, g.energy, g.note.as_deref().unwrap_or("lowered")))
+        .collect();
+    if !lowered.is_empty() {
+        lines.push(format!(
+            "E* lowered by this batch for {} group{}: {}. A run ended below the stored reference minimum; its map, \
+             polished and certified, is E* for every run of the group, and the reference store keeps it.",
+            lowered.len(),
+            if lowered.len() == 1 { "" } else { "s" },
+            lowered.join("; ")
+        ));
+    }
+    let mut batch: Vec<String> = Vec::new();
     for s in summaries.iter().filter(|s| s.ref_source == Some(RefSource::Batch)) {
         let g = format!("{} / {}", s.dataset, s.energy);
-        if !groups.contains(&g) {
-            groups.push(g);
+        if !batch.contains(&g) {
+            batch.push(g);
         }
     }
-    if groups.is_empty() {
+    if !batch.is_empty() {
+        lines.push(format!(
+            "No reference minimum for {} group{}: {}. E* is the batch's best final energy without flips \
+             (ref_source = batch), uncertified: these verdicts depend on which solvers ran.",
+            batch.len(),
+            if batch.len() == 1 { "" } else { "s" },
+            batch.join(", ")
+        ));
+    }
+    if lines.is_empty() {
         return;
     }
-    let _ = writeln!(
-        h,
-        "<p class=\"caption\" id=\"references\">E* from this batch (ref_source = batch) for {} group{}: {}. A run \
-         of the batch ended below the stored reference minimum (or none was stored), so its final energy without \
-         flips is E* for every run of the group.</p>",
-        groups.len(),
-        if groups.len() == 1 { "" } else { "s" },
-        esc(&groups.join(", "))
-    );
+    let _ = writeln!(h, "<p class=\"caption\" id=\"references\">{}</p>", esc(&lines.join(" ")));
 }
 
 fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: &mut Notes) {
@@ -220,6 +267,12 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
         let _ =
             write!(more, "; {k} iterations clamped SLIM weights (tables name the run {})", clamped_label(&s.solver));
     }
+    if s.ref_certified == Some(false) {
+        more += "; † E* of this group is not certified";
+    }
+    if let Some(d) = &s.repeats_differ {
+        let _ = write!(more, "; ≠ {d} (repeat 1's result shown)");
+    }
     let iterations = shown.iterations.map(|i| format!("{i}{}", if marked { "+" } else { "" })).unwrap_or_default();
     let secs = time.map(|t| brief(t.value)).unwrap_or_default();
     // The harness's verdict on a judged run it did not call solved.
@@ -255,7 +308,12 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
             ("skipped", "skip".to_string(), format!("[{n}]"), format!("skipped: {}", s.error))
         }
     };
-    let body = format!("<b>{}</b><br><small>{}</small>", esc(&top), esc(&bottom));
+    let marks = format!(
+        "{}{}",
+        if s.ref_certified == Some(false) { "†" } else { "" },
+        if s.repeats_differ.is_some() { "≠" } else { "" }
+    );
+    let body = format!("<b>{}{marks}</b><br><small>{}</small>", esc(&top), esc(&bottom));
     let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));
     if run_dir.join(&csv).exists() {
         let _ = write!(h, "<td class=\"{class}\" title=\"{}\"><a href=\"{}\">{body}</a></td>", esc(&tip), href(&csv));

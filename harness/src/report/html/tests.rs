@@ -158,7 +158,7 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
     ] {
         assert!(html.contains(words), "{words}");
     }
-    assert!(html.contains("E* from this batch (ref_source = batch) for 1 group: tiny / sd."));
+    assert!(html.contains("No reference minimum for 1 group: tiny / sd. E* is the batch&#39;s best final energy"));
     // The data profile sits with the performance profiles, explained.
     assert!(html.contains("<img src=\"plots/profile__sd__data.png\""));
     assert!(html.contains("Moré–Wild data profiles (Moré and Wild 2009, “data profile”): d_s(α)"));
@@ -175,7 +175,17 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
     assert!(html.contains("<b>other</b><br><small>3e-4</small>"));
     assert!(html.contains("<b>flipped</b><br><small>0e0</small>"));
     assert!(html.contains("not solved: flipped; 4 flipped triangles"));
-    assert!(!html.contains("E* from this batch"), "stored references: no line");
+    assert!(!html.contains("No reference minimum"), "stored references: no line");
+    // An uncertified reference marks its group's cells; a repeat that differed is flagged.
+    for r in &mut rows[..2] {
+        r.ref_certified = Some(false);
+    }
+    rows[1].repeats_differ = Some("repeat 2 does not reproduce repeat 1 (first difference at iteration 3)".into());
+    write_index(p, &rows, &[], &[], &Batch::default()).unwrap();
+    let html = std::fs::read_to_string(p.join("index.html")).unwrap();
+    assert!(html.contains("<b>other†≠</b><br><small>3e-4</small>"), "both marks");
+    assert!(html.contains("† E* of this group is not certified"));
+    assert!(html.contains("≠ repeat 2 does not reproduce repeat 1"));
 }
 
 #[test]
@@ -298,7 +308,7 @@ fn the_status_matrix_of_20_solvers_stays_narrow_and_lists_problem_rows_first() {
     }
     let dir = tempfile::tempdir().unwrap();
     let mut html = String::new();
-    status_matrix(&mut html, dir.path(), &rows, &[]);
+    status_matrix(&mut html, dir.path(), &rows, &[], &[]);
     let heads = status_cells(&html, "th");
     assert_eq!(heads.len(), 21, "the dataset column and one per solver");
     for head in &heads {

@@ -19,22 +19,35 @@ pub(super) const LEGEND_WIDTH: u32 = 230;
 #[derive(Clone, Debug, Default)]
 pub(super) struct Curve {
     pub(super) iter: Vec<f64>,
+    /// Each row's gap: the verdict's `(E - E*) / span` for a judged run, else
+    /// `energy_minus_best` (an authalic run, or a folder without a reference).
     pub(super) gap: Vec<f64>,
     pub(super) time: Vec<f64>,
     pub(super) neg_eig: Vec<f64>,
-    /// The group's best energy, `energy - energy_minus_best` of the first row.
-    pub(super) best: f64,
+    /// What a gap of round-off is: `1e-16 |E*| / span` (judged) or `1e-16 |best|`.
+    pub(super) roundoff: f64,
 }
 
 impl Curve {
-    pub(super) fn new(file: crate::run_folder::IterationFile) -> Curve {
+    /// The curve of a run's rows, on the verdict's yardstick `(E*, span)` when it has one.
+    pub(super) fn new(file: crate::run_folder::IterationFile, yardstick: Option<(f64, f64)>) -> Curve {
         let rows = &file.rows;
+        let (gap, roundoff) = match yardstick.filter(|(_, span)| *span > 0.0) {
+            Some((e_star, span)) => (
+                rows.iter().map(|r| crate::convergence::gap_on(r.energy, e_star, span)).collect(),
+                1e-16 * e_star.abs() / span,
+            ),
+            None => {
+                let best = rows.first().zip(file.energy_minus_best.first()).map_or(f64::NAN, |(r, g)| r.energy - g);
+                (file.energy_minus_best, 1e-16 * best.abs())
+            }
+        };
         Curve {
             iter: rows.iter().map(|r| r.iter as f64).collect(),
             time: rows.iter().map(|r| r.t_cum_s).collect(),
             neg_eig: rows.iter().map(|r| r.neg_eig as f64).collect(),
-            best: rows.first().zip(file.energy_minus_best.first()).map_or(f64::NAN, |(r, g)| r.energy - g),
-            gap: file.energy_minus_best,
+            gap,
+            roundoff,
         }
     }
 }

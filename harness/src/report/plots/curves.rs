@@ -1,5 +1,7 @@
-//! Convergence curves of one (dataset, energy) group: energy gap vs iteration and vs time,
-//! #negative eigenvalues vs iteration (the complex-view paper's Figures 2-3).
+//! Convergence curves of one (dataset, energy) group: the gap vs iteration and vs time,
+//! #negative eigenvalues vs iteration (the complex-view paper's Figures 2-3). A judged group's
+//! gap is the verdict's, `(E - E*) / span` against the judge's `E*`, with the targets drawn:
+//! one yardstick on the page.
 
 use super::chart::{self, draw_series, format_count, format_linear, house_style, render_framed, Curve, Series, XAxis};
 use super::{Plot, PlotKind};
@@ -17,42 +19,65 @@ pub(super) fn render_group(
     runs: &[&SummaryRow],
     solvers: &[&str],
 ) -> Result<Vec<Plot>> {
+    // The group's yardstick when every run has it (they share E* and the span).
+    let yardstick = runs.first().and_then(|r| r.ref_energy.zip(r.gap_scale));
+    let judged = yardstick.is_some() && runs.iter().all(|r| r.ref_energy.zip(r.gap_scale) == yardstick);
+    let yardstick = yardstick.filter(|_| judged);
+    let targets: Vec<f64> = match yardstick {
+        Some(_) => runs.first().map(|r| r.to_targets.iter().map(|t| t.tau).collect()).unwrap_or_default(),
+        None => Vec::new(),
+    };
+    let certified = runs.first().and_then(|r| r.ref_certified);
     let curves = runs
         .par_iter()
         .map(|r| {
-            let curve = Curve::new(crate::run_folder::read_run(run_dir, r)?);
+            let curve = Curve::new(crate::run_folder::read_run(run_dir, r)?, yardstick);
             Ok(Series { solver: &r.solver, style: chart::style(solvers, &r.solver), converged: converged(r), curve })
         })
         .collect::<Result<Vec<_>>>()?;
+    let gap = Gap { judged: yardstick.is_some(), targets: &targets, certified };
     let kinds = [PlotKind::EnergyIter, PlotKind::EnergyTime, PlotKind::NegEigIter];
     kinds
         .into_par_iter()
         .map(|kind| {
             let (suffix, what) = match kind {
-                PlotKind::EnergyIter => ("energy_iter", "energy gap vs iteration"),
-                PlotKind::EnergyTime => ("energy_time", "energy gap vs time"),
+                PlotKind::EnergyIter => ("energy_iter", "gap vs iteration"),
+                PlotKind::EnergyTime => ("energy_time", "gap vs time"),
                 _ => ("neg_eig_iter", "#negative eigenvalues vs iteration"),
             };
             let file = format!("plots/{dataset}__{energy}__{suffix}.png");
-            let title = format!("{dataset}, {energy}: {what}");
-            let png = render_curves(&title, &kind, &curves)?;
+            let mark =
+                if gap.certified == Some(false) && kind != PlotKind::NegEigIter { " (E* not certified)" } else { "" };
+            let title = format!("{dataset}, {energy}: {what}{mark}");
+            let png = render_curves(&title, &kind, &curves, &gap)?;
             write_atomic(&run_dir.join(&file), &png)?;
             Ok(Plot { file, title, dataset: dataset.into(), energy: energy.into(), kind })
         })
         .collect::<Result<Vec<_>>>()
 }
 
-/// Log-axis floor for the energy gap: values at or below 0 (the best run's last point) are
-/// drawn there. Two decades below the smallest positive gap, so they read as "reached the
-/// best", but never below round-off of the best energy.
-fn gap_floor(curves: &[Series]) -> f64 {
-    let best = curves.iter().map(|c| c.curve.best.abs()).find(|b| b.is_finite()).unwrap_or(0.0);
+/// What the gap axis of a group's plots measures.
+struct Gap<'a> {
+    /// The verdict's gap `(E - E*) / span` (else `E - best`).
+    judged: bool,
+    /// The targets, drawn as lines (judged only).
+    targets: &'a [f64],
+    /// Whether `E*` is certified (`None`: not judged).
+    certified: Option<bool>,
+}
+
+/// Log-axis floor for the gap: values at or below 0 (at or below `E*`) are drawn there. Two
+/// decades below the smallest positive gap and the tightest target, so they read as "reached
+/// it", but never below round-off.
+fn gap_floor(curves: &[Series], targets: &[f64]) -> f64 {
+    let roundoff = curves.iter().map(|c| c.curve.roundoff).find(|b| b.is_finite() && *b > 0.0).unwrap_or(0.0);
     let min_pos = curves
         .iter()
         .flat_map(|c| c.curve.gap.iter().copied())
+        .chain(targets.iter().copied())
         .filter(|g| g.is_finite() && *g > 0.0)
         .fold(f64::INFINITY, f64::min);
-    let roundoff = (1e-16 * best).max(1e-300);
+    let roundoff = roundoff.max(1e-300);
     if min_pos.is_finite() {
         (min_pos / 100.0).max(roundoff)
     } else {
@@ -60,8 +85,8 @@ fn gap_floor(curves: &[Series]) -> f64 {
     }
 }
 
-fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<u8>> {
-    let floor = gap_floor(curves);
+fn render_curves(title: &str, kind: &PlotKind, curves: &[Series], gap: &Gap) -> Result<Vec<u8>> {
+    let floor = gap_floor(curves, gap.targets);
     let x_axis = match kind {
         PlotKind::EnergyTime => {
             let t_max = curves.iter().flat_map(|c| c.curve.time.iter().copied()).filter(|t| t.is_finite());
@@ -97,12 +122,33 @@ fn render_curves(title: &str, kind: &PlotKind, curves: &[Series]) -> Result<Vec<
                     .y_label_formatter(&$y_fmt)
                     .x_label_formatter(&|v| format_linear(*v));
                 house_style(&mut mesh).draw()?;
+                if *kind != PlotKind::NegEigIter {
+                    // The targets: a run is solved at tau where its final gap is at or below it.
+                    let (x0, x1) = match x_axis {
+                        XAxis::Linear { max } => (0.0, max),
+                        XAxis::Log { lo, max } => (lo, max),
+                    };
+                    let grey = RGBColor(90, 90, 90);
+                    for &tau in gap.targets {
+                        chart.draw_series(DashedLineSeries::new([(x0, tau), (x1, tau)], 6, 4, grey.stroke_width(1)))?;
+                        let label = Text::new(
+                            format!("target {tau:.0e}"),
+                            (x0, tau),
+                            ("sans-serif", 13).into_font().color(&grey),
+                        );
+                        chart.draw_series(std::iter::once(label))?;
+                    }
+                }
                 draw_series(&mut chart, curves, &points, x_axis)?;
             }};
         }
         let counts = |v: &f64| format_count(*v);
         let exponent = |v: &f64| format!("{v:.0e}");
-        let gap_desc = "E − E*  (≤ 0 drawn at the bottom)";
+        let gap_desc = if gap.judged {
+            "(E − E*) / span, the verdict's gap (≤ 0 at the bottom)"
+        } else {
+            "E − best  (≤ 0 drawn at the bottom)"
+        };
         match (kind, x_axis) {
             (PlotKind::NegEigIter, XAxis::Linear { max }) => {
                 chart!(0.0..max, 0.0..neg_eig_max(y_max), "#negative eigenvalues", counts)
@@ -149,7 +195,7 @@ mod tests {
             time: vec![0.0; gap.len()],
             neg_eig: vec![0.0; gap.len()],
             gap,
-            best: 4.0,
+            roundoff: 4e-16,
         };
         let series = |solver, _: usize, converged, gap| Series {
             solver,
@@ -158,15 +204,20 @@ mod tests {
             curve: curve(gap),
         };
         let curves = vec![series("a", 0, true, vec![6.0, 1e-3, 0.0]), series("b", 1, false, vec![6.0, -1e-9])];
-        let floor = gap_floor(&curves);
+        let floor = gap_floor(&curves, &[]);
         assert_eq!(floor, 1e-5);
+        let plain = Gap { judged: false, targets: &[], certified: None };
         for kind in [PlotKind::EnergyIter, PlotKind::EnergyTime, PlotKind::NegEigIter] {
-            render_curves("t", &kind, &curves).unwrap();
+            render_curves("t", &kind, &curves, &plain).unwrap();
         }
-        // Only zeros: the floor is round-off of the best energy.
+        // The targets are drawn above the floor.
+        let judged = Gap { judged: true, targets: &[1e-3, 1e-6], certified: Some(false) };
+        assert_eq!(gap_floor(&curves, judged.targets), 1e-8);
+        render_curves("t", &PlotKind::EnergyIter, &curves, &judged).unwrap();
+        // Only zeros: the floor is round-off.
         let zeros = vec![series("a", 0, true, vec![0.0, 0.0])];
-        assert_eq!(gap_floor(&zeros), 4e-16);
-        render_curves("t", &PlotKind::EnergyIter, &zeros).unwrap();
+        assert_eq!(gap_floor(&zeros, &[]), 4e-16);
+        render_curves("t", &PlotKind::EnergyIter, &zeros, &plain).unwrap();
     }
 
     #[test]
@@ -205,6 +256,7 @@ mod tests {
         let mut timed = points.clone();
         timed[1][2].0 += 1.0;
         assert_eq!(chart::twins(&timed), [None, None, None, Some(0)]);
-        render_curves("t", &PlotKind::EnergyIter, &curves).unwrap();
+        render_curves("t", &PlotKind::EnergyIter, &curves, &Gap { judged: false, targets: &[], certified: None })
+            .unwrap();
     }
 }

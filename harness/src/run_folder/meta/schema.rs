@@ -51,6 +51,12 @@ pub struct Meta {
     pub calibration_spread: Option<f64>,
     /// The config as read (its TOML as JSON); `Null` when unknown.
     pub config: Value,
+    /// The git revision of the folder holding the config (absent outside a checkout), and
+    /// whether its tree is dirty: a config kept in the user's own repository.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub config_git_dirty: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub config_git_revision: Option<String>,
     pub config_path: Option<String>,
     pub cores: Option<usize>,
     pub crates: Option<String>,
@@ -59,7 +65,11 @@ pub struct Meta {
     /// skipped, why (`external::probe::Probe`); absent without any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub external: Option<Value>,
+    /// The code's git revision, set when the binary was built, and whether its code
+    /// differed from it (`git_diff`: a hash of the difference).
     pub git_dirty: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub git_diff: Option<String>,
     pub git_revision: Option<String>,
     /// The machine's fingerprint (`crate::hardware`); in a merged folder the shards' common
     /// one, absent when they differ (each shard's is in `merged_from`).

@@ -1,0 +1,404 @@
+//! Reference minima `E*` of the convergence test, one per problem: a dataset's mesh (and
+//! handles) with a task, an energy and its parameters, and the common start. A reference is
+//! the best known minimum, with the map that has it, how it was found and a certificate of the
+//! stationarity reached (`compute`); it is kept in a reference store keyed by what determines
+//! it (`store`), so a nightly does not compute it again. The committed `references.json`
+//! beside the registry is read with the writable store (`references` in the config, default
+//! `references.json` beside the history database), each entry verified against its map, the
+//! lower of the two used; what a batch computes or finds goes to the writable store only, and
+//! only when lower. With `--no-history` a batch writes neither and keeps what it computed to
+//! itself (in `meta.json`).
+
+pub mod compute;
+pub mod store;
+
+use crate::hash::Fnv;
+use crate::judge::problem::Problem;
+use crate::plan::{Plan, PlannedRun, Task};
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicBool, Ordering};
+use store::Book;
+
+/// Bumped whenever what a reference is changes without its key seeing it: an energy's
+/// definition, a generated mesh, the common start, how a reference is computed or certified.
+pub const REFERENCE_VERSION: u32 = 2;
+
+/// One reference minimum, as a store keeps it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Reference {
+    /// 16 hex digits of what determines it ([`key`]).
+    pub key: String,
+    /// For the reader: the dataset, task and energy it was computed for.
+    pub dataset: String,
+    pub task: Task,
+    pub energy: String,
+    /// The energy of its map.
+    pub e_star: f64,
+    /// The energy's value at an isometry (its lower bound, `E_iso` of the accuracy scale).
+    pub ideal: f64,
+    /// The energy at the common start, `E0` of every run of the problem.
+    pub start_energy: f64,
+    /// The common start (`summary.csv`'s `start`).
+    pub start: String,
+    /// `|grad|` at its map.
+    pub grad_norm: f64,
+    /// Its map, in the store's `references/` folder, and the checksum of its coordinates.
+    pub map: String,
+    pub map_checksum: String,
+    /// How the map was found, in order.
+    pub provenance: Vec<Step>,
+    pub certificate: Certificate,
+}
+
+/// What a step of a reference's provenance was.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StepKind {
+    /// A method of the portfolio from the common start.
+    Portfolio,
+    /// A polish from the kept map that went lower.
+    Polish,
+    /// A certifying polish that went lower (then the map's next polish).
+    Certify,
+    /// A run of a batch that ended below the reference.
+    Run,
+}
+
+/// One solve of a reference's provenance.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Step {
+    pub what: StepKind,
+    pub solver: String,
+    /// Where it started: `common start`, `the kept map`, or the run.
+    pub from: String,
+    pub iterations: usize,
+    pub stop_reason: String,
+    /// The energy it ended at, and `|grad|` there.
+    pub energy: f64,
+    pub grad_norm: Option<f64>,
+    /// The batch whose run it was (`what = run`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub batch: Option<BatchSource>,
+}
+
+/// The batch a run that improved a reference came from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BatchSource {
+    pub config: String,
+    /// The build that ran it (`git describe`-like, with `-dirty` and the diff's hash).
+    pub code: String,
+    pub folder: String,
+    pub run: String,
+    pub unix_time: u64,
+}
+
+/// Which rule certifies a reference (the energy's smoothness decides).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CertificateRule {
+    /// A smooth energy: Newton stops at its floor with a small gradient, and neither
+    /// certifying polish goes lower.
+    Stationary,
+    /// SARAP: neither certifying polish goes lower over a long window.
+    Stalled,
+}
+
+/// One certifying polish.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Polish {
+    pub solver: String,
+    pub iterations: usize,
+    pub stop_reason: String,
+    /// How much lower than `E*` it ended (0 or less: not at all).
+    pub decrease: f64,
+}
+
+/// A reference's certificate ([`compute`]'s rules).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Certificate {
+    pub rule: CertificateRule,
+    pub certified: bool,
+    /// Why (or why not), in words.
+    pub reason: String,
+    /// The largest decrease a certifying polish may find (`CERTIFY_TOL * A`).
+    pub tolerance: f64,
+    pub polishes: Vec<Polish>,
+}
+
+/// The reference key of a run's problem (16 hex digits); `None` for the authalic task.
+pub fn key(plan: &Plan, run: &PlannedRun) -> Result<Option<String>> {
+    let Some(problem) = run.settings.problem_key_text() else { return Ok(None) };
+    let mut h = Fnv::new();
+    h.bytes(format!("mapbench reference {REFERENCE_VERSION}").as_bytes()).bytes(problem.as_bytes());
+    plan.dataset(run).hash_into(&mut h)?;
+    Ok(Some(format!("{:016x}", h.0)))
+}
+
+/// Where a group's `E*` came from (`meta.json`'s `references`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Origin {
+    /// The committed store.
+    Seed,
+    /// The writable store (an earlier batch computed or found it).
+    Store,
+    /// This batch computed it.
+    Computed,
+    /// A run of this batch ended below the stored one: its map, polished and certified, is
+    /// the reference now (`note` names the run).
+    Improved,
+    /// None could be had (the mesh does not load, the solve failed): the batch's best final
+    /// energy is the reference, uncertified.
+    Unavailable,
+}
+
+/// The reference of one (dataset, energy) group of a batch: its yardstick.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GroupReference {
+    pub dataset: String,
+    pub energy: String,
+    pub key: Option<String>,
+    pub e_star: Option<f64>,
+    pub origin: Origin,
+    /// Why it is unavailable, what refused a stored one, or which run lowered it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+    /// `E0`: the energy at the common start, whatever start a solver takes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_energy: Option<f64>,
+    /// `E_iso`: the energy at an isometry.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ideal: Option<f64>,
+    /// Whether `E*` carries a certificate ([`compute`]); an uncertified one is marked
+    /// wherever its verdicts appear.
+    #[serde(default)]
+    pub certified: bool,
+    /// The certificate's reason, or why there is none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub certificate: Option<String>,
+}
+
+impl GroupReference {
+    fn unavailable(dataset: String, energy: String) -> GroupReference {
+        GroupReference {
+            dataset,
+            energy,
+            key: None,
+            e_star: None,
+            origin: Origin::Unavailable,
+            note: None,
+            start_energy: None,
+            ideal: None,
+            certified: false,
+            certificate: None,
+        }
+    }
+
+    /// Take the entry `r` as this group's reference.
+    pub fn take(&mut self, r: &Reference, origin: Origin) {
+        self.e_star = Some(r.e_star);
+        self.origin = origin;
+        self.certified = r.certificate.certified;
+        self.certificate = Some(r.certificate.reason.clone());
+    }
+}
+
+/// The verified reference of `key` in `book`, lowest first, with its map and whether it is the
+/// writable store's; a refused entry gives a `notice` with the reason.
+pub fn lookup(book: &Book, key: &str, problem: &Problem, notice: &dyn Fn(&str)) -> Option<(Reference, Vec<f64>, bool)> {
+    for (r, maps, own) in book.entries(key) {
+        match store::verify(r, &maps, problem) {
+            Ok(x) => return Some((r.clone(), x, own)),
+            Err(why) => notice(&format!(
+                "reference {} of {} {} {} in {} refused: {why}",
+                r.key,
+                r.dataset,
+                r.task.as_str(),
+                r.energy,
+                store::maps_dir(&maps).with_extension("json").display()
+            )),
+        }
+    }
+    None
+}
+
+/// Compute the reference of `problem` ([`compute`]): the entry and its map.
+pub fn compute(
+    problem: &Problem,
+    key: &str,
+    dataset: &str,
+    energy: &str,
+    notice: &dyn Fn(&str),
+    interrupt: &AtomicBool,
+) -> Result<(Reference, Vec<f64>)> {
+    let found = compute::search(problem, notice, interrupt)?;
+    compute::certify(problem, found, blank(key, dataset, problem.task(), energy), notice, interrupt)
+}
+
+/// An entry of `key` whose values [`compute::certify`] fills.
+pub fn blank(key: &str, dataset: &str, task: Task, energy: &str) -> Reference {
+    Reference {
+        key: key.into(),
+        dataset: dataset.into(),
+        task,
+        energy: energy.into(),
+        e_star: f64::NAN,
+        ideal: f64::NAN,
+        start_energy: f64::NAN,
+        start: String::new(),
+        grad_norm: f64::NAN,
+        map: String::new(),
+        map_checksum: String::new(),
+        provenance: Vec::new(),
+        certificate: Certificate {
+            rule: CertificateRule::Stationary,
+            certified: false,
+            reason: String::new(),
+            tolerance: 0.0,
+            polishes: Vec::new(),
+        },
+    }
+}
+
+/// The references of the groups of `runs` (param, deform): looked up and verified, or
+/// computed and added to the writable store, with a `notice` each. Stops computing when
+/// `interrupt` is set.
+pub fn prepare(
+    plan: &Plan,
+    runs: &[&PlannedRun],
+    notice: &dyn Fn(&str),
+    interrupt: &AtomicBool,
+) -> Result<Vec<GroupReference>> {
+    let Some(stores) = &plan.references else { return Ok(Vec::new()) };
+    let mut book = Book::open(stores)?;
+    let mut out: Vec<GroupReference> = Vec::new();
+    for run in runs {
+        let dataset = plan.dataset(run).name.clone();
+        if out.iter().any(|g| g.dataset == dataset && g.energy == run.energy) {
+            continue;
+        }
+        let mut group = GroupReference::unavailable(dataset, run.energy.clone());
+        let key = match key(plan, run) {
+            Ok(Some(k)) => k,
+            Ok(None) => continue,
+            Err(e) => {
+                group.note = Some(format!("{e:#}"));
+                out.push(group);
+                continue;
+            }
+        };
+        group.key = Some(key.clone());
+        let problem = match Problem::of(plan, run) {
+            Ok(p) => p,
+            Err(e) => {
+                // The runs will fail on the same cause, each naming it.
+                group.note = Some(format!("{e:#}"));
+                out.push(group);
+                continue;
+            }
+        };
+        group.start_energy = Some(problem.e0);
+        group.ideal = Some(problem.ideal);
+        let name = format!("{} {} {}", group.dataset, plan.task.as_str(), group.energy);
+        if let Some((r, _, own)) = lookup(&book, &key, &problem, notice) {
+            group.take(&r, if own { Origin::Store } else { Origin::Seed });
+        } else if !interrupt.load(Ordering::Relaxed) {
+            notice(&format!("reference minimum of {name}: computing (the book's numerics page, \"Reference minima\")"));
+            let step = |line: &str| notice(&format!("reference minimum of {name}: {line}"));
+            match compute(&problem, &key, &group.dataset, &group.energy, &step, interrupt) {
+                Ok((r, x)) => {
+                    notice(&format!(
+                        "reference minimum of {name}: E* = {:.12} (|grad| {:.1e}), {}",
+                        r.e_star,
+                        r.grad_norm,
+                        if r.certificate.certified { "certified" } else { "NOT certified" },
+                    ));
+                    group.take(&r, Origin::Computed);
+                    book.add(r, &x, &problem.mesh).with_context(|| "adding a computed reference")?;
+                }
+                Err(e) => {
+                    notice(&format!(
+                        "reference minimum of {name}: not available ({e:#}); the batch's best final energy is used, \
+                         uncertified"
+                    ));
+                    group.note = Some(format!("{e:#}"));
+                }
+            }
+        }
+        out.push(group);
+    }
+    Ok(out)
+}
+
+/// Certify again the uncertified references of `groups` (the groups of `runs` of `plan`):
+/// each stored map polished and certified by the rules of today, the entry replaced in the
+/// writable store when it is lower or now certified. What `mapbench references --recertify`
+/// runs after a change of the rules, or to give a slow minimum more polish.
+pub fn recertify(
+    plan: &Plan,
+    runs: &[&PlannedRun],
+    groups: &mut [GroupReference],
+    notice: &dyn Fn(&str),
+    interrupt: &AtomicBool,
+) -> Result<()> {
+    let Some(stores) = &plan.references else { return Ok(()) };
+    let mut book = Book::open(stores)?;
+    for group in groups.iter_mut().filter(|g| g.e_star.is_some() && !g.certified) {
+        let Some(key) = group.key.clone() else { continue };
+        let Some(run) = runs.iter().find(|r| plan.dataset(r).name == group.dataset && r.energy == group.energy) else {
+            continue;
+        };
+        let problem = Problem::of(plan, run)?;
+        let Some((r, x, _)) = lookup(&book, &key, &problem, notice) else { continue };
+        let name = format!("{} {} {}", group.dataset, plan.task.as_str(), group.energy);
+        let step = |line: &str| notice(&format!("reference minimum of {name}: {line}"));
+        let found = compute::Found { x, energy: r.e_star, steps: r.provenance.clone() };
+        let (again, x) = compute::certify(
+            &problem,
+            found,
+            blank(&key, &group.dataset, problem.task(), &group.energy),
+            &step,
+            interrupt,
+        )?;
+        notice(&format!(
+            "reference minimum of {name}: E* = {:.12}, {} ({})",
+            again.e_star,
+            if again.certificate.certified { "certified" } else { "NOT certified" },
+            again.certificate.reason
+        ));
+        if book.add(again.clone(), &x, &problem.mesh)? {
+            group.take(&again, group.origin);
+        }
+    }
+    Ok(())
+}
+
+/// The (dataset, energy) groups of `plan` whose reference no store holds (verified) yet: what
+/// a `references` run would compute. A group whose problem cannot be made (its mesh
+/// unreadable) is not counted: its runs will fail on their own.
+pub fn missing(plan: &Plan) -> Result<Vec<(String, String)>> {
+    let Some(stores) = &plan.references else { return Ok(Vec::new()) };
+    let book = Book::open(stores)?;
+    let mut out: Vec<(String, String)> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for run in &plan.runs {
+        let group = (plan.dataset(run).name.clone(), run.energy.clone());
+        if !seen.insert(group.clone()) {
+            continue;
+        }
+        let (Ok(Some(k)), Ok(problem)) = (key(plan, run), Problem::of(plan, run)) else { continue };
+        if lookup(&book, &k, &problem, &|_| {}).is_none() {
+            out.push(group);
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests;

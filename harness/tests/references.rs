@@ -1,0 +1,118 @@
+//! Verdicts that hold, end to end: a batch judged against a stored reference that a run of it
+//! beats lowers the store for the next batch; a subset of the solvers gets the same verdicts;
+//! the build's provenance is the binary's.
+
+mod common;
+
+use common::{mapbench, read_csv, text, write_config};
+use mapbench::judge::problem::Problem;
+use mapbench::judge::reference::store::{map_checksum, Store};
+use mapbench::plan::{config::LoadedConfig, Plan};
+use std::path::Path;
+
+/// A fan of four triangles around a lifted centre (a disk with one interior vertex) and a
+/// bumpier one: small problems whose references take a second.
+const FAN: &str =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 0.4\nv 0.5 0 0.1\nf 1 6 5\nf 6 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n";
+
+fn config(dir: &Path, solvers: &str) -> std::path::PathBuf {
+    write_config(
+        dir,
+        &format!(
+            "name = \"refs\"\nreferences = \"refs.json\"\nenergies = [\"sd\", \"bconf\"]\nsolvers = [{solvers}]\n\
+             [[dataset]]\nname = \"fan\"\npath = \"fan.obj\"\n"
+        ),
+    )
+}
+
+/// `(solver, energy) -> (verdict, final_gap, ref_energy)` of a run folder.
+fn verdicts(out: &Path) -> Vec<(String, String, String, String, String)> {
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |n: &str| header.iter().position(|h| h == n).unwrap();
+    rows.iter()
+        .map(|r| {
+            (
+                r[col("solver")].clone(),
+                r[col("energy")].clone(),
+                r[col("verdict")].clone(),
+                r[col("final_gap")].clone(),
+                r[col("ref_energy")].clone(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_run_below_the_stored_reference_lowers_it_and_verdicts_do_not_depend_on_the_batch() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::fs::write(dir.join("fan.obj"), FAN).unwrap();
+    let all = config(dir, "\"kp-newton\", \"slim\", \"lbfgs\"");
+    let o = mapbench(&["references", all.to_str().unwrap()], dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // The store's SD entry replaced by a valid but worse one: the start map, its energy.
+    let store_path = dir.join("refs.json");
+    let plan = Plan::resolve(LoadedConfig::load(&all).unwrap(), &["fan__sd__kp-newton".to_string()]).unwrap();
+    let problem = Problem::of(&plan, &plan.runs[0]).unwrap();
+    let mut store = Store::read(&store_path).unwrap();
+    let key = mapbench::judge::reference::key(&plan, &plan.runs[0]).unwrap().unwrap();
+    let e_star = store.entries[&key].e_star;
+    let maps = store.maps();
+    let worse = store.entries.get_mut(&key).unwrap();
+    (worse.e_star, worse.map_checksum) = (problem.e0, map_checksum(&problem.x0));
+    let map = maps.join(&worse.map);
+    std::fs::write(&map, mapbench::run_folder::map::encode_uv(&problem.mesh, &problem.x0)).unwrap();
+    store.write().unwrap();
+
+    // The batch: every run ends below it; the lowest lowers the store before the judge.
+    let out = dir.join("n1");
+    let o = mapbench(&["run", all.to_str().unwrap(), "--out", out.to_str().unwrap(), "--repeat", "1"], dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("below E* = ") && text(&o).contains("polishing and certifying it"), "{}", text(&o));
+    let lowered = Store::read(&store_path).unwrap().entries[&key].clone();
+    assert!((lowered.e_star - e_star).abs() <= 1e-9 * e_star, "{} vs {e_star}", lowered.e_star);
+    assert!(lowered.certificate.certified);
+    let run_step = lowered.provenance.iter().find(|s| s.batch.is_some()).expect("the run is the provenance");
+    assert!(run_step.batch.as_ref().unwrap().run.starts_with("fan__sd__"), "{run_step:?}");
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+    let sd = meta["references"].as_array().unwrap().iter().find(|g| g["energy"] == "sd").unwrap().clone();
+    assert_eq!(sd["origin"], "improved", "{sd}");
+    // provenance of the code: the binary's build, the config folder's revision apart
+    assert_eq!(meta["git_revision"].as_str().map(str::to_string), env_revision());
+    assert!(meta.get("config_git_revision").is_none(), "the temporary folder is no checkout: {meta}");
+    let first = verdicts(&out);
+    for v in first.iter().filter(|v| v.1 == "sd") {
+        let judged: f64 = v.4.parse().unwrap();
+        assert_eq!((judged, v.2.is_empty()), (lowered.e_star, false), "{v:?}");
+    }
+
+    // The next batch reads the lowered reference: nothing lowers it again, same verdicts.
+    let again = dir.join("n2");
+    let o = mapbench(&["run", all.to_str().unwrap(), "--out", again.to_str().unwrap(), "--repeat", "1"], dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(!text(&o).contains("below E* = "), "{}", text(&o));
+    assert_eq!(verdicts(&again), first);
+
+    // A subset of the solvers: the same verdicts, gaps and E* for those solvers.
+    let one = config(dir, "\"slim\"");
+    let sub = dir.join("n3");
+    let o = mapbench(&["run", one.to_str().unwrap(), "--out", sub.to_str().unwrap(), "--repeat", "1"], dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let slim: Vec<_> = first.iter().filter(|v| v.0 == "slim").cloned().collect();
+    assert_eq!(verdicts(&sub), slim);
+
+    // A hand edit is refused, and the reference computed again.
+    let mut store = Store::read(&store_path).unwrap();
+    store.entries.get_mut(&key).unwrap().e_star -= 1e-3;
+    store.write().unwrap();
+    let o = mapbench(&["references", all.to_str().unwrap()], dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("refused: e_star = ") && text(&o).contains("but its map's energy is"), "{}", text(&o));
+}
+
+/// The revision this test binary was built from, as the harness's build script saw it.
+fn env_revision() -> Option<String> {
+    let rev = std::process::Command::new("git").args(["rev-parse", "HEAD"]).output().ok()?;
+    rev.status.success().then(|| String::from_utf8_lossy(&rev.stdout).trim().to_string())
+}
