@@ -1,19 +1,20 @@
-//! What keeps README and the book (`docs/`) true: every link between them resolves (anchors
-//! included), every TOML example parses as the config or registry it shows, and the columns
-//! page documents exactly the columns the CSV writers write, the other reference pages what
-//! the code accepts and writes, and every command-line example names flags the binary's
-//! `--help` lists. The generated reference pages (CLI, solvers) are checked by the binary's
-//! own tests.
+//! What keeps README, the book (`docs/`), the external-solver protocol (`peers/PROTOCOL.md`)
+//! and the changelog true: every link between them resolves (anchors included), every TOML
+//! example parses as the config or registry it shows and every JSON one as what it shows, and
+//! the columns page documents exactly the columns the CSV writers write, the other reference
+//! pages what the code accepts and writes, the changelog the file formats' versions, and every
+//! command-line example names flags the binary's `--help` lists and scripts that run. The
+//! generated reference pages (CLI, solvers) are checked by the binary's own tests.
 
 mod common;
 
 use common::repo_root;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-/// README and every page of the book, with their text.
+/// README, the changelog and every page of the book, with their text.
 fn docs() -> Vec<(PathBuf, String)> {
-    let mut files = vec![repo_root().join("README.md")];
+    let mut files = ["README.md", "CHANGELOG.md"].map(|f| repo_root().join(f)).to_vec();
     let mut stack = vec![repo_root().join("docs/src")];
     while let Some(dir) = stack.pop() {
         for e in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
@@ -467,4 +468,67 @@ fn every_command_line_example_names_an_existing_verb_and_flag() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
     assert!(checked > 20, "{checked} flags checked");
+}
+
+/// CHANGELOG.md's table of file formats states the version each one is at in the code, and
+/// names the constant and the file that state it.
+#[test]
+fn the_changelog_states_the_version_of_every_file_format() {
+    use std::io::Read;
+    let page = std::fs::read_to_string(repo_root().join("CHANGELOG.md")).unwrap();
+    // the version a UV map file is written with, from its first line
+    let mesh = solvers::mesh::Mesh::new("t", vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]]);
+    let gz = mapbench::run_folder::map::encode_uv(&mesh, &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]);
+    let mut raw = Vec::new();
+    flate2::read::GzDecoder::new(gz.as_slice()).read_to_end(&mut raw).unwrap();
+    let first = String::from_utf8_lossy(raw.split(|&b| b == b'\n').next().unwrap()).into_owned();
+    let uv: i64 = first.strip_prefix("mapbench uv ").and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("{first}"));
+    let versions: BTreeMap<&str, i64> = [
+        ("PROTOCOL", i64::from(mapbench::external::protocol::PROTOCOL)),
+        ("SCHEMA_VERSION", mapbench::history::SCHEMA_VERSION),
+        ("UV_MAGIC", uv),
+        ("REFERENCE_VERSION", i64::from(mapbench::judge::reference::REFERENCE_VERSION)),
+        ("VERSION", i64::from(mapbench::run_folder::meta::VERSION)),
+        ("SUBMISSION_VERSION", i64::from(mapbench::slurm::SUBMISSION_VERSION)),
+        ("SHARD_PLAN_VERSION", i64::from(mapbench::plan::shard_plan::SHARD_PLAN_VERSION)),
+    ]
+    .into();
+    let mut stated = BTreeMap::new();
+    let mut inside = false;
+    for line in prose(&page) {
+        if let Some(h) = line.strip_prefix("## ") {
+            inside = h.trim() == "File formats and their versions";
+        } else if inside && line.starts_with("| ") && !line.starts_with("| ---") && !line.starts_with("| format") {
+            let cells: Vec<&str> = line.split(" | ").collect();
+            let version: i64 = cells[2].trim().parse().unwrap_or_else(|_| panic!("CHANGELOG.md: no version in {line}"));
+            let names: Vec<&str> = cells[3].split('`').skip(1).step_by(2).collect();
+            let [constant, file] = names[..] else { panic!("CHANGELOG.md: `CONSTANT`, `file` in {line}") };
+            let source = std::fs::read_to_string(repo_root().join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+            assert!(source.contains(&format!("const {constant}:")), "CHANGELOG.md: {file} has no const {constant}");
+            stated.insert(constant, version);
+        }
+    }
+    assert_eq!(stated, versions, "CHANGELOG.md's versions (left) against the code's (right)");
+}
+
+/// CITATION.cff and the license files match Cargo.toml's version and `MIT OR Apache-2.0`.
+#[test]
+fn the_citation_and_the_license_files_match_cargo_toml() {
+    let cargo: toml::Table = std::fs::read_to_string(repo_root().join("Cargo.toml")).unwrap().parse().unwrap();
+    let package = &cargo["workspace"]["package"];
+    let (version, license) = (package["version"].as_str().unwrap(), package["license"].as_str().unwrap());
+    let cff = std::fs::read_to_string(repo_root().join("CITATION.cff")).unwrap();
+    assert!(cff.starts_with("cff-version: 1.2.0\n"), "CITATION.cff: not CFF 1.2.0");
+    assert!(cff.lines().any(|l| l == format!("version: {version}")), "CITATION.cff: version {version}");
+    let licenses: Vec<&str> =
+        cff.lines().skip_while(|l| *l != "license:").skip(1).map_while(|l| l.strip_prefix("  - ")).collect();
+    assert_eq!(licenses.join(" OR "), license, "CITATION.cff's licenses");
+    for (id, file, says) in [("MIT", "LICENSE-MIT", "MIT License"), ("Apache-2.0", "LICENSE-APACHE", "Apache License")]
+    {
+        assert!(license.split(" OR ").any(|l| l == id), "Cargo.toml's license: {license}");
+        let text = std::fs::read_to_string(repo_root().join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert!(text.trim_start().starts_with(says), "{file}");
+    }
+    let mit = std::fs::read_to_string(repo_root().join("LICENSE-MIT")).unwrap();
+    assert!(mit.contains("Copyright (c) 2026 the mapbench developers"), "LICENSE-MIT's copyright line");
 }
