@@ -8,13 +8,13 @@
 
 mod common;
 
-use common::repo_root;
-use std::collections::{BTreeMap, BTreeSet};
+use common::{mapbench, repo_root};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
-/// README, the changelog and every page of the book, with their text.
+/// README, the protocol, the changelog and every page of the book, with their text.
 fn docs() -> Vec<(PathBuf, String)> {
-    let mut files = ["README.md", "CHANGELOG.md"].map(|f| repo_root().join(f)).to_vec();
+    let mut files = ["README.md", "CHANGELOG.md", "peers/PROTOCOL.md"].map(|f| repo_root().join(f)).to_vec();
     let mut stack = vec![repo_root().join("docs/src")];
     while let Some(dir) = stack.pop() {
         for e in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
@@ -97,6 +97,7 @@ fn links(line: &str) -> Vec<String> {
 fn every_link_between_the_pages_resolves() {
     let pages = docs();
     assert!(pages.len() > 20, "the book has {} pages", pages.len());
+    let bases = link_bases(&pages);
     let mut bad = Vec::new();
     let mut checked = 0;
     for (path, text) in &pages {
@@ -107,15 +108,17 @@ fn every_link_between_the_pages_resolves() {
                     continue;
                 }
                 let (file, anchor) = target.split_once('#').map_or((target, None), |(f, a)| (f, Some(a)));
-                let dest: PathBuf = if file.is_empty() { path.clone() } else { path.parent().unwrap().join(file) };
-                checked += 1;
-                if !dest.exists() {
-                    bad.push(format!("{}: {target}: no such file", path.display()));
-                    continue;
-                }
-                if let Some(a) = anchor.filter(|_| dest.extension().is_some_and(|x| x == "md")) {
-                    if !anchors(&std::fs::read_to_string(&dest).unwrap()).contains(a) {
-                        bad.push(format!("{}: {target}: no heading #{a}", path.display()));
+                for base in &bases[&path.canonicalize().unwrap()] {
+                    let dest: PathBuf = if file.is_empty() { path.clone() } else { base.join(file) };
+                    checked += 1;
+                    if !dest.exists() {
+                        bad.push(format!("{}: {target}: no such file from {}", path.display(), base.display()));
+                        continue;
+                    }
+                    if let Some(a) = anchor.filter(|_| dest.extension().is_some_and(|x| x == "md")) {
+                        if !anchors(&std::fs::read_to_string(&dest).unwrap()).contains(a) {
+                            bad.push(format!("{}: {target}: no heading #{a}", path.display()));
+                        }
                     }
                 }
             }
@@ -123,6 +126,25 @@ fn every_link_between_the_pages_resolves() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
     assert!(checked > 50, "{checked} links checked");
+}
+
+/// The folders each page's relative links must resolve from: its own, and that of every page
+/// that includes it (`{{#include FILE}}`: mdBook renders the included text as that page's, so
+/// `peers/PROTOCOL.md`'s links must resolve from `peers/` and from `docs/src/reference/`).
+fn link_bases(pages: &[(PathBuf, String)]) -> HashMap<PathBuf, Vec<PathBuf>> {
+    let canonical = |p: &Path| p.canonicalize().unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let mut bases: HashMap<PathBuf, Vec<PathBuf>> = HashMap::new();
+    for (path, text) in pages {
+        let dir = path.parent().unwrap().to_path_buf();
+        bases.entry(canonical(path)).or_default().push(dir.clone());
+        for line in prose(text) {
+            if let Some(rest) = line.trim().strip_prefix("{{#include ") {
+                let file = rest.trim_end_matches("}}").trim().split(':').next().unwrap_or_default();
+                bases.entry(canonical(&dir.join(file))).or_default().push(dir.clone());
+            }
+        }
+    }
+    bases
 }
 
 #[test]
@@ -170,10 +192,81 @@ fn every_toml_example_parses_as_the_config_or_registry_it_shows() {
             if let Err(e) = result {
                 bad.push(format!("{}: a toml example does not parse: {e}\n{body}", path.display()));
             }
+            bad.extend(missing_peers(&body).into_iter().map(|f| format!("{}: {f}: no such file", path.display())));
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("\n\n"));
     assert!(checked > 5, "{checked} examples checked");
+}
+
+/// The files of `peers/` an example's `[external.<name>]` commands name that do not exist
+/// where a config of `configs/` finds them (command files are relative to the config's folder).
+fn missing_peers(toml_text: &str) -> Vec<String> {
+    let Ok(table) = toml::from_str::<toml::Table>(toml_text) else { return vec![] };
+    let externals = table.get("external").and_then(|e| e.as_table()).into_iter().flat_map(|t| t.values());
+    let args = externals.filter_map(|e| e.get("command")?.as_array()).flatten().filter_map(|a| a.as_str());
+    args.filter(|a| a.contains("peers/") && !repo_root().join("configs").join(a).is_file()).map(String::from).collect()
+}
+
+/// Every `json` example parses, and every `jsonl` one (the protocol's `iterations.jsonl`)
+/// reads as the records the harness reads.
+#[test]
+fn every_json_example_parses_as_what_it_shows() {
+    let mut checked = 0;
+    let mut bad = Vec::new();
+    for (path, text) in docs() {
+        for (lang, body) in code_blocks(&text) {
+            let result = match lang.as_str() {
+                "json" => serde_json::from_str::<serde_json::Value>(&body).map(|_| ()).map_err(|e| e.to_string()),
+                "jsonl" => {
+                    let dir = tempfile::tempdir().unwrap();
+                    std::fs::write(dir.path().join("iterations.jsonl"), &body).unwrap();
+                    mapbench::external::protocol::read_records(dir.path(), false)
+                        .map(|_| ())
+                        .map_err(|e| format!("{e:#}"))
+                }
+                _ => continue,
+            };
+            checked += 1;
+            if let Err(e) = result {
+                bad.push(format!("{}: a {lang} example does not read: {e}\n{body}", path.display()));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n\n"));
+    assert!(checked >= 1, "{checked} examples checked");
+}
+
+/// The protocol's `problem.json` table has a row for every key the harness writes and no
+/// other: the problem folders of a `param` and a `deform` run (with its handles) of a solver
+/// that does nothing, kept with `keep_problem`.
+#[test]
+fn the_protocol_page_lists_every_key_of_problem_json() {
+    let page = std::fs::read_to_string(repo_root().join("peers/PROTOCOL.md")).unwrap();
+    let documented = first_cells(&page, "What the harness writes");
+    let tmp = tempfile::tempdir().unwrap();
+    let registry = repo_root().join("datasets.toml").display().to_string();
+    let mut written = BTreeSet::new();
+    for (task, dataset) in [("param", "bumpy_1k"), ("deform", "planar_bar_2k")] {
+        let cfg = tmp.path().join(format!("{task}.toml"));
+        std::fs::write(
+            &cfg,
+            format!(
+                "registry = {registry:?}\nname = \"{task}\"\ntask = \"{task}\"\ndatasets = [\"{dataset}\"]\n\
+                 energies = [\"sd\"]\nsolvers = [\"nothing\"]\n[external.nothing]\ncommand = [\"true\"]\n\
+                 tasks = [\"{task}\"]\nenergies = [\"sd\"]\nkeep_problem = true\n"
+            ),
+        )
+        .unwrap();
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", task, "--no-history"], tmp.path());
+        let spec = tmp.path().join(format!("{task}/external/{dataset}__sd__nothing/problem.json"));
+        let text =
+            std::fs::read_to_string(&spec).unwrap_or_else(|e| panic!("{}: {e}\n{}", spec.display(), common::text(&o)));
+        let spec: serde_json::Value = serde_json::from_str(&text).unwrap();
+        written.extend(spec.as_object().unwrap().keys().cloned());
+    }
+    assert!(written.contains("handles"), "the deform problem has its handles: {written:?}");
+    assert_eq!(documented, written, "peers/PROTOCOL.md: the keys of problem.json");
 }
 
 /// The columns page has a row for every column the CSV writers write (the summary's, the
