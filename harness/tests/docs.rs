@@ -563,6 +563,133 @@ fn every_command_line_example_names_an_existing_verb_and_flag() {
     assert!(checked > 20, "{checked} flags checked");
 }
 
+/// Every script a shell example runs by its path (`scripts/x.py ...`, `peers/x.py ...`) is
+/// there with its run bit, and every one it hands to an interpreter (`python3 scripts/x.py`,
+/// `bash scripts/x.sh`) is there.
+#[test]
+fn every_script_a_command_example_runs_is_there_and_runs() {
+    use std::os::unix::fs::PermissionsExt;
+    let mut checked = 0;
+    let mut bad = Vec::new();
+    for (path, text) in docs() {
+        for (lang, body) in code_blocks(&text) {
+            if !matches!(lang.as_str(), "sh" | "bash" | "console" | "shell") {
+                continue;
+            }
+            for line in body.replace("\\\n", " ").lines() {
+                let words: Vec<&str> = line.split_whitespace().filter(|w| *w != "$").collect();
+                let lead = words.iter().position(|w| !w.contains('=')).unwrap_or(words.len());
+                let (script, direct) = match (words.get(lead), words.get(lead + 1)) {
+                    (Some(&("python3" | "python" | "bash" | "sh")), Some(s)) => (*s, false),
+                    (Some(s), _) => (*s, true),
+                    _ => continue,
+                };
+                if !["scripts/", "peers/", ".ci/"].iter().any(|d| script.starts_with(d)) {
+                    continue;
+                }
+                checked += 1;
+                let file = repo_root().join(script);
+                match std::fs::metadata(&file) {
+                    Err(_) => bad.push(format!("{}: `{line}`: no file {script}", path.display())),
+                    Ok(m) if direct && m.permissions().mode() & 0o111 == 0 => {
+                        bad.push(format!("{}: `{line}`: {script} has no run bit (chmod +x)", path.display()))
+                    }
+                    Ok(_) => {}
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    assert!(checked > 5, "{checked} script commands checked");
+}
+
+/// Paragraphs of prose: consecutive lines outside code blocks, tables and headings, a list
+/// item starting a new one.
+fn paragraphs(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut current: Vec<&str> = Vec::new();
+    let mut inside = false;
+    for line in text.lines() {
+        let fence = line.trim_start().starts_with("```");
+        inside ^= fence;
+        let item = ["- ", "* "].iter().any(|p| line.trim_start().starts_with(p));
+        if fence || inside || line.trim().is_empty() || line.starts_with('#') || line.starts_with('|') || item {
+            if !current.is_empty() {
+                out.push(current.join(" "));
+                current.clear();
+            }
+            if fence || inside || !item {
+                continue;
+            }
+        }
+        current.push(line.trim());
+    }
+    if !current.is_empty() {
+        out.push(current.join(" "));
+    }
+    out
+}
+
+/// No page says a paragraph twice, and none leaves a parenthesis open (a sentence cut off in
+/// an edit, such as "(n =" before a heading); code spans are left out of the count.
+#[test]
+fn no_paragraph_is_repeated_or_cut_off() {
+    let mut bad = Vec::new();
+    for (path, text) in docs() {
+        let mut seen = BTreeSet::new();
+        for p in paragraphs(&text) {
+            let words: String = p.split('`').step_by(2).collect();
+            if words.matches('(').count() != words.matches(')').count() {
+                bad.push(format!("{}: a parenthesis is left open: {p}", path.display()));
+            }
+            if p.len() >= 100 && !seen.insert(p.clone()) {
+                bad.push(format!("{}: said twice: {p}", path.display()));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// Each default the config page states for a top-level key as a value (`"param"`, `[]`, `1`,
+/// ...) is a value the config accepts for that key.
+#[test]
+fn every_default_on_the_config_page_is_accepted() {
+    let page = std::fs::read_to_string(repo_root().join("docs/src/reference/config.md")).unwrap();
+    let mut inside = false;
+    let mut checked = 0;
+    for line in prose(&page) {
+        if let Some(h) = line.strip_prefix("## ") {
+            inside = h.trim() == "Top level";
+            continue;
+        }
+        let cells: Vec<&str> = line.split(" | ").collect();
+        let (true, Some(key), Some(default)) = (inside, cells.first(), cells.get(2)) else { continue };
+        let Some(key) = key.strip_prefix("| `").and_then(|k| k.strip_suffix('`')) else { continue };
+        let value = default.trim().trim_matches('`');
+        if format!("v = {value}").parse::<toml::Table>().is_err() {
+            continue;
+        }
+        let base: BTreeMap<&str, &str> = [
+            ("name", "\"d\""),
+            ("datasets", "[\"bumpy_1k\"]"),
+            ("energies", "[\"sd\"]"),
+            ("solvers", "[\"kp-newton\"]"),
+        ]
+        .into();
+        let mut config = format!("{key} = {value}\n");
+        for (k, v) in base.iter().filter(|(k, _)| **k != key) {
+            config += &format!("{k} = {v}\n");
+        }
+        // a config needs datasets or inline ones: an empty list comes with an inline dataset
+        config += "[[dataset]]\nname = \"inline\"\npath = \"inline.obj\"\n";
+        if let Err(e) = mapbench::plan::config::LoadedConfig::parse(&config, Path::new("d.toml")) {
+            panic!("docs/src/reference/config.md: `{key}` defaults to `{value}`, which a config refuses: {e:#}");
+        }
+        checked += 1;
+    }
+    assert!(checked >= 4, "{checked} defaults checked");
+}
+
 /// CHANGELOG.md's table of file formats states the version each one is at in the code, and
 /// names the constant and the file that state it.
 #[test]
