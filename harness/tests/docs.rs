@@ -711,6 +711,7 @@ fn the_changelog_states_the_version_of_every_file_format() {
         ("VERSION", i64::from(mapbench::run_folder::meta::VERSION)),
         ("SUBMISSION_VERSION", i64::from(mapbench::slurm::SUBMISSION_VERSION)),
         ("SHARD_PLAN_VERSION", i64::from(mapbench::plan::shard_plan::SHARD_PLAN_VERSION)),
+        ("CORPUS_VERSION", i64::from(mapbench::corpus::CORPUS_VERSION)),
     ]
     .into();
     let mut stated = BTreeMap::new();
