@@ -2,10 +2,10 @@
 """A template for your own solver under mapbench's external-solver protocol
 (peers/PROTOCOL.md): gradient descent with backtracking on the symmetric Dirichlet energy,
 in numpy. Copy this file and `mapbench_peer.py`, replace `step` with your method, and name the
-command in a config:
+command in a config (file names are relative to its folder; here, a config in `configs/`):
 
     [external.my-gd]
-    command = ["python3", "peers/example_gd.py"]
+    command = ["python3", "../peers/example_gd.py"]
     tasks = ["param", "deform"]
     energies = ["sd"]
 

@@ -7,8 +7,10 @@ The energy recorded is mapbench's (`Problem.sd`: the area-weighted mean of
 1/2 (|J|^2 + |J^-1|^2) on the area-1 mesh), computed here from the map: libigl's own
 `SYMMETRIC_DIRICHLET` objective is the area-weighted sum of |J|^2 + |J^-1|^2, twice ours on an
 area-1 mesh, and the Python binding does not expose it. SLIM has no gradient to report; it
-stops on a relative energy decrease below the problem's `energy_decrease_tol` (1e-10 when
-that is 0), at `max_iters`, or when an iteration does not decrease the energy.
+stops when an iteration lowers the energy by less than the problem's `energy_decrease_tol`
+(absolute, `E_old - E_new < tol`, as the protocol says), or by less than 1e-10 of the energy
+(its own relative rule) when that is 0, at `max_iters`, or when an iteration does not decrease
+the energy. The `decrease` it records is the relative one.
 
     python3 peers/igl_slim.py PROBLEM_FOLDER
 """
@@ -37,7 +39,8 @@ def main(folder):
         np.zeros((0, 2)),
         0.0,
     )
-    tol = float(p.stop.get("energy_decrease_tol") or 0.0) or 1e-10
+    # the problem's rule is absolute; without one, SLIM's own relative rule
+    absolute = float(p.stop.get("energy_decrease_tol") or 0.0)
     max_iters = int(p.stop["max_iters"])
     reason = "max_iters"
     for k in range(1, max_iters + 1):
@@ -48,11 +51,12 @@ def main(folder):
             p.finish("error", f"iteration {k}: SLIM's map inverts a face (SD not finite)")
             return 0
         decrease = (energy - new) / abs(energy)
+        stalled = energy - new < absolute if absolute > 0 else decrease < 1e-10
         energy = new
-        done = k == max_iters or decrease < tol
+        done = k == max_iters or decrease <= 0 or stalled
         if decrease <= 0:
             reason = "line_search_failed"
-        elif decrease < tol:
+        elif stalled:
             reason = "converged"
         p.record(k, energy, uv, final=done, decrease=decrease)
         if done:

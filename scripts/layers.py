@@ -6,7 +6,8 @@ rank or below:
 
     0  leaves        hash, paths, stats, names, escape, convergence, signals, calibration
     1  run_folder    every file of a run folder, meta.json typed and versioned
-    2  the batch     plan, run, judge, history, gate, export, output, evaluate, external, slurm
+    2  the batch     plan, run, judge, history, gate, export, output, evaluate, external, slurm,
+                     corpus
     3  report        tables, plots, the report and trend pages, the comparison page
     4  edges         cli (the binary) and fuzzing (what the fuzz targets call)
 
@@ -56,6 +57,7 @@ RANKS = {
     "evaluate": 2,
     "external": 2,
     "slurm": 2,
+    "corpus": 2,
     "report": 3,
     "cli": 4,
     "fuzzing": 4,

@@ -12,13 +12,14 @@
 //! The modules are layered one way (`scripts/layers.py` checks it): the leaves (`hash`,
 //! `paths`, `stats`, `names`, `escape`, `convergence`, `signals`, `calibration`) name nothing
 //! above them; `run_folder` only leaves; `plan`, `run`, `judge`, `history`, `gate`, `export`
-//! `output`, `evaluate`, `external` and `slurm` those two and each other, in no circle; `report` all of them; `cli` and
+//! `output`, `evaluate`, `external`, `slurm` and `corpus` (the shared corpus on demand) those two and each other, in no circle; `report` all of them; `cli` and
 //! `fuzzing` are the edges. `run` and `merge` end with pages the report renders, so they are
 //! handed a `run::Pages` rather than naming the report.
 
 pub mod calibration;
 pub mod column_names;
 pub mod convergence;
+pub mod corpus;
 pub mod escape;
 pub mod evaluate;
 pub mod export;

@@ -1,19 +1,20 @@
-//! What keeps README and the book (`docs/`) true: every link between them resolves (anchors
-//! included), every TOML example parses as the config or registry it shows, and the columns
-//! page documents exactly the columns the CSV writers write, the other reference pages what
-//! the code accepts and writes, and every command-line example names flags the binary's
-//! `--help` lists. The generated reference pages (CLI, solvers) are checked by the binary's
-//! own tests.
+//! What keeps README, the book (`docs/`), the external-solver protocol (`peers/PROTOCOL.md`)
+//! and the changelog true: every link between them resolves (anchors included), every TOML
+//! example parses as the config or registry it shows and every JSON one as what it shows, and
+//! the columns page documents exactly the columns the CSV writers write, the other reference
+//! pages what the code accepts and writes, the changelog the file formats' versions, and every
+//! command-line example names flags the binary's `--help` lists and scripts that run. The
+//! generated reference pages (CLI, solvers) are checked by the binary's own tests.
 
 mod common;
 
-use common::repo_root;
-use std::collections::BTreeSet;
+use common::{mapbench, repo_root};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
-/// README and every page of the book, with their text.
+/// README, the protocol, the changelog and every page of the book, with their text.
 fn docs() -> Vec<(PathBuf, String)> {
-    let mut files = vec![repo_root().join("README.md")];
+    let mut files = ["README.md", "CHANGELOG.md", "peers/PROTOCOL.md"].map(|f| repo_root().join(f)).to_vec();
     let mut stack = vec![repo_root().join("docs/src")];
     while let Some(dir) = stack.pop() {
         for e in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
@@ -96,6 +97,7 @@ fn links(line: &str) -> Vec<String> {
 fn every_link_between_the_pages_resolves() {
     let pages = docs();
     assert!(pages.len() > 20, "the book has {} pages", pages.len());
+    let bases = link_bases(&pages);
     let mut bad = Vec::new();
     let mut checked = 0;
     for (path, text) in &pages {
@@ -106,15 +108,17 @@ fn every_link_between_the_pages_resolves() {
                     continue;
                 }
                 let (file, anchor) = target.split_once('#').map_or((target, None), |(f, a)| (f, Some(a)));
-                let dest: PathBuf = if file.is_empty() { path.clone() } else { path.parent().unwrap().join(file) };
-                checked += 1;
-                if !dest.exists() {
-                    bad.push(format!("{}: {target}: no such file", path.display()));
-                    continue;
-                }
-                if let Some(a) = anchor.filter(|_| dest.extension().is_some_and(|x| x == "md")) {
-                    if !anchors(&std::fs::read_to_string(&dest).unwrap()).contains(a) {
-                        bad.push(format!("{}: {target}: no heading #{a}", path.display()));
+                for base in &bases[&path.canonicalize().unwrap()] {
+                    let dest: PathBuf = if file.is_empty() { path.clone() } else { base.join(file) };
+                    checked += 1;
+                    if !dest.exists() {
+                        bad.push(format!("{}: {target}: no such file from {}", path.display(), base.display()));
+                        continue;
+                    }
+                    if let Some(a) = anchor.filter(|_| dest.extension().is_some_and(|x| x == "md")) {
+                        if !anchors(&std::fs::read_to_string(&dest).unwrap()).contains(a) {
+                            bad.push(format!("{}: {target}: no heading #{a}", path.display()));
+                        }
                     }
                 }
             }
@@ -122,6 +126,25 @@ fn every_link_between_the_pages_resolves() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
     assert!(checked > 50, "{checked} links checked");
+}
+
+/// The folders each page's relative links must resolve from: its own, and that of every page
+/// that includes it (`{{#include FILE}}`: mdBook renders the included text as that page's, so
+/// `peers/PROTOCOL.md`'s links must resolve from `peers/` and from `docs/src/reference/`).
+fn link_bases(pages: &[(PathBuf, String)]) -> HashMap<PathBuf, Vec<PathBuf>> {
+    let canonical = |p: &Path| p.canonicalize().unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let mut bases: HashMap<PathBuf, Vec<PathBuf>> = HashMap::new();
+    for (path, text) in pages {
+        let dir = path.parent().unwrap().to_path_buf();
+        bases.entry(canonical(path)).or_default().push(dir.clone());
+        for line in prose(text) {
+            if let Some(rest) = line.trim().strip_prefix("{{#include ") {
+                let file = rest.trim_end_matches("}}").trim().split(':').next().unwrap_or_default();
+                bases.entry(canonical(&dir.join(file))).or_default().push(dir.clone());
+            }
+        }
+    }
+    bases
 }
 
 #[test]
@@ -169,10 +192,81 @@ fn every_toml_example_parses_as_the_config_or_registry_it_shows() {
             if let Err(e) = result {
                 bad.push(format!("{}: a toml example does not parse: {e}\n{body}", path.display()));
             }
+            bad.extend(missing_peers(&body).into_iter().map(|f| format!("{}: {f}: no such file", path.display())));
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("\n\n"));
     assert!(checked > 5, "{checked} examples checked");
+}
+
+/// The files of `peers/` an example's `[external.<name>]` commands name that do not exist
+/// where a config of `configs/` finds them (command files are relative to the config's folder).
+fn missing_peers(toml_text: &str) -> Vec<String> {
+    let Ok(table) = toml::from_str::<toml::Table>(toml_text) else { return vec![] };
+    let externals = table.get("external").and_then(|e| e.as_table()).into_iter().flat_map(|t| t.values());
+    let args = externals.filter_map(|e| e.get("command")?.as_array()).flatten().filter_map(|a| a.as_str());
+    args.filter(|a| a.contains("peers/") && !repo_root().join("configs").join(a).is_file()).map(String::from).collect()
+}
+
+/// Every `json` example parses, and every `jsonl` one (the protocol's `iterations.jsonl`)
+/// reads as the records the harness reads.
+#[test]
+fn every_json_example_parses_as_what_it_shows() {
+    let mut checked = 0;
+    let mut bad = Vec::new();
+    for (path, text) in docs() {
+        for (lang, body) in code_blocks(&text) {
+            let result = match lang.as_str() {
+                "json" => serde_json::from_str::<serde_json::Value>(&body).map(|_| ()).map_err(|e| e.to_string()),
+                "jsonl" => {
+                    let dir = tempfile::tempdir().unwrap();
+                    std::fs::write(dir.path().join("iterations.jsonl"), &body).unwrap();
+                    mapbench::external::protocol::read_records(dir.path(), false)
+                        .map(|_| ())
+                        .map_err(|e| format!("{e:#}"))
+                }
+                _ => continue,
+            };
+            checked += 1;
+            if let Err(e) = result {
+                bad.push(format!("{}: a {lang} example does not read: {e}\n{body}", path.display()));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n\n"));
+    assert!(checked >= 1, "{checked} examples checked");
+}
+
+/// The protocol's `problem.json` table has a row for every key the harness writes and no
+/// other: the problem folders of a `param` and a `deform` run (with its handles) of a solver
+/// that does nothing, kept with `keep_problem`.
+#[test]
+fn the_protocol_page_lists_every_key_of_problem_json() {
+    let page = std::fs::read_to_string(repo_root().join("peers/PROTOCOL.md")).unwrap();
+    let documented = first_cells(&page, "What the harness writes");
+    let tmp = tempfile::tempdir().unwrap();
+    let registry = repo_root().join("datasets.toml").display().to_string();
+    let mut written = BTreeSet::new();
+    for (task, dataset) in [("param", "bumpy_1k"), ("deform", "planar_bar_2k")] {
+        let cfg = tmp.path().join(format!("{task}.toml"));
+        std::fs::write(
+            &cfg,
+            format!(
+                "registry = {registry:?}\nname = \"{task}\"\ntask = \"{task}\"\ndatasets = [\"{dataset}\"]\n\
+                 energies = [\"sd\"]\nsolvers = [\"nothing\"]\n[external.nothing]\ncommand = [\"true\"]\n\
+                 tasks = [\"{task}\"]\nenergies = [\"sd\"]\nkeep_problem = true\n"
+            ),
+        )
+        .unwrap();
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", task, "--no-history"], tmp.path());
+        let spec = tmp.path().join(format!("{task}/external/{dataset}__sd__nothing/problem.json"));
+        let text =
+            std::fs::read_to_string(&spec).unwrap_or_else(|e| panic!("{}: {e}\n{}", spec.display(), common::text(&o)));
+        let spec: serde_json::Value = serde_json::from_str(&text).unwrap();
+        written.extend(spec.as_object().unwrap().keys().cloned());
+    }
+    assert!(written.contains("handles"), "the deform problem has its handles: {written:?}");
+    assert_eq!(documented, written, "peers/PROTOCOL.md: the keys of problem.json");
 }
 
 /// The columns page has a row for every column the CSV writers write (the summary's, the
@@ -467,4 +561,195 @@ fn every_command_line_example_names_an_existing_verb_and_flag() {
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
     assert!(checked > 20, "{checked} flags checked");
+}
+
+/// Every script a shell example runs by its path (`scripts/x.py ...`, `peers/x.py ...`) is
+/// there with its run bit, and every one it hands to an interpreter (`python3 scripts/x.py`,
+/// `bash scripts/x.sh`) is there.
+#[test]
+fn every_script_a_command_example_runs_is_there_and_runs() {
+    use std::os::unix::fs::PermissionsExt;
+    let mut checked = 0;
+    let mut bad = Vec::new();
+    for (path, text) in docs() {
+        for (lang, body) in code_blocks(&text) {
+            if !matches!(lang.as_str(), "sh" | "bash" | "console" | "shell") {
+                continue;
+            }
+            for line in body.replace("\\\n", " ").lines() {
+                let words: Vec<&str> = line.split_whitespace().filter(|w| *w != "$").collect();
+                let lead = words.iter().position(|w| !w.contains('=')).unwrap_or(words.len());
+                let (script, direct) = match (words.get(lead), words.get(lead + 1)) {
+                    (Some(&("python3" | "python" | "bash" | "sh")), Some(s)) => (*s, false),
+                    (Some(s), _) => (*s, true),
+                    _ => continue,
+                };
+                if !["scripts/", "peers/", ".ci/"].iter().any(|d| script.starts_with(d)) {
+                    continue;
+                }
+                checked += 1;
+                let file = repo_root().join(script);
+                match std::fs::metadata(&file) {
+                    Err(_) => bad.push(format!("{}: `{line}`: no file {script}", path.display())),
+                    Ok(m) if direct && m.permissions().mode() & 0o111 == 0 => {
+                        bad.push(format!("{}: `{line}`: {script} has no run bit (chmod +x)", path.display()))
+                    }
+                    Ok(_) => {}
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    assert!(checked > 5, "{checked} script commands checked");
+}
+
+/// Paragraphs of prose: consecutive lines outside code blocks, tables and headings, a list
+/// item starting a new one.
+fn paragraphs(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut current: Vec<&str> = Vec::new();
+    let mut inside = false;
+    for line in text.lines() {
+        let fence = line.trim_start().starts_with("```");
+        inside ^= fence;
+        let item = ["- ", "* "].iter().any(|p| line.trim_start().starts_with(p));
+        if fence || inside || line.trim().is_empty() || line.starts_with('#') || line.starts_with('|') || item {
+            if !current.is_empty() {
+                out.push(current.join(" "));
+                current.clear();
+            }
+            if fence || inside || !item {
+                continue;
+            }
+        }
+        current.push(line.trim());
+    }
+    if !current.is_empty() {
+        out.push(current.join(" "));
+    }
+    out
+}
+
+/// No page says a paragraph twice, and none leaves a parenthesis open (a sentence cut off in
+/// an edit, such as "(n =" before a heading); code spans are left out of the count.
+#[test]
+fn no_paragraph_is_repeated_or_cut_off() {
+    let mut bad = Vec::new();
+    for (path, text) in docs() {
+        let mut seen = BTreeSet::new();
+        for p in paragraphs(&text) {
+            let words: String = p.split('`').step_by(2).collect();
+            if words.matches('(').count() != words.matches(')').count() {
+                bad.push(format!("{}: a parenthesis is left open: {p}", path.display()));
+            }
+            if p.len() >= 100 && !seen.insert(p.clone()) {
+                bad.push(format!("{}: said twice: {p}", path.display()));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// Each default the config page states for a top-level key as a value (`"param"`, `[]`, `1`,
+/// ...) is a value the config accepts for that key.
+#[test]
+fn every_default_on_the_config_page_is_accepted() {
+    let page = std::fs::read_to_string(repo_root().join("docs/src/reference/config.md")).unwrap();
+    let mut inside = false;
+    let mut checked = 0;
+    for line in prose(&page) {
+        if let Some(h) = line.strip_prefix("## ") {
+            inside = h.trim() == "Top level";
+            continue;
+        }
+        let cells: Vec<&str> = line.split(" | ").collect();
+        let (true, Some(key), Some(default)) = (inside, cells.first(), cells.get(2)) else { continue };
+        let Some(key) = key.strip_prefix("| `").and_then(|k| k.strip_suffix('`')) else { continue };
+        let value = default.trim().trim_matches('`');
+        if format!("v = {value}").parse::<toml::Table>().is_err() {
+            continue;
+        }
+        let base: BTreeMap<&str, &str> = [
+            ("name", "\"d\""),
+            ("datasets", "[\"bumpy_1k\"]"),
+            ("energies", "[\"sd\"]"),
+            ("solvers", "[\"kp-newton\"]"),
+        ]
+        .into();
+        let mut config = format!("{key} = {value}\n");
+        for (k, v) in base.iter().filter(|(k, _)| **k != key) {
+            config += &format!("{k} = {v}\n");
+        }
+        // a config needs datasets or inline ones: an empty list comes with an inline dataset
+        config += "[[dataset]]\nname = \"inline\"\npath = \"inline.obj\"\n";
+        if let Err(e) = mapbench::plan::config::LoadedConfig::parse(&config, Path::new("d.toml")) {
+            panic!("docs/src/reference/config.md: `{key}` defaults to `{value}`, which a config refuses: {e:#}");
+        }
+        checked += 1;
+    }
+    assert!(checked >= 4, "{checked} defaults checked");
+}
+
+/// CHANGELOG.md's table of file formats states the version each one is at in the code, and
+/// names the constant and the file that state it.
+#[test]
+fn the_changelog_states_the_version_of_every_file_format() {
+    use std::io::Read;
+    let page = std::fs::read_to_string(repo_root().join("CHANGELOG.md")).unwrap();
+    // the version a UV map file is written with, from its first line
+    let mesh = solvers::mesh::Mesh::new("t", vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]]);
+    let gz = mapbench::run_folder::map::encode_uv(&mesh, &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]);
+    let mut raw = Vec::new();
+    flate2::read::GzDecoder::new(gz.as_slice()).read_to_end(&mut raw).unwrap();
+    let first = String::from_utf8_lossy(raw.split(|&b| b == b'\n').next().unwrap()).into_owned();
+    let uv: i64 = first.strip_prefix("mapbench uv ").and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("{first}"));
+    let versions: BTreeMap<&str, i64> = [
+        ("PROTOCOL", i64::from(mapbench::external::protocol::PROTOCOL)),
+        ("SCHEMA_VERSION", mapbench::history::SCHEMA_VERSION),
+        ("UV_MAGIC", uv),
+        ("REFERENCE_VERSION", i64::from(mapbench::judge::reference::REFERENCE_VERSION)),
+        ("VERSION", i64::from(mapbench::run_folder::meta::VERSION)),
+        ("SUBMISSION_VERSION", i64::from(mapbench::slurm::SUBMISSION_VERSION)),
+        ("SHARD_PLAN_VERSION", i64::from(mapbench::plan::shard_plan::SHARD_PLAN_VERSION)),
+        ("CORPUS_VERSION", i64::from(mapbench::corpus::CORPUS_VERSION)),
+    ]
+    .into();
+    let mut stated = BTreeMap::new();
+    let mut inside = false;
+    for line in prose(&page) {
+        if let Some(h) = line.strip_prefix("## ") {
+            inside = h.trim() == "File formats and their versions";
+        } else if inside && line.starts_with("| ") && !line.starts_with("| ---") && !line.starts_with("| format") {
+            let cells: Vec<&str> = line.split(" | ").collect();
+            let version: i64 = cells[2].trim().parse().unwrap_or_else(|_| panic!("CHANGELOG.md: no version in {line}"));
+            let names: Vec<&str> = cells[3].split('`').skip(1).step_by(2).collect();
+            let [constant, file] = names[..] else { panic!("CHANGELOG.md: `CONSTANT`, `file` in {line}") };
+            let source = std::fs::read_to_string(repo_root().join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+            assert!(source.contains(&format!("const {constant}:")), "CHANGELOG.md: {file} has no const {constant}");
+            stated.insert(constant, version);
+        }
+    }
+    assert_eq!(stated, versions, "CHANGELOG.md's versions (left) against the code's (right)");
+}
+
+/// CITATION.cff and the license files match Cargo.toml's version and `MIT OR Apache-2.0`.
+#[test]
+fn the_citation_and_the_license_files_match_cargo_toml() {
+    let cargo: toml::Table = std::fs::read_to_string(repo_root().join("Cargo.toml")).unwrap().parse().unwrap();
+    let package = &cargo["workspace"]["package"];
+    let (version, license) = (package["version"].as_str().unwrap(), package["license"].as_str().unwrap());
+    let cff = std::fs::read_to_string(repo_root().join("CITATION.cff")).unwrap();
+    assert!(cff.starts_with("cff-version: 1.2.0\n"), "CITATION.cff: not CFF 1.2.0");
+    assert!(cff.lines().any(|l| l == format!("version: {version}")), "CITATION.cff: version {version}");
+    let licenses: Vec<&str> =
+        cff.lines().skip_while(|l| *l != "license:").skip(1).map_while(|l| l.strip_prefix("  - ")).collect();
+    assert_eq!(licenses.join(" OR "), license, "CITATION.cff's licenses");
+    for (id, file, says) in [("MIT", "LICENSE-MIT", "MIT License"), ("Apache-2.0", "LICENSE-APACHE", "Apache License")]
+    {
+        assert!(license.split(" OR ").any(|l| l == id), "Cargo.toml's license: {license}");
+        let text = std::fs::read_to_string(repo_root().join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert!(text.trim_start().starts_with(says), "{file}");
+    }
+    let mit = std::fs::read_to_string(repo_root().join("LICENSE-MIT")).unwrap();
+    assert!(mit.contains("Copyright (c) 2026 the mapbench developers"), "LICENSE-MIT's copyright line");
 }

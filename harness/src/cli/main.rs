@@ -304,6 +304,28 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Install the shared mesh corpus where MAPBENCH_MESHES finds it: each mesh from its
+    /// public source at the pinned commit (or from a copy, --from), made by the recipe that
+    /// made it, every download and every file checked against the SHA-256 corpus.toml pins;
+    /// a mismatch or a missing source installs nothing (exit 1), and a fetch run again
+    /// resumes.
+    Corpus {
+        /// What to do: `fetch` installs the corpus.
+        #[arg(value_enum)]
+        action: CorpusAction,
+        /// The folder to install into (default: $MAPBENCH_MESHES).
+        #[arg(long, value_name = "DIR")]
+        to: Option<PathBuf>,
+        /// Take the files from this copy of the corpus (checked alike) instead of their sources.
+        #[arg(long, value_name = "DIR")]
+        from: Option<PathBuf>,
+        /// Only the meshes whose name matches a glob (repeatable), and those they are made from.
+        #[arg(long, value_name = "GLOB")]
+        only: Vec<String>,
+        /// Another corpus manifest (default: the repository's corpus.toml, built in).
+        #[arg(long, value_name = "FILE")]
+        manifest: Option<PathBuf>,
+    },
     /// List the registered datasets, solvers or energies.
     List {
         #[arg(value_enum, default_value = "datasets")]
@@ -384,6 +406,12 @@ enum OrderingArg {
 enum KernelArg {
     Subtree,
     Faer,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum CorpusAction {
+    /// Install the corpus (what is there with the right SHA-256 is kept).
+    Fetch,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -596,6 +624,9 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
         }
         Command::List { what, registry, markdown } => list(what, &registry, markdown),
+        Command::Corpus { action: CorpusAction::Fetch, to, from, only, manifest } => {
+            corpus_fetch(to, from, &only, manifest.as_deref())
+        }
         // exit 0 whatever the map's quality: the numbers say it
         Command::Evaluate { mesh, map, task, energy, params, frame, config, dataset, json } => {
             let energy = mapbench::evaluate::energy_of(task, &energy, &params)?;
@@ -968,6 +999,52 @@ fn run_exit(signalled: i32, written: bool, failed: usize) -> ExitCode {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+/// `corpus fetch`: exit 0 when every selected file is installed, 1 when the fetch refused
+/// (a mismatch, a missing source, a cut download: nothing installed), 2 for a bad request.
+fn corpus_fetch(
+    to: Option<PathBuf>,
+    from: Option<PathBuf>,
+    only: &[String],
+    manifest: Option<&std::path::Path>,
+) -> Result<ExitCode> {
+    use mapbench::corpus;
+    let Some(to) = to.or_else(|| std::env::var_os(registry::MESHES_ENV).map(PathBuf::from)) else {
+        anyhow::bail!("give --to DIR, or set {} to the folder to install into", registry::MESHES_ENV);
+    };
+    let manifest = match manifest {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+            corpus::Manifest::parse(&text, path)?
+        }
+        None => corpus::Manifest::built_in()?,
+    };
+    let entries = manifest.select(only)?;
+    std::fs::create_dir_all(&to).with_context(|| format!("{}: cannot create", to.display()))?;
+    let from = match from {
+        Some(dir) => corpus::From::Copy(dir),
+        None => corpus::From::Sources {
+            url: std::env::var(corpus::URL_ENV).unwrap_or_else(|_| corpus::DEFAULT_URL.to_string()),
+        },
+    };
+    match corpus::fetch(&entries, &to, &from, &mut |line| eprintln!("{line}")) {
+        Ok(done) => {
+            eprintln!(
+                "{} files installed, {} present already, in {}: `{}={}` runs the configs that name them",
+                done.installed.len(),
+                done.present.len(),
+                to.display(),
+                registry::MESHES_ENV,
+                to.display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            Ok(ExitCode::from(1))
+        }
     }
 }
 

@@ -221,17 +221,20 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
         })?;
         let reg = Registry::load(&path)?;
         let meshes_dir = std::env::var_os(MESHES_ENV).map(PathBuf::from);
+        let mut missing_corpus = false;
         for e in reg.select(&cfg.config.datasets)? {
             let source = match (&e.generator, &e.file) {
                 (Some(g), _) => MeshSource::Generated(g.clone()),
                 (None, Some(f)) => {
                     let Some(dir) = &meshes_dir else {
                         notices.push(format!("skipping {}: {MESHES_ENV} is not set", e.name));
+                        missing_corpus = true;
                         continue;
                     };
                     let p = dir.join(f);
                     if !p.is_file() {
                         notices.push(format!("skipping {}: {} not found", e.name, p.display()));
+                        missing_corpus = true;
                         continue;
                     }
                     MeshSource::File(p)
@@ -250,6 +253,12 @@ pub fn resolve(cfg: &LoadedConfig) -> Result<(Vec<Dataset>, Vec<String>)> {
                 _ => HandleSource::None,
             };
             out.push(Dataset { name: e.name.clone(), source, expected: (e.vertices, e.faces), handles });
+        }
+        if missing_corpus {
+            notices.push(format!(
+                "the shared corpus is missing here: `mapbench corpus fetch --to DIR` installs it (each mesh from its \
+                 pinned public source, checked), then {MESHES_ENV}=DIR"
+            ));
         }
     }
     let inline = resolve_inline(cfg, &out)?;
