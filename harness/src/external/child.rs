@@ -1,41 +1,63 @@
-//! An external solver's process: started in a process group of its own so that the timeout,
-//! an interrupt and the end of the run reach everything it started; its wall time and peak
-//! memory measured from outside; its output kept, truncated.
+//! An external solver's process. A run's solver is started through the sandbox
+//! ([`super::sandbox`], `mapbench sandbox`): confined to its problem folder, every process it
+//! starts ended with it, its CPU time measured. Where the harness cannot start that (the
+//! library used outside the `mapbench` binary) and for version commands without it, the
+//! command runs directly in a process group of its own, which the timeout, an interrupt and
+//! the end of the run reach; its wall time and peak memory are measured from outside; its
+//! output is kept, truncated, and never waited for past its end.
 
-use std::io::Read;
-use std::path::Path;
+use super::sandbox::{Report, Spec};
+use serde::{Deserialize, Serialize};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, OnceLock};
 use std::thread;
 use std::time::{Duration, Instant};
 
 /// How often the harness looks at the child (exit, deadline, interrupt, memory).
 const POLL: Duration = Duration::from_millis(10);
 
+/// How long the output of a child that ended is waited for: a process it left behind may
+/// hold the pipes open (the sandbox ends those; a direct child's group is killed, but a
+/// process that left the group is not).
+const OUTPUT_GRACE: Duration = Duration::from_millis(500);
+
+/// How long past the timeout the sandbox is given to end the solver and report before it is
+/// killed itself.
+const SANDBOX_GRACE: Duration = Duration::from_secs(5);
+
 /// What became of the child.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Exit {
     /// It exited with this code.
     Code(i32),
     /// A signal it did not handle ended it.
     Signal(i32),
-    /// Still running at the deadline: its process group was killed.
+    /// Still running at the deadline: it was killed with everything it started.
     TimedOut,
-    /// The batch was interrupted: its process group was killed.
+    /// The batch was interrupted: it was killed with everything it started.
     Interrupted,
+    /// It had more than this many processes at once: all were killed.
+    TooManyProcesses(usize),
 }
 
 /// A finished child.
 #[derive(Clone, Debug)]
 pub struct ChildRun {
     pub exit: Exit,
-    /// Wall time from the start to the exit (or the kill), on the harness's clock.
+    /// Wall time from its start to its exit (or the kill).
     pub wall_s: f64,
-    /// The sum over its process group's processes of each one's peak resident memory
-    /// (`VmHWM`, sampled while it ran: an upper bound of the group's peak), in MB; `None`
-    /// where `/proc` does not say or the child was gone before the first look.
+    /// CPU time (user + system) of all its processes; `None` outside the sandbox.
+    pub cpu_s: Option<f64>,
+    /// The sum over its processes of each one's peak resident memory (`VmHWM`, sampled every
+    /// 10 ms while it ran: an upper bound of its peak), in MB; `None` where `/proc` does not
+    /// say or the child was gone before the first look.
     pub peak_rss_mb: Option<f64>,
-    /// Its standard output and error, each cut at the limit [`run`] was given.
+    /// Why it was not (wholly) confined; empty when the sandbox held it.
+    pub unconfined: Vec<String>,
+    /// Its standard output and error, each cut at the limit it was run with.
     pub stdout: String,
     pub stderr: String,
 }
@@ -48,9 +70,84 @@ pub struct CannotStart {
     pub why: std::io::Error,
 }
 
-/// Run `command` in the folder `cwd`, with `last` appended to its arguments when given, until
-/// it exits, the `timeout` passes or `interrupt` is set; keep at most `keep` bytes of each
-/// output stream. A program given as a relative path with a `/` is taken relative to `cwd`.
+/// The `mapbench` binary, which runs the sandbox (`mapbench sandbox`); set by its `main`.
+static SANDBOX_PROGRAM: OnceLock<PathBuf> = OnceLock::new();
+
+/// Run external solvers through the sandbox of `program` (the `mapbench` binary).
+pub fn use_sandbox(program: PathBuf) {
+    let _ = SANDBOX_PROGRAM.set(program);
+}
+
+/// Run `spec` in the sandbox until it ends, passes its timeout or `interrupt` is set; without
+/// the sandbox program (the library outside `mapbench`), directly, recorded as not confined.
+pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, CannotStart> {
+    let shown = spec.command.join(" ");
+    let Some(program) = SANDBOX_PROGRAM.get() else {
+        let timeout = spec.timeout_s.map(Duration::from_secs_f64);
+        let mut run = run_with(&spec.command, &spec.cwd, None, timeout, interrupt, spec.keep, &spec.env)?;
+        run.unconfined.push("run without the sandbox (not through the mapbench binary)".into());
+        return Ok(run);
+    };
+    let cannot = |why: std::io::Error| CannotStart { command: shown.clone(), why };
+    let mut cmd = Command::new(program);
+    cmd.arg("sandbox").stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    // Its own group: a Ctrl-C at the terminal reaches the harness, which stops it.
+    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+    let mut sandbox = cmd.spawn().map_err(cannot)?;
+    let mut stdin = sandbox.stdin.take();
+    let line = serde_json::to_string(spec).map_err(|e| cannot(e.into()))? + "\n";
+    if let Some(pipe) = stdin.as_mut() {
+        pipe.write_all(line.as_bytes()).map_err(cannot)?;
+    }
+    // The report holds at most `keep` bytes of each stream, escaped in JSON.
+    let report = sandbox.stdout.take().map(|s| Reading::start(s, 16 * spec.keep + (1 << 20)));
+    let errors = sandbox.stderr.take().map(|s| Reading::start(s, 4096));
+    let t0 = Instant::now();
+    let backstop = spec.timeout_s.map(|t| Duration::from_secs_f64(t) + SANDBOX_GRACE);
+    let mut stopped_at: Option<Instant> = None;
+    loop {
+        match sandbox.try_wait() {
+            Ok(Some(_)) | Err(_) => break,
+            Ok(None) => {}
+        }
+        if stopped_at.is_none() && interrupt.load(Ordering::Relaxed) {
+            // Our end of its standard input closed: it ends the solver and reports.
+            stdin = None;
+            stopped_at = Some(Instant::now());
+        }
+        let late = backstop.is_some_and(|b| t0.elapsed() >= b) || stopped_at.is_some_and(|s| s.elapsed() >= SANDBOX_GRACE);
+        if late {
+            kill_group(&mut sandbox);
+            let _ = sandbox.wait();
+            break;
+        }
+        thread::sleep(POLL);
+    }
+    drop(stdin);
+    let text = report.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
+    let said = errors.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
+    let report: Report = serde_json::from_str(text.trim()).map_err(|_| {
+        let why = format!("the sandbox (`{} sandbox`) gave no report: {}", program.display(), said.trim());
+        cannot(std::io::Error::other(why))
+    })?;
+    if let Some(why) = report.cannot_start {
+        return Err(cannot(std::io::Error::other(why)));
+    }
+    Ok(ChildRun {
+        exit: report.exit.unwrap_or(Exit::Interrupted),
+        wall_s: report.wall_s,
+        cpu_s: Some(report.cpu_s),
+        peak_rss_mb: report.peak_rss_mb,
+        unconfined: report.unconfined,
+        stdout: report.stdout,
+        stderr: report.stderr,
+    })
+}
+
+/// Run `command` directly in the folder `cwd`, with `last` appended to its arguments when
+/// given, until it exits, the `timeout` passes or `interrupt` is set; keep at most `keep`
+/// bytes of each output stream. A program given as a relative path with a `/` is taken
+/// relative to `cwd`.
 pub fn run(
     command: &[String],
     cwd: &Path,
@@ -58,6 +155,18 @@ pub fn run(
     timeout: Option<Duration>,
     interrupt: &AtomicBool,
     keep: usize,
+) -> Result<ChildRun, CannotStart> {
+    run_with(command, cwd, last, timeout, interrupt, keep, &[])
+}
+
+fn run_with(
+    command: &[String],
+    cwd: &Path,
+    last: Option<&Path>,
+    timeout: Option<Duration>,
+    interrupt: &AtomicBool,
+    keep: usize,
+    env: &[(String, String)],
 ) -> Result<ChildRun, CannotStart> {
     let shown = command.join(" ");
     let (program, args) = command.split_first().ok_or_else(|| CannotStart {
@@ -71,14 +180,14 @@ pub fn run(
         .args(last)
         .current_dir(cwd)
         .env("PYTHONDONTWRITEBYTECODE", "1")
+        .envs(env.iter().map(|(k, v)| (k, v)))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
-    #[cfg(unix)]
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     let t0 = Instant::now();
     let mut child = cmd.spawn().map_err(|why| CannotStart { command: shown, why })?;
-    let readers = [child.stdout.take().map(|s| reader(s, keep)), child.stderr.take().map(|s| reader(s, keep))];
+    let readers = [child.stdout.take().map(|s| Reading::start(s, keep)), child.stderr.take().map(|s| Reading::start(s, keep))];
     let mut peaks = Peaks::default();
     let exit = loop {
         peaks.sample(child.id());
@@ -104,8 +213,8 @@ pub fn run(
     let wall_s = t0.elapsed().as_secs_f64();
     // What the child left running (a daemon, a worker pool) ends with it.
     kill_group(&mut child);
-    let [stdout, stderr] = readers.map(|r| r.and_then(|h| h.join().ok()).unwrap_or_default());
-    Ok(ChildRun { exit, wall_s, peak_rss_mb: peaks.total_mb(), stdout, stderr })
+    let [stdout, stderr] = readers.map(|r| r.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default());
+    Ok(ChildRun { exit, wall_s, cpu_s: None, peak_rss_mb: peaks.total_mb(), unconfined: Vec::new(), stdout, stderr })
 }
 
 /// `program` as the child finds it: a relative path with a separator is relative to `cwd`
@@ -138,29 +247,40 @@ pub fn absolute_in(command: &[String], folder: &Path) -> Vec<String> {
         .collect()
 }
 
-/// Read a stream to its end on a thread (a full pipe would block the child), keeping the
-/// first `keep` bytes and saying how many were cut.
-fn reader(mut stream: impl Read + Send + 'static, keep: usize) -> thread::JoinHandle<String> {
-    thread::spawn(move || {
-        let (mut kept, mut total, mut buf) = (Vec::new(), 0usize, [0u8; 8192]);
-        while let Ok(n) = stream.read(&mut buf) {
-            if n == 0 {
-                break;
+/// An output stream read to its end on a thread (a full pipe would block the child), keeping
+/// the first `keep` bytes and saying how many were cut.
+pub struct Reading(mpsc::Receiver<String>);
+
+impl Reading {
+    pub fn start(mut stream: impl Read + Send + 'static, keep: usize) -> Reading {
+        let (tx, rx) = mpsc::channel();
+        thread::spawn(move || {
+            let (mut kept, mut total, mut buf) = (Vec::new(), 0usize, [0u8; 8192]);
+            while let Ok(n) = stream.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                total += n;
+                let room = keep.saturating_sub(kept.len());
+                kept.extend_from_slice(&buf[..n.min(room)]);
             }
-            total += n;
-            let room = keep.saturating_sub(kept.len());
-            kept.extend_from_slice(&buf[..n.min(room)]);
-        }
-        let mut text = String::from_utf8_lossy(&kept).into_owned();
-        if total > kept.len() {
-            text.push_str(&format!("\n[{} more bytes not kept]\n", total - kept.len()));
-        }
-        text
-    })
+            let mut text = String::from_utf8_lossy(&kept).into_owned();
+            if total > kept.len() {
+                text.push_str(&format!("\n[{} more bytes not kept]\n", total - kept.len()));
+            }
+            let _ = tx.send(text);
+        });
+        Reading(rx)
+    }
+
+    /// What was read, waiting at most `grace` for the end of the stream (a process that
+    /// outlived the child may hold it open: then nothing).
+    pub fn finish(self, grace: Duration) -> String {
+        self.0.recv_timeout(grace).unwrap_or_default()
+    }
 }
 
 fn exit_of(status: std::process::ExitStatus) -> Exit {
-    #[cfg(unix)]
     if let Some(sig) = std::os::unix::process::ExitStatusExt::signal(&status) {
         return Exit::Signal(sig);
     }
@@ -169,13 +289,10 @@ fn exit_of(status: std::process::ExitStatus) -> Exit {
 
 /// SIGKILL to the child's process group (the child itself where there are none).
 fn kill_group(child: &mut std::process::Child) {
-    #[cfg(unix)]
-    {
-        use nix::sys::signal::{killpg, Signal};
-        use nix::unistd::Pid;
-        // ESRCH: the group is gone already.
-        let _ = killpg(Pid::from_raw(child.id() as i32), Signal::SIGKILL);
-    }
+    use nix::sys::signal::{killpg, Signal};
+    use nix::unistd::Pid;
+    // ESRCH: the group is gone already.
+    let _ = killpg(Pid::from_raw(child.id() as i32), Signal::SIGKILL);
     let _ = child.kill();
 }
 

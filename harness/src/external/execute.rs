@@ -3,7 +3,8 @@
 
 use super::child::{self, ChildRun, Exit};
 use super::probe::ended;
-use super::protocol::{self, ExternalStop, HandlesSpec, ProblemSpec, Record, Snapshot, StopSpec};
+use super::protocol::{self, quoted, ExternalStop, HandlesSpec, ProblemSpec, Record, Snapshot, StopSpec};
+use super::sandbox::{Limits, Spec};
 use crate::column_names::{intern, is_column_name};
 use crate::plan::external::Declared;
 use crate::run_folder::ITERATION_COLUMNS;
@@ -36,6 +37,42 @@ const REPLAY_KILL_FACTOR: u32 = 4;
 /// The record key whose value is the time the solver spent on the record and its snapshot
 /// (left out of the run's time like our solvers' `t_record_s`), not an extra column.
 pub const RECORD_TIME_KEY: &str = "record_s";
+
+/// The extra column with the energy the solver recorded at each row (the `energy` column is
+/// ours, at the verified rows only).
+pub const REPORTED_ENERGY_COLUMN: &str = "reported_energy";
+
+/// What a solver may leave out of its time as recording, per row: this many times what the
+/// harness takes here to write the same files (a record line, and the map when one was
+/// written; measured on the run's problem folder). An interpreter formats numbers some 10 to
+/// 20 times slower than we do.
+pub const RECORD_FACTOR: f64 = 50.0;
+
+/// ... and at least this much per row (a busy machine delays a write by milliseconds).
+pub const RECORD_FLOOR_S: f64 = 0.005;
+
+/// Slack of the solver's clock against the wall time the sandbox measured (two clocks, read
+/// at slightly different moments), on top of 0.1 % of it.
+const CLOCK_SLACK_S: f64 = 0.002;
+
+/// A run's file-size limit without `file_size_mb`, MiB.
+pub const DEFAULT_FILE_SIZE_MB: u64 = 1024;
+
+/// A run's process limit without `processes`.
+pub const DEFAULT_PROCESSES: u64 = 64;
+
+/// The variables that set how many threads the usual runtimes and libraries start.
+pub const THREAD_VARIABLES: [&str; 9] = [
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+    "NUMEXPR_MAX_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "BLIS_NUM_THREADS",
+    "RAYON_NUM_THREADS",
+    "JULIA_NUM_THREADS",
+];
 
 /// One external run to do.
 pub struct Job<'a> {
@@ -106,7 +143,11 @@ pub struct Executed {
     /// The child's wall time on the harness's clock (the run's `time_s` leaves out the
     /// `t_record_s` of its rows, the time it said it spent on records and snapshots).
     pub wall_s: f64,
+    /// The CPU time of all its processes (`None` outside the sandbox).
+    pub cpu_s: Option<f64>,
     pub peak_rss_mb: Option<f64>,
+    /// Why it was not (wholly) confined; empty when the sandbox held it.
+    pub unconfined: Vec<String>,
 }
 
 /// Why an external run has no result.
@@ -163,11 +204,14 @@ pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
         verified: done.verified,
         rows: done.rows,
         wall_s: child.wall_s,
+        cpu_s: child.cpu_s,
         peak_rss_mb: child.peak_rss_mb,
+        unconfined: child.unconfined,
     })
 }
 
-/// The child on the problem folder, its output kept, then what it wrote read and verified.
+/// The child on the problem folder in the sandbox, its output kept, then what it wrote read
+/// and verified.
 fn run_and_read(
     job: &Job,
     problem: &MapProblem,
@@ -180,49 +224,70 @@ fn run_and_read(
         (Some(t), Some(_)) => t * REPLAY_KILL_FACTOR,
         (None, _) => DEFAULT_KILL,
     };
-    // It runs in its problem folder, whatever it writes stays in the run folder; what its
-    // command names in the config's folder is given as absolute paths.
-    let command = child::absolute_in(&job.declared.command, job.cwd);
-    let child = child::run(&command, &dir, Some(&dir), Some(kill), job.interrupt, KEEP_OUTPUT)
-        .map_err(|e| ExternalError::CannotStart(e.to_string()))?;
+    let cost = record_cost(&dir, x0);
+    // It runs in its problem folder, where alone it may write; what its command names in the
+    // config's folder is given as absolute paths.
+    let mut command = child::absolute_in(&job.declared.command, job.cwd);
+    command.push(dir.display().to_string());
+    let spec = Spec {
+        command,
+        cwd: dir.clone(),
+        writable: Some(dir.clone()),
+        env: environment(&dir, job.threads).map_err(|e| failed(e.to_string()))?,
+        timeout_s: Some(kill.as_secs_f64()),
+        limits: limits(job.declared),
+        keep: KEEP_OUTPUT,
+    };
+    let child =
+        child::run_sandboxed(&spec, job.interrupt).map_err(|e| ExternalError::CannotStart(e.to_string()))?;
     keep_output(&job.logs, &child);
     let said = || {
         let last = child.stderr.lines().map(str::trim).rfind(|l| !l.is_empty());
-        last.map_or(String::new(), |l| format!(" (its last error line: {l})"))
+        last.map_or(String::new(), |l| format!(" (its last error line: {})", quoted(l)))
     };
+    let max_iters = job.stop_at.unwrap_or(job.setup.task().2.max_iters);
     let stop = match &child.exit {
         Exit::Interrupted => return Err(ExternalError::Interrupted),
         Exit::Code(0) => {
             let result = protocol::read_result(&dir).map_err(|e| failed(format!("{e:#}")))?;
             match result.stop_reason {
                 ExternalStop::Error => {
-                    return Err(failed(format!("{} reported an error: {}", job.name, result.message)))
+                    return Err(failed(format!("{} reported an error: {}", job.name, quoted(&result.message))))
                 }
                 s => stop_reason(s, job.stop_at.is_some()),
             }
         }
         Exit::TimedOut => StopReason::Timeout,
+        Exit::Code(_) if missing_module(&child.stderr) && !dir.join("iterations.jsonl").exists() => {
+            // A package its interpreter cannot import: skipped, like a failing version command.
+            return Err(ExternalError::CannotStart(format!("{} {}{}", job.name, ended(&child.exit), said())));
+        }
         other => return Err(failed(format!("{} {}{}", job.name, ended(other), said()))),
     };
     let killed = child.exit == Exit::TimedOut;
-    let records = protocol::read_records(&dir, killed);
+    let records = protocol::read_records(&dir, killed, max_iters);
     let records = if killed {
         // Killed at the deadline: the run ends at its last map (a line the kill cut is no
         // record; no file at all, none).
         let mut records = match records {
             Ok(r) => r,
-            Err(_) if !dir.join("iterations.jsonl").exists() => Vec::new(),
+            Err(_) if std::fs::symlink_metadata(dir.join("iterations.jsonl")).is_err() => Vec::new(),
             Err(e) => return Err(failed(format!("{e:#}"))),
         };
-        let last = (0..records.len()).rev().find(|k| protocol::snapshot_path(&dir, *k).exists()).ok_or_else(|| {
-            failed(format!("{} passed its timeout before it wrote the start map (maps/0.uv)", job.name))
-        })?;
+        let last = (0..records.len())
+            .rev()
+            .find(|k| std::fs::symlink_metadata(protocol::snapshot_path(&dir, *k)).is_ok())
+            .ok_or_else(|| {
+                failed(format!("{} passed its timeout before it wrote the start map (maps/0.uv)", job.name))
+            })?;
         records.truncate(last + 1);
         records
     } else {
         records.map_err(|e| failed(format!("{e:#}")))?
     };
-    let snapshots = protocol::verify(&dir, problem, &records).map_err(|e| failed(format!("{e:#}")))?;
+    check_clock(&records, child.wall_s).map_err(|e| failed(format!("{}: {e}", job.name)))?;
+    let snapshots = protocol::verify(&dir, problem, &records, job.declared.snapshot_every)
+        .map_err(|e| failed(format!("{e:#}")))?;
     if let Some(i) = (0..x0.len()).find(|&i| snapshots[0].x[i].to_bits() != x0[i].to_bits()) {
         return Err(failed(format!(
             "iteration 0's map is not start.uv (vertex {}: {} where the start has {})",
@@ -231,8 +296,105 @@ fn run_and_read(
             x0[i]
         )));
     }
-    let read = rows_and_outcome(&records, snapshots, stop).map_err(|e| failed(format!("{}: {e}", job.name)))?;
+    let read =
+        rows_and_outcome(&records, snapshots, stop, &cost).map_err(|e| failed(format!("{}: {e}", job.name)))?;
     Ok((read, child))
+}
+
+/// The solver's environment on top of ours: HOME and the temporary folder inside its problem
+/// folder (made here), its threads in the usual variables, Python's bytecode cache off
+/// (it would be written beside the adapter's modules) and Python's user packages where they
+/// were (under the real HOME).
+fn environment(dir: &Path, threads: usize) -> std::io::Result<Vec<(String, String)>> {
+    let (home, tmp) = (dir.join("home"), dir.join("tmp"));
+    std::fs::create_dir_all(&home)?;
+    std::fs::create_dir_all(&tmp)?;
+    let mut env: Vec<(String, String)> = vec![("HOME".into(), home.display().to_string())];
+    for name in ["TMPDIR", "TMP", "TEMP"] {
+        env.push((name.into(), tmp.display().to_string()));
+    }
+    env.extend(THREAD_VARIABLES.map(|name| (name.to_string(), threads.max(1).to_string())));
+    env.push(("PYTHONDONTWRITEBYTECODE".into(), "1".into()));
+    if let (None, Some(real)) = (std::env::var_os("PYTHONUSERBASE"), std::env::var_os("HOME")) {
+        env.push(("PYTHONUSERBASE".into(), Path::new(&real).join(".local").display().to_string()));
+    }
+    Ok(env)
+}
+
+/// The declared limits, with the defaults: the machine's memory, [`DEFAULT_FILE_SIZE_MB`],
+/// [`DEFAULT_PROCESSES`].
+fn limits(d: &Declared) -> Limits {
+    let memory = d.memory_mb.or_else(|| crate::hardware::Hardware::detect().memory_mb);
+    Limits {
+        memory_mb: memory,
+        file_size_mb: Some(d.file_size_mb.unwrap_or(DEFAULT_FILE_SIZE_MB)),
+        processes: Some(d.processes.unwrap_or(DEFAULT_PROCESSES)),
+    }
+}
+
+/// Whether a child's error output ends with Python's error for a module it could not import.
+fn missing_module(stderr: &str) -> bool {
+    stderr.lines().map(str::trim).rfind(|l| !l.is_empty()).is_some_and(|l| l.starts_with("ModuleNotFoundError: "))
+}
+
+/// What writing a record costs here, measured on the problem folder `dir`: a line appended
+/// and flushed, and the map `x` formatted, written and renamed as the protocol asks (the
+/// fastest of three of each).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct RecordCost {
+    line_s: f64,
+    map_s: f64,
+}
+
+fn record_cost(dir: &Path, x: &[f64]) -> RecordCost {
+    use std::io::Write as _;
+    let probe = dir.join(".record-cost");
+    let (mut line_s, mut map_s) = (f64::INFINITY, f64::INFINITY);
+    let uv: Vec<[f64; 2]> = x.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+    for _ in 0..3 {
+        let t = std::time::Instant::now();
+        let written = std::fs::File::create(&probe).and_then(|mut f| {
+            f.write_all(b"{\"iter\": 1, \"energy\": 2.0000000000000004, \"time_s\": 0.0123456789, \"record_s\": 0.001}\n")?;
+            f.flush()
+        });
+        line_s = line_s.min(if written.is_ok() { t.elapsed().as_secs_f64() } else { 0.0 });
+        let t = std::time::Instant::now();
+        let tmp = dir.join(".record-cost.tmp");
+        let written = std::fs::write(&tmp, crate::run_folder::map::uv_text(&uv)).and_then(|()| std::fs::rename(&tmp, &probe));
+        map_s = map_s.min(if written.is_ok() { t.elapsed().as_secs_f64() } else { 0.0 });
+    }
+    let _ = std::fs::remove_file(&probe);
+    RecordCost { line_s, map_s }
+}
+
+/// The solver's clock against the wall time `wall_s` of its process: no time past it, and its
+/// times plus the recording it said it left out no more than it.
+fn check_clock(records: &[Record], wall_s: f64) -> Result<(), String> {
+    let within = wall_s * 1.001 + CLOCK_SLACK_S;
+    let mut recorded = 0.0;
+    for r in records {
+        if r.time_s > within {
+            return Err(format!(
+                "iteration {}: time_s = {} is past the {wall_s:.3} s its process ran (the harness's clock)",
+                r.iter, r.time_s
+            ));
+        }
+        match number(r, RECORD_TIME_KEY)? {
+            Some(t) if !(t.is_finite() && t >= 0.0) => {
+                return Err(format!("iteration {}: record_s = {t} is not a time (finite, at least 0)", r.iter))
+            }
+            Some(t) => recorded += t,
+            None => {}
+        }
+    }
+    let last = records.last().map_or(0.0, |r| r.time_s);
+    if last + recorded > within {
+        return Err(format!(
+            "its clock does not add up: time_s = {last} at the last record plus {recorded} s of record_s is more \
+             than the {wall_s:.3} s its process ran (record_s is the writing since the previous line, not a total)"
+        ));
+    }
+    Ok(())
 }
 
 /// The child's output beside the run's files (the last repeat's), when there is any.
@@ -273,14 +435,32 @@ struct Read {
 /// The run's rows: at a verified iteration its energy, gradient norm and flips are ours,
 /// elsewhere its energy is the one recorded (gradient norm NaN, flips 0, `verified` 0); the
 /// times are the solver's clock; its numeric extras become columns.
-fn rows_and_outcome(records: &[Record], snapshots: Vec<Snapshot>, stop: StopReason) -> Result<Read, String> {
-    let mut names: Vec<&'static str> = vec![VERIFIED_COLUMN];
+fn rows_and_outcome(
+    records: &[Record],
+    snapshots: Vec<Snapshot>,
+    stop: StopReason,
+    cost: &RecordCost,
+) -> Result<Read, String> {
+    const OURS: [&str; 2] = [VERIFIED_COLUMN, REPORTED_ENERGY_COLUMN];
+    let mut names: Vec<&'static str> = OURS.to_vec();
     for r in records {
         for key in r.extras.keys().filter(|k| k.as_str() != RECORD_TIME_KEY) {
-            if !is_column_name(key) || ITERATION_COLUMNS.contains(&key.as_str()) || key == VERIFIED_COLUMN {
-                return Err(format!("iteration {}: `{key}` cannot be an extra column (plain names, not ours)", r.iter));
+            if !is_column_name(key) || ITERATION_COLUMNS.contains(&key.as_str()) || OURS.contains(&key.as_str()) {
+                return Err(format!(
+                    "iteration {}: `{}` cannot be an extra column (plain names, not ours)",
+                    r.iter,
+                    quoted(key)
+                ));
             }
             if !names.contains(&key.as_str()) {
+                if names.len() - OURS.len() >= protocol::EXTRA_COLUMNS_MAX {
+                    return Err(format!(
+                        "more than {} extra columns (at iteration {}: `{}`)",
+                        protocol::EXTRA_COLUMNS_MAX,
+                        r.iter,
+                        quoted(key)
+                    ));
+                }
                 names.push(intern(key));
             }
         }
@@ -289,20 +469,29 @@ fn rows_and_outcome(records: &[Record], snapshots: Vec<Snapshot>, stop: StopReas
     let mut snaps = snapshots.iter().peekable();
     for (k, r) in records.iter().enumerate() {
         let snap = snaps.next_if(|s| s.iter == k);
-        let mut extra = vec![(VERIFIED_COLUMN, if snap.is_some() { 1.0 } else { 0.0 })];
-        for &name in &names[1..] {
+        let mut extra = vec![(VERIFIED_COLUMN, if snap.is_some() { 1.0 } else { 0.0 }), (REPORTED_ENERGY_COLUMN, r.energy)];
+        for &name in &names[OURS.len()..] {
             extra.push((name, number(r, name)?.unwrap_or(f64::NAN)));
         }
+        // Row k's record_s is the writing since row k - 1: its line, and its map if any.
+        let allowed = match k {
+            0 => 0.0,
+            _ if snapshots.iter().any(|s| s.iter == k - 1) => RECORD_FACTOR * (cost.line_s + cost.map_s),
+            _ => RECORD_FACTOR * cost.line_s,
+        }
+        .max(if k == 0 { 0.0 } else { RECORD_FLOOR_S });
         let since = |t: f64| (t - records[0].time_s).max(0.0);
         rows.push(IterationRecord {
             iter: k,
-            energy: snap.map_or(r.energy, |s| s.energy),
+            // Only our energies are judged (the convergence test, iterations and time to a
+            // target): a row without a verified map has none.
+            energy: snap.map_or(f64::NAN, |s| s.energy),
             grad_norm: snap.and_then(|s| s.grad_norm).unwrap_or(f64::NAN),
             step: f64::NAN,
             flips: snap.map_or(0, |s| s.flips),
             t_iter_s: if k == 0 { 0.0 } else { (r.time_s - records[k - 1].time_s).max(0.0) },
             t_cum_s: since(r.time_s),
-            t_record_s: number(r, RECORD_TIME_KEY)?.filter(|t| *t >= 0.0).unwrap_or(0.0),
+            t_record_s: number(r, RECORD_TIME_KEY)?.map_or(0.0, |t| t.clamp(0.0, allowed)),
             extra,
             ..Default::default()
         });
@@ -328,7 +517,7 @@ fn number(r: &Record, name: &str) -> Result<Option<f64>, String> {
         None | Some(serde_json::Value::Null) => Ok(None),
         Some(serde_json::Value::Bool(b)) => Ok(Some(if *b { 1.0 } else { 0.0 })),
         Some(serde_json::Value::Number(n)) => Ok(n.as_f64()),
-        Some(other) => Err(format!("iteration {}: extra `{name}` = {other} is not a number", r.iter)),
+        Some(other) => Err(format!("iteration {}: extra `{name}` = {} is not a number", r.iter, quoted(&other.to_string()))),
     }
 }
 

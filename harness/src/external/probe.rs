@@ -56,6 +56,7 @@ pub fn ended(exit: &Exit) -> String {
         Exit::Signal(s) => format!("was killed by signal {s}"),
         Exit::TimedOut => "passed its timeout".into(),
         Exit::Interrupted => "was interrupted".into(),
+        Exit::TooManyProcesses(n) => format!("was killed with more than {n} processes at once (`processes`)"),
     }
 }
 

@@ -33,6 +33,15 @@ pub struct Declared {
     /// Keep each run's problem folder (`external/<run>/`) instead of removing it.
     #[serde(default)]
     pub keep_problem: bool,
+    /// The address space each of its processes may have, MiB (default: the machine's memory).
+    #[serde(default)]
+    pub memory_mb: Option<u64>,
+    /// The largest file it may write, MiB (default: 1024).
+    #[serde(default)]
+    pub file_size_mb: Option<u64>,
+    /// Processes it may have at once (default: 64).
+    #[serde(default)]
+    pub processes: Option<u64>,
 }
 
 fn every_iteration() -> usize {

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 /// the energy span the gaps are fractions of, and the snapshots of an external solver the
 /// harness verified (appended: a file written before them reads them as empty). After them, for each target `tau`
 /// of the batch, `iters_to_<tau>` and `time_to_<tau>` ([`target_columns`]).
-pub const SUMMARY_COLUMNS: [&str; 42] = [
+pub const SUMMARY_COLUMNS: [&str; 44] = [
     "dataset",
     "task",
     "energy",
@@ -63,6 +63,8 @@ pub const SUMMARY_COLUMNS: [&str; 42] = [
     "gap_scale",
     "verified_snapshots",
     "peak_growth_mb",
+    "cpu_s",
+    "confined",
 ];
 
 /// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
@@ -316,6 +318,14 @@ pub struct SummaryRow {
     /// own process group's peak. Empty otherwise.
     #[serde(default)]
     pub peak_growth_mb: Option<f64>,
+    /// An external solver's CPU time (user + system) over all its processes, beside its wall
+    /// time; empty for the catalogue's solvers and outside the sandbox.
+    #[serde(default)]
+    pub cpu_s: Option<f64>,
+    /// An external solver's run: whether the sandbox confined it (it could write only in its
+    /// problem folder; `false`: the kernel could not, and it was not). Empty for ours.
+    #[serde(default)]
+    pub confined: Option<bool>,
     /// Iterations and time to each target, the loosest first.
     #[serde(skip)]
     pub to_targets: Vec<ToTarget>,
