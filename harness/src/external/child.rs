@@ -247,6 +247,14 @@ pub fn absolute_in(command: &[String], folder: &Path) -> Vec<String> {
         .collect()
 }
 
+/// What follows the count of bytes cut from a kept output stream.
+const CUT_NOTE: &str = "more bytes not kept";
+
+/// Whether `line` is the note [`Reading`] appends to a stream it cut.
+pub fn is_cut_note(line: &str) -> bool {
+    line.starts_with('[') && line.ends_with(&format!(" {CUT_NOTE}]"))
+}
+
 /// An output stream read to its end on a thread (a full pipe would block the child), keeping
 /// the first `keep` bytes and saying how many were cut.
 pub struct Reading(mpsc::Receiver<String>);
@@ -266,7 +274,7 @@ impl Reading {
             }
             let mut text = String::from_utf8_lossy(&kept).into_owned();
             if total > kept.len() {
-                text.push_str(&format!("\n[{} more bytes not kept]\n", total - kept.len()));
+                text.push_str(&format!("\n[{} {CUT_NOTE}]\n", total - kept.len()));
             }
             let _ = tx.send(text);
         });
@@ -409,5 +417,19 @@ mod tests {
         assert_eq!(abs, [peer.as_str(), "sh", peer.as_str(), "--x", "absent.py"]);
         let elsewhere = tempfile::tempdir().unwrap();
         assert_eq!(run(&abs[..1], elsewhere.path(), None, None, &no, 64).unwrap().exit, Exit::Code(4));
+    }
+
+    #[test]
+    fn a_process_left_holding_the_pipes_does_not_hold_the_run() {
+        let t0 = Instant::now();
+        // the leftover holds stderr only, so its pid on stdout comes back
+        let r = go(&sh("setsid sleep 30 >/dev/null & echo $!; exit 0"), 10.0);
+        assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
+        assert_eq!(r.exit, Exit::Code(0));
+        // outside the sandbox it outlives the child (the sandbox's test is in tests/external.rs)
+        let pid = std::fs::read_to_string(format!("/proc/{}/stat", r.stdout.trim())).map(|_| r.stdout.trim().to_string());
+        if let Ok(pid) = pid {
+            let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid.parse().unwrap()), nix::sys::signal::Signal::SIGKILL);
+        }
     }
 }

@@ -242,7 +242,7 @@ fn run_and_read(
         child::run_sandboxed(&spec, job.interrupt).map_err(|e| ExternalError::CannotStart(e.to_string()))?;
     keep_output(&job.logs, &child);
     let said = || {
-        let last = child.stderr.lines().map(str::trim).rfind(|l| !l.is_empty());
+        let last = child.stderr.lines().map(str::trim).rfind(|l| !l.is_empty() && !child::is_cut_note(l));
         last.map_or(String::new(), |l| format!(" (its last error line: {})", quoted(l)))
     };
     let max_iters = job.stop_at.unwrap_or(job.setup.task().2.max_iters);
@@ -258,7 +258,7 @@ fn run_and_read(
             }
         }
         Exit::TimedOut => StopReason::Timeout,
-        Exit::Code(_) if missing_module(&child.stderr) && !dir.join("iterations.jsonl").exists() => {
+        Exit::Code(_) if missing_module(&child.stderr) && wrote_nothing(&dir) => {
             // A package its interpreter cannot import: skipped, like a failing version command.
             return Err(ExternalError::CannotStart(format!("{} {}{}", job.name, ended(&child.exit), said())));
         }
@@ -330,6 +330,11 @@ fn limits(d: &Declared) -> Limits {
         file_size_mb: Some(d.file_size_mb.unwrap_or(DEFAULT_FILE_SIZE_MB)),
         processes: Some(d.processes.unwrap_or(DEFAULT_PROCESSES)),
     }
+}
+
+/// Whether the solver wrote no record (Python adapters open `iterations.jsonl` first).
+fn wrote_nothing(dir: &Path) -> bool {
+    std::fs::symlink_metadata(dir.join("iterations.jsonl")).map_or(true, |m| m.len() == 0)
 }
 
 /// Whether a child's error output ends with Python's error for a module it could not import.
@@ -534,28 +539,34 @@ mod tests {
         Snapshot { iter, energy, grad_norm: Some(0.5), flips: 1, x: vec![iter as f64; 4] }
     }
 
+    /// Writing costs that allow 0.25 s after a map and 0.0125 s after a line alone.
+    const COST: RecordCost = RecordCost { line_s: 0.0125 / RECORD_FACTOR, map_s: 0.2375 / RECORD_FACTOR };
+
     #[test]
     fn rows_take_our_numbers_where_verified_and_the_solvers_extras_as_columns() {
         let records = [
             record(0, 3.0, 0.5, serde_json::json!({})),
-            record(1, 2.5, 1.5, serde_json::json!({"decrease": 0.2, "record_s": 0.25})),
+            record(1, 2.5, 1.5, serde_json::json!({"decrease": 0.2, "record_s": 0.75})),
             record(2, 2.25, 1.75, serde_json::json!({"accepted": true, "record_s": 0.125})),
         ];
         let snaps = vec![snapshot(0, 3.0 + 1e-12), snapshot(2, 2.25)];
-        let read = rows_and_outcome(&records, snaps, StopReason::SolverRule).unwrap();
+        let read = rows_and_outcome(&records, snaps, StopReason::SolverRule, &COST).unwrap();
         let r = &read.rows;
-        assert_eq!(r.iter().map(|r| r.energy).collect::<Vec<_>>(), [3.0 + 1e-12, 2.5, 2.25]);
+        // the energy of a row without its map is not ours: left out of every judgement
+        assert_eq!(r[0].energy, 3.0 + 1e-12);
+        assert!(r[1].energy.is_nan() && r[1].grad_norm.is_nan() && r[1].step.is_nan());
+        assert_eq!(r[2].energy, 2.25);
         assert_eq!((r[0].grad_norm, r[0].flips, r[1].flips), (0.5, 1, 0));
-        assert!(r[1].grad_norm.is_nan() && r[1].step.is_nan());
+        // record_s bounded by what writing row 0's line and map costs here, row 1's line
         assert_eq!(
             r.iter().map(|r| (r.t_iter_s, r.t_cum_s, r.t_record_s)).collect::<Vec<_>>(),
-            [(0.0, 0.0, 0.0), (1.0, 1.0, 0.25), (0.25, 1.25, 0.125)]
+            [(0.0, 0.0, 0.0), (1.0, 1.0, 0.25), (0.25, 1.25, 0.0125)]
         );
         let names: Vec<&str> = r[1].extra.iter().map(|e| e.0).collect();
-        assert_eq!(names, [VERIFIED_COLUMN, "decrease", "accepted"]);
-        assert_eq!(r[1].extra[0].1, 0.0);
-        assert_eq!((r[2].extra[0].1, r[2].extra[2].1), (1.0, 1.0));
-        assert!(r[0].extra[1].1.is_nan() && r[2].extra[1].1.is_nan());
+        assert_eq!(names, [VERIFIED_COLUMN, REPORTED_ENERGY_COLUMN, "decrease", "accepted"]);
+        assert_eq!((r[1].extra[0].1, r[1].extra[1].1), (0.0, 2.5));
+        assert_eq!((r[2].extra[0].1, r[2].extra[3].1), (1.0, 1.0));
+        assert!(r[0].extra[2].1.is_nan() && r[2].extra[2].1.is_nan());
         let o = &read.outcome;
         assert_eq!((o.iterations, o.init_energy, o.final_energy, o.flips, read.verified), (2, 3.0 + 1e-12, 2.25, 1, 2));
         assert_eq!((o.x.clone(), o.stop_reason.clone()), (vec![2.0; 4], StopReason::SolverRule));
@@ -563,13 +574,45 @@ mod tests {
         // a name of ours, a name that is no column, a value that is no number
         for (extras, says) in [
             (serde_json::json!({"grad_norm": 1.0}), "`grad_norm` cannot be an extra column"),
+            (serde_json::json!({"reported_energy": 1.0}), "`reported_energy` cannot be an extra column"),
             (serde_json::json!({"a b": 1.0}), "`a b` cannot be an extra column"),
             (serde_json::json!({"note": "x"}), "extra `note` = \"x\" is not a number"),
         ] {
             let bad = [record(0, 3.0, 0.0, extras)];
-            let err = rows_and_outcome(&bad, vec![snapshot(0, 3.0)], StopReason::MaxIterations).err().unwrap();
+            let err = rows_and_outcome(&bad, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &COST).err().unwrap();
             assert!(err.contains(says), "{err}");
         }
+        // more names than a record may have, over the records
+        let wide: Vec<Record> = (0..=protocol::EXTRA_COLUMNS_MAX)
+            .map(|k| record(k, 3.0, k as f64, serde_json::json!({ format!("c{k}"): 1 })))
+            .collect();
+        let err = rows_and_outcome(&wide, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &COST).err().unwrap();
+        assert_eq!(err, "more than 32 extra columns (at iteration 32: `c32`)");
+    }
+
+    #[test]
+    fn a_clock_past_the_wall_time_or_that_does_not_add_up_fails() {
+        let at = |t: &[(f64, Option<f64>)]| -> Vec<Record> {
+            t.iter()
+                .enumerate()
+                .map(|(k, &(time_s, rec))| record(k, 3.0, time_s, rec.map_or(serde_json::json!({}), |r| serde_json::json!({"record_s": r}))))
+                .collect()
+        };
+        assert_eq!(check_clock(&at(&[(0.1, None), (0.5, Some(0.2)), (0.9, Some(0.05))]), 1.2), Ok(()));
+        let err = check_clock(&at(&[(0.1, None), (1e9, None)]), 1.2).unwrap_err();
+        assert_eq!(err, "iteration 1: time_s = 1000000000 is past the 1.200 s its process ran (the harness's clock)");
+        // record_s reported as a running total
+        let err = check_clock(&at(&[(0.1, None), (0.4, Some(0.3)), (0.7, Some(0.6))]), 1.2).unwrap_err();
+        assert!(err.starts_with("its clock does not add up: time_s = 0.7 at the last record plus 0.899"), "{err}");
+        let err = check_clock(&at(&[(0.1, None), (0.4, Some(-0.3))]), 1.2).unwrap_err();
+        assert_eq!(err, "iteration 1: record_s = -0.3 is not a time (finite, at least 0)");
+    }
+
+    #[test]
+    fn a_module_python_cannot_import_is_told_from_other_errors() {
+        assert!(missing_module("Traceback:\n  ...\nModuleNotFoundError: No module named 'numpy'\n\n"));
+        assert!(!missing_module("ModuleNotFoundError: No module named 'numpy'\nValueError: later\n"));
+        assert!(!missing_module(""));
     }
 
     #[test]

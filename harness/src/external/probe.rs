@@ -95,6 +95,9 @@ mod tests {
             version: version.map(strings),
             snapshot_every: 1,
             keep_problem: false,
+            memory_mb: None,
+            file_size_mb: None,
+            processes: None,
         }
     }
 
