@@ -46,8 +46,7 @@ fn external_solvers_are_verified_and_each_failure_stays_in_its_run() {
     let hang = peer(
         d,
         "hang",
-        "import subprocess\nchild = subprocess.Popen(['sleep', '600'])\n\
-         open(p.folder + '/../../../grandchild.pid', 'w').write(str(child.pid))\n\
+        "import subprocess\nchild = subprocess.Popen(['sleep', '600'])\nprint(child.pid, flush=True)\n\
          p.record(0, e, uv)\ntime.sleep(600)",
     );
     let mute = peer(d, "mute", "time.sleep(600)");
@@ -125,7 +124,7 @@ fn external_solvers_are_verified_and_each_failure_stays_in_its_run() {
     // a hang after the start: a timeout at its last map, like ours at their deadline
     assert_eq!((get("hang", "stop_reason").as_str(), get("hang", "iterations").as_str()), ("timeout", "0"));
     assert!(get("hang", "time_s").parse::<f64>().unwrap() < 30.0);
-    let pid = std::fs::read_to_string(d.join("grandchild.pid")).unwrap();
+    let pid = std::fs::read_to_string(d.join("out/external/bumpy_1k__sd__hang.stdout.txt")).unwrap();
     std::thread::sleep(std::time::Duration::from_millis(300));
     let state = std::fs::read_to_string(format!("/proc/{}/stat", pid.trim())).unwrap_or_default();
     assert!(state.is_empty() || state.contains(") Z"), "the hung peer's grandchild outlived it: {state}");
