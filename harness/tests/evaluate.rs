@@ -167,7 +167,10 @@ fn a_map_of_another_mesh_or_energy_is_refused_with_the_reason() {
     let moved: Vec<[f64; 2]> = p.iter().map(|v| [v[0] * 1.5, v[1]]).collect();
     write_obj(&tmp.path().join("moved.obj"), &moved, Some(&p), &f);
     let said = fail(&["mesh.obj", "moved.obj"]);
-    assert!(said.contains("moved.obj: vertex 1 (`v` line 2) is at [") && said.contains("(a map of another mesh?)"), "{said}");
+    assert!(
+        said.contains("moved.obj: vertex 1 (`v` line 2) is at [") && said.contains("(a map of another mesh?)"),
+        "{said}"
+    );
     assert!(fail(&["mesh.obj", "mesh.obj"]).contains("mesh.obj"));
     assert!(fail(&["mesh.obj", "swapped.obj", "--energy", "sd", "--param", "k=1"]).contains("sd has no parameters"));
     assert!(fail(&["mesh.obj", "swapped.obj", "--energy", "arap"]).contains("unknown variant `arap`"));

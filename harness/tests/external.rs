@@ -382,7 +382,11 @@ fn hostile_peers_fail_alone_with_their_reason_and_leave_nothing_behind() {
     failed("processes", "processes was killed with more than 8 processes at once (`processes`)");
     failed("big_file", "File too large");
     assert_eq!(get("no_module", "status"), "skipped");
-    assert!(get("no_module", "error").contains("No module named 'no_such_module_xyz'"), "{}", get("no_module", "error"));
+    assert!(
+        get("no_module", "error").contains("No module named 'no_such_module_xyz'"),
+        "{}",
+        get("no_module", "error")
+    );
     // the ones that solved honestly after their tries: judged like any run, confined
     for solver in ["outside", "escape"] {
         assert_eq!(get(solver, "stop_reason"), "max_iters", "{solver}: {}", get(solver, "error"));

@@ -115,7 +115,8 @@ pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, Ca
             stdin = None;
             stopped_at = Some(Instant::now());
         }
-        let late = backstop.is_some_and(|b| t0.elapsed() >= b) || stopped_at.is_some_and(|s| s.elapsed() >= SANDBOX_GRACE);
+        let late =
+            backstop.is_some_and(|b| t0.elapsed() >= b) || stopped_at.is_some_and(|s| s.elapsed() >= SANDBOX_GRACE);
         if late {
             kill_group(&mut sandbox);
             let _ = sandbox.wait();
@@ -187,7 +188,8 @@ fn run_with(
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     let t0 = Instant::now();
     let mut child = cmd.spawn().map_err(|why| CannotStart { command: shown, why })?;
-    let readers = [child.stdout.take().map(|s| Reading::start(s, keep)), child.stderr.take().map(|s| Reading::start(s, keep))];
+    let readers =
+        [child.stdout.take().map(|s| Reading::start(s, keep)), child.stderr.take().map(|s| Reading::start(s, keep))];
     let mut peaks = Peaks::default();
     let exit = loop {
         peaks.sample(child.id());
@@ -427,9 +429,13 @@ mod tests {
         assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
         assert_eq!(r.exit, Exit::Code(0));
         // outside the sandbox it outlives the child (the sandbox's test is in tests/external.rs)
-        let pid = std::fs::read_to_string(format!("/proc/{}/stat", r.stdout.trim())).map(|_| r.stdout.trim().to_string());
+        let pid =
+            std::fs::read_to_string(format!("/proc/{}/stat", r.stdout.trim())).map(|_| r.stdout.trim().to_string());
         if let Ok(pid) = pid {
-            let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid.parse().unwrap()), nix::sys::signal::Signal::SIGKILL);
+            let _ = nix::sys::signal::kill(
+                nix::unistd::Pid::from_raw(pid.parse().unwrap()),
+                nix::sys::signal::Signal::SIGKILL,
+            );
         }
     }
 }

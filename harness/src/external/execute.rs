@@ -238,8 +238,7 @@ fn run_and_read(
         limits: limits(job.declared),
         keep: KEEP_OUTPUT,
     };
-    let child =
-        child::run_sandboxed(&spec, job.interrupt).map_err(|e| ExternalError::CannotStart(e.to_string()))?;
+    let child = child::run_sandboxed(&spec, job.interrupt).map_err(|e| ExternalError::CannotStart(e.to_string()))?;
     keep_output(&job.logs, &child);
     let said = || {
         let last = child.stderr.lines().map(str::trim).rfind(|l| !l.is_empty() && !child::is_cut_note(l));
@@ -286,8 +285,8 @@ fn run_and_read(
         records.map_err(|e| failed(format!("{e:#}")))?
     };
     check_clock(&records, child.wall_s).map_err(|e| failed(format!("{}: {e}", job.name)))?;
-    let snapshots = protocol::verify(&dir, problem, &records, job.declared.snapshot_every)
-        .map_err(|e| failed(format!("{e:#}")))?;
+    let snapshots =
+        protocol::verify(&dir, problem, &records, job.declared.snapshot_every).map_err(|e| failed(format!("{e:#}")))?;
     if let Some(i) = (0..x0.len()).find(|&i| snapshots[0].x[i].to_bits() != x0[i].to_bits()) {
         return Err(failed(format!(
             "iteration 0's map is not start.uv (vertex {}: {} where the start has {})",
@@ -296,8 +295,7 @@ fn run_and_read(
             x0[i]
         )));
     }
-    let read =
-        rows_and_outcome(&records, snapshots, stop, &cost).map_err(|e| failed(format!("{}: {e}", job.name)))?;
+    let read = rows_and_outcome(&records, snapshots, stop, &cost).map_err(|e| failed(format!("{}: {e}", job.name)))?;
     Ok((read, child))
 }
 
@@ -359,13 +357,16 @@ fn record_cost(dir: &Path, x: &[f64]) -> RecordCost {
     for _ in 0..3 {
         let t = std::time::Instant::now();
         let written = std::fs::File::create(&probe).and_then(|mut f| {
-            f.write_all(b"{\"iter\": 1, \"energy\": 2.0000000000000004, \"time_s\": 0.0123456789, \"record_s\": 0.001}\n")?;
+            f.write_all(
+                b"{\"iter\": 1, \"energy\": 2.0000000000000004, \"time_s\": 0.0123456789, \"record_s\": 0.001}\n",
+            )?;
             f.flush()
         });
         line_s = line_s.min(if written.is_ok() { t.elapsed().as_secs_f64() } else { 0.0 });
         let t = std::time::Instant::now();
         let tmp = dir.join(".record-cost.tmp");
-        let written = std::fs::write(&tmp, crate::run_folder::map::uv_text(&uv)).and_then(|()| std::fs::rename(&tmp, &probe));
+        let written =
+            std::fs::write(&tmp, crate::run_folder::map::uv_text(&uv)).and_then(|()| std::fs::rename(&tmp, &probe));
         map_s = map_s.min(if written.is_ok() { t.elapsed().as_secs_f64() } else { 0.0 });
     }
     let _ = std::fs::remove_file(&probe);
@@ -474,7 +475,8 @@ fn rows_and_outcome(
     let mut snaps = snapshots.iter().peekable();
     for (k, r) in records.iter().enumerate() {
         let snap = snaps.next_if(|s| s.iter == k);
-        let mut extra = vec![(VERIFIED_COLUMN, if snap.is_some() { 1.0 } else { 0.0 }), (REPORTED_ENERGY_COLUMN, r.energy)];
+        let mut extra =
+            vec![(VERIFIED_COLUMN, if snap.is_some() { 1.0 } else { 0.0 }), (REPORTED_ENERGY_COLUMN, r.energy)];
         for &name in &names[OURS.len()..] {
             extra.push((name, number(r, name)?.unwrap_or(f64::NAN)));
         }
@@ -522,7 +524,9 @@ fn number(r: &Record, name: &str) -> Result<Option<f64>, String> {
         None | Some(serde_json::Value::Null) => Ok(None),
         Some(serde_json::Value::Bool(b)) => Ok(Some(if *b { 1.0 } else { 0.0 })),
         Some(serde_json::Value::Number(n)) => Ok(n.as_f64()),
-        Some(other) => Err(format!("iteration {}: extra `{name}` = {} is not a number", r.iter, quoted(&other.to_string()))),
+        Some(other) => {
+            Err(format!("iteration {}: extra `{name}` = {} is not a number", r.iter, quoted(&other.to_string())))
+        }
     }
 }
 
@@ -595,7 +599,9 @@ mod tests {
         let at = |t: &[(f64, Option<f64>)]| -> Vec<Record> {
             t.iter()
                 .enumerate()
-                .map(|(k, &(time_s, rec))| record(k, 3.0, time_s, rec.map_or(serde_json::json!({}), |r| serde_json::json!({"record_s": r}))))
+                .map(|(k, &(time_s, rec))| {
+                    record(k, 3.0, time_s, rec.map_or(serde_json::json!({}), |r| serde_json::json!({"record_s": r})))
+                })
                 .collect()
         };
         assert_eq!(check_clock(&at(&[(0.1, None), (0.5, Some(0.2)), (0.9, Some(0.05))]), 1.2), Ok(()));

@@ -424,13 +424,15 @@ mod tests {
         assert!(snaps.iter().all(|s| s.grad_norm.is_some_and(|g| g > 0.0)));
 
         write_run(dir.path(), &[2.0 * e, ey], &[(0, &x), (1, &y)]);
-        let err = verify(dir.path(), &problem, &read_records(dir.path(), false, 10).unwrap(), 0).unwrap_err().to_string();
+        let err =
+            verify(dir.path(), &problem, &read_records(dir.path(), false, 10).unwrap(), 0).unwrap_err().to_string();
         assert!(
             err.starts_with(&format!("iteration 0: the solver reported energy {:?} but its map has {e:?}", 2.0 * e))
         );
         assert!(err.ends_with("(a factor of 2: another convention of the energy?)"), "{err}");
         write_run(dir.path(), &[e, e * (1.0 + 1e-6)], &[(0, &x), (1, &x)]);
-        let err = verify(dir.path(), &problem, &read_records(dir.path(), false, 10).unwrap(), 0).unwrap_err().to_string();
+        let err =
+            verify(dir.path(), &problem, &read_records(dir.path(), false, 10).unwrap(), 0).unwrap_err().to_string();
         assert!(err.starts_with("iteration 1: the solver reported energy") && !err.contains("factor"), "{err}");
         // round-off passes
         write_run(dir.path(), &[e * (1.0 + 1e-14), ey], &[(0, &x), (1, &y)]);
@@ -442,10 +444,17 @@ mod tests {
         let (dir, _, problem, x) = setup();
         let e = problem.energy(&x);
         write_run(dir.path(), &[e, e], &[(0, &x)]);
-        let err = verify(dir.path(), &problem, &read_records(dir.path(), false, 10).unwrap(), 0).unwrap_err().to_string();
-        assert!(err.ends_with("the map of iteration 1 is missing (due: the first, the last and every snapshot_every = 0)"), "{err}");
+        let err =
+            verify(dir.path(), &problem, &read_records(dir.path(), false, 10).unwrap(), 0).unwrap_err().to_string();
+        assert!(
+            err.ends_with("the map of iteration 1 is missing (due: the first, the last and every snapshot_every = 0)"),
+            "{err}"
+        );
         write_run(dir.path(), &[e], &[(0, &x[..x.len() - 2])]);
-        let err = format!("{:#}", verify(dir.path(), &problem, &read_records(dir.path(), false, 10).unwrap(), 0).unwrap_err());
+        let err = format!(
+            "{:#}",
+            verify(dir.path(), &problem, &read_records(dir.path(), false, 10).unwrap(), 0).unwrap_err()
+        );
         assert!(err.contains(&format!("map vertices, but the mesh has {}", x.len() / 2)), "{err}");
         std::fs::write(
             dir.path().join("iterations.jsonl"),
@@ -498,7 +507,9 @@ mod tests {
         let err = verify(dir.path(), &problem, &records, 2).unwrap_err().to_string();
         assert!(err.contains("iteration 3: the solver reported energy") && err.ends_with("flipped faces)"), "{err}");
         let err = format!("{:#}", verify(dir.path(), &problem, &records[..2], 1).unwrap_err());
-        assert!(err.contains("the map of iteration 1 is missing (due: the first, the last and every snapshot_every = 1)"));
+        assert!(
+            err.contains("the map of iteration 1 is missing (due: the first, the last and every snapshot_every = 1)")
+        );
         let mut bad = x.clone();
         bad[9] = f64::NAN;
         write_run(dir.path(), &[e, e], &[(0, &x), (1, &bad)]);
@@ -515,8 +526,12 @@ mod tests {
         };
         let line = |k: usize, t: f64| format!("{{\"iter\": {k}, \"energy\": 3, \"time_s\": {t}}}\n");
         assert_eq!(records(&(line(0, 0.0) + &line(1, 0.5)), 1).unwrap().len(), 2);
-        assert!(records(&(line(0, 0.0) + &line(1, 0.5)), 0).unwrap_err().ends_with("iteration 1 is past max_iters = 0"));
-        assert!(records(&line(0, -1.0), 5).unwrap_err().ends_with("time_s = -1 goes back, is negative or is not finite"));
+        assert!(records(&(line(0, 0.0) + &line(1, 0.5)), 0)
+            .unwrap_err()
+            .ends_with("iteration 1 is past max_iters = 0"));
+        assert!(records(&line(0, -1.0), 5)
+            .unwrap_err()
+            .ends_with("time_s = -1 goes back, is negative or is not finite"));
         let long = format!("{{\"iter\": 0, \"energy\": 3, \"time_s\": 0, \"note\": \"{}\"}}\n", "x".repeat(5000));
         assert!(records(&long, 5).unwrap_err().ends_with("line 1: longer than the 4096 bytes a record may have"));
         let keys: String = (0..33).map(|i| format!(", \"k{i}\": 1")).collect();
@@ -535,7 +550,10 @@ mod tests {
         assert_eq!(read_capped(&at("ok"), 5).unwrap(), "12345");
         assert!(read_capped(&at("ok"), 4).unwrap_err().to_string().ends_with("5 bytes, more than the 4 it may have"));
         std::os::unix::fs::symlink("/dev/zero", at("zero")).unwrap();
-        assert!(read_capped(&at("zero"), 9).unwrap_err().to_string().ends_with("is a symbolic link, not a regular file"));
+        assert!(read_capped(&at("zero"), 9)
+            .unwrap_err()
+            .to_string()
+            .ends_with("is a symbolic link, not a regular file"));
         nix::unistd::mkfifo(&at("fifo"), nix::sys::stat::Mode::S_IRWXU).unwrap();
         // refused at once, not blocked on a writer that never comes
         let err = read_capped(&at("fifo"), 9).unwrap_err().to_string();

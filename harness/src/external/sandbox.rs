@@ -157,7 +157,10 @@ fn run(spec: &Spec) -> Report {
             return report;
         }
     };
-    let outputs = [child.stdout.take().map(|s| Reading::start(s, spec.keep)), child.stderr.take().map(|s| Reading::start(s, spec.keep))];
+    let outputs = [
+        child.stdout.take().map(|s| Reading::start(s, spec.keep)),
+        child.stderr.take().map(|s| Reading::start(s, spec.keep)),
+    ];
     let solver = child.id() as i32;
     let timeout = spec.timeout_s.map(Duration::from_secs_f64);
     let max_processes = spec.limits.processes.map(|p| p as usize);
