@@ -233,7 +233,9 @@ fn read_map(path: &Path, mesh: &Mesh) -> Result<Vec<[f64; 2]>> {
     }
     // Same faces, other positions: a map made for another mesh of the same connectivity.
     let scale = mesh.positions.iter().flatten().fold(0.0f64, |m, c| m.max(c.abs())).max(f64::MIN_POSITIVE);
-    let off = |a: &[f64; 3], b: &[f64; 3]| (0..3).any(|k| !((a[k] - b[k]).abs() <= OBJ_POSITION_RTOL * scale));
+    let off = |a: &[f64; 3], b: &[f64; 3]| {
+        (0..3).any(|k| (a[k] - b[k]).abs() > OBJ_POSITION_RTOL * scale || a[k].is_nan() != b[k].is_nan())
+    };
     if let Some(v) = (0..mesh.n_vertices()).find(|&v| off(&m.source[v], &mesh.positions[v])) {
         bail!(
             "{name}: vertex {v} (`v` line {}) is at {:?}, but vertex {v} of {} is at {:?} (a map of another mesh?)",

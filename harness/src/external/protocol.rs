@@ -285,7 +285,7 @@ pub fn snapshot_path(dir: &Path, iter: usize) -> std::path::PathBuf {
 
 /// Whether the map of iteration `k` is due: the first, the last and every `snapshot_every`-th.
 pub fn map_due(k: usize, last: usize, snapshot_every: usize) -> bool {
-    k == 0 || k == last || (snapshot_every > 0 && k % snapshot_every == 0)
+    k == 0 || k == last || (snapshot_every > 0 && k.is_multiple_of(snapshot_every))
 }
 
 /// Read every `maps/<iter>.uv` the solver wrote (regular files of at most
