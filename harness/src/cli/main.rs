@@ -459,7 +459,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Run { config, out, only, resume, jobs, shard, shard_plan, repeat, force, history } => {
             // External solvers run through this binary's `sandbox` verb.
             if let Ok(me) = std::env::current_exe() {
-                mapbench::external::child::use_sandbox(me);
+                mapbench::external::sandbox::use_sandbox(me);
             }
             // First, before any thread starts: every thread inherits the blocked signals.
             let interrupt = Arc::new(AtomicBool::new(false));

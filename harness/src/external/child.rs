@@ -1,32 +1,27 @@
 //! An external solver's process. A run's solver is started through the sandbox
-//! ([`super::sandbox`], `mapbench sandbox`): confined to its problem folder, every process it
+//! (`super::sandbox`, `mapbench sandbox`): confined to its problem folder, every process it
 //! starts ended with it, its CPU time measured. Where the harness cannot start that (the
-//! library used outside the `mapbench` binary) and for version commands without it, the
-//! command runs directly in a process group of its own, which the timeout, an interrupt and
+//! library used outside the `mapbench` binary) and for version commands, the command runs
+//! directly in a process group of its own, which the timeout, an interrupt and
 //! the end of the run reach; its wall time and peak memory are measured from outside; its
 //! output is kept, truncated, and never waited for past its end.
 
-use super::sandbox::{Report, Spec};
 use serde::{Deserialize, Serialize};
-use std::io::{Read, Write};
-use std::path::{Path, PathBuf};
+use std::io::Read;
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, OnceLock};
+use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
 
 /// How often the harness looks at the child (exit, deadline, interrupt, memory).
-const POLL: Duration = Duration::from_millis(10);
+pub(super) const POLL: Duration = Duration::from_millis(10);
 
 /// How long the output of a child that ended is waited for: a process it left behind may
 /// hold the pipes open (the sandbox ends those; a direct child's group is killed, but a
 /// process that left the group is not).
-const OUTPUT_GRACE: Duration = Duration::from_millis(500);
-
-/// How long past the timeout the sandbox is given to end the solver and report before it is
-/// killed itself.
-const SANDBOX_GRACE: Duration = Duration::from_secs(5);
+pub(super) const OUTPUT_GRACE: Duration = Duration::from_millis(500);
 
 /// What became of the child.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -70,81 +65,6 @@ pub struct CannotStart {
     pub why: std::io::Error,
 }
 
-/// The `mapbench` binary, which runs the sandbox (`mapbench sandbox`); set by its `main`.
-static SANDBOX_PROGRAM: OnceLock<PathBuf> = OnceLock::new();
-
-/// Run external solvers through the sandbox of `program` (the `mapbench` binary).
-pub fn use_sandbox(program: PathBuf) {
-    let _ = SANDBOX_PROGRAM.set(program);
-}
-
-/// Run `spec` in the sandbox until it ends, passes its timeout or `interrupt` is set; without
-/// the sandbox program (the library outside `mapbench`), directly, recorded as not confined.
-pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, CannotStart> {
-    let shown = spec.command.join(" ");
-    let Some(program) = SANDBOX_PROGRAM.get() else {
-        let timeout = spec.timeout_s.map(Duration::from_secs_f64);
-        let mut run = run_with(&spec.command, &spec.cwd, None, timeout, interrupt, spec.keep, &spec.env)?;
-        run.unconfined.push("run without the sandbox (not through the mapbench binary)".into());
-        return Ok(run);
-    };
-    let cannot = |why: std::io::Error| CannotStart { command: shown.clone(), why };
-    let mut cmd = Command::new(program);
-    cmd.arg("sandbox").stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
-    // Its own group: a Ctrl-C at the terminal reaches the harness, which stops it.
-    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
-    let mut sandbox = cmd.spawn().map_err(cannot)?;
-    let mut stdin = sandbox.stdin.take();
-    let line = serde_json::to_string(spec).map_err(|e| cannot(e.into()))? + "\n";
-    if let Some(pipe) = stdin.as_mut() {
-        pipe.write_all(line.as_bytes()).map_err(cannot)?;
-    }
-    // The report holds at most `keep` bytes of each stream, escaped in JSON.
-    let report = sandbox.stdout.take().map(|s| Reading::start(s, 16 * spec.keep + (1 << 20)));
-    let errors = sandbox.stderr.take().map(|s| Reading::start(s, 4096));
-    let t0 = Instant::now();
-    let backstop = spec.timeout_s.map(|t| Duration::from_secs_f64(t) + SANDBOX_GRACE);
-    let mut stopped_at: Option<Instant> = None;
-    loop {
-        match sandbox.try_wait() {
-            Ok(Some(_)) | Err(_) => break,
-            Ok(None) => {}
-        }
-        if stopped_at.is_none() && interrupt.load(Ordering::Relaxed) {
-            // Our end of its standard input closed: it ends the solver and reports.
-            stdin = None;
-            stopped_at = Some(Instant::now());
-        }
-        let late =
-            backstop.is_some_and(|b| t0.elapsed() >= b) || stopped_at.is_some_and(|s| s.elapsed() >= SANDBOX_GRACE);
-        if late {
-            kill_group(&mut sandbox);
-            let _ = sandbox.wait();
-            break;
-        }
-        thread::sleep(POLL);
-    }
-    drop(stdin);
-    let text = report.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
-    let said = errors.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
-    let report: Report = serde_json::from_str(text.trim()).map_err(|_| {
-        let why = format!("the sandbox (`{} sandbox`) gave no report: {}", program.display(), said.trim());
-        cannot(std::io::Error::other(why))
-    })?;
-    if let Some(why) = report.cannot_start {
-        return Err(cannot(std::io::Error::other(why)));
-    }
-    Ok(ChildRun {
-        exit: report.exit.unwrap_or(Exit::Interrupted),
-        wall_s: report.wall_s,
-        cpu_s: Some(report.cpu_s),
-        peak_rss_mb: report.peak_rss_mb,
-        unconfined: report.unconfined,
-        stdout: report.stdout,
-        stderr: report.stderr,
-    })
-}
-
 /// Run `command` directly in the folder `cwd`, with `last` appended to its arguments when
 /// given, until it exits, the `timeout` passes or `interrupt` is set; keep at most `keep`
 /// bytes of each output stream. A program given as a relative path with a `/` is taken
@@ -160,7 +80,7 @@ pub fn run(
     run_with(command, cwd, last, timeout, interrupt, keep, &[])
 }
 
-fn run_with(
+pub(super) fn run_with(
     command: &[String],
     cwd: &Path,
     last: Option<&Path>,
@@ -298,7 +218,7 @@ fn exit_of(status: std::process::ExitStatus) -> Exit {
 }
 
 /// SIGKILL to the child's process group (the child itself where there are none).
-fn kill_group(child: &mut std::process::Child) {
+pub(super) fn kill_group(child: &mut std::process::Child) {
     use nix::sys::signal::{killpg, Signal};
     use nix::unistd::Pid;
     // ESRCH: the group is gone already.

@@ -4,7 +4,7 @@
 use super::child::{self, ChildRun, Exit};
 use super::probe::ended;
 use super::protocol::{self, quoted, ExternalStop, HandlesSpec, ProblemSpec, Record, Snapshot, StopSpec};
-use super::sandbox::{Limits, Spec};
+use super::sandbox::{self, Limits, Spec};
 use crate::column_names::{intern, is_column_name};
 use crate::plan::external::Declared;
 use crate::run_folder::ITERATION_COLUMNS;
@@ -238,7 +238,7 @@ fn run_and_read(
         limits: limits(job.declared),
         keep: KEEP_OUTPUT,
     };
-    let child = child::run_sandboxed(&spec, job.interrupt).map_err(|e| ExternalError::CannotStart(e.to_string()))?;
+    let child = sandbox::run_sandboxed(&spec, job.interrupt).map_err(|e| ExternalError::CannotStart(e.to_string()))?;
     keep_output(&job.logs, &child);
     let said = || {
         let last = child.stderr.lines().map(str::trim).rfind(|l| !l.is_empty() && !child::is_cut_note(l));

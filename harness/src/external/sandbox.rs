@@ -18,19 +18,20 @@
 //! The harness writes the [`Spec`] as one JSON line to our standard input and keeps it open;
 //! we write the [`Report`] as JSON to our standard output.
 
-use super::child::{program_in, Exit, Reading};
+use super::child::{self, program_in, CannotStart, ChildRun, Exit, Reading, OUTPUT_GRACE, POLL};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
-use std::io::BufRead;
+use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::thread;
 use std::time::{Duration, Instant};
 
-/// How often the tree is looked at (exit, deadline, stop, memory, process count).
-const POLL: Duration = Duration::from_millis(10);
+/// How long past the timeout the sandbox is given to end the solver and report before it is
+/// killed itself.
+const SANDBOX_GRACE: Duration = Duration::from_secs(5);
 
 /// What to run and how.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -75,6 +76,81 @@ pub struct Report {
     pub unconfined: Vec<String>,
     pub stdout: String,
     pub stderr: String,
+}
+
+/// The `mapbench` binary, which runs the sandbox (`mapbench sandbox`); set by its `main`.
+static SANDBOX_PROGRAM: OnceLock<PathBuf> = OnceLock::new();
+
+/// Run external solvers through the sandbox of `program` (the `mapbench` binary).
+pub fn use_sandbox(program: PathBuf) {
+    let _ = SANDBOX_PROGRAM.set(program);
+}
+
+/// The harness's side: run `spec` in the sandbox until it ends, passes its timeout or `interrupt` is set; without
+/// the sandbox program (the library outside `mapbench`), directly, recorded as not confined.
+pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, CannotStart> {
+    let shown = spec.command.join(" ");
+    let Some(program) = SANDBOX_PROGRAM.get() else {
+        let timeout = spec.timeout_s.map(Duration::from_secs_f64);
+        let mut run = child::run_with(&spec.command, &spec.cwd, None, timeout, interrupt, spec.keep, &spec.env)?;
+        run.unconfined.push("run without the sandbox (not through the mapbench binary)".into());
+        return Ok(run);
+    };
+    let cannot = |why: std::io::Error| CannotStart { command: shown.clone(), why };
+    let mut cmd = Command::new(program);
+    cmd.arg("sandbox").stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    // Its own group: a Ctrl-C at the terminal reaches the harness, which stops it.
+    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+    let mut sandbox = cmd.spawn().map_err(cannot)?;
+    let mut stdin = sandbox.stdin.take();
+    let line = serde_json::to_string(spec).map_err(|e| cannot(e.into()))? + "\n";
+    if let Some(pipe) = stdin.as_mut() {
+        pipe.write_all(line.as_bytes()).map_err(cannot)?;
+    }
+    // The report holds at most `keep` bytes of each stream, escaped in JSON.
+    let report = sandbox.stdout.take().map(|s| Reading::start(s, 16 * spec.keep + (1 << 20)));
+    let errors = sandbox.stderr.take().map(|s| Reading::start(s, 4096));
+    let t0 = Instant::now();
+    let backstop = spec.timeout_s.map(|t| Duration::from_secs_f64(t) + SANDBOX_GRACE);
+    let mut stopped_at: Option<Instant> = None;
+    loop {
+        match sandbox.try_wait() {
+            Ok(Some(_)) | Err(_) => break,
+            Ok(None) => {}
+        }
+        if stopped_at.is_none() && interrupt.load(Ordering::Relaxed) {
+            // Our end of its standard input closed: it ends the solver and reports.
+            stdin = None;
+            stopped_at = Some(Instant::now());
+        }
+        let late =
+            backstop.is_some_and(|b| t0.elapsed() >= b) || stopped_at.is_some_and(|s| s.elapsed() >= SANDBOX_GRACE);
+        if late {
+            child::kill_group(&mut sandbox);
+            let _ = sandbox.wait();
+            break;
+        }
+        thread::sleep(POLL);
+    }
+    drop(stdin);
+    let text = report.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
+    let said = errors.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
+    let report: Report = serde_json::from_str(text.trim()).map_err(|_| {
+        let why = format!("the sandbox (`{} sandbox`) gave no report: {}", program.display(), said.trim());
+        cannot(std::io::Error::other(why))
+    })?;
+    if let Some(why) = report.cannot_start {
+        return Err(cannot(std::io::Error::other(why)));
+    }
+    Ok(ChildRun {
+        exit: report.exit.unwrap_or(Exit::Interrupted),
+        wall_s: report.wall_s,
+        cpu_s: Some(report.cpu_s),
+        peak_rss_mb: report.peak_rss_mb,
+        unconfined: report.unconfined,
+        stdout: report.stdout,
+        stderr: report.stderr,
+    })
 }
 
 /// `mapbench sandbox`: read the spec from standard input, run it, print the report. The exit
