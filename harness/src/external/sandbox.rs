@@ -421,3 +421,52 @@ fn user_tasks() -> u64 {
     }
     n
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn without_the_sandbox_program_a_run_says_it_was_not_confined() {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = Spec {
+            command: vec!["sh".into(), "-c".into(), "echo \"$HOME\"; exit 3".into()],
+            cwd: dir.path().to_path_buf(),
+            writable: Some(dir.path().to_path_buf()),
+            env: vec![("HOME".into(), "/nowhere".into())],
+            timeout_s: Some(10.0),
+            limits: Limits::default(),
+            keep: 64,
+        };
+        // the library's tests run outside the mapbench binary, which never registered itself
+        let run = run_sandboxed(&spec, &AtomicBool::new(false)).unwrap();
+        assert_eq!((run.exit, run.stdout.as_str(), run.cpu_s), (Exit::Code(3), "/nowhere\n", None));
+        assert_eq!(run.unconfined, ["run without the sandbox (not through the mapbench binary)"]);
+    }
+
+    #[test]
+    fn a_spec_and_a_report_cross_the_pipes_as_json() {
+        let spec = Spec {
+            command: vec!["python3".into(), "a b.py".into()],
+            cwd: "/x".into(),
+            writable: None,
+            env: vec![("OMP_NUM_THREADS".into(), "2".into())],
+            timeout_s: None,
+            limits: Limits { memory_mb: Some(512), file_size_mb: None, processes: Some(8) },
+            keep: 10,
+        };
+        let back: Spec = serde_json::from_str(&serde_json::to_string(&spec).unwrap()).unwrap();
+        assert_eq!(back, spec);
+        let report = Report {
+            exit: Some(Exit::TooManyProcesses(8)),
+            cannot_start: None,
+            wall_s: 1.5,
+            cpu_s: 0.25,
+            peak_rss_mb: Some(12.0),
+            unconfined: vec!["no Landlock".into()],
+            stdout: "out\n".into(),
+            stderr: String::new(),
+        };
+        assert_eq!(serde_json::from_str::<Report>(&serde_json::to_string(&report).unwrap()).unwrap(), report);
+    }
+}

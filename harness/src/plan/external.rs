@@ -34,13 +34,13 @@ pub struct Declared {
     #[serde(default)]
     pub keep_problem: bool,
     /// The address space each of its processes may have, MiB (default: the machine's memory).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub memory_mb: Option<u64>,
     /// The largest file it may write, MiB (default: 1024).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub file_size_mb: Option<u64>,
     /// Processes it may have at once (default: 64).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub processes: Option<u64>,
 }
 

@@ -584,15 +584,21 @@ mod tests {
             gap_scale: scale,
             verified_snapshots: scale.map(|_| 12),
             peak_growth_mb: scale.map(|_| 41.5),
+            cpu_s: scale.map(|_| 1.25),
+            confined: scale.map(|_| true),
             ..Default::default()
         };
         let rows = vec![row("kp-newton", Some(0.2103)), row("aqp", None)];
         let path = dir.path().join("summary.csv");
         write_summary(&path, &rows).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.lines().next().unwrap().ends_with(",cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb"));
+        assert!(text
+            .lines()
+            .next()
+            .unwrap()
+            .ends_with(",cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb,cpu_s,confined"));
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
-        for (cut_columns, left) in [(1, (Some(0.2103), Some(12))), (3, (None, None))] {
+        for (cut_columns, left) in [(3, (Some(0.2103), Some(12))), (5, (None, None))] {
             let cut = |l: &str| l.rsplitn(cut_columns + 1, ',').nth(cut_columns).unwrap().to_string() + "\n";
             let older: String = text.lines().map(cut).collect();
             std::fs::write(&path, older).unwrap();
