@@ -218,6 +218,10 @@ fn read_mesh(path: &Path) -> Result<Mesh> {
     load_obj(path).map_err(anyhow::Error::new)
 }
 
+/// How far a map OBJ's `v` line may be from the mesh's vertex, relative to the mesh's largest
+/// coordinate: the round-off of a tool that writes fewer digits than a round trip needs.
+const OBJ_POSITION_RTOL: f64 = 1e-9;
+
 /// The map's position of each vertex of `mesh`, checked against it.
 fn read_map(path: &Path, mesh: &Mesh) -> Result<Vec<[f64; 2]>> {
     let name = path.display();
@@ -238,6 +242,20 @@ fn read_map(path: &Path, mesh: &Mesh) -> Result<Vec<[f64; 2]>> {
     }
     if let Some(t) = (0..mesh.n_faces()).find(|&t| m.faces[t] != mesh.faces[t]) {
         bail!("{name}: face {t} is not face {t} of {} (a map of another mesh or vertex order?)", mesh.source);
+    }
+    // Same faces, other positions: a map made for another mesh of the same connectivity.
+    let scale = mesh.positions.iter().flatten().fold(0.0f64, |m, c| m.max(c.abs())).max(f64::MIN_POSITIVE);
+    let off = |a: &[f64; 3], b: &[f64; 3]| {
+        (0..3).any(|k| (a[k] - b[k]).abs() > OBJ_POSITION_RTOL * scale || a[k].is_nan() != b[k].is_nan())
+    };
+    if let Some(v) = (0..mesh.n_vertices()).find(|&v| off(&m.source[v], &mesh.positions[v])) {
+        bail!(
+            "{name}: vertex {v} (`v` line {}) is at {:?}, but vertex {v} of {} is at {:?} (a map of another mesh?)",
+            v + 1,
+            m.source[v],
+            mesh.source,
+            mesh.positions[v]
+        );
     }
     Ok(m.uv)
 }

@@ -28,7 +28,7 @@ path = "quad.obj"
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let (header, rows) = read_csv(&out.join("summary.csv"));
-    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb,start,ref_energy,ref_source,final_gap,verdict,cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb,start_energy,ideal_energy,ref_certified,polished_energy,repeats_differ,iters_to_1e-3,time_to_1e-3,iters_to_1e-6,time_to_1e-6");
+    assert_eq!(header.join(","), "dataset,task,energy,solver,vertices,faces,iterations,converged,stop_reason,init_energy,final_energy,grad_norm,time_s,ms_per_vertex,iter_ms_median,project_ms_median,solve_ms_median,flips,status,error,area_ratio_sd,area_ratio_mad,authalic_energy,folded,analysis_s,analysis_shared,repeats,time_s_min,time_s_max,time_norm,shifted_iters,clamped_iters,peak_rss_mb,start,ref_energy,ref_source,final_gap,verdict,cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb,start_energy,ideal_energy,ref_certified,polished_energy,repeats_differ,cpu_s,confined,iters_to_1e-3,time_to_1e-3,iters_to_1e-6,time_to_1e-6");
     assert_eq!(rows.len(), 2);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let good = &rows[0];

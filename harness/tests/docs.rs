@@ -221,7 +221,7 @@ fn every_json_example_parses_as_what_it_shows() {
                 "jsonl" => {
                     let dir = tempfile::tempdir().unwrap();
                     std::fs::write(dir.path().join("iterations.jsonl"), &body).unwrap();
-                    mapbench::external::protocol::read_records(dir.path(), false)
+                    mapbench::external::protocol::read_records(dir.path(), false, 1000)
                         .map(|_| ())
                         .map_err(|e| format!("{e:#}"))
                 }

@@ -163,6 +163,14 @@ fn a_map_of_another_mesh_or_energy_is_refused_with_the_reason() {
     swapped[3] = [g[3][1], g[3][2], g[3][0]];
     write_obj(&tmp.path().join("swapped.obj"), &p, Some(&p), &swapped);
     assert!(fail(&["mesh.obj", "swapped.obj"]).contains("face 3 is not face 3 of mesh.obj"));
+    // the same faces on other positions: a map made for another mesh
+    let moved: Vec<[f64; 2]> = p.iter().map(|v| [v[0] * 1.5, v[1]]).collect();
+    write_obj(&tmp.path().join("moved.obj"), &moved, Some(&p), &f);
+    let said = fail(&["mesh.obj", "moved.obj"]);
+    assert!(
+        said.contains("moved.obj: vertex 1 (`v` line 2) is at [") && said.contains("(a map of another mesh?)"),
+        "{said}"
+    );
     assert!(fail(&["mesh.obj", "mesh.obj"]).contains("mesh.obj"));
     assert!(fail(&["mesh.obj", "swapped.obj", "--energy", "sd", "--param", "k=1"]).contains("sd has no parameters"));
     assert!(fail(&["mesh.obj", "swapped.obj", "--energy", "arap"]).contains("unknown variant `arap`"));

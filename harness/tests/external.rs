@@ -84,8 +84,7 @@ fn external_solvers_are_verified_and_each_failure_stays_in_its_run() {
     let hang = peer(
         d,
         "hang",
-        "import subprocess\nchild = subprocess.Popen(['sleep', '600'])\n\
-         open(p.folder + '/../../../grandchild.pid', 'w').write(str(child.pid))\n\
+        "import subprocess\nchild = subprocess.Popen(['sleep', '600'])\nprint(child.pid, flush=True)\n\
          p.record(0, e, uv)\ntime.sleep(600)",
     );
     let mute = peer(d, "mute", "time.sleep(600)");
@@ -163,7 +162,7 @@ fn external_solvers_are_verified_and_each_failure_stays_in_its_run() {
     // a hang after the start: a timeout at its last map, like ours at their deadline
     assert_eq!((get("hang", "stop_reason").as_str(), get("hang", "iterations").as_str()), ("timeout", "0"));
     assert!(get("hang", "time_s").parse::<f64>().unwrap() < 30.0);
-    let pid = std::fs::read_to_string(d.join("grandchild.pid")).unwrap();
+    let pid = std::fs::read_to_string(d.join("out/external/bumpy_1k__sd__hang.stdout.txt")).unwrap();
     std::thread::sleep(std::time::Duration::from_millis(300));
     let state = std::fs::read_to_string(format!("/proc/{}/stat", pid.trim())).unwrap_or_default();
     assert!(state.is_empty() || state.contains(") Z"), "the hung peer's grandchild outlived it: {state}");
@@ -321,4 +320,161 @@ fn external_runs_shard_and_merge_like_ours() {
         serde_json::from_str(&std::fs::read_to_string(tmp.path().join("merged/meta.json")).unwrap()).unwrap();
     assert_eq!(meta["external"][0]["version"], "gd 2");
     assert_eq!(meta["external"].as_array().unwrap().len(), 1);
+}
+
+/// A hostile or faulty peer: `body` runs after the preamble of [`peer`], with `raw(**record)`
+/// writing a line of `iterations.jsonl` as given and `put(k, map)` writing `maps/<k>.uv`.
+fn hostile(dir: &Path, name: &str, body: &str) -> String {
+    let helpers = "import json, os, subprocess\nfrom mapbench_peer import write_uv\n\
+                   def raw(**d):\n    p._records.write(json.dumps(d) + '\\n')\n    p._records.flush()\n\
+                   def put(k, m):\n    write_uv(os.path.join(p.folder, 'maps', f'{k}.uv'), m)\n\
+                   def now():\n    return time.perf_counter() - p.clock0\n";
+    peer(dir, name, &format!("{helpers}{body}"))
+}
+
+/// The probe's hostile and faulty peers, each in one batch beside ours: every one fails alone
+/// with its reason (or is judged on what it did), none changes another run's files or leaves a
+/// file or a process outside its problem folder, and the timeout holds while a process it left
+/// keeps the output pipes open.
+#[test]
+fn hostile_peers_fail_alone_with_their_reason_and_leave_nothing_behind() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let marker = d.join("escaped.txt");
+    // (name, body, extra config lines)
+    let cases: Vec<(&str, String, &str)> = vec![
+        // an energy at a row without its map (below SD's least value, 2)
+        ("unmapped", "raw(iter=0, energy=e, time_s=0.0)\nput(0, uv)\nraw(iter=1, energy=0.5, time_s=now())\n\
+                      raw(iter=2, energy=e, time_s=now())\nput(2, uv)\np.finish('converged')".into(), ""),
+        ("record_s", "p.record(0, e, uv)\nraw(iter=1, energy=e, time_s=now(), record_s=1e6)\nput(1, uv)\n\
+                      p.finish('max_iters')".into(), ""),
+        ("future", "p.record(0, e, uv)\nraw(iter=1, energy=e, time_s=1e9)\nput(1, uv)\np.finish('max_iters')".into(), ""),
+        ("past_max", "for k in range(7):\n    p.record(k, e, uv)\np.finish('max_iters')".into(), ""),
+        ("nan_map", "p.record(0, e, uv)\nm = uv.copy()\nm[5, 0] = float('nan')\nraw(iter=1, energy=e, time_s=now())\n\
+                     put(1, m)\np.finish('max_iters')".into(), ""),
+        ("inf_map", "p.record(0, e, uv)\nm = uv.copy()\nm[7, 1] = float('inf')\nraw(iter=1, energy=e, time_s=now())\n\
+                     put(1, m)\np.finish('max_iters')".into(), ""),
+        ("mirror", "p.record(0, e, uv)\nraw(iter=1, energy=e, time_s=now())\nput(1, uv * np.array([-1.0, 1.0]))\n\
+                    p.finish('max_iters')".into(), ""),
+        ("reversed", "p.record(0, e, uv)\nraw(iter=1, energy=e, time_s=now())\nput(1, uv[::-1])\n\
+                      p.finish('max_iters')".into(), ""),
+        ("fifo", "p.record(0, e, uv)\nraw(iter=1, energy=e, time_s=now())\n\
+                  os.mkfifo(os.path.join(p.folder, 'maps', '1.uv'))\np.finish('max_iters')".into(), ""),
+        ("devzero", "p.record(0, e, uv)\nraw(iter=1, energy=e, time_s=now())\n\
+                     os.symlink('/dev/zero', os.path.join(p.folder, 'maps', '1.uv'))\np.finish('max_iters')".into(), ""),
+        ("long_line", "raw(iter=0, energy=e, time_s=0.0, note='x' * 20_000_000)\nput(0, uv)\np.finish('max_iters')".into(), ""),
+        ("wide", "raw(iter=0, energy=e, time_s=0.0, **{f'c{i}': 1 for i in range(40)})\nput(0, uv)\n\
+                  p.finish('max_iters')".into(), ""),
+        ("long_message", "p.record(0, e, uv)\np.finish('error', 'y' * 20_000_000)".into(), ""),
+        ("crash_long", "p.record(0, e, uv)\nsys.exit('z' * 1_000_000)".into(), ""),
+        ("no_module", "import no_such_module_xyz".into(), ""),
+        ("processes", "ps = [subprocess.Popen(['sleep', '30']) for _ in range(12)]\np.record(0, e, uv)\ntime.sleep(30)".into(),
+         "processes = 8\n"),
+        ("big_file", "p.record(0, e, uv)\nopen(os.path.join(p.folder, 'big'), 'wb').write(b'0' * 3_000_000)\n\
+                      p.finish('max_iters')".into(), "file_size_mb = 1\n"),
+        // writes outside its folder (refused), then solves honestly; tells what it saw
+        ("outside", format!(
+            "for t in ['../../runs/bumpy_1k__sd__kp-newton.csv', '../../summary.csv', '../x.txt', {marker:?}]:\n\
+             \x20   try:\n        open(t, 'a').write('HACKED')\n        print('wrote', t)\n\
+             \x20   except OSError as err:\n        print('refused', t)\n\
+             for v in ['HOME', 'TMPDIR', 'OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS', 'NUMEXPR_NUM_THREADS']:\n\
+             \x20   print(v, os.environ.get(v))\n\
+             open(os.path.join(os.environ['TMPDIR'], 'scratch'), 'w').write('mine')\n\
+             p.record(0, e, uv)\np.finish('max_iters')",
+            marker = marker.display().to_string()
+        ), ""),
+        // a daemon that leaves its session and a worker that outlives its parent
+        ("escape", "q = subprocess.Popen(['setsid', 'sleep', '300'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)\n\
+                    print('pid', q.pid, flush=True)\np.record(0, e, uv)\np.finish('max_iters')".into(), ""),
+        // keeps the output pipes open from its own session, then hangs: the timeout holds
+        ("pipes", "q = subprocess.Popen(['setsid', 'sleep', '40'])\nprint('pid', q.pid, flush=True)\n\
+                   p.record(0, e, uv)\ntime.sleep(40)".into(), ""),
+    ];
+    let names: Vec<String> = cases.iter().map(|c| format!("{:?}", c.0)).collect();
+    let mut config = format!(
+        "name = \"h\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\ntimeout = \"3s\"\nsolvers = [\"kp-newton\", {}]\n\
+         [stop]\nmax_iters = 4\n",
+        names.join(", ")
+    );
+    for (name, body, extra) in &cases {
+        let script = hostile(d, name, body);
+        config += &external(name, &["python3", &script], extra);
+    }
+    let cfg = write_config(d, &config);
+    let t0 = std::time::Instant::now();
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "out", "--jobs", "2", "--no-history"], d);
+    let took = t0.elapsed().as_secs_f64();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let (h, rows) = read_csv(&d.join("out/summary.csv"));
+    let get = |solver: &str, name: &str| column(&h, &rows, solver, name).to_string();
+    let failed = |solver: &str, says: &str| {
+        assert_eq!(get(solver, "status"), "failed", "{solver}: {}", get(solver, "error"));
+        assert!(get(solver, "error").contains(says), "{solver}: {}", get(solver, "error"));
+        assert!(get(solver, "error").len() < 1000, "{solver}: an error of {} bytes", get(solver, "error").len());
+    };
+    failed("unmapped", "the map of iteration 1 is missing");
+    failed("record_s", "plus 1000000 s of record_s is more than the");
+    failed("future", "iteration 1: time_s = 1000000000 is past the");
+    failed("past_max", "iteration 5 is past max_iters = 4");
+    failed("nan_map", "iteration 1: vertex 5 of its map is not finite (NaN)");
+    failed("inf_map", "iteration 1: vertex 7 of its map is not finite (inf)");
+    failed("mirror", "but its map has inf (2037 flipped faces)");
+    failed("unmapped", "(due: the first, the last and every snapshot_every = 1)");
+    failed("reversed", "iteration 1: the solver reported energy");
+    failed("fifo", "maps/1.uv: is a FIFO, socket or device, not a regular file");
+    failed("devzero", "maps/1.uv: is a symbolic link, not a regular file");
+    failed("long_line", "iterations.jsonl: 20000069 bytes, more than the 24576 it may have");
+    failed("wide", "line 1: 40 extra keys, more than the 32 a record may have");
+    failed("long_message", "result.json: 20000039 bytes, more than the 65536 it may have");
+    failed("crash_long", "crash_long exited with code 1 (its last error line: zzz");
+    failed("crash_long", "... (65236 more characters))");
+    failed("processes", "processes was killed with more than 8 processes at once (`processes`)");
+    failed("big_file", "File too large");
+    assert_eq!(get("no_module", "status"), "skipped");
+    assert!(
+        get("no_module", "error").contains("No module named 'no_such_module_xyz'"),
+        "{}",
+        get("no_module", "error")
+    );
+    // the ones that solved honestly after their tries: judged like any run, confined
+    for solver in ["outside", "escape"] {
+        assert_eq!(get(solver, "stop_reason"), "max_iters", "{solver}: {}", get(solver, "error"));
+        assert_eq!(get(solver, "confined"), "true");
+        assert!(get(solver, "cpu_s").parse::<f64>().unwrap() > 0.0);
+    }
+    let said = std::fs::read_to_string(d.join("out/external/bumpy_1k__sd__outside.stdout.txt")).unwrap();
+    assert!(!said.contains("wrote"), "{said}");
+    assert_eq!(said.matches("refused").count(), 4, "{said}");
+    let problem = d.join("out/external/bumpy_1k__sd__outside");
+    assert!(said.contains(&format!("HOME {}", problem.join("home").display())), "{said}");
+    assert!(said.contains(&format!("TMPDIR {}", problem.join("tmp").display())), "{said}");
+    for var in ["OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS"] {
+        assert!(said.contains(&format!("{var} 1")), "{said}");
+    }
+    // the other runs' files as they were, nothing outside the problem folders
+    assert!(!marker.exists());
+    assert!(!std::fs::read_to_string(d.join("out/runs/bumpy_1k__sd__kp-newton.csv")).unwrap().contains("HACKED"));
+    assert!(!std::fs::read_to_string(d.join("out/summary.csv")).unwrap().contains("HACKED"));
+    assert_eq!(get("kp-newton", "stop_reason"), "max_iters", "{}", get("kp-newton", "error"));
+    assert_eq!(read_csv(&d.join("out/runs/bumpy_1k__sd__kp-newton.csv")).1.len(), 5);
+    let left: Vec<String> = std::fs::read_dir(d.join("out/external"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".stdout.txt") && !n.ends_with(".stderr.txt"))
+        .collect();
+    assert!(left.is_empty(), "left in external/: {left:?}");
+    // no process of theirs outlived the batch
+    for solver in ["escape", "pipes"] {
+        let said = std::fs::read_to_string(d.join(format!("out/external/bumpy_1k__sd__{solver}.stdout.txt"))).unwrap();
+        let pid = said.split_whitespace().nth(1).unwrap();
+        let state = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+        assert!(state.is_empty() || state.contains(") Z"), "{solver}'s process {pid} outlived its run: {state}");
+    }
+    // the timeout held while the pipes stayed open
+    assert_eq!(get("pipes", "stop_reason"), "timeout");
+    let t: f64 = get("pipes", "time_s").parse().unwrap();
+    assert!(t < 4.0, "pipes: {t} s");
+    assert!(took < 60.0, "the batch took {took} s");
+    let index = std::fs::read_to_string(d.join("out/index.html")).unwrap();
+    assert!(index.contains("<h2 id=\"external\">External solvers</h2>"));
 }

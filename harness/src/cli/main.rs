@@ -337,6 +337,10 @@ enum Command {
         #[arg(long, default_value = "datasets.toml")]
         registry: PathBuf,
     },
+    /// The process between `run` and an external solver (peers/PROTOCOL.md): reads its spec
+    /// on standard input, prints its report. Not for hand use.
+    #[command(hide = true)]
+    Sandbox,
 }
 
 /// Where `run` and `merge` append the batch (the history database).
@@ -490,6 +494,10 @@ fn is_closed_pipe(e: &anyhow::Error) -> bool {
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Run { config, out, only, resume, jobs, shard, shard_plan, repeat, force, history } => {
+            // External solvers run through this binary's `sandbox` verb.
+            if let Ok(me) = std::env::current_exe() {
+                mapbench::external::sandbox::use_sandbox(me);
+            }
             // First, before any thread starts: every thread inherits the blocked signals.
             let interrupt = Arc::new(AtomicBool::new(false));
             let signal = signals::on_interrupt(interrupt.clone());
@@ -627,6 +635,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Corpus { action: CorpusAction::Fetch, to, from, only, manifest } => {
             corpus_fetch(to, from, &only, manifest.as_deref())
         }
+        Command::Sandbox => Ok(ExitCode::from(mapbench::external::sandbox::supervise())),
         // exit 0 whatever the map's quality: the numbers say it
         Command::Evaluate { mesh, map, task, energy, params, frame, config, dataset, json } => {
             let energy = mapbench::evaluate::energy_of(task, &energy, &params)?;

@@ -1,41 +1,58 @@
-//! An external solver's process: started in a process group of its own so that the timeout,
-//! an interrupt and the end of the run reach everything it started; its wall time and peak
-//! memory measured from outside; its output kept, truncated.
+//! An external solver's process. A run's solver is started through the sandbox
+//! (`super::sandbox`, `mapbench sandbox`): confined to its problem folder, every process it
+//! starts ended with it, its CPU time measured. Where the harness cannot start that (the
+//! library used outside the `mapbench` binary) and for version commands, the command runs
+//! directly in a process group of its own, which the timeout, an interrupt and
+//! the end of the run reach; its wall time and peak memory are measured from outside; its
+//! output is kept, truncated, and never waited for past its end.
 
+use serde::{Deserialize, Serialize};
 use std::io::Read;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
 
 /// How often the harness looks at the child (exit, deadline, interrupt, memory).
-const POLL: Duration = Duration::from_millis(10);
+pub(super) const POLL: Duration = Duration::from_millis(10);
+
+/// How long the output of a child that ended is waited for: a process it left behind may
+/// hold the pipes open (the sandbox ends those; a direct child's group is killed, but a
+/// process that left the group is not).
+pub(super) const OUTPUT_GRACE: Duration = Duration::from_millis(500);
 
 /// What became of the child.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Exit {
     /// It exited with this code.
     Code(i32),
     /// A signal it did not handle ended it.
     Signal(i32),
-    /// Still running at the deadline: its process group was killed.
+    /// Still running at the deadline: it was killed with everything it started.
     TimedOut,
-    /// The batch was interrupted: its process group was killed.
+    /// The batch was interrupted: it was killed with everything it started.
     Interrupted,
+    /// It had more than this many processes at once: all were killed.
+    TooManyProcesses(usize),
 }
 
 /// A finished child.
 #[derive(Clone, Debug)]
 pub struct ChildRun {
     pub exit: Exit,
-    /// Wall time from the start to the exit (or the kill), on the harness's clock.
+    /// Wall time from its start to its exit (or the kill).
     pub wall_s: f64,
-    /// The sum over its process group's processes of each one's peak resident memory
-    /// (`VmHWM`, sampled while it ran: an upper bound of the group's peak), in MB; `None`
-    /// where `/proc` does not say or the child was gone before the first look.
+    /// CPU time (user + system) of all its processes; `None` outside the sandbox.
+    pub cpu_s: Option<f64>,
+    /// The sum over its processes of each one's peak resident memory (`VmHWM`, sampled every
+    /// 10 ms while it ran: an upper bound of its peak), in MB; `None` where `/proc` does not
+    /// say or the child was gone before the first look.
     pub peak_rss_mb: Option<f64>,
-    /// Its standard output and error, each cut at the limit [`run`] was given.
+    /// Why it was not (wholly) confined; empty when the sandbox held it.
+    pub unconfined: Vec<String>,
+    /// Its standard output and error, each cut at the limit it was run with.
     pub stdout: String,
     pub stderr: String,
 }
@@ -48,9 +65,10 @@ pub struct CannotStart {
     pub why: std::io::Error,
 }
 
-/// Run `command` in the folder `cwd`, with `last` appended to its arguments when given, until
-/// it exits, the `timeout` passes or `interrupt` is set; keep at most `keep` bytes of each
-/// output stream. A program given as a relative path with a `/` is taken relative to `cwd`.
+/// Run `command` directly in the folder `cwd`, with `last` appended to its arguments when
+/// given, until it exits, the `timeout` passes or `interrupt` is set; keep at most `keep`
+/// bytes of each output stream. A program given as a relative path with a `/` is taken
+/// relative to `cwd`.
 pub fn run(
     command: &[String],
     cwd: &Path,
@@ -58,6 +76,18 @@ pub fn run(
     timeout: Option<Duration>,
     interrupt: &AtomicBool,
     keep: usize,
+) -> Result<ChildRun, CannotStart> {
+    run_with(command, cwd, last, timeout, interrupt, keep, &[])
+}
+
+pub(super) fn run_with(
+    command: &[String],
+    cwd: &Path,
+    last: Option<&Path>,
+    timeout: Option<Duration>,
+    interrupt: &AtomicBool,
+    keep: usize,
+    env: &[(String, String)],
 ) -> Result<ChildRun, CannotStart> {
     let shown = command.join(" ");
     let (program, args) = command.split_first().ok_or_else(|| CannotStart {
@@ -71,14 +101,15 @@ pub fn run(
         .args(last)
         .current_dir(cwd)
         .env("PYTHONDONTWRITEBYTECODE", "1")
+        .envs(env.iter().map(|(k, v)| (k, v)))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
-    #[cfg(unix)]
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     let t0 = Instant::now();
     let mut child = cmd.spawn().map_err(|why| CannotStart { command: shown, why })?;
-    let readers = [child.stdout.take().map(|s| reader(s, keep)), child.stderr.take().map(|s| reader(s, keep))];
+    let readers =
+        [child.stdout.take().map(|s| Reading::start(s, keep)), child.stderr.take().map(|s| Reading::start(s, keep))];
     let mut peaks = Peaks::default();
     let exit = loop {
         peaks.sample(child.id());
@@ -104,8 +135,8 @@ pub fn run(
     let wall_s = t0.elapsed().as_secs_f64();
     // What the child left running (a daemon, a worker pool) ends with it.
     kill_group(&mut child);
-    let [stdout, stderr] = readers.map(|r| r.and_then(|h| h.join().ok()).unwrap_or_default());
-    Ok(ChildRun { exit, wall_s, peak_rss_mb: peaks.total_mb(), stdout, stderr })
+    let [stdout, stderr] = readers.map(|r| r.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default());
+    Ok(ChildRun { exit, wall_s, cpu_s: None, peak_rss_mb: peaks.total_mb(), unconfined: Vec::new(), stdout, stderr })
 }
 
 /// `program` as the child finds it: a relative path with a separator is relative to `cwd`
@@ -138,29 +169,48 @@ pub fn absolute_in(command: &[String], folder: &Path) -> Vec<String> {
         .collect()
 }
 
-/// Read a stream to its end on a thread (a full pipe would block the child), keeping the
-/// first `keep` bytes and saying how many were cut.
-fn reader(mut stream: impl Read + Send + 'static, keep: usize) -> thread::JoinHandle<String> {
-    thread::spawn(move || {
-        let (mut kept, mut total, mut buf) = (Vec::new(), 0usize, [0u8; 8192]);
-        while let Ok(n) = stream.read(&mut buf) {
-            if n == 0 {
-                break;
+/// What follows the count of bytes cut from a kept output stream.
+const CUT_NOTE: &str = "more bytes not kept";
+
+/// Whether `line` is the note [`Reading`] appends to a stream it cut.
+pub fn is_cut_note(line: &str) -> bool {
+    line.starts_with('[') && line.ends_with(&format!(" {CUT_NOTE}]"))
+}
+
+/// An output stream read to its end on a thread (a full pipe would block the child), keeping
+/// the first `keep` bytes and saying how many were cut.
+pub struct Reading(mpsc::Receiver<String>);
+
+impl Reading {
+    pub fn start(mut stream: impl Read + Send + 'static, keep: usize) -> Reading {
+        let (tx, rx) = mpsc::channel();
+        thread::spawn(move || {
+            let (mut kept, mut total, mut buf) = (Vec::new(), 0usize, [0u8; 8192]);
+            while let Ok(n) = stream.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                total += n;
+                let room = keep.saturating_sub(kept.len());
+                kept.extend_from_slice(&buf[..n.min(room)]);
             }
-            total += n;
-            let room = keep.saturating_sub(kept.len());
-            kept.extend_from_slice(&buf[..n.min(room)]);
-        }
-        let mut text = String::from_utf8_lossy(&kept).into_owned();
-        if total > kept.len() {
-            text.push_str(&format!("\n[{} more bytes not kept]\n", total - kept.len()));
-        }
-        text
-    })
+            let mut text = String::from_utf8_lossy(&kept).into_owned();
+            if total > kept.len() {
+                text.push_str(&format!("\n[{} {CUT_NOTE}]\n", total - kept.len()));
+            }
+            let _ = tx.send(text);
+        });
+        Reading(rx)
+    }
+
+    /// What was read, waiting at most `grace` for the end of the stream (a process that
+    /// outlived the child may hold it open: then nothing).
+    pub fn finish(self, grace: Duration) -> String {
+        self.0.recv_timeout(grace).unwrap_or_default()
+    }
 }
 
 fn exit_of(status: std::process::ExitStatus) -> Exit {
-    #[cfg(unix)]
     if let Some(sig) = std::os::unix::process::ExitStatusExt::signal(&status) {
         return Exit::Signal(sig);
     }
@@ -168,14 +218,11 @@ fn exit_of(status: std::process::ExitStatus) -> Exit {
 }
 
 /// SIGKILL to the child's process group (the child itself where there are none).
-fn kill_group(child: &mut std::process::Child) {
-    #[cfg(unix)]
-    {
-        use nix::sys::signal::{killpg, Signal};
-        use nix::unistd::Pid;
-        // ESRCH: the group is gone already.
-        let _ = killpg(Pid::from_raw(child.id() as i32), Signal::SIGKILL);
-    }
+pub(super) fn kill_group(child: &mut std::process::Child) {
+    use nix::sys::signal::{killpg, Signal};
+    use nix::unistd::Pid;
+    // ESRCH: the group is gone already.
+    let _ = killpg(Pid::from_raw(child.id() as i32), Signal::SIGKILL);
     let _ = child.kill();
 }
 
@@ -292,5 +339,23 @@ mod tests {
         assert_eq!(abs, [peer.as_str(), "sh", peer.as_str(), "--x", "absent.py"]);
         let elsewhere = tempfile::tempdir().unwrap();
         assert_eq!(run(&abs[..1], elsewhere.path(), None, None, &no, 64).unwrap().exit, Exit::Code(4));
+    }
+
+    #[test]
+    fn a_process_left_holding_the_pipes_does_not_hold_the_run() {
+        let t0 = Instant::now();
+        // the leftover holds stderr only, so its pid on stdout comes back
+        let r = go(&sh("setsid sleep 30 >/dev/null & echo $!; exit 0"), 10.0);
+        assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
+        assert_eq!(r.exit, Exit::Code(0));
+        // outside the sandbox it outlives the child (the sandbox's test is in tests/external.rs)
+        let pid =
+            std::fs::read_to_string(format!("/proc/{}/stat", r.stdout.trim())).map(|_| r.stdout.trim().to_string());
+        if let Ok(pid) = pid {
+            let _ = nix::sys::signal::kill(
+                nix::unistd::Pid::from_raw(pid.parse().unwrap()),
+                nix::sys::signal::Signal::SIGKILL,
+            );
+        }
     }
 }

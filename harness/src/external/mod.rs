@@ -5,3 +5,4 @@ pub mod child;
 pub mod execute;
 pub mod probe;
 pub mod protocol;
+pub mod sandbox;

@@ -2,7 +2,8 @@
 //! Asked once per batch; a solver that cannot start has its runs skipped with the reason, like
 //! a missing mesh, and the batch goes on.
 
-use super::child::{self, program_in, Exit};
+use super::child::{program_in, Exit};
+use super::sandbox::{run_sandboxed, Limits, Spec};
 use crate::plan::external::Declared;
 use serde::Serialize;
 use std::path::Path;
@@ -35,7 +36,17 @@ pub fn probe(name: &str, declared: &Declared, cwd: &Path, interrupt: &AtomicBool
     }
     let Some(version) = &declared.version else { return p };
     let shown = version.join(" ");
-    match child::run(version, cwd, None, Some(VERSION_TIMEOUT), interrupt, 4096) {
+    // In the sandbox too, with no folder it may write: it only has to print.
+    let spec = Spec {
+        command: version.clone(),
+        cwd: cwd.to_path_buf(),
+        writable: None,
+        env: vec![("PYTHONDONTWRITEBYTECODE".into(), "1".into())],
+        timeout_s: Some(VERSION_TIMEOUT.as_secs_f64()),
+        limits: Limits::default(),
+        keep: 4096,
+    };
+    match run_sandboxed(&spec, interrupt) {
         Err(e) => p.unavailable = Some(format!("version command: {e}")),
         Ok(run) if run.exit == Exit::Code(0) => {
             let line = run.stdout.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("");
@@ -56,6 +67,7 @@ pub fn ended(exit: &Exit) -> String {
         Exit::Signal(s) => format!("was killed by signal {s}"),
         Exit::TimedOut => "passed its timeout".into(),
         Exit::Interrupted => "was interrupted".into(),
+        Exit::TooManyProcesses(n) => format!("was killed with more than {n} processes at once (`processes`)"),
     }
 }
 
@@ -94,6 +106,9 @@ mod tests {
             version: version.map(strings),
             snapshot_every: 1,
             keep_problem: false,
+            memory_mb: None,
+            file_size_mb: None,
+            processes: None,
         }
     }
 

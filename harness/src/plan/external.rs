@@ -33,6 +33,15 @@ pub struct Declared {
     /// Keep each run's problem folder (`external/<run>/`) instead of removing it.
     #[serde(default)]
     pub keep_problem: bool,
+    /// The address space each of its processes may have, MiB (default: the machine's memory).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub memory_mb: Option<u64>,
+    /// The largest file it may write, MiB (default: 1024).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file_size_mb: Option<u64>,
+    /// Processes it may have at once (default: 64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub processes: Option<u64>,
 }
 
 fn every_iteration() -> usize {
@@ -60,6 +69,13 @@ impl Declared {
         }
         if self.energies.is_empty() {
             bail!("[external.{name}] energies is empty: name the energies it minimizes");
+        }
+        for (key, value) in
+            [("memory_mb", self.memory_mb), ("file_size_mb", self.file_size_mb), ("processes", self.processes)]
+        {
+            if value == Some(0) {
+                bail!("[external.{name}] {key} = 0: give a limit above 0, or leave it out for the default");
+            }
         }
         if let Some(e) = self.energies.iter().find(|e| !ENERGY_NAMES.contains(&e.as_str())) {
             bail!("[external.{name}] energies: unknown energy '{e}' (known: {})", ENERGY_NAMES.join(", "));
@@ -99,6 +115,10 @@ mod tests {
             .contains("version is empty"));
         assert!(err("command = [\"x\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\nthreads = 2\n")
             .contains("unknown field `threads`"));
+        assert!(err("command = [\"x\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\nprocesses = 0\n")
+            .contains("[external.peer] processes = 0: give a limit above 0"));
+        let d = declared("command = [\"x\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\nmemory_mb = 512\n").unwrap();
+        assert_eq!((d.memory_mb, d.file_size_mb, d.processes), (Some(512), None, None));
         assert_eq!(d.skip_reason("peer", "sd", false), None);
         assert_eq!(d.skip_reason("peer", "nh", false).unwrap(), "peer is an external solver of sd only");
         assert!(d.skip_reason("peer", "sd", true).unwrap().contains("smoothness term"));

@@ -241,6 +241,10 @@ fn run_external(
     (summary.shifted_iters, summary.clamped_iters, summary.cg_capped_iters) = (None, None, None);
     (summary.peak_rss_mb, summary.peak_growth_mb) = (executed.peak_rss_mb, executed.peak_rss_mb);
     summary.verified_snapshots = Some(executed.verified);
+    (summary.cpu_s, summary.confined) = (executed.cpu_s, Some(executed.unconfined.is_empty()));
+    if let Some(why) = executed.unconfined.first() {
+        ctx.progress.notice(&format!("{}: not confined: {why}", run.stem));
+    }
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &executed.outcome.x));
     let final_x = Some(executed.outcome.x);
     RunResult { map_uv, final_x, ..result(summary, executed.rows) }

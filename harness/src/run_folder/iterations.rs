@@ -106,7 +106,8 @@ pub fn iteration_csv(
             t_cum_s: r.t_cum_s,
             shift: r.shift,
             ls_evals: r.ls_evals,
-            gap: span.map(|(s, span)| crate::convergence::gap_on(r.energy, s, span)),
+            // An external solver's row without a verified map has no energy of ours (NaN).
+            gap: span.filter(|_| !r.energy.is_nan()).map(|(s, span)| crate::convergence::gap_on(r.energy, s, span)),
             t_record_s: r.t_record_s,
         })?);
         if !r.extra.is_empty() {

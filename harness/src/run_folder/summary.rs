@@ -20,10 +20,11 @@ use std::path::{Path, PathBuf};
 /// the energy span the gaps are fractions of, and the snapshots of an external solver the
 /// harness verified, the peak memory growth; then the yardstick's common start energy, the
 /// energy's isometry value and whether `E*` is certified, the energy a polish from the final
-/// map reached, and why a repeat differed (appended: a file written before them reads them as
-/// empty). After them, for each target `tau`
+/// map reached, and why a repeat differed; then an external solver's CPU time and whether the
+/// sandbox confined it (appended: a file written before them reads them as empty). After them,
+/// for each target `tau`
 /// of the batch, `iters_to_<tau>` and `time_to_<tau>` ([`target_columns`]).
-pub const SUMMARY_COLUMNS: [&str; 47] = [
+pub const SUMMARY_COLUMNS: [&str; 49] = [
     "dataset",
     "task",
     "energy",
@@ -71,6 +72,8 @@ pub const SUMMARY_COLUMNS: [&str; 47] = [
     "ref_certified",
     "polished_energy",
     "repeats_differ",
+    "cpu_s",
+    "confined",
 ];
 
 /// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
@@ -345,6 +348,14 @@ pub struct SummaryRow {
     /// repeat 1's result and verdict, and the report flags it.
     #[serde(default)]
     pub repeats_differ: Option<String>,
+    /// An external solver's CPU time (user + system) over all its processes, beside its wall
+    /// time; empty for the catalogue's solvers and outside the sandbox.
+    #[serde(default)]
+    pub cpu_s: Option<f64>,
+    /// An external solver's run: whether the sandbox confined it (it could write only in its
+    /// problem folder; `false`: the kernel could not, and it was not). Empty for ours.
+    #[serde(default)]
+    pub confined: Option<bool>,
     /// Iterations and time to each target, the loosest first.
     #[serde(skip)]
     pub to_targets: Vec<ToTarget>,
@@ -603,6 +614,8 @@ mod tests {
             gap_scale: scale,
             verified_snapshots: scale.map(|_| 12),
             peak_growth_mb: scale.map(|_| 41.5),
+            cpu_s: scale.map(|_| 1.25),
+            confined: scale.map(|_| true),
             ..Default::default()
         };
         let rows = vec![row("kp-newton", Some(0.2103)), row("aqp", None)];
@@ -611,11 +624,12 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(text.lines().next().unwrap().ends_with(
             ",cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb,start_energy,ideal_energy,ref_certified,\
-             polished_energy,repeats_differ"
+             polished_energy,repeats_differ,cpu_s,confined"
         ));
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
-        // A file written before the last columns (the yardstick's, 5) reads them as empty.
-        for (cut_columns, left) in [(6, (Some(0.2103), Some(12))), (8, (None, None))] {
+        // A file written before the last columns (the yardstick's 5, the sandbox's 2) reads them
+        // as empty.
+        for (cut_columns, left) in [(8, (Some(0.2103), Some(12))), (10, (None, None))] {
             let cut = |l: &str| l.rsplitn(cut_columns + 1, ',').nth(cut_columns).unwrap().to_string() + "\n";
             let older: String = text.lines().map(cut).collect();
             std::fs::write(&path, older).unwrap();

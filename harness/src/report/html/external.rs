@@ -22,13 +22,21 @@ pub(super) fn external_section(h: &mut String, probes: &[Probe], summaries: &[Su
            Every map they wrote was read back and its energy, gradient norm and flips recomputed by mapbench's \
            code; a reported energy that disagreed beyond round-off failed the run. Their time_s is the \
            process's wall time on the harness's clock (interpreter start-up included, record writing left \
-           out); their per-iteration times are their own clock's; peak_rss_mb is their own process group's.</p>\n\
+           out); their per-iteration times are their own clock's; cpu_s and peak_rss_mb are their own \
+           processes'. Each ran in a sandbox: it could write only in its problem folder, and every process it \
+           started ended with its run; where the kernel could not confine it (no Landlock), the table says \
+           so.</p>\n\
            <table>\n<tr><th>solver</th><th>version</th><th>command</th><th>ran</th><th>failed</th>\
-           <th>skipped</th><th>maps verified</th></tr>\n";
+           <th>skipped</th><th>maps verified</th><th>confined</th></tr>\n";
     for p in probes {
         let mine: Vec<&SummaryRow> = summaries.iter().filter(|s| s.solver == p.name).collect();
         let n = |st: Status| mine.iter().filter(|s| s.status == st).count();
         let verified: usize = mine.iter().filter_map(|s| s.verified_snapshots).sum();
+        let loose = mine.iter().filter(|s| s.confined == Some(false)).count();
+        let confined = match loose {
+            0 => "yes".to_string(),
+            n => format!("no: {n} of its runs were not confined (they could write outside their folder)"),
+        };
         let version = match (&p.version, &p.unavailable) {
             (_, Some(why)) => format!("unavailable: {why}"),
             (Some(v), None) => v.clone(),
@@ -36,13 +44,14 @@ pub(super) fn external_section(h: &mut String, probes: &[Probe], summaries: &[Su
         };
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{}</td><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{verified}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{verified}</td><td>{}</td></tr>",
             esc(&p.name),
             esc(&version),
             esc(&p.command.join(" ")),
             n(Status::Ok) + n(Status::NotConverged),
             n(Status::Failed),
             n(Status::Skipped),
+            esc(&confined),
         );
     }
     *h += "</table>\n";

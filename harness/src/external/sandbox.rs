@@ -1,0 +1,472 @@
+//! The process between the harness and an external solver (`mapbench sandbox`, a hidden verb):
+//! it confines the solver and ends every process the solver started, whatever they do.
+//!
+//! - **Files** (Landlock, Linux 5.13+): the solver may read and execute everywhere but write
+//!   only beneath its problem folder (and to `/dev/null`); it may signal only processes of its
+//!   own sandbox (Linux 6.12+). Where the kernel cannot, the report says so and the run records
+//!   that it was not confined.
+//! - **Processes**: this process is a child subreaper, so every process the solver starts
+//!   stays below it, one that calls `setsid` or whose parent exits included; when the solver
+//!   exits, passes its timeout, starts more processes than allowed or the harness says stop
+//!   (it closes our standard input, or dies), every one of them is killed and reaped. Nothing
+//!   then holds the output pipes open.
+//! - **Limits** (rlimits, inherited): address space, file size, processes.
+//! - **Measures**: the solver's wall time from its start, the CPU time (user + system) of every
+//!   process of it (all are reaped here or by their parents), the sum of each process's peak
+//!   resident memory, and the first bytes of its output.
+//!
+//! The harness writes the [`Spec`] as one JSON line to our standard input and keeps it open;
+//! we write the [`Report`] as JSON to our standard output.
+
+use super::child::{self, program_in, CannotStart, ChildRun, Exit, Reading, OUTPUT_GRACE, POLL};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// How long past the timeout the sandbox is given to end the solver and report before it is
+/// killed itself.
+const SANDBOX_GRACE: Duration = Duration::from_secs(5);
+
+/// What to run and how.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Spec {
+    /// The program (resolved against `cwd` as [`program_in`] does) and its arguments.
+    pub command: Vec<String>,
+    pub cwd: PathBuf,
+    /// The one folder the solver may write in (`None`: none, as for a version command).
+    pub writable: Option<PathBuf>,
+    /// Variables set on top of the harness's environment.
+    pub env: Vec<(String, String)>,
+    pub timeout_s: Option<f64>,
+    pub limits: Limits,
+    /// Bytes of each output stream kept.
+    pub keep: usize,
+}
+
+/// The rlimits of the solver's processes (`None`: the harness's own).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Limits {
+    /// Address space of each process (`RLIMIT_AS`), MiB.
+    pub memory_mb: Option<u64>,
+    /// The largest file it may write (`RLIMIT_FSIZE`), MiB: a write past it fails and the
+    /// process gets `SIGXFSZ`.
+    pub file_size_mb: Option<u64>,
+    /// Processes at once below the sandbox (counted every 10 ms; `RLIMIT_NPROC`, which counts
+    /// every task of the user, is set to the user's tasks at the start plus this).
+    pub processes: Option<u64>,
+}
+
+/// What became of the solver.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// `None`: it could not start (`cannot_start` says why).
+    pub exit: Option<Exit>,
+    pub cannot_start: Option<String>,
+    pub wall_s: f64,
+    pub cpu_s: f64,
+    pub peak_rss_mb: Option<f64>,
+    /// Why the sandbox is not whole (no Landlock, a limit that could not be set); empty when
+    /// it is.
+    pub unconfined: Vec<String>,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+/// The `mapbench` binary, which runs the sandbox (`mapbench sandbox`); set by its `main`.
+static SANDBOX_PROGRAM: OnceLock<PathBuf> = OnceLock::new();
+
+/// Run external solvers through the sandbox of `program` (the `mapbench` binary).
+pub fn use_sandbox(program: PathBuf) {
+    let _ = SANDBOX_PROGRAM.set(program);
+}
+
+/// The harness's side: run `spec` in the sandbox until it ends, passes its timeout or `interrupt` is set; without
+/// the sandbox program (the library outside `mapbench`), directly, recorded as not confined.
+pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, CannotStart> {
+    let shown = spec.command.join(" ");
+    let Some(program) = SANDBOX_PROGRAM.get() else {
+        let timeout = spec.timeout_s.map(Duration::from_secs_f64);
+        let mut run = child::run_with(&spec.command, &spec.cwd, None, timeout, interrupt, spec.keep, &spec.env)?;
+        run.unconfined.push("run without the sandbox (not through the mapbench binary)".into());
+        return Ok(run);
+    };
+    let cannot = |why: std::io::Error| CannotStart { command: shown.clone(), why };
+    let mut cmd = Command::new(program);
+    cmd.arg("sandbox").stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    // Its own group: a Ctrl-C at the terminal reaches the harness, which stops it.
+    std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+    let mut sandbox = cmd.spawn().map_err(cannot)?;
+    let mut stdin = sandbox.stdin.take();
+    let line = serde_json::to_string(spec).map_err(|e| cannot(e.into()))? + "\n";
+    if let Some(pipe) = stdin.as_mut() {
+        pipe.write_all(line.as_bytes()).map_err(cannot)?;
+    }
+    // The report holds at most `keep` bytes of each stream, escaped in JSON.
+    let report = sandbox.stdout.take().map(|s| Reading::start(s, 16 * spec.keep + (1 << 20)));
+    let errors = sandbox.stderr.take().map(|s| Reading::start(s, 4096));
+    let t0 = Instant::now();
+    let backstop = spec.timeout_s.map(|t| Duration::from_secs_f64(t) + SANDBOX_GRACE);
+    let mut stopped_at: Option<Instant> = None;
+    loop {
+        match sandbox.try_wait() {
+            Ok(Some(_)) | Err(_) => break,
+            Ok(None) => {}
+        }
+        if stopped_at.is_none() && interrupt.load(Ordering::Relaxed) {
+            // Our end of its standard input closed: it ends the solver and reports.
+            stdin = None;
+            stopped_at = Some(Instant::now());
+        }
+        let late =
+            backstop.is_some_and(|b| t0.elapsed() >= b) || stopped_at.is_some_and(|s| s.elapsed() >= SANDBOX_GRACE);
+        if late {
+            child::kill_group(&mut sandbox);
+            let _ = sandbox.wait();
+            break;
+        }
+        thread::sleep(POLL);
+    }
+    drop(stdin);
+    let text = report.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
+    let said = errors.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
+    let report: Report = serde_json::from_str(text.trim()).map_err(|_| {
+        let why = format!("the sandbox (`{} sandbox`) gave no report: {}", program.display(), said.trim());
+        cannot(std::io::Error::other(why))
+    })?;
+    if let Some(why) = report.cannot_start {
+        return Err(cannot(std::io::Error::other(why)));
+    }
+    Ok(ChildRun {
+        exit: report.exit.unwrap_or(Exit::Interrupted),
+        wall_s: report.wall_s,
+        cpu_s: Some(report.cpu_s),
+        peak_rss_mb: report.peak_rss_mb,
+        unconfined: report.unconfined,
+        stdout: report.stdout,
+        stderr: report.stderr,
+    })
+}
+
+/// `mapbench sandbox`: read the spec from standard input, run it, print the report. The exit
+/// code is 0 when a report was printed.
+pub fn supervise() -> u8 {
+    let mut line = String::new();
+    let stdin = std::io::stdin();
+    if let Err(e) = stdin.lock().read_line(&mut line) {
+        eprintln!("mapbench sandbox: cannot read the spec: {e}");
+        return 2;
+    }
+    let spec: Spec = match serde_json::from_str(&line) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("mapbench sandbox: not a spec: {e}");
+            return 2;
+        }
+    };
+    let report = run(&spec);
+    match serde_json::to_string(&report) {
+        Ok(json) => {
+            println!("{json}");
+            0
+        }
+        Err(e) => {
+            eprintln!("mapbench sandbox: {e}");
+            2
+        }
+    }
+}
+
+/// Run `spec` in this process's sandbox (which it sets up for good: call it once, in the
+/// process made for it).
+fn run(spec: &Spec) -> Report {
+    let mut unconfined = Vec::new();
+    if let Err(e) = nix::sys::prctl::set_child_subreaper(true) {
+        unconfined.push(format!("not a child subreaper ({e}): a process that leaves its parent may outlive the run"));
+    }
+    unconfined.extend(limit(&spec.limits));
+    if let Err(why) = confine(spec.writable.as_deref()) {
+        unconfined.push(why);
+    }
+    // The harness closes our standard input to stop the run (or dies, which closes it too).
+    let stop = Arc::new(AtomicBool::new(false));
+    let stopped = stop.clone();
+    thread::spawn(move || {
+        let mut sink = String::new();
+        while std::io::stdin().lock().read_line(&mut sink).is_ok_and(|n| n > 0) {
+            sink.clear();
+        }
+        stopped.store(true, Ordering::SeqCst);
+    });
+    let mut report = Report {
+        exit: None,
+        cannot_start: None,
+        wall_s: 0.0,
+        cpu_s: 0.0,
+        peak_rss_mb: None,
+        unconfined,
+        stdout: String::new(),
+        stderr: String::new(),
+    };
+    let Some((program, args)) = spec.command.split_first() else {
+        report.cannot_start = Some("the command is empty".into());
+        return report;
+    };
+    let t0 = Instant::now();
+    let spawned = Command::new(program_in(program, &spec.cwd))
+        .args(args)
+        .current_dir(&spec.cwd)
+        .envs(spec.env.iter().map(|(k, v)| (k, v)))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn();
+    let mut child = match spawned {
+        Ok(c) => c,
+        Err(e) => {
+            report.cannot_start = Some(e.to_string());
+            return report;
+        }
+    };
+    let outputs = [
+        child.stdout.take().map(|s| Reading::start(s, spec.keep)),
+        child.stderr.take().map(|s| Reading::start(s, spec.keep)),
+    ];
+    let solver = child.id() as i32;
+    let timeout = spec.timeout_s.map(Duration::from_secs_f64);
+    let max_processes = spec.limits.processes.map(|p| p as usize);
+    let mut peaks: BTreeMap<i32, u64> = BTreeMap::new();
+    let exit = loop {
+        if let Some(exit) = reap(solver) {
+            break exit;
+        }
+        let tree = descendants();
+        for &pid in &tree {
+            if let Some(kb) = high_water_kb(pid) {
+                let peak = peaks.entry(pid).or_default();
+                *peak = (*peak).max(kb);
+            }
+        }
+        if let Some(max) = max_processes.filter(|&m| tree.len() > m) {
+            break Exit::TooManyProcesses(max);
+        }
+        if stop.load(Ordering::SeqCst) {
+            break Exit::Interrupted;
+        }
+        if timeout.is_some_and(|t| t0.elapsed() >= t) {
+            break Exit::TimedOut;
+        }
+        thread::sleep(POLL);
+    };
+    report.wall_s = t0.elapsed().as_secs_f64();
+    end_all();
+    report.exit = Some(exit);
+    if let Ok(usage) = nix::sys::resource::getrusage(nix::sys::resource::UsageWho::RUSAGE_CHILDREN) {
+        let s = |t: nix::sys::time::TimeVal| t.tv_sec() as f64 + t.tv_usec() as f64 * 1e-6;
+        report.cpu_s = s(usage.user_time()) + s(usage.system_time());
+    }
+    report.peak_rss_mb = (!peaks.is_empty()).then(|| peaks.values().sum::<u64>() as f64 / 1024.0);
+    // Every writer of the pipes is gone: they end now.
+    let [stdout, stderr] = outputs.map(|o| o.map(|r| r.finish(Duration::from_secs(5))).unwrap_or_default());
+    (report.stdout, report.stderr) = (stdout, stderr);
+    report
+}
+
+/// Set the rlimits; what could not be set, said.
+fn limit(limits: &Limits) -> Vec<String> {
+    use nix::sys::resource::{setrlimit, Resource};
+    let mb = |m: u64| m.saturating_mul(1 << 20);
+    let mut failed = Vec::new();
+    let mut set = |what: &str, r: Resource, value: Option<u64>| {
+        if let Some(v) = value {
+            if let Err(e) = setrlimit(r, v, v) {
+                failed.push(format!("{what} limit not set ({e})"));
+            }
+        }
+    };
+    set("memory", Resource::RLIMIT_AS, limits.memory_mb.map(mb));
+    set("file size", Resource::RLIMIT_FSIZE, limits.file_size_mb.map(mb));
+    // RLIMIT_NPROC counts the user's tasks (threads included) everywhere.
+    set("process", Resource::RLIMIT_NPROC, limits.processes.map(|p| user_tasks().saturating_add(p)));
+    failed
+}
+
+/// Landlock: read and execute everywhere, write beneath `writable` and to `/dev/null`, signal
+/// only inside the sandbox. `Err` says why the kernel did not confine (fully).
+fn confine(writable: Option<&Path>) -> Result<(), String> {
+    use landlock::{
+        path_beneath_rules, Access, AccessFs, Ruleset, RulesetAttr, RulesetCreatedAttr, RulesetStatus, Scope, ABI,
+    };
+    let abi = ABI::V6;
+    let status = Ruleset::default()
+        .handle_access(AccessFs::from_all(abi))
+        .and_then(|r| r.scope(Scope::from_all(abi)))
+        .and_then(|r| r.create())
+        .and_then(|r| r.add_rules(path_beneath_rules(["/"], AccessFs::from_read(abi))))
+        .and_then(|r| r.add_rules(path_beneath_rules(["/dev/null"], AccessFs::from_file(abi))))
+        .and_then(|r| r.add_rules(path_beneath_rules(writable, AccessFs::from_all(abi))))
+        .and_then(|r| r.restrict_self())
+        .map_err(|e| format!("no Landlock sandbox ({e}): it could write outside its problem folder"))?;
+    match status.ruleset {
+        RulesetStatus::FullyEnforced => Ok(()),
+        // An older kernel's Landlock: the file system is confined, signals may not be.
+        RulesetStatus::PartiallyEnforced => Err(format!(
+            "Landlock only partly enforced ({:?}): it may signal processes outside its sandbox",
+            status.landlock
+        )),
+        RulesetStatus::NotEnforced => {
+            Err("no Landlock on this kernel: it could write outside its problem folder".to_string())
+        }
+    }
+}
+
+/// Reap every child that ended; the solver's exit when it was among them.
+fn reap(solver: i32) -> Option<Exit> {
+    use nix::sys::wait::{waitpid, WaitPidFlag, WaitStatus};
+    let mut exit = None;
+    loop {
+        match waitpid(None, Some(WaitPidFlag::WNOHANG)) {
+            Ok(WaitStatus::Exited(pid, code)) if pid.as_raw() == solver => exit = Some(Exit::Code(code)),
+            Ok(WaitStatus::Signaled(pid, sig, _)) if pid.as_raw() == solver => exit = Some(Exit::Signal(sig as i32)),
+            Ok(WaitStatus::StillAlive) | Err(_) => return exit,
+            Ok(_) => {}
+        }
+    }
+}
+
+/// Kill every process below this one and reap them all: those killed leave their children to
+/// us (the subreaper), so the tree is walked again until nothing is left.
+fn end_all() {
+    use nix::sys::signal::{kill, Signal};
+    use nix::sys::wait::{waitpid, WaitPidFlag, WaitStatus};
+    use nix::unistd::Pid;
+    let give_up = Instant::now() + Duration::from_secs(30);
+    loop {
+        let tree = descendants();
+        for &pid in &tree {
+            let _ = kill(Pid::from_raw(pid), Signal::SIGKILL);
+        }
+        loop {
+            match waitpid(None, Some(WaitPidFlag::WNOHANG)) {
+                Ok(WaitStatus::StillAlive) => break,
+                Ok(_) => {}
+                // ECHILD: no child left at all.
+                Err(_) if tree.is_empty() => return,
+                Err(_) => break,
+            }
+        }
+        if Instant::now() > give_up {
+            return;
+        }
+        thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// The processes below this one (zombies included), from `/proc`'s parent links.
+fn descendants() -> Vec<i32> {
+    let me = std::process::id() as i32;
+    let mut children: BTreeMap<i32, Vec<i32>> = BTreeMap::new();
+    let Ok(dir) = std::fs::read_dir("/proc") else { return Vec::new() };
+    for entry in dir.flatten() {
+        let Some(pid) = entry.file_name().to_str().and_then(|s| s.parse::<i32>().ok()) else { continue };
+        if let Some(ppid) = parent(pid) {
+            children.entry(ppid).or_default().push(pid);
+        }
+    }
+    let mut seen = BTreeSet::new();
+    let mut todo = vec![me];
+    while let Some(p) = todo.pop() {
+        for &c in children.get(&p).map_or(&[][..], |v| &v[..]) {
+            if seen.insert(c) {
+                todo.push(c);
+            }
+        }
+    }
+    seen.into_iter().collect()
+}
+
+/// Field 4 of `/proc/<pid>/stat` (after the parenthesized command, which may hold spaces).
+fn parent(pid: i32) -> Option<i32> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let rest = &stat[stat.rfind(')')? + 1..];
+    rest.split_whitespace().nth(1)?.parse().ok()
+}
+
+fn high_water_kb(pid: i32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// The tasks (threads) of this process's user now: what `RLIMIT_NPROC` counts.
+fn user_tasks() -> u64 {
+    use std::os::unix::fs::MetadataExt;
+    let Ok(uid) = std::fs::metadata("/proc/self").map(|m| m.uid()) else { return 0 };
+    let Ok(dir) = std::fs::read_dir("/proc") else { return 0 };
+    let mut n = 0;
+    for entry in dir.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().filter(|s| s.bytes().all(|b| b.is_ascii_digit())) else { continue };
+        if entry.metadata().is_ok_and(|m| m.uid() == uid) {
+            let threads = std::fs::read_to_string(format!("/proc/{pid}/status"))
+                .ok()
+                .and_then(|s| s.lines().find_map(|l| l.strip_prefix("Threads:").and_then(|t| t.trim().parse().ok())));
+            n += threads.unwrap_or(1);
+        }
+    }
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn without_the_sandbox_program_a_run_says_it_was_not_confined() {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = Spec {
+            command: vec!["sh".into(), "-c".into(), "echo \"$HOME\"; exit 3".into()],
+            cwd: dir.path().to_path_buf(),
+            writable: Some(dir.path().to_path_buf()),
+            env: vec![("HOME".into(), "/nowhere".into())],
+            timeout_s: Some(10.0),
+            limits: Limits::default(),
+            keep: 64,
+        };
+        // the library's tests run outside the mapbench binary, which never registered itself
+        let run = run_sandboxed(&spec, &AtomicBool::new(false)).unwrap();
+        assert_eq!((run.exit, run.stdout.as_str(), run.cpu_s), (Exit::Code(3), "/nowhere\n", None));
+        assert_eq!(run.unconfined, ["run without the sandbox (not through the mapbench binary)"]);
+    }
+
+    #[test]
+    fn a_spec_and_a_report_cross_the_pipes_as_json() {
+        let spec = Spec {
+            command: vec!["python3".into(), "a b.py".into()],
+            cwd: "/x".into(),
+            writable: None,
+            env: vec![("OMP_NUM_THREADS".into(), "2".into())],
+            timeout_s: None,
+            limits: Limits { memory_mb: Some(512), file_size_mb: None, processes: Some(8) },
+            keep: 10,
+        };
+        let back: Spec = serde_json::from_str(&serde_json::to_string(&spec).unwrap()).unwrap();
+        assert_eq!(back, spec);
+        let report = Report {
+            exit: Some(Exit::TooManyProcesses(8)),
+            cannot_start: None,
+            wall_s: 1.5,
+            cpu_s: 0.25,
+            peak_rss_mb: Some(12.0),
+            unconfined: vec!["no Landlock".into()],
+            stdout: "out\n".into(),
+            stderr: String::new(),
+        };
+        assert_eq!(serde_json::from_str::<Report>(&serde_json::to_string(&report).unwrap()).unwrap(), report);
+    }
+}
