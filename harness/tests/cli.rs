@@ -57,10 +57,14 @@ path = "quad.obj"
     assert_eq!(good[col("start")], "tutte-scaled");
     assert_eq!(good[col("verdict")], "solved");
     assert!(["reference", "batch"].contains(&good[col("ref_source")].as_str()), "{good:?}");
-    // param's span is E0 - E*
+    // the span: the start's distance or the minimum's own distortion, the smaller (here the
+    // distortion, SD's excess over 2, far below the Tutte start's)
     let num = |name: &str| good[col(name)].parse::<f64>().unwrap();
-    assert_eq!(num("gap_scale"), num("init_energy") - num("ref_energy"));
-    assert_eq!(it[0][16], "1.0");
+    assert_eq!((num("start_energy"), num("ideal_energy")), (num("init_energy"), 2.0));
+    let span = mapbench::convergence::span(num("start_energy"), num("ref_energy"), num("ideal_energy"));
+    assert_eq!(num("gap_scale"), span);
+    assert_eq!(span, num("ref_energy") - 2.0);
+    assert_eq!(it[0][16].parse::<f64>().unwrap(), (num("init_energy") - num("ref_energy")) / span);
     let last_gap: f64 = it.last().unwrap()[16].parse().unwrap();
     assert!(last_gap <= 1e-6 && good[col("final_gap")].parse::<f64>().unwrap() == last_gap, "{last_gap}");
     assert!(!good[col("iters_to_1e-6")].is_empty() && !good[col("time_to_1e-6")].is_empty(), "{good:?}");

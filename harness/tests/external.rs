@@ -110,7 +110,9 @@ fn external_solvers_are_verified_and_each_failure_stays_in_its_run() {
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "out", "--jobs", "2", "--no-history"], d);
     // runs failed (exit 1), the batch finished
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(text(&o).contains("20 runs: 2 ok, 2 not converged, 5 failed, 11 skipped"), "{}", text(&o));
+    // ok: kp-newton on sd; kp-newton's SARAP run stops by its energy-decrease rule above the
+    // 1e-6 target, gd at its cap, hang at its timeout
+    assert!(text(&o).contains("20 runs: 1 ok, 3 not converged, 5 failed, 11 skipped"), "{}", text(&o));
     let (h, rows) = read_csv(&d.join("out/summary.csv"));
     let sd: Vec<Vec<String>> = rows.iter().filter(|r| r[2] == "sd").cloned().collect();
     let get = |solver: &str, name: &str| column(&h, &sd, solver, name).to_string();

@@ -116,3 +116,27 @@ fn env_revision() -> Option<String> {
     let rev = std::process::Command::new("git").args(["rev-parse", "HEAD"]).output().ok()?;
     rev.status.success().then(|| String::from_utf8_lossy(&rev.stdout).trim().to_string())
 }
+
+/// A reference's budget is at least any committed config's `max_iters`: a run of a batch
+/// cannot go past the iterations its reference had (each config's `[stop] max_iters`, 1000 by
+/// default).
+#[test]
+fn the_reference_budget_covers_every_committed_config() {
+    let configs = common::repo_root().join("configs");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&configs).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let table: toml::Table = std::fs::read_to_string(&path).unwrap().parse().unwrap();
+        let max_iters = table.get("stop").and_then(|s| s.get("max_iters")).and_then(|m| m.as_integer()).unwrap_or(1000);
+        assert!(
+            max_iters as usize <= mapbench::judge::reference::compute::BUDGET,
+            "{}: max_iters = {max_iters} is past the reference budget",
+            path.display()
+        );
+        seen += 1;
+    }
+    assert!(seen >= 10, "{seen} configs");
+}

@@ -37,6 +37,11 @@ pub(super) fn render_group(run_dir: &Path, (dataset, energy): (&str, &str), runs
         .map(|r| {
             let stem = run_stem(dataset, energy, &r.solver);
             let Some(map) = mapfile::read_with(run_dir, &stem, read_mesh)? else { return Ok(None) };
+            // A map with a non-finite coordinate is no result (such a run failed); a folder
+            // holding one anyway still gets its report, without that picture.
+            if map.uv.iter().flatten().any(|c| !c.is_finite()) {
+                return Ok(None);
+            }
             let measure = if is_authalic(r) { Measure::AreaRatio } else { Measure::Distortion };
             let values = shades(measure, &map);
             Ok(Some((r.solver.as_str(), stem, map, values, measure)))

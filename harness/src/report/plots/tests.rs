@@ -119,3 +119,18 @@ fn renders_every_group_and_map_as_png_of_the_requested_size() {
     }
     assert_eq!(plots[4].kind, PlotKind::Map { solver: "slim".into() });
 }
+
+/// A map with a non-finite coordinate in a folder (a run of an older version, a file put
+/// there) leaves its picture out; the report is rendered all the same.
+#[test]
+fn a_map_with_a_nan_coordinate_leaves_its_picture_out_not_the_report() {
+    let (dir, rows) = tiny_run();
+    let p = dir.path();
+    let mesh = solvers::generate::generate("flat_disk_1k").unwrap();
+    let mut x: Vec<f64> = mesh.positions.iter().flat_map(|q| [q[0], q[1]]).collect();
+    x[7] = f64::NAN;
+    write_atomic(&mapfile::uv_path(p, "tiny__sd__slim"), &mapfile::encode_uv(&mesh, &x)).unwrap();
+    let plots = render_all(p, &rows).unwrap();
+    assert!(plots.iter().any(|q| q.file == "plots/tiny__sd__kp-newton__map.png"));
+    assert!(!plots.iter().any(|q| q.file == "plots/tiny__sd__slim__map.png"));
+}
