@@ -118,7 +118,7 @@ pub struct Polish {
     pub decrease: f64,
 }
 
-/// A reference's certificate ([`compute`]'s rules).
+/// A reference's certificate ([`mod@compute`]'s rules).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Certificate {
@@ -175,7 +175,7 @@ pub struct GroupReference {
     /// `E_iso`: the energy at an isometry.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ideal: Option<f64>,
-    /// Whether `E*` carries a certificate ([`compute`]); an uncertified one is marked
+    /// Whether `E*` carries a certificate ([`mod@compute`]); an uncertified one is marked
     /// wherever its verdicts appear.
     #[serde(default)]
     pub certified: bool,
@@ -228,7 +228,7 @@ pub fn lookup(book: &Book, key: &str, problem: &Problem, notice: &dyn Fn(&str)) 
     None
 }
 
-/// Compute the reference of `problem` ([`compute`]): the entry and its map.
+/// Compute the reference of `problem` ([`mod@compute`]): the entry and its map.
 pub fn compute(
     problem: &Problem,
     key: &str,
