@@ -741,10 +741,16 @@ fn references(
     }
     let missing = groups.iter().filter(|g| g.e_star.is_none()).count();
     let uncertified = groups.iter().filter(|g| g.e_star.is_some() && !g.certified).count();
+    use mapbench::judge::reference::Origin;
+    let from = |o: &[Origin]| groups.iter().filter(|g| g.e_star.is_some() && o.contains(&g.origin)).count();
     eprintln!(
-        "{} references in {} ({missing} not available, {uncertified} not certified)",
+        "{} references: {} from the committed store, {} from {}, {} computed or lowered now \
+         ({missing} not available, {uncertified} not certified)",
         groups.len(),
-        store.display()
+        from(&[Origin::Seed]),
+        from(&[Origin::Store]),
+        store.display(),
+        from(&[Origin::Computed, Origin::Improved]),
     );
     let signalled = signal.load(Ordering::SeqCst);
     if signalled != 0 {
