@@ -126,6 +126,11 @@ impl Plan {
         if runs.is_empty() {
             bail!("--only {} selects no run of {}", only.join(" "), cfg.path.display());
         }
+        // A declaration alone runs nothing: say so rather than leave the solver silently out.
+        let mut notices = notices;
+        notices.extend(c.external.keys().filter(|name| !c.solvers.contains(name)).map(|name| {
+            format!("external solver {name} is declared ([external.{name}]) but not in `solvers`: it does not run")
+        }));
         let invalid = || format!("{}: invalid config", cfg.path.display());
         let timeout = c.timeout_secs().with_context(invalid)?.map(Duration::from_secs_f64);
         let repeat = c.repeat.unwrap_or(1);
@@ -213,6 +218,21 @@ mod tests {
         assert_eq!(p.dataset(&p.runs[0]).name, "b");
         let e = format!("{:#}", plan(INLINE, &["zzz*"]).unwrap_err());
         assert!(e.contains("--only zzz* selects no run of t.toml"), "{e}");
+    }
+
+    #[test]
+    fn an_external_solver_declared_but_not_named_in_solvers_is_a_notice() {
+        let ext = "[external.my-gd]\ncommand = [\"python3\", \"gd.py\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n";
+        let p = plan(&format!("{INLINE}{ext}"), &[]).unwrap();
+        assert_eq!(
+            p.notices,
+            ["external solver my-gd is declared ([external.my-gd]) but not in `solvers`: it does not run"]
+        );
+        assert!(p.runs.iter().all(|r| r.solver != "my-gd"));
+        let named = INLINE.replace("\"cm\"]", "\"cm\", \"my-gd\"]");
+        let p = plan(&format!("{named}{ext}"), &[]).unwrap();
+        assert!(p.notices.is_empty(), "{:?}", p.notices);
+        assert_eq!(p.runs.iter().filter(|r| r.solver == "my-gd").count(), 4);
     }
 
     #[test]

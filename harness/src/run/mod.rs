@@ -55,7 +55,8 @@ pub struct BatchReport {
     /// Runs an interrupt cut short in their repeats, with how many repeats finished; kept in
     /// `runs/<run>.partial.*` for `--resume`, not in `summary.csv`.
     pub partial: Vec<(String, usize)>,
-    pub skipped_datasets: Vec<String>,
+    /// The plan's notices (datasets skipped, externals declared but not named in `solvers`).
+    pub notices: Vec<String>,
     pub out_dir: PathBuf,
     /// What became of the batch in the history database.
     pub history: crate::history::Outcome,
@@ -184,8 +185,7 @@ pub fn run_batch(
     meta.references = crate::judge::reference::prepare(plan, &mine, &|line| progress.notice(line), &opts.interrupt)?;
     calibrate(&mut calibration, jobs, threads, progress);
     meta.write(out_dir, None, false, &calibration)?;
-    let report =
-        BatchReport { skipped_datasets: plan.notices.clone(), out_dir: out_dir.to_path_buf(), ..Default::default() };
+    let report = BatchReport { notices: plan.notices.clone(), out_dir: out_dir.to_path_buf(), ..Default::default() };
     let code = code_id();
     let total = mine.len();
     if plan.repeat > 1 {
