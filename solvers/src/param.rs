@@ -75,12 +75,7 @@ pub fn param_start(
     energy: EnergyKind,
     settings: &ParamSettings,
 ) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
-    energy.check().map_err(MapError::Energy)?;
-    crate::mesh::validate_for(mesh, Task::Param).into_result()?;
-    let rest = mesh.normalized();
-    let problem = map_problem(&rest, energy, None, None)?;
-    let (x, start) = start_map(&rest, &problem, Start::Common, settings)?;
-    Ok((problem, x, start))
+    common_start(mesh, energy, settings, None)
 }
 
 /// The problem a `param` run with `settings` is judged on (its energy with the smoothness
@@ -91,10 +86,20 @@ pub fn judged_problem(
     energy: EnergyKind,
     settings: &ParamSettings,
 ) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
+    common_start(mesh, energy, settings, settings.smoothness)
+}
+
+/// The checked mesh's problem with `smoothness` and its common start, normalized frame.
+fn common_start(
+    mesh: &Mesh,
+    energy: EnergyKind,
+    settings: &ParamSettings,
+    smoothness: Option<(f64, crate::smoothness::Projection)>,
+) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
     energy.check().map_err(MapError::Energy)?;
     crate::mesh::validate_for(mesh, Task::Param).into_result()?;
     let rest = mesh.normalized();
-    let problem = map_problem(&rest, energy, None, settings.smoothness)?;
+    let problem = map_problem(&rest, energy, None, smoothness)?;
     let (x, start) = start_map(&rest, &problem, Start::Common, settings)?;
     Ok((problem, x, start))
 }
