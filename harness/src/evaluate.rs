@@ -167,9 +167,17 @@ pub fn known_reference(config: &Path, dataset: &str, energy: &EnergyKind, mesh: 
     if theirs.positions != mesh.positions || theirs.faces != mesh.faces {
         bail!("{}: not the mesh of dataset '{dataset}' ({})", mesh.source, theirs.source);
     }
-    let key = crate::judge::reference::key(&plan, run)?.context("no reference key")?;
+    let key = crate::judge::reference::key(&plan, run)?;
     let stores = plan.references.as_ref().context("no reference stores")?;
     let book = crate::judge::reference::store::Book::open(stores)?;
+    if !crate::judge::reference::chained::stored(&plan, run) {
+        bail!(
+            "{}: the SD minimum {dataset} {} starts from is in no reference store ({} computes it)",
+            config.display(),
+            energy.name(),
+            format_args!("`mapbench references {}`", config.display())
+        );
+    }
     let problem = crate::judge::problem::Problem::with_mesh(&plan, run, theirs)?;
     let refused = std::cell::RefCell::new(Vec::new());
     let found =

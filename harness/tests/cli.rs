@@ -136,6 +136,8 @@ path = "two.obj"
         assert_eq!(r[col("energy")], "authalic");
         assert_eq!(r[col("iterations")], "20");
         assert_eq!(r[col("stop_reason")], "max_iters");
+        // the fixed budget of the protocol spent: a result, not a failure to converge
+        assert_eq!(r[col("status")], "budget");
         assert_eq!(r[col("folded")], "0");
         let e: f64 = r[col("authalic_energy")].parse().unwrap();
         assert!(e > 0.0 && e < r[col("init_energy")].parse::<f64>().unwrap());
@@ -155,6 +157,19 @@ path = "two.obj"
     let table = std::fs::read_to_string(out.join("tables/authalic.md")).unwrap();
     assert!(table.contains("| bumpy_1k |") && table.contains("AEM-CG-safe E_A"), "{table}");
     assert!(out.join("tables/authalic.html").is_file());
+    assert!(text(&o).contains("6 runs: 0 ok, 3 at their budget, 0 not converged, 3 failed"), "{}", text(&o));
+    // with a tolerance rule the budget is a cap: a run that reaches it did not converge
+    let capped = write_config(
+        tmp.path(),
+        "name = \"auth\"\ntask = \"authalic\"\ndatasets = [\"bumpy_1k\"]\nsolvers = [\"aem-cg\"]\n\
+         [stop]\nmax_iters = 5\ngrad_tol = 1e-14\n",
+    );
+    let out = tmp.path().join("capped");
+    let o = mapbench(&["run", capped.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert_eq!((rows[0][col("stop_reason")].as_str(), rows[0][col("status")].as_str()), ("max_iters", "not_converged"));
 }
 
 /// A planar 4 x 4 vertex grid (z = 0), counter-clockwise faces.
@@ -999,10 +1014,18 @@ fn references_computes_what_no_store_holds_and_lists_every_group() {
     std::fs::write(tmp.path().join("fan.obj"), QUAD_OBJ).unwrap();
     let (code, rows, log) = list(&cfg);
     assert_eq!((code, rows[1][2].as_str(), rows[1][4].as_str()), (Some(1), "-", "Unavailable"), "{log}");
-    // authalic configs have none
-    let authalic =
-        write_config(tmp.path(), "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"bumpy_1k\"]\nsolvers = [\"sem\"]\n");
-    let (code, _, log) = list(&authalic);
-    assert!(code == Some(2) || code == Some(1), "{log}");
-    assert!(log.contains("no reference minima"), "{log}");
+    // an authalic config has them too: the normalized authalic energy's minimum from the
+    // stretch start, by AEM-CG; a flat disk is its own area-preserving map (E_A = 0)
+    let authalic = write_config(
+        tmp.path(),
+        "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"flat_disk_1k\"]\nsolvers = [\"sem\"]\n",
+    );
+    let (code, rows, log) = list(&authalic);
+    assert_eq!(
+        (code, rows.first().map(|r| (r[1].as_str(), r[3].as_str(), r[4].as_str()))),
+        (Some(0), Some(("authalic", "yes", "Computed"))),
+        "{log}"
+    );
+    let e_star: f64 = rows[0][2].parse().unwrap();
+    assert!((0.0..1e-10).contains(&e_star), "{log}");
 }

@@ -380,8 +380,9 @@ fn the_statuses_page_lists_every_value_the_code_writes() {
     use solvers::solver::{StartMap, StopReason};
     let page = std::fs::read_to_string(repo_root().join("docs/src/reference/statuses.md")).unwrap();
     let set = |v: Vec<&str>| v.into_iter().map(str::to_string).collect::<BTreeSet<String>>();
-    let statuses =
-        set([Status::Ok, Status::NotConverged, Status::Failed, Status::Skipped].map(|s| s.as_str()).to_vec());
+    let statuses = set([Status::Ok, Status::Budget, Status::NotConverged, Status::Failed, Status::Skipped]
+        .map(|s| s.as_str())
+        .to_vec());
     assert_eq!(first_cells(&page, "Status"), statuses);
     // a skipped run's stop_reason says `skipped`, a failed one's `error`
     let mut reasons = set(StopReason::ALL.iter().map(|r| r.as_str()).collect());
@@ -477,14 +478,14 @@ fn the_config_page_lists_every_solver_option_and_energy_parameter() {
     let energies_doc = rows("`[energy.<name>]`", "[energy.");
     for e in solvers::energy::ENERGY_NAMES {
         let mut accepted = accepted_options("param", "kp-newton", e, &format!("[energy.{e}]"));
-        accepted.retain(|k| !k.starts_with("smoothness"));
+        accepted.retain(|k| !k.starts_with("smoothness") && k != "start");
         let documented = energies_doc.get(*e).cloned().unwrap_or_default();
         assert_eq!(documented, accepted, "docs/src/reference/config.md: the parameters of [energy.{e}]");
         with_options += usize::from(!accepted.is_empty());
     }
     assert!(with_options >= 8, "the energies' parameters were not read");
-    let any: BTreeSet<String> = ["smoothness", "smoothness_projection"].map(String::from).into();
-    assert_eq!(energies_doc.get("*").cloned().unwrap_or_default(), any, "the smoothness keys of any energy");
+    let any: BTreeSet<String> = ["smoothness", "smoothness_projection", "start"].map(String::from).into();
+    assert_eq!(energies_doc.get("*").cloned().unwrap_or_default(), any, "the keys of any energy");
 }
 
 /// The long flags `mapbench VERB --help` lists; `None` when there is no such verb.

@@ -55,7 +55,7 @@ fn a_run_below_the_stored_reference_lowers_it_and_verdicts_do_not_depend_on_the_
     let plan = Plan::resolve(LoadedConfig::load(&all).unwrap(), &["fan__sd__kp-newton".to_string()]).unwrap();
     let problem = Problem::of(&plan, &plan.runs[0]).unwrap();
     let mut store = Store::read(&store_path).unwrap();
-    let key = mapbench::judge::reference::key(&plan, &plan.runs[0]).unwrap().unwrap();
+    let key = mapbench::judge::reference::key(&plan, &plan.runs[0]).unwrap();
     let e_star = store.entries[&key].e_star;
     let maps = store.maps();
     let worse = store.entries.get_mut(&key).unwrap();

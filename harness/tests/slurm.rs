@@ -32,7 +32,7 @@ fn a_dry_run_plans_balanced_shards_and_writes_the_scripts() {
     );
     assert!(o.status.success(), "{}", text(&o));
     let t = text(&o);
-    assert!(t.contains("180 runs of ci in 4 shards"), "{t}");
+    assert!(t.contains("216 runs of ci in 4 shards"), "{t}");
     assert!(t.contains("nothing submitted"), "{t}");
     let plan: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("slurm/shards.json")).unwrap()).unwrap();
@@ -40,10 +40,10 @@ fn a_dry_run_plans_balanced_shards_and_writes_the_scripts() {
     assert_eq!(shards.len(), 4);
     let mut all: Vec<&str> =
         shards.iter().flat_map(|s| s["runs"].as_array().unwrap().iter().map(|r| r["run"].as_str().unwrap())).collect();
-    assert_eq!(all.len(), 180);
+    assert_eq!(all.len(), 216);
     all.sort_unstable();
     all.dedup();
-    assert_eq!(all.len(), 180, "every run in one shard");
+    assert_eq!(all.len(), 216, "every run in one shard");
     let (bound, makespan) = (plan["lower_bound_s"].as_f64().unwrap(), plan["makespan_s"].as_f64().unwrap());
     assert!(makespan >= bound && makespan <= 1.05 * bound, "{makespan} against {bound}");
     let array = std::fs::read_to_string(out.join("slurm/array.sh")).unwrap();

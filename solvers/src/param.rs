@@ -1,7 +1,7 @@
 //! The `param` task: free-boundary isometric parameterization of a disk-topology surface
 //! from a Tutte initialization (complex-view paper, Section 6.1).
 
-use crate::energy::EnergyKind;
+use crate::energy::{EnergyKind, Sd};
 use crate::init::{global_scale, tutte, TutteBoundary};
 pub use crate::map_task::MapError;
 use crate::map_task::{checked_solver, map_problem};
@@ -9,7 +9,27 @@ use crate::mesh::{Mesh, Task};
 use crate::problem::MapProblem;
 use crate::smoothness::Projection;
 use crate::solver::catalogue::{lookup, Start};
-use crate::solver::{Observer, Outcome, Settings, StartMap, StopSettings};
+use crate::solver::{Observer, Outcome, RawOptions, Settings, StartMap, StopAt, StopSettings};
+
+/// Which map every solver of a `param` run starts from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ParamStart {
+    /// The Tutte map, globally scaled for the energies with the scaling rule (Section 4.2):
+    /// the papers' start.
+    #[default]
+    Tutte,
+    /// The SD minimum of the same problem (mesh, Tutte boundary, smoothness term), reached
+    /// by Newton from the Tutte start. An energy that grows like `exp(s SD)` overflows at the
+    /// Tutte map of most real meshes (an element there has an SD in the thousands); at the SD
+    /// minimum every element is near isometric, so every solver can start (exp-SD's start in
+    /// the harness: the book's numerics page, "Starts").
+    SdMinimum,
+}
+
+/// The stop rule of [`sd_minimum`]: a tight gradient tolerance and a long budget, so the
+/// chained start does not depend on how a batch stops its SD runs.
+pub const SD_MINIMUM_STOP: StopSettings = StopSettings { grad_tol: 1e-8, energy_decrease_tol: 0.0, max_iters: 5000 };
 
 /// Settings of a `param` run.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -22,6 +42,8 @@ pub struct ParamSettings {
     pub scaling_jump: f64,
     /// The smoothness term (Section 4.3): weight and projection of its 8x8 blocks.
     pub smoothness: Option<(f64, Projection)>,
+    /// Which map every solver starts from.
+    pub start: ParamStart,
 }
 
 /// design.md defaults: `|grad| <= 1e-3`, 1000 iterations, and the energy's own decrease
@@ -34,14 +56,16 @@ pub fn default_stop(energy: &EnergyKind) -> StopSettings {
 pub const DEFAULT_SCALING_JUMP: f64 = 0.1;
 
 impl ParamSettings {
-    /// design.md's settings for `energy`: [`default_stop`], the default line search and linear
-    /// solves, the uniform Tutte boundary, the paper's scaling jump, no smoothness term.
+    /// The papers' settings for `energy`: [`default_stop`], the default line search and linear
+    /// solves, the uniform Tutte boundary, the paper's scaling jump, no smoothness term, the
+    /// Tutte start.
     pub fn for_energy(energy: &EnergyKind) -> ParamSettings {
         ParamSettings {
             solver: Settings { stop: default_stop(energy), ..Settings::default() },
             tutte_boundary: TutteBoundary::Uniform,
             scaling_jump: DEFAULT_SCALING_JUMP,
             smoothness: None,
+            start: ParamStart::Tutte,
         }
     }
 }
@@ -55,11 +79,25 @@ pub fn solve_param(
     settings: &ParamSettings,
     observer: &mut dyn Observer,
 ) -> Result<Outcome, MapError> {
+    solve_param_with(mesh, energy, solver, settings, None, observer)
+}
+
+/// [`solve_param`] with the SD minimum of the problem when the caller has it (normalized
+/// frame; the harness keeps it as a reference): the start of [`ParamStart::SdMinimum`], which
+/// is computed ([`sd_minimum`]) when `None`. Ignored with the Tutte start.
+pub fn solve_param_with(
+    mesh: &Mesh,
+    energy: EnergyKind,
+    solver: &str,
+    settings: &ParamSettings,
+    sd_min: Option<&[f64]>,
+    observer: &mut dyn Observer,
+) -> Result<Outcome, MapError> {
     let built = checked_solver(mesh, Task::Param, &energy, solver, &settings.solver.options)?;
     let mesh = mesh.normalized();
     let problem = map_problem(&mesh, energy, built.smoothness_projection(), settings.smoothness)?;
     let own = lookup(solver, Task::Param)?.start;
-    let (x, start) = start_map(&mesh, &problem, own, settings)?;
+    let (x, start) = run_start(&mesh, &problem, own, settings, sd_min)?;
     let mut outcome = built
         .solve(&problem, x, &settings.solver, observer)
         .map_err(|err| MapError::Solve { source_name: mesh.source.clone(), err })?;
@@ -74,8 +112,9 @@ pub fn param_start(
     mesh: &Mesh,
     energy: EnergyKind,
     settings: &ParamSettings,
+    sd_min: Option<&[f64]>,
 ) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
-    common_start(mesh, energy, settings, None)
+    common_start(mesh, energy, settings, None, sd_min)
 }
 
 /// The problem a `param` run with `settings` is judged on (its energy with the smoothness
@@ -85,8 +124,9 @@ pub fn judged_problem(
     mesh: &Mesh,
     energy: EnergyKind,
     settings: &ParamSettings,
+    sd_min: Option<&[f64]>,
 ) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
-    common_start(mesh, energy, settings, settings.smoothness)
+    common_start(mesh, energy, settings, settings.smoothness, sd_min)
 }
 
 /// The checked mesh's problem with `smoothness` and its common start, normalized frame.
@@ -95,13 +135,50 @@ fn common_start(
     energy: EnergyKind,
     settings: &ParamSettings,
     smoothness: Option<(f64, crate::smoothness::Projection)>,
+    sd_min: Option<&[f64]>,
 ) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
     energy.check().map_err(MapError::Energy)?;
     crate::mesh::validate_for(mesh, Task::Param).into_result()?;
     let rest = mesh.normalized();
     let problem = map_problem(&rest, energy, None, smoothness)?;
-    let (x, start) = start_map(&rest, &problem, Start::Common, settings)?;
+    let (x, start) = run_start(&rest, &problem, Start::Common, settings, sd_min)?;
     Ok((problem, x, start))
+}
+
+/// The start of a run whose solver declares `own` ([`start_map`]), or the SD minimum with
+/// [`ParamStart::SdMinimum`] (`sd_min` when given, else computed), the same for every solver.
+fn run_start(
+    rest: &Mesh,
+    problem: &MapProblem,
+    own: Start,
+    settings: &ParamSettings,
+    sd_min: Option<&[f64]>,
+) -> Result<(Vec<f64>, StartMap), MapError> {
+    match (settings.start, sd_min) {
+        (ParamStart::Tutte, _) => start_map(rest, problem, own, settings),
+        (ParamStart::SdMinimum, Some(x)) if x.len() == 2 * rest.n_vertices() => Ok((x.to_vec(), StartMap::SdMinimum)),
+        (ParamStart::SdMinimum, Some(x)) => Err(MapError::BadInit {
+            source_name: rest.source.clone(),
+            detail: format!("the SD minimum has {} coordinates for {} vertices", x.len(), rest.n_vertices()),
+        }),
+        (ParamStart::SdMinimum, None) => Ok((sd_minimum(rest, settings)?, StartMap::SdMinimum)),
+    }
+}
+
+/// The SD minimum of the normalized mesh `rest` with the Tutte boundary, scaling jump and
+/// smoothness weight of `settings`: `kp-newton` from the common start with [`SD_MINIMUM_STOP`]
+/// and the batch's line search and linear settings. A run that does not reach the tolerance
+/// still gives its last map: a start, not a reference.
+pub fn sd_minimum(rest: &Mesh, settings: &ParamSettings) -> Result<Vec<f64>, MapError> {
+    let sd = EnergyKind::Sd(Sd);
+    let built = checked_solver(rest, Task::Param, &sd, "kp-newton", &RawOptions::new())?;
+    let problem = map_problem(rest, sd, built.smoothness_projection(), settings.smoothness)?;
+    let (x, _) = start_map(rest, &problem, Start::Common, settings)?;
+    let solver = Settings { stop: SD_MINIMUM_STOP, options: RawOptions::new(), ..settings.solver.clone() };
+    let out = built
+        .solve(&problem, x, &solver, &mut StopAt(usize::MAX))
+        .map_err(|err| MapError::Solve { source_name: rest.source.clone(), err })?;
+    Ok(out.x)
 }
 
 /// [`solve_param`] from the map `x` (normalized frame, one `u v` pair per vertex) instead of
@@ -172,7 +249,7 @@ mod tests {
         let energy = EnergyKind::Sd(Sd);
         let mut settings = ParamSettings::for_energy(&energy);
         settings.solver.stop.max_iters = 0;
-        let (problem, x, start) = param_start(&mesh, energy, &settings).unwrap();
+        let (problem, x, start) = param_start(&mesh, energy, &settings, None).unwrap();
         let mut rec = Recorder::default();
         let out = solve_param(&mesh, energy, "kp-newton", &settings, &mut rec).unwrap();
         assert_eq!((out.x, out.start), (x.clone(), Some(start)));
@@ -211,6 +288,44 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// exp-SD (s = 1) overflows at the Tutte map of strip_thin; from the SD minimum every
+    /// solver starts at one map, the one a caller brings is taken as it is, and the runs finish.
+    #[test]
+    fn exp_sd_starts_from_the_sd_minimum_where_the_tutte_map_overflows() {
+        use crate::energy::ExpSd;
+        let mesh = generate("strip_thin").unwrap();
+        let energy = EnergyKind::ExpSd(ExpSd { s: 1.0 });
+        let mut settings = ParamSettings::for_energy(&energy);
+        let err = solve_param(&mesh, energy, "kp-newton", &settings, &mut Recorder::default()).unwrap_err();
+        assert!(err.to_string().contains("non-finite"), "{err}");
+        settings.start = ParamStart::SdMinimum;
+        let rest = mesh.normalized();
+        let x_sd = sd_minimum(&rest, &settings).unwrap();
+        for solver in ["kp-newton", "kp-newton-noscale", "slim", "lbfgs"] {
+            let mut rec = Recorder::default();
+            let out = solve_param(&mesh, energy, solver, &settings, &mut rec).unwrap();
+            assert_eq!(out.start, Some(StartMap::SdMinimum), "{solver}");
+            let (problem, x0, _) = param_start(&mesh, energy, &settings, None).unwrap();
+            assert_eq!(x0, x_sd, "{solver}");
+            assert_eq!(rec.rows[0].energy.to_bits(), problem.energy(&x_sd).to_bits(), "{solver}");
+            assert!(out.final_energy.is_finite() && out.flips == 0 && out.final_energy <= rec.rows[0].energy);
+        }
+        // a given map is the start as it is (the harness brings the stored SD minimum)
+        let shifted: Vec<f64> = x_sd.iter().map(|v| v + 0.5).collect();
+        let mut rec = Recorder::default();
+        let out = solve_param_with(&mesh, energy, "kp-newton", &settings, Some(&shifted), &mut rec).unwrap();
+        let (problem, x0, start) = param_start(&mesh, energy, &settings, Some(&shifted)).unwrap();
+        assert_eq!((x0, start, out.start), (shifted.clone(), StartMap::SdMinimum, Some(StartMap::SdMinimum)));
+        assert_eq!(rec.rows[0].energy.to_bits(), problem.energy(&shifted).to_bits());
+        let Err(err) = param_start(&mesh, energy, &settings, Some(&shifted[2..])) else { panic!("a short map") };
+        assert!(err.to_string().contains("coordinates for"), "{err}");
+        // the SD minimum is one: its gradient is below the chained start's tolerance
+        let sd = crate::problem::MapProblem::new(&rest, EnergyKind::Sd(Sd)).unwrap();
+        let mut ev = crate::problem::Evaluation::default();
+        sd.evaluate_without_inertia(&x_sd, &mut ev).unwrap();
+        assert!(crate::problem::norm(&ev.grad) <= SD_MINIMUM_STOP.grad_tol, "{}", crate::problem::norm(&ev.grad));
     }
 
     /// The same surface drawn the other way round, lifted to z = 5, or in units of 1e300 (areas

@@ -7,7 +7,7 @@ use crate::linear::regularize;
 use crate::map_task::{map_problem, MapError};
 use crate::mesh::Mesh;
 use crate::mesh::Task;
-use crate::param::{solve_param, ParamSettings};
+use crate::param::{solve_param_with, ParamSettings};
 use crate::problem::Evaluation;
 use crate::solver::catalogue::lookup;
 use crate::solver::newton_system::{project_blocks, scatter};
@@ -35,14 +35,17 @@ pub struct NewtonSystem {
 /// next: the projected matrix after the Tikhonov shift and Jacobi scaling of
 /// `settings.solver.linear` ([`crate::linear::regularize`]; SPD, unlike the raw matrix, whose
 /// kernel holds the translations), and the right-hand side scaled to match, `-S grad`.
+/// `sd_min` is the SD minimum of a chained start, as the run is given it
+/// ([`crate::param::solve_param_with`]).
 pub fn param_system(
     mesh: &Mesh,
     energy: EnergyKind,
     solver: &str,
     settings: &ParamSettings,
+    sd_min: Option<&[f64]>,
     iteration: usize,
 ) -> Result<NewtonSystem, MapError> {
-    let out = solve_param(mesh, energy, solver, settings, &mut StopAt(iteration))?;
+    let out = solve_param_with(mesh, energy, solver, settings, sd_min, &mut StopAt(iteration))?;
     let spec = lookup(solver, Task::Param)?.newton_spec(Task::Param, &energy, &settings.solver.options)?;
     let mesh = mesh.normalized();
     // The run's own problem, smoothness term included: the matrix it factorizes.
@@ -125,6 +128,7 @@ mod tests {
     use crate::energy::Sd;
     use crate::linear::{LinearSettings, SpdSolver};
     use crate::ordering::Ordering;
+    use crate::param::solve_param;
 
     /// Keeps the system the solver factorizes at iteration `k`, then stops it.
     struct Capture {
@@ -159,7 +163,7 @@ mod tests {
         for (settings, k) in [(ParamSettings::for_energy(&e), 0), (smooth.clone(), 0), (smooth, 2)] {
             let mut run = Capture { k, system: None };
             solve_param(&mesh, e, "kp-newton", &settings, &mut run).unwrap();
-            let exported = param_system(&mesh, e, "kp-newton", &settings, k).unwrap();
+            let exported = param_system(&mesh, e, "kp-newton", &settings, None, k).unwrap();
             assert_eq!(Some(&exported), run.system.as_ref(), "iteration {k}");
             nnz.push(exported.values.len());
         }
@@ -172,7 +176,7 @@ mod tests {
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
         let e = EnergyKind::Sd(Sd);
         let settings = ParamSettings::for_energy(&e);
-        let sys = param_system(&mesh, e, "kp-newton", &settings, 2).unwrap();
+        let sys = param_system(&mesh, e, "kp-newton", &settings, None, 2).unwrap();
         assert_eq!(sys.iteration, 2);
         assert_eq!(sys.n, 2 * mesh.n_vertices());
         // the Newton direction from this system decreases the energy (descent), and the
@@ -197,12 +201,12 @@ mod tests {
     fn the_exported_system_carries_the_smoothness_term() {
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
         let e = EnergyKind::Sd(Sd);
-        let plain = param_system(&mesh, e, "kp-newton", &ParamSettings::for_energy(&e), 0).unwrap();
+        let plain = param_system(&mesh, e, "kp-newton", &ParamSettings::for_energy(&e), None, 0).unwrap();
         let settings = ParamSettings {
             smoothness: Some((0.25, crate::smoothness::Projection::Analytic)),
             ..ParamSettings::for_energy(&e)
         };
-        let smooth = param_system(&mesh, e, "kp-newton", &settings, 0).unwrap();
+        let smooth = param_system(&mesh, e, "kp-newton", &settings, None, 0).unwrap();
         assert_eq!((smooth.n, smooth.iteration), (plain.n, 0));
         assert!(smooth.values.len() > plain.values.len());
         assert_ne!(smooth.rhs, plain.rhs);

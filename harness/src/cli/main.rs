@@ -677,9 +677,10 @@ fn run_plan(
 /// The line `run` ends with: how the batch's runs ended and where the results are.
 fn say_batch(report: &run::BatchReport) {
     eprintln!(
-        "{} runs: {} ok, {} not converged, {} failed{}{}; results in {}",
+        "{} runs: {} ok, {}{} not converged, {} failed{}{}; results in {}",
         report.runs,
         report.ok,
+        if report.budget > 0 { format!("{} at their budget, ", report.budget) } else { String::new() },
         report.not_converged,
         report.failed,
         if report.skipped > 0 { format!(", {} skipped", report.skipped) } else { String::new() },
@@ -705,7 +706,7 @@ fn references(
     let signal = signals::on_interrupt(interrupt.clone());
     let mut plan = Plan::resolve(LoadedConfig::load(config)?, only)?;
     let Some(stores) = plan.references.as_mut() else {
-        anyhow::bail!("{}: an authalic config has no reference minima", config.display());
+        anyhow::bail!("{}: the config has no reference stores", config.display());
     };
     if let Some(p) = store {
         stores.store = p;

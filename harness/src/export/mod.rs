@@ -9,6 +9,7 @@ use crate::plan::{Plan, RunSettings, Task};
 use crate::run_folder::write_atomic;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 
 /// Write `<out>/<run>__it<K>.mtx` (lower triangle, symmetric) and `<run>__it<K>.rhs.mtx` for
 /// every run of the plan, with the settings `run` solves it with. Returns the matrix files. A run that stops before
@@ -21,8 +22,19 @@ pub fn export_systems(plan: &Plan, iteration: usize, out: &Path) -> Result<Vec<P
             bail!("run {}: not a param run", r.stem);
         };
         let mesh = plan.dataset(r).load()?;
-        let sys = solvers::system::param_system(&mesh, *energy, &r.solver, settings, iteration)
-            .with_context(|| format!("run {}", r.stem))?;
+        // A chained start is the run's: the stored SD minimum (computed and stored if missing).
+        let notice = |line: &str| eprintln!("{line}");
+        crate::judge::reference::chained::resolve(plan, r, &notice, &AtomicBool::new(false))?;
+        let sd_min = plan.starts.of(plan, r).transpose().map_err(|e| anyhow::anyhow!("run {}: {e}", r.stem))?;
+        let sys = solvers::system::param_system(
+            &mesh,
+            *energy,
+            &r.solver,
+            settings,
+            sd_min.as_deref().map(|x| &x[..]),
+            iteration,
+        )
+        .with_context(|| format!("run {}", r.stem))?;
         let path = out.join(format!("{}__it{}.mtx", r.stem, sys.iteration));
         write_atomic(&path, sys.matrix_market().as_bytes())?;
         write_atomic(&path.with_extension("rhs.mtx"), sys.rhs_matrix_market().as_bytes())?;
@@ -201,7 +213,7 @@ mod tests {
         assert_eq!(exported.values, own.values);
         // without the term the pattern is another one
         let plain = solvers::param::ParamSettings { smoothness: None, ..settings.clone() };
-        let other = solvers::system::param_system(&mesh, *energy, &run.solver, &plain, 0).unwrap();
+        let other = solvers::system::param_system(&mesh, *energy, &run.solver, &plain, None, 0).unwrap();
         assert!(other.values.len() < own.values.len(), "{} vs {}", other.values.len(), own.values.len());
     }
 }

@@ -98,6 +98,8 @@ pub enum Setup<'a> {
     Param {
         energy: EnergyKind,
         settings: &'a ParamSettings,
+        /// The SD minimum of a chained start (`judge::reference::chained`).
+        sd_min: Option<&'a [f64]>,
     },
     Deform {
         energy: EnergyKind,
@@ -113,8 +115,9 @@ impl Setup<'_> {
     /// and which start it is: what our solvers of the task get.
     fn problem(&self, mesh: &Mesh) -> Result<(Mesh, MapProblem, Vec<f64>, StartMap), String> {
         match self {
-            Setup::Param { energy, settings } => {
-                let (problem, x0, start) = param_start(mesh, *energy, settings).map_err(|e| format!("{e:#}"))?;
+            Setup::Param { energy, settings, sd_min } => {
+                let (problem, x0, start) =
+                    param_start(mesh, *energy, settings, *sd_min).map_err(|e| format!("{e:#}"))?;
                 Ok((mesh.normalized(), problem, x0, start))
             }
             Setup::Deform { energy, settings, handles, init } => {
@@ -127,7 +130,7 @@ impl Setup<'_> {
 
     fn task(&self) -> (Task, EnergyKind, StopSettings) {
         match self {
-            Setup::Param { energy, settings } => (Task::Param, *energy, settings.solver.stop),
+            Setup::Param { energy, settings, .. } => (Task::Param, *energy, settings.solver.stop),
             Setup::Deform { energy, settings, .. } => (Task::Deform, *energy, settings.solver.stop),
         }
     }

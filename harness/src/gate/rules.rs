@@ -126,7 +126,7 @@ impl Record {
         let mut r = self.clone();
         r.final_gap = Some(crate::convergence::gap_on(e, e_star, span));
         r.ref_energy = Some(e_star);
-        if matches!(self.status, Status::Ok | Status::NotConverged) {
+        if self.status.ran() {
             let solved = self.flips == Some(0) && crate::convergence::passes(e, e_star, span, tau);
             r.status = if solved { Status::Ok } else { Status::NotConverged };
         }

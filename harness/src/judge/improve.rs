@@ -7,7 +7,7 @@
 use super::problem::Problem;
 use super::reference::{self, compute, store::Book, BatchSource, GroupReference, Origin, Step, StepKind};
 use crate::plan::{Plan, PlannedRun};
-use crate::run_folder::{map, read_summary, Status};
+use crate::run_folder::{map, read_summary};
 use anyhow::{Context, Result};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -122,7 +122,7 @@ pub fn from_folders(plan: &Plan, groups: &[GroupReference], dirs: &[&Path]) -> R
     for dir in dirs {
         let rows = read_summary(dir).with_context(|| format!("{}: not a run folder", dir.display()))?;
         let meta = crate::run_folder::meta::Meta::read(dir).ok();
-        for r in rows.iter().filter(|r| matches!(r.status, Status::Ok | Status::NotConverged) && r.flips == Some(0)) {
+        for r in rows.iter().filter(|r| r.status.ran() && r.flips == Some(0)) {
             let Some(group) = groups.iter().find(|g| g.dataset == r.dataset && g.energy == r.energy) else { continue };
             let Some(last) = r.final_energy.filter(|e| e.is_finite()) else { continue };
             if !below(group.e_star.unwrap_or(f64::INFINITY), last) {

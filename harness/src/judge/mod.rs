@@ -14,7 +14,6 @@ pub mod reference;
 pub mod verdict;
 
 use crate::convergence;
-use crate::plan::Task;
 use crate::run_folder::summary::{RefSource, ToTarget};
 use crate::run_folder::{read_run, Status, SummaryRow};
 use anyhow::Result;
@@ -78,7 +77,7 @@ pub fn judge_batch(
     // Each run's energies and cumulative iteration times, for the runs that ran.
     let mut series: Vec<Option<(Vec<f64>, Vec<f64>)>> = Vec::with_capacity(rows.len());
     for r in rows.iter() {
-        let ran = r.task != Task::Authalic && matches!(r.status, Status::Ok | Status::NotConverged);
+        let ran = r.status.ran();
         series.push(if ran {
             let file = read_run(dir, r)?;
             Some((file.rows.iter().map(|x| x.energy).collect(), file.rows.iter().map(|x| x.t_cum_s).collect()))
@@ -87,7 +86,7 @@ pub fn judge_batch(
         });
     }
     let mut groups: Vec<(String, String)> = Vec::new();
-    for r in rows.iter().filter(|r| r.task != Task::Authalic) {
+    for r in rows.iter() {
         if !groups.iter().any(|(d, e)| *d == r.dataset && *e == r.energy) {
             groups.push((r.dataset.clone(), r.energy.clone()));
         }
@@ -123,12 +122,6 @@ pub fn judge_batch(
             let span = stick.span(run_e0);
             judge_run(r, energies, t_cum, &stick, span, last, targets, grad_tol(&r.energy));
         }
-    }
-    // Runs of an authalic batch: their own rule.
-    for r in
-        rows.iter_mut().filter(|r| r.task == Task::Authalic && matches!(r.status, Status::Ok | Status::NotConverged))
-    {
-        r.verdict = Some(Verdict::OwnRule);
     }
     Ok(())
 }
@@ -178,7 +171,11 @@ fn judge_run(
         loosest,
     });
     r.verdict = Some(v);
-    r.status = if v == Verdict::Solved { Status::Ok } else { Status::NotConverged };
+    r.status = match v {
+        Verdict::Solved => Status::Ok,
+        _ if r.status == Status::Budget => Status::Budget,
+        _ => Status::NotConverged,
+    };
 }
 
 #[cfg(test)]
@@ -200,7 +197,7 @@ mod tests {
         std::fs::write(path, iteration_csv(&rows, 0.0, None, None).unwrap()).unwrap();
         SummaryRow {
             dataset: "d".into(),
-            task: Task::Param,
+            task: crate::plan::Task::Param,
             energy: "sd".into(),
             solver: s.into(),
             iterations: Some(energies.len() - 1),

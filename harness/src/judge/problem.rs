@@ -1,24 +1,34 @@
-//! The problem a run of a `param` or `deform` batch is judged on, built once from the plan:
-//! its mesh (and handles), the energy with the smoothness term and the handles' penalty, the
+//! The problem a run of a batch is judged on, built once from the plan: its mesh (and
+//! handles), the energy with the smoothness term and the handles' penalty (`param`,
+//! `deform`) or the normalized authalic energy on the disk scaled to area pi (`authalic`), the
 //! common start, and the energy's isometry value. The reference minima are computed, polished
 //! and verified on it, and a run's final map is polished on it to confirm another minimum.
 
 use crate::plan::{Plan, PlannedRun, RunSettings, Task};
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
+use solvers::authalic::{AuthalicProblem, AuthalicSettings};
 use solvers::energy::EnergyKind;
 use solvers::mesh::Mesh;
 use solvers::problem::{norm, Evaluation, MapProblem};
 use solvers::solver::{Observer, Outcome, StartMap, StopSettings};
 
+/// What a judged problem minimizes.
+pub enum Objective {
+    /// `param`, `deform`: the energy with the smoothness term (and the handles' penalty),
+    /// normalized frame.
+    Map { energy: EnergyKind, problem: MapProblem },
+    /// `authalic`: the normalized authalic energy of Eq. 4 (its value at an area-preserving
+    /// map, 0, is its lower bound).
+    Authalic { problem: Box<AuthalicProblem>, settings: AuthalicSettings },
+}
+
 /// A judged problem: what determines a group's reference minimum and its yardstick.
 pub struct Problem {
     /// The dataset's mesh as loaded (the maps' checksum names it).
     pub mesh: Mesh,
-    energy: EnergyKind,
     settings: RunSettings,
     handles: Vec<solvers::deform::Handle>,
-    /// The energy with the smoothness term (and the handles' penalty), normalized frame.
-    pub problem: MapProblem,
+    pub objective: Objective,
     /// The common start, interleaved `u0 v0 u1 v1 ...` in the normalized frame.
     pub x0: Vec<f64>,
     pub start: StartMap,
@@ -46,9 +56,33 @@ impl Problem {
     /// [`Problem::of`] with the dataset's mesh already loaded.
     pub fn with_mesh(plan: &Plan, run: &PlannedRun, mesh: Mesh) -> Result<Problem> {
         let ds = plan.dataset(run);
+        if let RunSettings::Authalic(settings) = &run.settings {
+            let (problem, x0) = solvers::authalic::authalic_start(&mesh, settings)?;
+            let e0 = problem.terms(&problem.vars_of(&x0)).energy;
+            if !e0.is_finite() {
+                bail!("{}: the common start's energy is {e0}", mesh.source);
+            }
+            return Ok(Problem {
+                mesh,
+                settings: run.settings.clone(),
+                handles: Vec::new(),
+                objective: Objective::Authalic { problem: Box::new(problem), settings: *settings },
+                x0,
+                start: StartMap::ArclengthStretch,
+                e0,
+                ideal: 0.0,
+            });
+        }
         let (energy, handles, built) = match &run.settings {
             RunSettings::Param { energy, settings } => {
-                (*energy, Vec::new(), solvers::param::judged_problem(&mesh, *energy, settings)?)
+                // resolved by `reference::chained::resolve` (`reference::prepare`) before the runs
+                let sd_min = plan
+                    .starts
+                    .of(plan, run)
+                    .transpose()
+                    .map_err(|e| anyhow!("{}: the sd-minimum start: {e}", ds.name))?;
+                let built = solvers::param::judged_problem(&mesh, *energy, settings, sd_min.as_ref().map(|x| &x[..]))?;
+                (*energy, Vec::new(), built)
             }
             RunSettings::Deform { energy, settings } => {
                 let handles = ds.handles.load(&mesh)?;
@@ -56,7 +90,7 @@ impl Problem {
                 let built = solvers::deform::deform_start(&mesh, &handles, init.as_deref(), *energy, settings)?;
                 (*energy, handles, built)
             }
-            RunSettings::Authalic(_) => bail!("the authalic task has no reference minima"),
+            RunSettings::Authalic(_) => bail!("{}: the authalic problem is made above", mesh.source),
         };
         let (problem, x0, start) = built;
         let e0 = problem.energy(&x0);
@@ -65,10 +99,9 @@ impl Problem {
         }
         Ok(Problem {
             mesh,
-            energy,
             settings: run.settings.clone(),
             handles,
-            problem,
+            objective: Objective::Map { energy, problem },
             x0,
             start,
             e0,
@@ -82,15 +115,36 @@ impl Problem {
 
     /// Energy, gradient norm and flips of the map `x` (normalized frame).
     pub fn measure(&self, x: &[f64]) -> Measured {
-        let energy = self.problem.energy(x);
-        let grad_norm = energy
-            .is_finite()
-            .then(|| {
-                let mut ev = Evaluation::default();
-                self.problem.evaluate_without_inertia(x, &mut ev).ok().map(|()| norm(&ev.grad))
-            })
-            .flatten();
-        Measured { energy, grad_norm, flips: self.problem.flips(x) }
+        match &self.objective {
+            Objective::Map { problem, .. } => {
+                let energy = problem.energy(x);
+                let grad_norm = energy
+                    .is_finite()
+                    .then(|| {
+                        let mut ev = Evaluation::default();
+                        problem.evaluate_without_inertia(x, &mut ev).ok().map(|()| norm(&ev.grad))
+                    })
+                    .flatten();
+                Measured { energy, grad_norm, flips: problem.flips(x) }
+            }
+            Objective::Authalic { problem, .. } => {
+                let (terms, grad) = problem.terms_and_gradient(&problem.vars_of(x));
+                let grad_norm = terms.energy.is_finite().then(|| norm(&grad));
+                // A map whose boundary leaves its loop's order is no map of the disk: at least
+                // one face folds.
+                let folded =
+                    if problem.boundary_ordered(&problem.vars_of(x)) { terms.folded } else { terms.folded.max(1) };
+                Measured { energy: terms.energy, grad_norm, flips: folded }
+            }
+        }
+    }
+
+    /// The energy of the map `x`.
+    pub fn energy_of(&self, x: &[f64]) -> f64 {
+        match &self.objective {
+            Objective::Map { problem, .. } => problem.energy(x),
+            Objective::Authalic { problem, .. } => problem.terms(&problem.vars_of(x)).energy,
+        }
     }
 
     /// Solve with the catalogue's `solver` (its default options) from the map `x` with the
@@ -120,20 +174,35 @@ impl Problem {
                 solvers::deform::solve_deform_from(&self.mesh, &self.handles, *energy, solver, &settings, x, observer)
                     .with_context(|| format!("{name}: {solver}"))?
             }
-            RunSettings::Authalic(_) => bail!("the authalic task has no reference minima"),
+            RunSettings::Authalic(_) => {
+                let Objective::Authalic { problem, settings } = &self.objective else { bail!("{name}: not authalic") };
+                let settings = AuthalicSettings { stop, ..*settings };
+                solvers::authalic::solve_authalic_from(problem, solver, &settings, &x, observer)
+                    .with_context(|| format!("{name}: {solver}"))?
+                    .outcome
+            }
         })
     }
 
-    /// The energy's kind.
-    pub fn energy(&self) -> EnergyKind {
-        self.energy
+    /// Whether the energy is smooth (its reference is certified by a small gradient; SARAP's
+    /// and the authalic energy's, whose minimum the boundary's order may hold, by a stall).
+    pub fn smooth(&self) -> bool {
+        match &self.objective {
+            Objective::Map { energy, .. } => energy.smooth(),
+            Objective::Authalic { .. } => false,
+        }
     }
 
     /// Whether the catalogue's `solver` is defined for this problem's task and energy.
     pub fn defines(&self, solver: &str) -> bool {
         let task = self.task();
-        solvers::solver::catalogue::lookup(solver, task)
-            .is_ok_and(|e| e.skip_reason(task, &self.energy(), &solvers::solver::RawOptions::new()).is_none())
+        let Ok(entry) = solvers::solver::catalogue::lookup(solver, task) else { return false };
+        match &self.objective {
+            Objective::Map { energy, .. } => {
+                entry.skip_reason(task, energy, &solvers::solver::RawOptions::new()).is_none()
+            }
+            Objective::Authalic { .. } => true,
+        }
     }
 }
 

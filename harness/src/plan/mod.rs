@@ -11,6 +11,7 @@ pub mod registry;
 pub mod select;
 pub mod settings;
 pub mod shard_plan;
+pub mod starts;
 
 use anyhow::{bail, Context, Result};
 use config::LoadedConfig;
@@ -80,6 +81,8 @@ pub struct Plan {
     pub targets: Vec<f64>,
     /// Where reference minima are looked up and added (`param`, `deform`).
     pub references: Option<paths::Stores>,
+    /// The chained starts resolved so far (`judge::reference::chained`).
+    pub starts: starts::Starts,
 }
 
 impl Plan {
@@ -136,10 +139,9 @@ impl Plan {
         let repeat = c.repeat.unwrap_or(1);
         config::check_repeat(repeat).with_context(invalid)?;
         let history = Some(paths::resolve_path(c.history.as_deref(), &cfg.dir));
-        let judged = c.task != Task::Authalic;
-        let mut targets = if judged { c.targets.clone().unwrap_or(config::DEFAULT_TARGETS.to_vec()) } else { vec![] };
+        let mut targets = c.targets.clone().unwrap_or(config::DEFAULT_TARGETS.to_vec());
         targets.sort_by(|a, b| b.total_cmp(a));
-        let references = judged.then(|| paths::Stores::of(&cfg));
+        let references = Some(paths::Stores::of(&cfg));
         Ok(Plan {
             targets,
             references,
@@ -155,6 +157,7 @@ impl Plan {
             runs,
             only: only.to_vec(),
             timeout,
+            starts: starts::Starts::default(),
         })
     }
 

@@ -5,7 +5,7 @@ use solvers::authalic::AuthalicSettings;
 use solvers::deform::DeformSettings;
 use solvers::energy::EnergyKind;
 use solvers::mesh::Task;
-use solvers::param::ParamSettings;
+use solvers::param::{ParamSettings, ParamStart};
 use solvers::solver::{RawOptions, StopSettings};
 use std::collections::BTreeMap;
 
@@ -85,23 +85,33 @@ impl RunSettings {
     }
 
     /// What determines the minimum a run's problem has from its start, as JSON for its
-    /// reference key: the energy with its parameters, the start's settings (`param`), the
-    /// handles' penalty weight (`deform`) and the smoothness term's weight (not how a solver
-    /// projects it). `None` for the authalic task, which has no reference.
-    pub fn problem_key_text(&self) -> Option<String> {
+    /// reference key: the energy with its parameters, the start's settings (`param`; the
+    /// chained start named only where it is one, so the Tutte start's keys stay; `authalic`:
+    /// its stretch steps), the handles' penalty weight (`deform`) and the smoothness term's
+    /// weight (not how a solver projects it).
+    pub fn problem_key_text(&self) -> String {
         let weight = |s: &Option<(f64, solvers::smoothness::Projection)>| s.map(|(w, _)| w);
         let v = match self {
-            RunSettings::Param { energy, settings } => serde_json::json!({
-                "task": "param", "energy": energy, "tutte_boundary": settings.tutte_boundary,
-                "scaling_jump": settings.scaling_jump, "smoothness": weight(&settings.smoothness),
-            }),
+            RunSettings::Param { energy, settings } => {
+                let mut v = serde_json::json!({
+                    "task": "param", "energy": energy, "tutte_boundary": settings.tutte_boundary,
+                    "scaling_jump": settings.scaling_jump, "smoothness": weight(&settings.smoothness),
+                });
+                if settings.start != ParamStart::Tutte {
+                    v["start"] = serde_json::json!(settings.start);
+                }
+                v
+            }
             RunSettings::Deform { energy, settings } => serde_json::json!({
                 "task": "deform", "energy": energy, "lambda": settings.lambda,
                 "smoothness": weight(&settings.smoothness),
             }),
-            RunSettings::Authalic(_) => return None,
+            // The problem is the disk's; the start is its stretch steps.
+            RunSettings::Authalic(settings) => serde_json::json!({
+                "task": "authalic", "init_steps": settings.init_steps,
+            }),
         };
-        Some(v.to_string())
+        v.to_string()
     }
 
     /// Everything that determines the run's result, as JSON for its `--resume` key: every

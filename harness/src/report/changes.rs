@@ -80,7 +80,7 @@ fn solved_count(runs: &[RunRow], solver: &str) -> Option<(usize, usize)> {
 /// without a final energy had a NaN one, and reads back as such (as `check` and `compare`
 /// read it from `summary.csv`).
 pub fn record(r: &RunRow) -> Record {
-    let ran = matches!(r.status, Status::Ok | Status::NotConverged);
+    let ran = r.status.ran();
     Record {
         dataset: r.dataset.clone(),
         task: r.task,

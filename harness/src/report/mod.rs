@@ -215,7 +215,7 @@ fn skipped(r: &SummaryRow) -> bool {
 
 /// The run ran to a stop (converged or not): it has iterations, curves and a map to show.
 fn finished(r: &SummaryRow) -> bool {
-    matches!(r.status, Status::Ok | Status::NotConverged)
+    r.status.ran()
 }
 
 /// The run converged (other finished runs are marked `*` or drawn dashed).

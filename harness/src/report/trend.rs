@@ -36,7 +36,7 @@ struct ConfigHistory {
 
 /// The runs a trend counts: those that ran to a stop (converged or not), as the report's means.
 fn counted(r: &RunRow) -> bool {
-    matches!(r.status, Status::Ok | Status::NotConverged) && r.iterations.is_some()
+    r.status.ran() && r.iterations.is_some()
 }
 
 /// Which time a trend shows: `time_norm` when every counted run of the plot has one (it

@@ -89,6 +89,7 @@ impl Finisher<'_> {
         match s.status {
             Status::Ok => report.ok += 1,
             Status::NotConverged => report.not_converged += 1,
+            Status::Budget => report.budget += 1,
             Status::Failed => report.failed += 1,
             Status::Skipped => report.skipped += 1,
         }
@@ -176,11 +177,12 @@ pub(super) fn judge_and_write(
     if let Some(line) = super::verdict_line(&judged, &plan.targets) {
         progress.notice(&line);
     }
-    (report.ok, report.not_converged) = (0, 0);
+    (report.ok, report.not_converged, report.budget) = (0, 0, 0);
     for (f, j) in finished.iter_mut().zip(judged) {
         match j.status {
             Status::Ok => report.ok += 1,
             Status::NotConverged => report.not_converged += 1,
+            Status::Budget => report.budget += 1,
             Status::Failed | Status::Skipped => {}
         }
         f.summary = j;

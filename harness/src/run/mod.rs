@@ -45,6 +45,8 @@ pub struct BatchReport {
     pub runs: usize,
     pub ok: usize,
     pub not_converged: usize,
+    /// Runs of a fixed-budget protocol that spent it (`Status::Budget`).
+    pub budget: usize,
     pub failed: usize,
     /// Pairs outside a solver's declared energies: not run.
     pub skipped: usize,
@@ -520,7 +522,7 @@ fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done
                             }
                             // What the final map says, once (a repeat reproduces it), untimed.
                             if let (Some(x), Ok(mesh)) = (result.final_x.take(), loaded.mesh.as_ref()) {
-                                let ran = matches!(result.summary.status, Status::Ok | Status::NotConverged);
+                                let ran = result.summary.status.ran();
                                 if round == 0 && ran {
                                     let group =
                                         references.iter().find(|g| g.dataset == ds.name && g.energy == p.energy);
@@ -602,10 +604,10 @@ fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String 
         s.energy,
         s.solver,
         if resumed { "resumed, " } else { "" },
-        // The harness judges param and deform runs once the batch is over: until then a run
-        // has only its own rule's word.
-        match (s.task, s.status) {
-            (crate::plan::Task::Authalic, st) | (_, st @ (Status::Failed | Status::Skipped)) => st.as_str(),
+        // The harness judges the runs once the batch is over: until then a run has only its
+        // own rule's word (a spent budget stays what it is unless the run is solved).
+        match s.status {
+            st @ (Status::Failed | Status::Skipped | Status::Budget) => st.as_str(),
             _ => "ran",
         },
         match (&s.iterations, &s.final_energy, &s.time_s) {

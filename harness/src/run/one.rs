@@ -13,7 +13,7 @@ use solvers::authalic::{solve_authalic, AreaMetrics};
 use solvers::deform::solve_deform;
 use solvers::linear::AnalysisCache;
 use solvers::mesh::Mesh;
-use solvers::param::solve_param;
+use solvers::param::solve_param_with;
 use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
 use std::panic::AssertUnwindSafe;
 use std::path::Path;
@@ -63,8 +63,8 @@ pub(super) struct RunResult {
     /// Skipped for want of something on this machine (an external solver's program or
     /// package): no `--resume` key, so the run runs once it is installed.
     pub unkeyed: bool,
-    /// The final map (normalized frame) of a `param` or `deform` run, until the worker has
-    /// looked at it (`judge::confirm`).
+    /// The final map (normalized frame; `authalic`: the image on the unit disk), until the
+    /// worker has looked at it (`judge::confirm`).
     pub final_x: Option<Vec<f64>>,
     /// The run's map that ended below its group's reference (`judge::improve`).
     pub candidate: Option<crate::judge::improve::Candidate>,
@@ -146,12 +146,11 @@ pub(super) fn run_one(
         );
         return fail(summary, what);
     }
-    let authalic = metrics.is_some();
     record_outcome(&mut summary, &outcome, metrics, &rows, elapsed, run, mesh);
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &outcome.x));
     // A timeout is a result (stop_reason = timeout); an interrupt of the batch is not.
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
-    let final_x = (!authalic).then_some(outcome.x);
+    let final_x = Some(outcome.x);
     RunResult { summary, rows, map_uv, interrupted, final_x, ..Default::default() }
 }
 
@@ -185,9 +184,19 @@ fn run_external(
     if let Some(why) = ctx.probes.iter().find(|p| p.name == run.solver).and_then(|p| p.unavailable.clone()) {
         return skip(summary, why);
     }
-    let (handles, init);
+    let (handles, init, sd_min);
     let setup = match &run.settings {
-        RunSettings::Param { energy, settings } => Setup::Param { energy: *energy, settings },
+        RunSettings::Param { energy, settings } => {
+            sd_min = match plan.starts.of(plan, run).transpose() {
+                Ok(x) => x,
+                Err(e) => {
+                    summary.status = Status::Failed;
+                    summary.error = format!("the sd-minimum start: {e}");
+                    return result(summary, Vec::new());
+                }
+            };
+            Setup::Param { energy: *energy, settings, sd_min: sd_min.as_ref().map(|x| &x[..]) }
+        }
         RunSettings::Deform { energy, settings } => {
             // As for ours: a bad mesh fails with validate's reason, not the handle rule's.
             let loaded = solvers::mesh::validate_for(mesh, solvers::mesh::Task::Deform)
@@ -288,7 +297,11 @@ fn record_outcome(
     summary.shifted_iters = run.settings.base_shift().map(|base| shifted_iters(base, rows));
     summary.clamped_iters = marked_iters(rows, solvers::hessian::slim::CLAMPED_COLUMN[0]);
     summary.cg_capped_iters = marked_iters(rows, solvers::solver::truncated::CG_CAPPED_COLUMN);
-    summary.status = if summary.converged { Status::Ok } else { Status::NotConverged };
+    summary.status = match &outcome.stop_reason {
+        _ if summary.converged => Status::Ok,
+        StopReason::MaxIterations if run.settings.stop().is_fixed_budget() => Status::Budget,
+        _ => Status::NotConverged,
+    };
     summary.error = match &outcome.stop_reason {
         StopReason::LinearSolveFailed(d) | StopReason::NonFinite(d) => format!("{}: {d}", mesh.source),
         _ => String::new(),
@@ -364,9 +377,12 @@ fn solve(
             Ok((out.outcome, Some(out.metrics)))
         }
         RunSettings::Param { energy, settings } => {
+            let sd_min =
+                plan.starts.of(plan, run).transpose().map_err(|e| anyhow::anyhow!("the sd-minimum start: {e}"))?;
             let mut settings = settings.clone();
             settings.solver.analyses = Some(analyses.clone());
-            Ok((solve_param(mesh, *energy, &run.solver, &settings, rows)?, None))
+            let out = solve_param_with(mesh, *energy, &run.solver, &settings, sd_min.as_ref().map(|x| &x[..]), rows)?;
+            Ok((out, None))
         }
         RunSettings::Deform { energy, settings } => {
             // Handle rules pick vertices by position: check the mesh first, so a bad mesh fails

@@ -67,7 +67,7 @@ impl Repeats {
 
     /// A run may be repeated: it ran (converged or not), and its repeats agreed so far.
     pub fn wanted(first: &RunResult) -> bool {
-        matches!(first.summary.status, Status::Ok | Status::NotConverged) && first.summary.time_s.is_some()
+        first.summary.status.ran() && first.summary.time_s.is_some()
     }
 
     /// Add repeat `again` of the run whose first result is `first`; a repeat whose iterates

@@ -44,7 +44,7 @@ pub fn best_of_group(runs: &[&SummaryRow]) -> Option<usize> {
     let rank = |r: &SummaryRow| (r.status != Status::Ok, r.final_energy.filter(|e| e.is_finite()));
     let mut best: Option<usize> = None;
     for (i, r) in runs.iter().enumerate() {
-        if !matches!(r.status, Status::Ok | Status::NotConverged) {
+        if !r.status.ran() {
             continue;
         }
         let better = match best {
@@ -71,10 +71,10 @@ pub fn best_of_group(runs: &[&SummaryRow]) -> Option<usize> {
 /// `best` keeps besides the best of each group (`maps_keep`).
 pub fn kept(maps: Maps, also: &[String], rows: &[SummaryRow]) -> Vec<bool> {
     match maps {
-        Maps::All => rows.iter().map(|r| matches!(r.status, Status::Ok | Status::NotConverged)).collect(),
+        Maps::All => rows.iter().map(|r| r.status.ran()).collect(),
         Maps::None => vec![false; rows.len()],
         Maps::Best => {
-            let finished = |r: &SummaryRow| matches!(r.status, Status::Ok | Status::NotConverged);
+            let finished = |r: &SummaryRow| r.status.ran();
             let mut keep: Vec<bool> = rows.iter().map(|r| finished(r) && also.contains(&r.solver)).collect();
             let mut groups: Vec<(&str, &str)> = Vec::new();
             for r in rows {

@@ -125,6 +125,11 @@ pub enum Status {
     /// It ran, but no stop rule of convergence was met (iteration limit, timeout, line
     /// search failure, ...).
     NotConverged,
+    /// It ran the fixed budget its config asks for: a protocol without a tolerance stop
+    /// (`grad_tol = 0` and no energy-decrease rule, the AEM paper's 100 iterations) whose run
+    /// reached `max_iters`. A result at the budget, compared by its final values; a judged
+    /// run within the tightest target is `ok` all the same.
+    Budget,
     /// It converged.
     Ok,
 }
@@ -134,19 +139,26 @@ impl Status {
         match self {
             Status::Failed => "failed",
             Status::NotConverged => "not_converged",
+            Status::Budget => "budget",
             Status::Ok => "ok",
             Status::Skipped => "skipped",
         }
+    }
+
+    /// Whether the run ran to an end of its own (ok, not converged or its budget spent): it has
+    /// a final map, iterations and times.
+    pub fn ran(self) -> bool {
+        matches!(self, Status::Ok | Status::NotConverged | Status::Budget)
     }
 }
 
 impl std::str::FromStr for Status {
     type Err = String;
     fn from_str(s: &str) -> Result<Status, String> {
-        [Status::Failed, Status::NotConverged, Status::Ok, Status::Skipped]
+        [Status::Failed, Status::NotConverged, Status::Budget, Status::Ok, Status::Skipped]
             .into_iter()
             .find(|x| x.as_str() == s)
-            .ok_or_else(|| format!("unknown status '{s}' (known: ok, not_converged, failed, skipped)"))
+            .ok_or_else(|| format!("unknown status '{s}' (known: ok, budget, not_converged, failed, skipped)"))
     }
 }
 

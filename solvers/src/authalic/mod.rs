@@ -26,7 +26,7 @@ pub use iterate::AUTHALIC_COLUMNS;
 pub(crate) use iterate::{finished, AuthalicIterate, Extras};
 use laplacian::{stretch_weights, LaplacianPattern, SubBlock};
 use rayon::prelude::*;
-pub use solve::solve_authalic;
+pub use solve::{authalic_start, solve_authalic, solve_authalic_from};
 use std::f64::consts::PI;
 
 /// Faces per parallel chunk (fixed: sums do not depend on the thread count).
@@ -82,6 +82,14 @@ pub enum AuthalicError {
         source_name: String,
         /// Which variable of `z` (`variable <i>`).
         what: String,
+    },
+    /// A map given to start from does not fit the mesh.
+    #[error("{source_name}: the given map: {detail}")]
+    BadMap {
+        /// The mesh source.
+        source_name: String,
+        /// What is wrong with it.
+        detail: String,
     },
 }
 

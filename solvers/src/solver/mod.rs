@@ -339,6 +339,12 @@ pub struct StopSettings {
 }
 
 impl StopSettings {
+    /// A fixed-budget protocol: no tolerance rule, so every run that goes on takes
+    /// `max_iters` steps (the AEM paper's Table 1, 100 iterations).
+    pub fn is_fixed_budget(&self) -> bool {
+        self.grad_tol == 0.0 && self.energy_decrease_tol == 0.0
+    }
+
     /// The stop rules the executor checks before an iteration, in this order:
     /// `|grad| <= grad_tol`, then the last accepted step's decrease `< energy_decrease_tol`
     /// (`last_decrease` is infinite before the first step), then `iter >= max_iters`. A
@@ -442,12 +448,21 @@ pub enum StartMap {
     /// `authalic`: the arc-length boundary on the unit circle and the fixed-boundary stretch
     /// steps.
     ArclengthStretch,
+    /// `param`: the SD minimum of the same problem (exp-SD's chained start,
+    /// [`crate::param::ParamStart::SdMinimum`]).
+    SdMinimum,
 }
 
 impl StartMap {
     /// Every start map (parsing, listings).
-    pub const ALL: [StartMap; 5] =
-        [StartMap::TutteScaled, StartMap::Tutte, StartMap::Rest, StartMap::Given, StartMap::ArclengthStretch];
+    pub const ALL: [StartMap; 6] = [
+        StartMap::TutteScaled,
+        StartMap::Tutte,
+        StartMap::Rest,
+        StartMap::Given,
+        StartMap::ArclengthStretch,
+        StartMap::SdMinimum,
+    ];
 
     /// The `start` column's string.
     pub fn as_str(self) -> &'static str {
@@ -457,6 +472,7 @@ impl StartMap {
             StartMap::Rest => "rest",
             StartMap::Given => "given",
             StartMap::ArclengthStretch => "arclength-stretch",
+            StartMap::SdMinimum => "sd-minimum",
         }
     }
 }

@@ -45,6 +45,21 @@ pub const POLISH_BUDGET: usize = 1000;
 pub const POLISH: &str = "kp-newton";
 pub const SECOND: &str = "lbfgs-laplacian";
 
+/// The authalic task's methods: the safeguarded AEM-CG (Armijo and fold guard) and the
+/// faithful one from the start, the safeguarded one polishes, SEM's fixed point (another
+/// family) is the certificate's second method.
+pub const AUTHALIC_PORTFOLIO: [&str; 2] = ["aem-cg-safe", "aem-cg"];
+pub const AUTHALIC_POLISH: &str = "aem-cg-safe";
+pub const AUTHALIC_SECOND: &str = "sem";
+
+/// The portfolio, the polish and the certificate's second method of `problem`'s task.
+fn methods(problem: &Problem) -> (&'static [&'static str], &'static str, &'static str) {
+    match problem.objective {
+        crate::judge::problem::Objective::Map { .. } => (&PORTFOLIO, POLISH, SECOND),
+        crate::judge::problem::Objective::Authalic { .. } => (&AUTHALIC_PORTFOLIO, AUTHALIC_POLISH, AUTHALIC_SECOND),
+    }
+}
+
 /// Iterations of each certifying polish for a smooth energy, and for SARAP's.
 pub const WINDOW: usize = 200;
 pub const LONG_WINDOW: usize = 500;
@@ -152,7 +167,8 @@ fn solve(
 pub fn search(problem: &Problem, notice: &dyn Fn(&str), interrupt: &AtomicBool) -> Result<Found> {
     let mut best: Option<Found> = None;
     let mut steps = Vec::new();
-    for solver in PORTFOLIO.iter().filter(|s| problem.defines(s)) {
+    let (portfolio, _, _) = methods(problem);
+    for solver in portfolio.iter().filter(|s| problem.defines(s)) {
         notice(&format!("{solver} from the common start (at most {BUDGET} iterations)"));
         let (step, x, _) =
             solve(problem, StepKind::Portfolio, solver, "common start", problem.x0.clone(), BUDGET, interrupt)?;
@@ -173,9 +189,10 @@ pub fn search(problem: &Problem, notice: &dyn Fn(&str), interrupt: &AtomicBool) 
 
 /// Polish `found` with Newton ([`POLISH`], [`POLISH_BUDGET`] iterations), keeping the lower map.
 pub fn polish(problem: &Problem, mut found: Found, notice: &dyn Fn(&str), interrupt: &AtomicBool) -> Result<Found> {
-    notice(&format!("{POLISH} polish from {:.12}", found.energy));
+    let (_, polisher, _) = methods(problem);
+    notice(&format!("{polisher} polish from {:.12}", found.energy));
     let (step, x, _) =
-        solve(problem, StepKind::Polish, POLISH, "the kept map", found.x.clone(), POLISH_BUDGET, interrupt)?;
+        solve(problem, StepKind::Polish, polisher, "the kept map", found.x.clone(), POLISH_BUDGET, interrupt)?;
     let energy = step.energy;
     found.steps.push(step);
     if let Some(x) = x.filter(|_| energy < found.energy) {
@@ -194,7 +211,8 @@ pub fn certify(
     notice: &dyn Fn(&str),
     interrupt: &AtomicBool,
 ) -> Result<(Reference, Vec<f64>)> {
-    let rule = if problem.energy().smooth() { CertificateRule::Stationary } else { CertificateRule::Stalled };
+    let rule = if problem.smooth() { CertificateRule::Stationary } else { CertificateRule::Stalled };
+    let (_, polisher, second) = methods(problem);
     let window = match rule {
         CertificateRule::Stationary => WINDOW,
         CertificateRule::Stalled => LONG_WINDOW,
@@ -202,10 +220,10 @@ pub fn certify(
     let mut certificate = None;
     for round in 0..ROUNDS {
         let tolerance = CERTIFY_TOL * accuracy_scale(found.energy, problem.ideal);
-        notice(&format!("certifying {:.12} ({} and {SECOND}, {window} iterations each)", found.energy, POLISH));
+        notice(&format!("certifying {:.12} ({polisher} and {second}, {window} iterations each)", found.energy));
         let mut polishes = Vec::new();
         let mut lower: Option<(Vec<f64>, f64, Step)> = None;
-        for solver in [POLISH, SECOND] {
+        for solver in [polisher, second] {
             let (step, x, _) =
                 solve(problem, StepKind::Certify, solver, "the kept map", found.x.clone(), window, interrupt)?;
             let decrease = found.energy - step.energy;
@@ -230,7 +248,7 @@ pub fn certify(
             (None, CertificateRule::Stationary) => (
                 true,
                 format!(
-                    "stationary: |grad| = {grad:.2e}, and neither {POLISH} nor {SECOND} lowers E by more than \
+                    "stationary: |grad| = {grad:.2e}, and neither {polisher} nor {second} lowers E by more than \
                      {tolerance:.1e} in {window} iterations"
                 ),
             ),

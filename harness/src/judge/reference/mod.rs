@@ -9,6 +9,7 @@
 //! only when lower. With `--no-history` a batch writes neither and keeps what it computed to
 //! itself (in `meta.json`).
 
+pub mod chained;
 pub mod compute;
 pub mod store;
 
@@ -131,13 +132,13 @@ pub struct Certificate {
     pub polishes: Vec<Polish>,
 }
 
-/// The reference key of a run's problem (16 hex digits); `None` for the authalic task.
-pub fn key(plan: &Plan, run: &PlannedRun) -> Result<Option<String>> {
-    let Some(problem) = run.settings.problem_key_text() else { return Ok(None) };
+/// The reference key of a run's problem (16 hex digits).
+pub fn key(plan: &Plan, run: &PlannedRun) -> Result<String> {
+    let problem = run.settings.problem_key_text();
     let mut h = Fnv::new();
     h.bytes(format!("mapbench reference {REFERENCE_VERSION}").as_bytes()).bytes(problem.as_bytes());
     plan.dataset(run).hash_into(&mut h)?;
-    Ok(Some(format!("{:016x}", h.0)))
+    Ok(format!("{:016x}", h.0))
 }
 
 /// Where a group's `E*` came from (`meta.json`'s `references`).
@@ -285,8 +286,7 @@ pub fn prepare(
         }
         let mut group = GroupReference::unavailable(dataset, run.energy.clone());
         let key = match key(plan, run) {
-            Ok(Some(k)) => k,
-            Ok(None) => continue,
+            Ok(k) => k,
             Err(e) => {
                 group.note = Some(format!("{e:#}"));
                 out.push(group);
@@ -294,6 +294,13 @@ pub fn prepare(
             }
         };
         group.key = Some(key.clone());
+        // A chained start (exp-SD's SD minimum) first: the problem starts there.
+        if let Err(e) = chained::resolve(plan, run, notice, interrupt) {
+            notice(&format!("{e:#}"));
+            group.note = Some(format!("{e:#}"));
+            out.push(group);
+            continue;
+        }
         let problem = match Problem::of(plan, run) {
             Ok(p) => p,
             Err(e) => {
@@ -380,8 +387,9 @@ pub fn recertify(
 }
 
 /// The (dataset, energy) groups of `plan` whose reference no store holds (verified) yet: what
-/// a `references` run would compute. A group whose problem cannot be made (its mesh
-/// unreadable) is not counted: its runs will fail on their own.
+/// a `references` run would compute (with the SD minimum a chained start needs). A group
+/// whose problem cannot be made (its mesh unreadable) is not counted: its runs will fail on
+/// their own.
 pub fn missing(plan: &Plan) -> Result<Vec<(String, String)>> {
     let Some(stores) = &plan.references else { return Ok(Vec::new()) };
     let book = Book::open(stores)?;
@@ -392,7 +400,12 @@ pub fn missing(plan: &Plan) -> Result<Vec<(String, String)>> {
         if !seen.insert(group.clone()) {
             continue;
         }
-        let (Ok(Some(k)), Ok(problem)) = (key(plan, run), Problem::of(plan, run)) else { continue };
+        // A chained start missing from the stores: computing it is part of the group's work.
+        if !chained::stored(plan, run) {
+            out.push(group);
+            continue;
+        }
+        let (Ok(k), Ok(problem)) = (key(plan, run), Problem::of(plan, run)) else { continue };
         if lookup(&book, &k, &problem, &|_| {}).is_none() {
             out.push(group);
         }

@@ -232,3 +232,45 @@ fn a_run_below_the_reference_lowers_it_once_verified() {
     let r = Store::read(&dir.join("refs.json")).unwrap().entries.into_values().next().unwrap();
     assert_eq!(r.e_star, e_star);
 }
+
+/// exp-SD starts from the SD minimum of the same problem: the batch looks the SD reference up
+/// (or computes and stores it, with a notice), every exp-SD run and the exp-SD reference start
+/// there, the Tutte start's keys stay, and `start = "tutte"` keeps the papers' start.
+#[test]
+fn exp_sd_starts_from_the_sd_reference_of_the_same_problem() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::fs::write(dir.join("m.obj"), fan(0.3)).unwrap();
+    let chained = plan(dir, "m", "\"exp-sd\"", "");
+    assert_eq!(missing(&chained).unwrap(), [("m".to_string(), "exp-sd".to_string())]);
+    let (groups, notices) = prepared_plan(&chained);
+    assert!(notices[0].contains("computing (the sd-minimum start of m)"), "{notices:?}");
+    // both references stored: the SD one the start is, and exp-SD's from there
+    let store = Store::read(&dir.join("refs.json")).unwrap();
+    let sd = store.entries.values().find(|r| r.energy == "sd").expect("the SD reference is stored");
+    let exp = store.entries.values().find(|r| r.energy == "exp-sd").unwrap();
+    assert_eq!((exp.start.as_str(), sd.start.as_str()), ("sd-minimum", "tutte-scaled"));
+    assert_eq!(groups[0].start_energy, Some(exp.start_energy));
+    // E0 is exp-SD at the SD reference's map, and every run starts there
+    let problem = Problem::of(&chained, &chained.runs[0]).unwrap();
+    let sd_run = crate::plan::starts::sd_problem(&chained, &chained.runs[0]).unwrap();
+    let sd_problem = Problem::of(&chained, &sd_run).unwrap();
+    let book = Book::open(chained.references.as_ref().unwrap()).unwrap();
+    let (_, x_sd, _) = lookup(&book, &sd.key, &sd_problem, &|_| {}).unwrap();
+    assert_eq!(problem.x0, x_sd);
+    assert_eq!(problem.start, solvers::solver::StartMap::SdMinimum);
+    assert_eq!(problem.e0.to_bits(), problem.energy_of(&x_sd).to_bits());
+    assert!(exp.e_star <= problem.e0 && exp.certificate.certified, "{exp:?}");
+    assert!(missing(&chained).unwrap().is_empty());
+    // a fresh plan finds both in the store: nothing computed again
+    let (again, notices) = prepared(dir, "m", "\"exp-sd\"", "");
+    assert_eq!((again[0].origin, again[0].e_star), (Origin::Store, Some(exp.e_star)));
+    assert!(notices.is_empty(), "{notices:?}");
+    // the Tutte start is another problem, with the key the Tutte start always had
+    let tutte = plan(dir, "m", "\"exp-sd\"", "[energy.exp-sd]\nstart = \"tutte\"\n");
+    let tutte_key = key(&tutte, &tutte.runs[0]).unwrap();
+    assert_ne!(Some(&tutte_key), groups[0].key.as_ref());
+    let crate::plan::RunSettings::Param { settings, .. } = &tutte.runs[0].settings else { panic!() };
+    let text = tutte.runs[0].settings.problem_key_text();
+    assert!(!text.contains("start") && settings.start == solvers::param::ParamStart::Tutte, "{text}");
+}

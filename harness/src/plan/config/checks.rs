@@ -17,12 +17,6 @@ impl Config {
         }
         if let Some(t) = &self.targets {
             super::check_targets(t)?;
-            if self.task == Task::Authalic {
-                bail!("targets apply to param and deform (authalic runs are judged by their own stop rules)");
-            }
-        }
-        if self.task == Task::Authalic && self.references.is_some() {
-            bail!("references apply to param and deform (authalic runs have no reference minima)");
         }
         self.check_names()?;
         self.check_solver_options()?;

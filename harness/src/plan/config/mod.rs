@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use solvers::authalic::AuthalicSettings;
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
+use solvers::param::ParamStart;
 use solvers::smoothness::Projection;
 use solvers::solver::{LineSearchSettings, RawOptions, StopOverrides};
 use std::collections::BTreeMap;
@@ -51,21 +52,25 @@ pub struct DeformConfig {
     pub lambda: Option<f64>,
 }
 
-/// The smoothness keys of an `[energy.<name>]` table (any energy); the other keys are the
-/// energy's parameters (`EnergyKind::from_table`).
+/// The keys of an `[energy.<name>]` table any energy has (the smoothness term, the start of a
+/// `param` run); the other keys are the energy's parameters (`EnergyKind::from_table`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct SmoothnessKeys {
+pub struct ProblemKeys {
     /// Weight `w` of the smoothness term `w sum_e l_e (psi_i - psi_j)^2` (Section 4.3);
     /// default 0 (off).
     pub smoothness: Option<f64>,
     /// `analytic` (default, Appendix B), `numeric` (8x8 eigen-decomposition), or `exact`
     /// (no projection, a diagnostic: the system may be indefinite).
     pub smoothness_projection: Option<Projection>,
+    /// `param`: `"tutte"` (the papers' start; the default but for exp-sd) or `"sd-minimum"`
+    /// (the SD minimum of the same problem; exp-sd's default, which overflows at the Tutte
+    /// map of most real meshes).
+    pub start: Option<ParamStart>,
 }
 
-impl SmoothnessKeys {
-    pub const KEYS: [&'static str; 2] = ["smoothness", "smoothness_projection"];
+impl ProblemKeys {
+    pub const KEYS: [&'static str; 3] = ["smoothness", "smoothness_projection", "start"];
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -1,14 +1,14 @@
 //! The one place where config sections become solver settings: the task's defaults (the
 //! solvers' own `Default`s), the config's overrides, the energy's parameters.
 
-use super::{Config, SmoothnessKeys, Task};
+use super::{Config, ProblemKeys, Task};
 use crate::plan::settings::RunSettings;
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
 use solvers::authalic::AuthalicSettings;
 use solvers::deform::DeformSettings;
 use solvers::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
-use solvers::param::ParamSettings;
+use solvers::param::{ParamSettings, ParamStart};
 use solvers::smoothness::Projection;
 use solvers::solver::Settings;
 
@@ -36,6 +36,13 @@ impl Config {
             .with_context(|| format!("unknown energy '{name}' (known: {})", ENERGY_NAMES.join(", ")))?;
         let (parameters, smoothness) = self.energy_table(name)?;
         let kind = EnergyKind::from_table(name, &parameters).map_err(|e| anyhow::anyhow!("[energy.{name}] {e}"))?;
+        match smoothness.start {
+            Some(_) if self.task != Task::Param => bail!("[energy.{name}] start applies to the param task only"),
+            Some(ParamStart::SdMinimum) if matches!(kind, EnergyKind::Sd(_)) => {
+                bail!("[energy.{name}] start = \"sd-minimum\" would start SD at its own minimum")
+            }
+            _ => {}
+        }
         match (smoothness.smoothness, smoothness.smoothness_projection) {
             (Some(w), _) if !(w >= 0.0 && w.is_finite()) => {
                 bail!("[energy.{name}] smoothness = {w} must be non-negative and finite")
@@ -46,11 +53,11 @@ impl Config {
         Ok(kind)
     }
 
-    /// `[energy.<name>]` split into the energy's parameters and the smoothness keys.
-    fn energy_table(&self, name: &str) -> Result<(toml::Table, SmoothnessKeys)> {
+    /// `[energy.<name>]` split into the energy's parameters and the keys every energy has.
+    fn energy_table(&self, name: &str) -> Result<(toml::Table, ProblemKeys)> {
         let mut parameters = self.energy.get(name).cloned().unwrap_or_default();
-        let smoothness: toml::Table = SmoothnessKeys::KEYS.iter().filter_map(|k| parameters.remove_entry(*k)).collect();
-        let keys = SmoothnessKeys::deserialize(toml::Value::Table(smoothness))
+        let smoothness: toml::Table = ProblemKeys::KEYS.iter().filter_map(|k| parameters.remove_entry(*k)).collect();
+        let keys = ProblemKeys::deserialize(toml::Value::Table(smoothness))
             .map_err(|e| anyhow::anyhow!("[energy.{name}] {}", e.to_string().trim()))?;
         Ok((parameters, keys))
     }
@@ -65,6 +72,7 @@ impl Config {
                 let energy = self.energy_kind(name)?;
                 let mut settings = self.param_settings(&energy);
                 settings.smoothness = self.smoothness_for(name);
+                settings.start = self.start_for(name, &energy);
                 RunSettings::Param { energy, settings }
             }
             Task::Deform => {
@@ -80,6 +88,17 @@ impl Config {
     pub(super) fn smoothness_for(&self, name: &str) -> Option<(f64, Projection)> {
         let (_, p) = self.energy_table(name).ok()?;
         p.smoothness.filter(|w| *w > 0.0).map(|w| (w, p.smoothness_projection.unwrap_or_default()))
+    }
+
+    /// The start of the `param` runs of energy `name`: `[energy.<name>] start`, else the SD
+    /// minimum for exp-SD (its density overflows at the Tutte map of most real meshes) and the
+    /// Tutte map for the others (the book's numerics page, "Starts").
+    fn start_for(&self, name: &str, energy: &EnergyKind) -> ParamStart {
+        let given = self.energy_table(name).ok().and_then(|(_, keys)| keys.start);
+        given.unwrap_or(match energy {
+            EnergyKind::ExpSd(_) => ParamStart::SdMinimum,
+            _ => ParamStart::Tutte,
+        })
     }
 
     /// The `deform` settings (the same for every energy): `DeformSettings`'s defaults

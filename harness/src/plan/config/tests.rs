@@ -24,6 +24,30 @@ fn smoothness_is_an_energy_option() {
     assert!(err(&format!("{MIN}[energy.sd]\nsmoothness_projection = \"numeric\"\n")).contains("needs smoothness"));
 }
 
+/// exp-SD starts from the SD minimum unless its table asks for the Tutte map; another energy
+/// may ask for that start, SD itself and the other tasks may not.
+#[test]
+fn the_start_is_an_energy_option_with_exp_sd_chained_by_default() {
+    use solvers::param::ParamStart;
+    let start = |c: &Config, e: &str| match c.run_settings(e).unwrap() {
+        crate::plan::RunSettings::Param { settings, .. } => settings.start,
+        other => panic!("{other:?}"),
+    };
+    let both = MIN.replace("[\"sd\"]", "[\"sd\", \"exp-sd\", \"nh\"]");
+    let c = parse(&both).unwrap();
+    assert_eq!(
+        [start(&c, "sd"), start(&c, "exp-sd"), start(&c, "nh")],
+        [ParamStart::Tutte, ParamStart::SdMinimum, ParamStart::Tutte]
+    );
+    let c = parse(&format!("{both}[energy.exp-sd]\nstart = \"tutte\"\n[energy.nh]\nstart = \"sd-minimum\"\n")).unwrap();
+    assert_eq!([start(&c, "exp-sd"), start(&c, "nh")], [ParamStart::Tutte, ParamStart::SdMinimum]);
+    let err = |t: &str| format!("{:#}", parse(t).unwrap_err());
+    assert!(err(&format!("{MIN}[energy.sd]\nstart = \"sd-minimum\"\n")).contains("at its own minimum"));
+    assert!(err(&format!("{MIN}[energy.sd]\nstart = \"rest\"\n")).contains("unknown variant `rest`"));
+    let def = format!("task = \"deform\"\n{MIN}");
+    assert!(err(&format!("{def}[energy.sd]\nstart = \"tutte\"\n")).contains("start applies to the param task only"));
+}
+
 #[test]
 fn timeouts_parse_with_units() {
     let t = |v: &str| parse(&format!("timeout = \"{v}\"\n{MIN}")).map(|c| c.timeout_secs().unwrap());

@@ -146,6 +146,7 @@ pub struct SolverAggregate {
     pub runs: usize,
     /// `status = ok`.
     pub solved: usize,
+    /// Not solved: not converged, or a fixed budget spent.
     pub not_converged: usize,
     pub failed: usize,
     pub skipped: usize,
@@ -250,7 +251,7 @@ fn solver_aggregate(
         solver: solver.to_string(),
         runs: counted.len(),
         solved: count(Status::Ok),
-        not_converged: count(Status::NotConverged),
+        not_converged: count(Status::NotConverged) + count(Status::Budget),
         failed: count(Status::Failed),
         skipped: count(Status::Skipped),
         shifted: counted.iter().filter(|r| r.shifted_iters.unwrap_or(0) > 0).count(),

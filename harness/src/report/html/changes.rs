@@ -46,8 +46,12 @@ fn verdict_line(summaries: &[SummaryRow]) -> String {
         Some(tau) => (format!("solved at the {} target", tau_text(tau)), "solved"),
         None => ("converged".to_string(), "converged"),
     };
+    let budget = match n(Status::Budget) {
+        0 => String::new(),
+        b => format!("{b} at their fixed budget, "),
+    };
     format!(
-        "{} runs: {} {ok}, {} not {word}, {} failed, {} skipped",
+        "{} runs: {} {ok}, {budget}{} not {word}, {} failed, {} skipped",
         summaries.len(),
         n(Status::Ok),
         n(Status::NotConverged),

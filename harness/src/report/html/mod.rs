@@ -43,7 +43,7 @@ table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #bbb;paddin
 th{background:#eee}td.k,th.k{text-align:left;white-space:nowrap}\
 table.status{font-size:.75em}table.status td,table.status th{text-align:center;white-space:nowrap;padding:1px 3px}table.status th{white-space:normal;vertical-align:bottom}table.status td.k{text-align:left;background:#fff}\
 .ds{position:sticky;left:0;z-index:1}table.status th.ds{background:#eee}\
-.ok{background:#d8f0d8}.nc{background:#fff0c2}.failed{background:#f6d0d3}.skipped{background:#e4e4e4;color:#666}\
+.ok{background:#d8f0d8}.nc{background:#fff0c2}.budget{background:#dde8f6}.failed{background:#f6d0d3}.skipped{background:#e4e4e4;color:#666}\
 ol.notes,ul.problems{font-size:.85em;word-break:break-word}ul.problems li{margin:2px 0}.verdict{font-size:1.1em;margin:.6em 0}\
 td.none{background:#f4f4f4;color:#999}td a{color:inherit;text-decoration:none}td small{color:#555}\
 img{max-width:100%;height:auto}\

@@ -299,6 +299,10 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
         (Status::NotConverged, None) => {
             ("nc", "nc".to_string(), iterations, format!("not converged: {}{more}", s.stop_column()))
         }
+        (Status::Budget, _) => {
+            let tip = format!("its budget of {} iterations spent (a fixed-budget protocol){more}", iterations);
+            ("budget", "budget".to_string(), secs, tip)
+        }
         (Status::Failed, _) => {
             let n = notes.number(&format!("failed: {}", s.error));
             ("failed", "failed".to_string(), format!("[{n}]"), format!("failed: {}", s.error))

@@ -1,0 +1,89 @@
+//! Resolving chained starts (`crate::plan::starts`): the SD minimum a run with
+//! `start = "sd-minimum"` starts from is the SD problem's reference minimum, looked up in the
+//! stores or computed and stored like any other, so a nightly computes it once and every batch
+//! starts from the same map; without a store it is `solvers::param::sd_minimum`. The book's
+//! numerics page, "Starts", says why.
+
+use super::store::Book;
+use crate::judge::problem::Problem;
+use crate::plan::starts::{memo_key, sd_problem};
+use crate::plan::{Plan, PlannedRun, RunSettings};
+use anyhow::{Context, Result};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// Resolve the chained start of `run` (nothing to do without one) into the plan's memo, once
+/// per batch: `notice` says when a missing SD reference is computed, which stops when
+/// `interrupt` is set. The error names the dataset and why.
+pub fn resolve(plan: &Plan, run: &PlannedRun, notice: &dyn Fn(&str), interrupt: &AtomicBool) -> Result<()> {
+    resolve_with(plan, run, true, notice, interrupt).map(|_| ())
+}
+
+/// Whether the chained start of `run` is in the stores (resolved then), without computing
+/// it: what [`super::missing`] counts. `true` for a run without a chained start, and for one
+/// whose SD problem cannot be made (its runs fail on their own).
+pub fn stored(plan: &Plan, run: &PlannedRun) -> bool {
+    !matches!(resolve_with(plan, run, false, &|_| {}, &AtomicBool::new(false)), Ok(false))
+}
+
+/// [`resolve`], computing a missing SD reference only when `compute`; `Ok(false)` when it is
+/// missing and not computed.
+fn resolve_with(
+    plan: &Plan,
+    run: &PlannedRun,
+    compute: bool,
+    notice: &dyn Fn(&str),
+    interrupt: &AtomicBool,
+) -> Result<bool> {
+    let Some(sd) = sd_problem(plan, run) else { return Ok(true) };
+    let key = memo_key(plan, &sd);
+    let mut memo = plan.starts.lock();
+    let resolved = match memo.get(&key) {
+        Some(r) => r.clone(),
+        None => match sd_minimum(plan, &sd, compute, notice, interrupt) {
+            Ok(None) => return Ok(false),
+            found => {
+                let r = found.map(|x| Arc::new(x.unwrap_or_default())).map_err(|e| format!("{e:#}"));
+                if !interrupt.load(Ordering::Relaxed) {
+                    memo.insert(key, r.clone());
+                }
+                r
+            }
+        },
+    };
+    let dataset = &plan.dataset(run).name;
+    resolved.map(|_| true).map_err(|e| anyhow::anyhow!("{dataset}: the sd-minimum start: {e}"))
+}
+
+/// The reference minimum of the SD problem `sd`: looked up, or (when `compute`) computed and
+/// added to the writable store; `None` when missing and not computed.
+fn sd_minimum(
+    plan: &Plan,
+    sd: &PlannedRun,
+    compute: bool,
+    notice: &dyn Fn(&str),
+    interrupt: &AtomicBool,
+) -> Result<Option<Vec<f64>>> {
+    let problem = Problem::of(plan, sd)?;
+    let dataset = plan.dataset(sd).name.clone();
+    let Some(stores) = &plan.references else {
+        let RunSettings::Param { settings, .. } = &sd.settings else { anyhow::bail!("{dataset}: not a param problem") };
+        return Ok(compute.then(|| solvers::param::sd_minimum(&problem.mesh.normalized(), settings)).transpose()?);
+    };
+    let key = super::key(plan, sd)?;
+    let mut book = Book::open(stores)?;
+    if let Some((_, x, _)) = super::lookup(&book, &key, &problem, notice) {
+        return Ok(Some(x));
+    }
+    if !compute {
+        return Ok(None);
+    }
+    anyhow::ensure!(!interrupt.load(Ordering::Relaxed), "interrupted before the SD minimum was computed");
+    let name = format!("{dataset} param sd");
+    notice(&format!("reference minimum of {name}: computing (the sd-minimum start of {dataset})"));
+    let step = |line: &str| notice(&format!("reference minimum of {name}: {line}"));
+    let (r, x) = super::compute(&problem, &key, &dataset, "sd", &step, interrupt)?;
+    notice(&format!("reference minimum of {name}: E* = {:.12} (|grad| {:.1e})", r.e_star, r.grad_norm));
+    book.add(r, &x, &problem.mesh).context("adding the computed SD reference")?;
+    Ok(Some(x))
+}
