@@ -40,15 +40,16 @@ pub fn span(e0: f64, e_star: f64, ideal: f64) -> f64 {
 }
 
 /// The relative gap `(E - E*) / span` of energy `e`: 0 at the reference minimum, negative
-/// below it. With a zero span (a start at the reference) the gap is 0 where `e` is not above
-/// `E*` and +inf where it is; a non-finite `e` has gap +inf.
+/// below it. With a zero span (a start at the reference) the gap is 0 where `e` is within
+/// round-off of `E*` or below ([`ROUNDOFF`], as [`passes`]) and +inf above; a non-finite `e`
+/// has gap +inf.
 pub fn gap_on(e: f64, e_star: f64, span: f64) -> f64 {
     if !e.is_finite() {
         return f64::INFINITY;
     }
     if span > 0.0 && span.is_finite() {
         (e - e_star) / span
-    } else if e <= e_star {
+    } else if e - e_star <= ROUNDOFF * e_star.abs().max(1.0) {
         0.0
     } else {
         f64::INFINITY
@@ -58,7 +59,8 @@ pub fn gap_on(e: f64, e_star: f64, span: f64) -> f64 {
 /// How far above `E*` an energy is the same energy, relative to `max(1, |E*|)`: two sums of
 /// one map's element energies in another order (the run's problem and the judged one) differ
 /// by ~1e-14 of the energy. Only a span below it (a start within round-off of the minimum,
-/// exp-SD's SD minimum on a developable mesh) lets it decide; every floor of `A` is above.
+/// exp-SD's SD minimum on a developable mesh) lets it decide; at the default targets every
+/// floor of `A` is far above (a target below 1e-8 reaches it).
 pub const ROUNDOFF: f64 = 1e-12;
 
 /// Whether energy `e` passes the test at tolerance `tau` on `span` (no division): within

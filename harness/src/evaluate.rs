@@ -169,8 +169,8 @@ pub fn known_reference(config: &Path, dataset: &str, energy: &EnergyKind, mesh: 
     }
     let key = crate::judge::reference::key(&plan, run)?;
     let stores = plan.references.as_ref().context("no reference stores")?;
-    let book = crate::judge::reference::store::Book::open(stores)?;
-    if !crate::judge::reference::chained::stored(&plan, run) {
+    let mut book = crate::judge::reference::store::Book::open(stores)?;
+    if !crate::judge::reference::chained::stored(&plan, run, &mut book) {
         bail!(
             "{}: the SD minimum {dataset} {} starts from is in no reference store ({} computes it)",
             config.display(),

@@ -156,6 +156,8 @@ path = "two.obj"
     assert_eq!(it.len(), 21);
     let table = std::fs::read_to_string(out.join("tables/authalic.md")).unwrap();
     assert!(table.contains("| bumpy_1k |") && table.contains("AEM-CG-safe E_A"), "{table}");
+    // the runs at their budget compete: the row's best is bold
+    assert!(table.contains("**"), "{table}");
     assert!(out.join("tables/authalic.html").is_file());
     assert!(text(&o).contains("6 runs: 0 ok, 3 at their budget, 0 not converged, 3 failed"), "{}", text(&o));
     // with a tolerance rule the budget is a cap: a run that reaches it did not converge

@@ -24,7 +24,7 @@ pub fn export_systems(plan: &Plan, iteration: usize, out: &Path) -> Result<Vec<P
         let mesh = plan.dataset(r).load()?;
         // A chained start is the run's: the stored SD minimum (computed and stored if missing).
         let notice = |line: &str| eprintln!("{line}");
-        crate::judge::reference::chained::resolve(plan, r, &notice, &AtomicBool::new(false))?;
+        crate::judge::reference::chained::resolve(plan, r, None, &notice, &AtomicBool::new(false))?;
         let sd_min = plan.starts.of(plan, r).transpose().map_err(|e| anyhow::anyhow!("run {}: {e}", r.stem))?;
         let sys = solvers::system::param_system(
             &mesh,

@@ -3,7 +3,7 @@
 //!
 //! - Iteration counts are deterministic: more iterations than before plus the tolerance is a
 //!   regression, fewer an improvement.
-//! - Status orders `skipped < failed < not_converged < ok` ([`Status`]'s `Ord`): a worse status
+//! - Status orders `skipped < failed < not_converged < budget < ok` ([`Status`]'s `Ord`): a worse status
 //!   is a regression, and so is any run that becomes `failed`.
 //! - The final energy may move by `energy_rtol` (relative); higher beyond it is a regression.
 //!   A final energy that becomes NaN or infinite is a regression, one that stops being so an
@@ -128,7 +128,12 @@ impl Record {
         r.ref_energy = Some(e_star);
         if self.status.ran() {
             let solved = self.flips == Some(0) && crate::convergence::passes(e, e_star, span, tau);
-            r.status = if solved { Status::Ok } else { Status::NotConverged };
+            // a fixed budget spent stays what it is unless the run is solved, as the judge says
+            r.status = match self.status {
+                _ if solved => Status::Ok,
+                Status::Budget => Status::Budget,
+                _ => Status::NotConverged,
+            };
         }
         Some(r)
     }
@@ -183,11 +188,13 @@ pub fn changes(before: &Record, after: &Record, energy_rtol: f64) -> Vec<Change>
         push("ref_energy", format!("{eb:.10}"), format!("{ea:.10}"), how.into(), false);
     }
     if a.status != b.status {
-        // Status orders skipped < failed < not_converged < ok: a pair that stops being
-        // run is a regression, one that starts an improvement (unless it fails).
+        // Status orders skipped < failed < not_converged < budget < ok: a pair that stops
+        // being run is a regression, one that starts an improvement (unless it fails).
         let regression = a.status < b.status || a.status == Status::Failed;
-        let judged_only =
-            matches!((b.status, a.status), (Status::Ok, Status::NotConverged) | (Status::NotConverged, Status::Ok));
+        let judged_only = matches!(
+            (b.status, a.status),
+            (Status::Ok, Status::NotConverged | Status::Budget) | (Status::NotConverged | Status::Budget, Status::Ok)
+        );
         let metric = if judged_only && !gated { "status (E* moved)" } else { "status" };
         push(metric, b.status.to_string(), a.status.to_string(), String::new(), regression && (gated || !judged_only));
     }
@@ -424,6 +431,13 @@ pub(crate) mod tests {
         // judged again: the gap on the lower E*'s span
         let r = judged(3.0, 3.0, Status::Ok).judged_against(2.9).unwrap();
         assert!((r.final_gap.unwrap() - 0.1 / 0.9).abs() < 1e-12 && r.status == Status::NotConverged);
+        // a fixed budget spent stays so when judged again unsolved, and a budget run that E*
+        // moved from solved is the yardstick's doing, not a regression
+        let r = judged(3.1, 3.0, Status::Budget).judged_against(2.9).unwrap();
+        assert_eq!(r.status, Status::Budget);
+        let bare = Record { start_energy: None, ..judged(3.0, 3.0, Status::Ok) };
+        let c = changes(&bare, &judged(3.0, 2.9, Status::Budget), 1e-6);
+        assert!(metrics(&c).contains(&("status (E* moved)", false)), "{c:?}");
     }
 
     #[test]

@@ -128,12 +128,12 @@ impl Problem {
                 Measured { energy, grad_norm, flips: problem.flips(x) }
             }
             Objective::Authalic { problem, .. } => {
-                let (terms, grad) = problem.terms_and_gradient(&problem.vars_of(x));
+                let z = problem.vars_of(x);
+                let (terms, grad) = problem.terms_and_gradient(&z);
                 let grad_norm = terms.energy.is_finite().then(|| norm(&grad));
                 // A map whose boundary leaves its loop's order is no map of the disk: at least
                 // one face folds.
-                let folded =
-                    if problem.boundary_ordered(&problem.vars_of(x)) { terms.folded } else { terms.folded.max(1) };
+                let folded = if problem.boundary_ordered(&z) { terms.folded } else { terms.folded.max(1) };
                 Measured { energy: terms.energy, grad_norm, flips: folded }
             }
         }

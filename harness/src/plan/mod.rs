@@ -79,7 +79,7 @@ pub struct Plan {
     /// The tolerances of the convergence test, loosest first (`targets`); empty for the
     /// authalic task, which its solvers' own rules judge.
     pub targets: Vec<f64>,
-    /// Where reference minima are looked up and added (`param`, `deform`).
+    /// Where reference minima are looked up and added (every task).
     pub references: Option<paths::Stores>,
     /// The chained starts resolved so far (`judge::reference::chained`).
     pub starts: starts::Starts,

@@ -18,7 +18,7 @@ fn legend(cmp: &FolderComparison) -> String {
     let o = &cmp.options;
     format!(
         "A is before, B after. Regressions (exit 1) follow the rules of `check`: more iterations than A's plus \
-         {tol} (--iterations-tolerance), a worse status (skipped < failed < not_converged < ok; any run that \
+         {tol} (--iterations-tolerance), a worse status (skipped < failed < not_converged < budget < ok; any run that \
          becomes failed), a final energy higher by more than {rtol:e} relative (--energy-rtol), flips where A had \
          none. Times compare {unit}. A time is flagged slower or faster only beyond its noise: when the \
          [min, max] intervals over the repeats do not overlap (the report's ranking rule), or, with a single \

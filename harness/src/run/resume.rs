@@ -13,7 +13,8 @@ use std::path::Path;
 
 /// The key of one run (hex): `code` identifies the code (version and git revision), then
 /// the run's resolved settings (task, energy parameters, stop, line search, linear, init,
-/// smoothness, deform or authalic settings), the timeout and repeat count, the solver, and the mesh and
+/// smoothness, deform or authalic settings), the timeout and repeat count, the solver, a chained
+/// start's map (its checksum), and the mesh and
 /// handles it runs on (files by content).
 pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
     let ds = plan.dataset(run);
@@ -22,6 +23,12 @@ pub fn run_key(plan: &Plan, run: &PlannedRun, code: &str) -> Result<String> {
     let (energy, solver) = (&run.energy, &run.solver);
     let mut h = Fnv::new();
     h.bytes(code.as_bytes()).bytes(settings.to_string().as_bytes()).bytes(energy.as_bytes()).bytes(solver.as_bytes());
+    // A chained start is a map, not a setting: the SD minimum the batch resolved (it moves
+    // when a run lowers the SD reference).
+    if let Some(start) = plan.starts.of(plan, run) {
+        let x = start.map_err(|e| anyhow::anyhow!("{}: the sd-minimum start: {e}", run.stem))?;
+        h.bytes(crate::judge::reference::store::map_checksum(&x).as_bytes());
+    }
     // An external solver: its command and snapshots (not whether its problem folder is kept),
     // and the contents of the files its command names (an adapter edited but not committed
     // is another solver).

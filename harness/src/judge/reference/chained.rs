@@ -13,17 +13,25 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// Resolve the chained start of `run` (nothing to do without one) into the plan's memo, once
-/// per batch: `notice` says when a missing SD reference is computed, which stops when
-/// `interrupt` is set. The error names the dataset and why.
-pub fn resolve(plan: &Plan, run: &PlannedRun, notice: &dyn Fn(&str), interrupt: &AtomicBool) -> Result<()> {
-    resolve_with(plan, run, true, notice, interrupt).map(|_| ())
+/// per batch, looking the SD reference up in `book` (the caller's, so that a reference it
+/// computes is the batch's too; `None`: the plan's stores) and adding it there when computed:
+/// `notice` says so, and the computation stops when `interrupt` is set. The error names the
+/// dataset and why.
+pub fn resolve(
+    plan: &Plan,
+    run: &PlannedRun,
+    book: Option<&mut Book>,
+    notice: &dyn Fn(&str),
+    interrupt: &AtomicBool,
+) -> Result<()> {
+    resolve_with(plan, run, book, true, notice, interrupt).map(|_| ())
 }
 
-/// Whether the chained start of `run` is in the stores (resolved then), without computing
-/// it: what [`super::missing`] counts. `true` for a run without a chained start, and for one
-/// whose SD problem cannot be made (its runs fail on their own).
-pub fn stored(plan: &Plan, run: &PlannedRun) -> bool {
-    !matches!(resolve_with(plan, run, false, &|_| {}, &AtomicBool::new(false)), Ok(false))
+/// Whether the chained start of `run` is in `book` (resolved then), without computing it:
+/// what [`super::missing`] counts. `true` for a run without a chained start, and for one whose
+/// SD problem cannot be made (its runs fail on their own).
+pub fn stored(plan: &Plan, run: &PlannedRun, book: &mut Book) -> bool {
+    !matches!(resolve_with(plan, run, Some(book), false, &|_| {}, &AtomicBool::new(false)), Ok(false))
 }
 
 /// [`resolve`], computing a missing SD reference only when `compute`; `Ok(false)` when it is
@@ -31,6 +39,7 @@ pub fn stored(plan: &Plan, run: &PlannedRun) -> bool {
 fn resolve_with(
     plan: &Plan,
     run: &PlannedRun,
+    book: Option<&mut Book>,
     compute: bool,
     notice: &dyn Fn(&str),
     interrupt: &AtomicBool,
@@ -40,7 +49,7 @@ fn resolve_with(
     let mut memo = plan.starts.lock();
     let resolved = match memo.get(&key) {
         Some(r) => r.clone(),
-        None => match sd_minimum(plan, &sd, compute, notice, interrupt) {
+        None => match sd_minimum(plan, &sd, book, compute, notice, interrupt) {
             Ok(None) => return Ok(false),
             found => {
                 let r = found.map(|x| Arc::new(x.unwrap_or_default())).map_err(|e| format!("{e:#}"));
@@ -55,24 +64,36 @@ fn resolve_with(
     resolved.map(|_| true).map_err(|e| anyhow::anyhow!("{dataset}: the sd-minimum start: {e}"))
 }
 
-/// The reference minimum of the SD problem `sd`: looked up, or (when `compute`) computed and
-/// added to the writable store; `None` when missing and not computed.
+/// The reference minimum of the SD problem `sd`: looked up in `book` (or the plan's stores),
+/// or (when `compute`) computed and added there; `None` when missing and not computed.
 fn sd_minimum(
     plan: &Plan,
     sd: &PlannedRun,
+    book: Option<&mut Book>,
     compute: bool,
     notice: &dyn Fn(&str),
     interrupt: &AtomicBool,
 ) -> Result<Option<Vec<f64>>> {
     let problem = Problem::of(plan, sd)?;
     let dataset = plan.dataset(sd).name.clone();
-    let Some(stores) = &plan.references else {
-        let RunSettings::Param { settings, .. } = &sd.settings else { anyhow::bail!("{dataset}: not a param problem") };
-        return Ok(compute.then(|| solvers::param::sd_minimum(&problem.mesh.normalized(), settings)).transpose()?);
+    let mut opened;
+    let book = match (book, &plan.references) {
+        (Some(b), _) => b,
+        (None, Some(stores)) => {
+            opened = Book::open(stores)?;
+            &mut opened
+        }
+        (None, None) => {
+            let RunSettings::Param { settings, .. } = &sd.settings else {
+                anyhow::bail!("{dataset}: not a param problem")
+            };
+            return Ok(compute
+                .then(|| solvers::param::sd_minimum(&problem.mesh.normalized(), settings))
+                .transpose()?);
+        }
     };
     let key = super::key(plan, sd)?;
-    let mut book = Book::open(stores)?;
-    if let Some((_, x, _)) = super::lookup(&book, &key, &problem, notice) {
+    if let Some((_, x, _)) = super::lookup(book, &key, &problem, notice) {
         return Ok(Some(x));
     }
     if !compute {

@@ -52,6 +52,11 @@ pub const AUTHALIC_PORTFOLIO: [&str; 2] = ["aem-cg-safe", "aem-cg"];
 pub const AUTHALIC_POLISH: &str = "aem-cg-safe";
 pub const AUTHALIC_SECOND: &str = "sem";
 
+/// The polish of `problem`'s task (the reference's, and the one that confirms another minimum).
+pub fn polisher(problem: &Problem) -> &'static str {
+    methods(problem).1
+}
+
 /// The portfolio, the polish and the certificate's second method of `problem`'s task.
 fn methods(problem: &Problem) -> (&'static [&'static str], &'static str, &'static str) {
     match problem.objective {

@@ -267,7 +267,7 @@ pub fn blank(key: &str, dataset: &str, task: Task, energy: &str) -> Reference {
     }
 }
 
-/// The references of the groups of `runs` (param, deform): looked up and verified, or
+/// The references of the groups of `runs` (every task; a chained start first): looked up and verified, or
 /// computed and added to the writable store, with a `notice` each. Stops computing when
 /// `interrupt` is set.
 pub fn prepare(
@@ -295,7 +295,7 @@ pub fn prepare(
         };
         group.key = Some(key.clone());
         // A chained start (exp-SD's SD minimum) first: the problem starts there.
-        if let Err(e) = chained::resolve(plan, run, notice, interrupt) {
+        if let Err(e) = chained::resolve(plan, run, Some(&mut book), notice, interrupt) {
             notice(&format!("{e:#}"));
             group.note = Some(format!("{e:#}"));
             out.push(group);
@@ -392,7 +392,7 @@ pub fn recertify(
 /// their own.
 pub fn missing(plan: &Plan) -> Result<Vec<(String, String)>> {
     let Some(stores) = &plan.references else { return Ok(Vec::new()) };
-    let book = Book::open(stores)?;
+    let mut book = Book::open(stores)?;
     let mut out: Vec<(String, String)> = Vec::new();
     let mut seen = std::collections::HashSet::new();
     for run in &plan.runs {
@@ -401,7 +401,7 @@ pub fn missing(plan: &Plan) -> Result<Vec<(String, String)>> {
             continue;
         }
         // A chained start missing from the stores: computing it is part of the group's work.
-        if !chained::stored(plan, run) {
+        if !chained::stored(plan, run, &mut book) {
             out.push(group);
             continue;
         }

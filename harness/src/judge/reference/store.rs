@@ -168,14 +168,20 @@ impl Book {
     }
 
     /// Add `r` with its map `x` of `mesh` to the writable store, unless it holds one as low
-    /// (and as certified) for the key: the store only gets better. Under a lock on the store (batches and shards
+    /// (and as certified) for the key from the same start: the store only gets better. Under a lock on the store (batches and shards
     /// add at once), re-reading what others added since. Without `persist` only this book
     /// remembers it. Returns whether `r` was taken.
     pub fn add(&mut self, r: Reference, x: &[f64], mesh: &solvers::mesh::Mesh) -> Result<bool> {
-        // Lower, or as low with a certificate the stored one lacks.
+        // Lower, or as low with a certificate the stored one lacks; or the stored one is stale:
+        // its start is not this problem's any more (a chained start whose SD minimum moved),
+        // so `verify` refuses it and it would be computed again in every batch.
+        let same = |a: f64, b: f64| (a - b).abs() <= VERIFY_RTOL * b.abs().max(1.0);
         let better = |have: Option<&Reference>| {
             have.is_none_or(|h| {
-                r.e_star < h.e_star || (r.e_star <= h.e_star && r.certificate.certified && !h.certificate.certified)
+                h.start != r.start
+                    || !same(h.start_energy, r.start_energy)
+                    || r.e_star < h.e_star
+                    || (r.e_star <= h.e_star && r.certificate.certified && !h.certificate.certified)
             })
         };
         if !self.persist {

@@ -168,6 +168,19 @@ fn references_only_get_better() {
     s.write().unwrap();
     let mut book = Book::open(&stores).unwrap();
     assert!(book.add(r.clone(), &x, &problem.mesh).unwrap());
+    // a stale entry (another start: a chained start whose SD minimum moved) is replaced by a
+    // higher one from today's start, then the store gets better again
+    let mut stale = r.clone();
+    stale.start_energy = problem.e0 * 2.0;
+    let mut s = Store::read(&store_path).unwrap();
+    s.entries.insert(r.key.clone(), stale);
+    s.write().unwrap();
+    let mut book = Book::open(&stores).unwrap();
+    let mut higher = r.clone();
+    (higher.e_star, higher.map_checksum) = (problem.e0, map_checksum(&problem.x0));
+    assert!(book.add(higher, &problem.x0, &problem.mesh).unwrap(), "a stale entry is replaced");
+    assert!(book.add(r.clone(), &x, &problem.mesh).unwrap());
+    assert_eq!(Store::read(&store_path).unwrap().entries[&r.key], r);
     // the seed (here: the store, moved) lower than the writable store's entry wins
     let seed = dir.join("seed.json");
     std::fs::rename(&store_path, &seed).unwrap();

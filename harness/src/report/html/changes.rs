@@ -165,7 +165,8 @@ fn plural(n: usize) -> &'static str {
     }
 }
 
-/// An unsolved run the harness did not judge (authalic).
+/// An unsolved run the harness did not judge (an `authalic` run of a folder written before
+/// they were judged).
 const NOT_CONVERGED: &str = "not converged";
 
 /// What kind of problem a failed or unsolved run is: `failed`, the harness's verdict, or

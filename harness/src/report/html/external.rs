@@ -48,7 +48,7 @@ pub(super) fn external_section(h: &mut String, probes: &[Probe], summaries: &[Su
             esc(&p.name),
             esc(&version),
             esc(&p.command.join(" ")),
-            n(Status::Ok) + n(Status::NotConverged),
+            n(Status::Ok) + n(Status::NotConverged) + n(Status::Budget),
             n(Status::Failed),
             n(Status::Skipped),
             esc(&confined),

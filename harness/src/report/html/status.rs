@@ -42,9 +42,11 @@ impl Notes {
     }
 }
 
-/// Whether a run is a problem of the morning: failed, or finished without being solved.
+/// Whether a run is a problem of the morning: failed, finished without being solved, or
+/// spent its fixed budget on a map that flips.
 pub(crate) fn is_problem(s: &SummaryRow) -> bool {
     matches!(s.status, Status::Failed | Status::NotConverged)
+        || (s.status == Status::Budget && s.verdict == Some(Verdict::Flipped))
 }
 
 /// A solver's name as a column head: it may wrap after each hyphen.
@@ -299,9 +301,11 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
         (Status::NotConverged, None) => {
             ("nc", "nc".to_string(), iterations, format!("not converged: {}{more}", s.stop_column()))
         }
-        (Status::Budget, _) => {
-            let tip = format!("its budget of {} iterations spent (a fixed-budget protocol){more}", iterations);
-            ("budget", "budget".to_string(), secs, tip)
+        (Status::Budget, v) => {
+            let judged = v.map(|v| format!("; not solved: {}", verdict_text(v))).unwrap_or_default();
+            let tip = format!("its budget of {iterations} iterations spent (a fixed-budget protocol){judged}{more}");
+            let top = if v == Some(Verdict::Flipped) { verdict_short(Verdict::Flipped) } else { "budget" };
+            ("budget", top.to_string(), secs, tip)
         }
         (Status::Failed, _) => {
             let n = notes.number(&format!("failed: {}", s.error));

@@ -24,11 +24,13 @@ pub fn comparable(r: &SummaryRow) -> bool {
 }
 
 /// The run may be ranked in a fixed-budget comparison: it converged, or it ran the whole
-/// iteration budget (`stop_reason = max_iters`). Runs that stopped early for another reason
-/// (line search, non-finite values, energy increase, timeout, interruption), failed or were
-/// skipped never compete.
+/// iteration budget (`status = budget`, or `stop_reason = max_iters` in a folder written before
+/// that status). Runs that stopped early for another reason (line search, non-finite values,
+/// energy increase, timeout, interruption), failed or were skipped never compete.
 pub fn comparable_at_budget(r: &SummaryRow) -> bool {
-    comparable(r) || (r.status == Status::NotConverged && r.stop_reason == Some(StopReason::MaxIterations))
+    comparable(r)
+        || r.status == Status::Budget
+        || (r.status == Status::NotConverged && r.stop_reason == Some(StopReason::MaxIterations))
 }
 
 /// The indices of the lowest of the competing `values` (`None` = does not compete; non-finite
@@ -175,6 +177,7 @@ mod tests {
         let r = |status, stop| SummaryRow { status, stop_reason: stop, ..Default::default() };
         assert!(comparable_at_budget(&r(Status::Ok, Some(StopReason::GradientTolerance))));
         assert!(comparable_at_budget(&r(Status::NotConverged, Some(StopReason::MaxIterations))));
+        assert!(comparable_at_budget(&r(Status::Budget, Some(StopReason::MaxIterations))));
         assert!(!comparable_at_budget(&r(Status::NotConverged, Some(StopReason::NonFinite("energy".into())))));
         assert!(!comparable_at_budget(&r(Status::NotConverged, Some(StopReason::Timeout))));
         assert!(!comparable_at_budget(&r(Status::Failed, None)));

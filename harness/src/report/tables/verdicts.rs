@@ -4,7 +4,7 @@
 use super::ranking::{self, lowest};
 use super::Table;
 use crate::judge::verdict::Verdict;
-use crate::report::{failed, is_param_or_deform, skipped, tau_text, unique, verdict_text};
+use crate::report::{failed, skipped, tau_text, unique, verdict_text};
 use crate::run_folder::SummaryRow;
 
 /// The table's file stem.
@@ -20,12 +20,12 @@ fn solved_at(r: &SummaryRow, tau: f64) -> bool {
     r.flips.unwrap_or(0) == 0 && r.to_targets.iter().any(|t| t.tau == tau && t.iters.is_some())
 }
 
-/// Per energy of the judged `param`/`deform` runs and per solver: runs (not skipped), the
-/// datasets solved at each target (`solved at 1e-3`, `solved at 1e-6`, loosest first), and
-/// the verdicts of the others, then the failed runs. Bold: the most solved at each target.
-/// `None` when the harness judged no run (an authalic batch, a folder from before verdicts).
+/// Per energy of the judged runs (`authalic`: its energy `E_A`) and per solver: runs (not
+/// skipped), the datasets solved at each target (`solved at 1e-3`, `solved at 1e-6`, loosest
+/// first), and the verdicts of the others, then the failed runs. Bold: the most solved at each
+/// target. `None` when the harness judged no run (a folder from before verdicts).
 pub fn verdict_table(rows: &[SummaryRow]) -> Option<Table> {
-    let rows: Vec<&SummaryRow> = rows.iter().filter(|r| is_param_or_deform(r)).collect();
+    let rows: Vec<&SummaryRow> = rows.iter().collect();
     let mut taus: Vec<f64> = Vec::new();
     for t in rows.iter().flat_map(|r| &r.to_targets) {
         if !taus.contains(&t.tau) {
