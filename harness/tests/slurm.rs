@@ -1,7 +1,8 @@
 //! `mapbench submit` end to end. Without a cluster: `--dry-run` plans balanced shards and
 //! writes the scripts. On a live Slurm cluster (ignored by default; `.ci/run` brings one up
-//! with `scripts/slurm/local_cluster.sh up` and runs them): `configs/ci.toml` in 3 shards
-//! against a plain `run` of it (the same runs, bit-identical iterates, one history batch), and
+//! with `scripts/slurm/local_cluster.sh up` and runs them): the SD and exp-SD runs of
+//! `configs/ci.toml` (a third of the batch, the chained start included) in 3 shards against a
+//! plain `run` of them (the same runs, bit-identical iterates, one history batch), and
 //! a cancelled shard: `merge` refuses the incomplete set, `submit --resume` completes it.
 
 mod common;
@@ -163,6 +164,10 @@ fn wait_for(what: &str, limit: Duration, mut done: impl FnMut() -> bool) {
     }
 }
 
+/// The live test's batch: `--only` these globs of `configs/ci.toml`. exp-SD starts from the SD
+/// minimum, so its shards read a reference another shard's runs share.
+const LIVE_ONLY: [&str; 4] = ["--only", "*__sd__*", "--only", "*__exp-sd__*"];
+
 fn summary_rows(dir: &Path) -> usize {
     std::fs::read_to_string(dir.join("summary.csv")).map_or(0, |t| t.lines().count().saturating_sub(1))
 }
@@ -178,8 +183,10 @@ fn live_cluster_shards_match_a_plain_run_and_a_cancelled_shard_is_resumed() {
 
     // 3 shards with --wait: the merge's exit code
     let (sharded, db) = (path("sharded"), path("history.sqlite"));
-    let o =
-        mapbench(&["submit", &config, "--shards", "3", "--out", &s(&sharded), "--history", &s(&db), "--wait"], work);
+    let (out, history) = (s(&sharded), s(&db));
+    let mut args = vec!["submit", &config, "--shards", "3", "--out", &out, "--history", &history, "--wait"];
+    args.extend(LIVE_ONLY);
+    let o = mapbench(&args, work);
     assert!(o.status.success(), "{}", text(&o));
     let ids = job_ids(&o);
     assert!(ids.contains_key("array_job") && ids.contains_key("merge_job"), "{}", text(&o));
@@ -189,7 +196,10 @@ fn live_cluster_shards_match_a_plain_run_and_a_cancelled_shard_is_resumed() {
 
     // a plain run of the same config, on the same thread count per run
     let plain = path("plain");
-    let o = mapbench(&["run", &config, "--out", &s(&plain), "--no-history", "--jobs", "2"], work);
+    let out = s(&plain);
+    let mut args = vec!["run", &config, "--out", &out, "--no-history", "--jobs", "2"];
+    args.extend(LIVE_ONLY);
+    let o = mapbench(&args, work);
     assert!(matches!(o.status.code(), Some(0 | 1)), "{}", text(&o));
     assert_same_results(&plain, &sharded);
     let runs = summary_rows(&plain) as i64;
@@ -199,6 +209,7 @@ fn live_cluster_shards_match_a_plain_run_and_a_cancelled_shard_is_resumed() {
     let (cancelled, db2) = (path("cancelled"), path("history2.sqlite"));
     let waiting = Command::new(env!("CARGO_BIN_EXE_mapbench"))
         .args(["submit", &config, "--shards", "3", "--out", &s(&cancelled), "--history", &s(&db2), "--wait"])
+        .args(LIVE_ONLY)
         .current_dir(work)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
