@@ -4,7 +4,7 @@ rank, and a file may name (by a `crate::`, `super::` or `self::` path, or a chil
 named without a prefix; the parsing of scripts/import_cycles.py) only modules of its own
 rank or below:
 
-    0  leaves        hash, paths, stats, names, escape, convergence, signals, calibration
+    0  leaves        hash, paths, stats, names, escape, convergence, signals, calibration, utc
     1  run_folder    every file of a run folder, meta.json typed and versioned
     2  the batch     plan, run, judge, history, gate, export, output, evaluate, external, slurm,
                      corpus
@@ -46,6 +46,7 @@ RANKS = {
     "calibration": 0,
     "hardware": 0,
     "column_names": 0,
+    "utc": 0,
     "run_folder": 1,
     "plan": 2,
     "run": 2,

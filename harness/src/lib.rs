@@ -40,3 +40,4 @@ pub mod run_folder;
 pub mod signals;
 pub mod slurm;
 pub mod stats;
+pub mod utc;

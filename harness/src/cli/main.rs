@@ -17,6 +17,7 @@ use mapbench::{export, report, run_folder, signals, slurm};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+mod provenance;
 mod reference;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -326,6 +327,14 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         manifest: Option<PathBuf>,
     },
+    /// Print each run folder's provenance as one Markdown line for a Results page: date,
+    /// revision, the config and its options, runs and wall time, machine, calibration (all
+    /// from its meta.json).
+    Provenance {
+        /// Run folders (each with a meta.json).
+        #[arg(required = true)]
+        run_dirs: Vec<PathBuf>,
+    },
     /// List the registered datasets, solvers or energies.
     List {
         #[arg(value_enum, default_value = "datasets")]
@@ -632,6 +641,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
         }
         Command::List { what, registry, markdown } => list(what, &registry, markdown),
+        Command::Provenance { run_dirs } => provenance::print(&run_dirs),
         Command::Corpus { action: CorpusAction::Fetch, to, from, only, manifest } => {
             corpus_fetch(to, from, &only, manifest.as_deref())
         }

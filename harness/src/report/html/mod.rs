@@ -25,12 +25,12 @@ mod status;
 mod tests;
 mod timing;
 
+pub(crate) use crate::utc::utc;
 use changes::changes_section;
 use external::{external_section, probes};
 use figures::{plots_section, tables_section};
 use files::files_section;
 use provenance::provenance_section;
-pub(crate) use provenance::utc;
 use status::status_matrix;
 use timing::timing_section;
 

@@ -1,24 +1,9 @@
-//! Provenance from `meta.json`, and the UTC dates it shows.
+//! The report's provenance section, from `meta.json`.
 
 use super::esc;
 use crate::run_folder::meta::{shown, Meta};
+use crate::utc::utc;
 use std::fmt::Write as _;
-
-/// Unix seconds as `YYYY-MM-DD hh:mm:ss UTC` (civil-from-days, no date crate needed).
-pub(crate) fn utc(secs: u64) -> String {
-    let days = (secs / 86_400) as i64;
-    let rem = secs % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!("{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC", rem / 3600, rem % 3600 / 60, rem % 60)
-}
 
 /// When the shards of a merged folder ran on different machines: a visible warning naming
 /// them, since only `time_norm` (each shard's times over its own calibration) compares then.

@@ -2,6 +2,7 @@
 
 pub use schema::{shown, MergedShard, Meta, MetaError, Stop, VERSION};
 
+mod provenance;
 mod schema;
 #[cfg(test)]
 mod tests;
