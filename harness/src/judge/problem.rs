@@ -22,6 +22,16 @@ pub enum Objective {
     Authalic { problem: Box<AuthalicProblem>, settings: AuthalicSettings },
 }
 
+impl Objective {
+    /// The energy of the map `x`.
+    pub fn energy_of(&self, x: &[f64]) -> f64 {
+        match self {
+            Objective::Map { problem, .. } => problem.energy(x),
+            Objective::Authalic { problem, .. } => problem.terms(&problem.vars_of(x)).energy,
+        }
+    }
+}
+
 /// A judged problem: what determines a group's reference minimum and its yardstick.
 pub struct Problem {
     /// The dataset's mesh as loaded (the maps' checksum names it).
@@ -56,24 +66,7 @@ impl Problem {
     /// [`Problem::of`] with the dataset's mesh already loaded.
     pub fn with_mesh(plan: &Plan, run: &PlannedRun, mesh: Mesh) -> Result<Problem> {
         let ds = plan.dataset(run);
-        if let RunSettings::Authalic(settings) = &run.settings {
-            let (problem, x0) = solvers::authalic::authalic_start(&mesh, settings)?;
-            let e0 = problem.terms(&problem.vars_of(&x0)).energy;
-            if !e0.is_finite() {
-                bail!("{}: the common start's energy is {e0}", mesh.source);
-            }
-            return Ok(Problem {
-                mesh,
-                settings: run.settings.clone(),
-                handles: Vec::new(),
-                objective: Objective::Authalic { problem: Box::new(problem), settings: *settings },
-                x0,
-                start: StartMap::ArclengthStretch,
-                e0,
-                ideal: 0.0,
-            });
-        }
-        let (energy, handles, built) = match &run.settings {
+        let (objective, handles, x0, start) = match &run.settings {
             RunSettings::Param { energy, settings } => {
                 // resolved by `reference::chained::resolve` (`reference::prepare`) before the runs
                 let sd_min = plan
@@ -81,32 +74,33 @@ impl Problem {
                     .of(plan, run)
                     .transpose()
                     .map_err(|e| anyhow!("{}: the sd-minimum start: {e}", ds.name))?;
-                let built = solvers::param::judged_problem(&mesh, *energy, settings, sd_min.as_ref().map(|x| &x[..]))?;
-                (*energy, Vec::new(), built)
+                let (problem, x0, start) =
+                    solvers::param::judged_problem(&mesh, *energy, settings, sd_min.as_ref().map(|x| &x[..]))?;
+                (Objective::Map { energy: *energy, problem }, Vec::new(), x0, start)
             }
             RunSettings::Deform { energy, settings } => {
                 let handles = ds.handles.load(&mesh)?;
                 let init = ds.initial_map();
-                let built = solvers::deform::deform_start(&mesh, &handles, init.as_deref(), *energy, settings)?;
-                (*energy, handles, built)
+                let (problem, x0, start) =
+                    solvers::deform::deform_start(&mesh, &handles, init.as_deref(), *energy, settings)?;
+                (Objective::Map { energy: *energy, problem }, handles, x0, start)
             }
-            RunSettings::Authalic(_) => bail!("{}: the authalic problem is made above", mesh.source),
+            RunSettings::Authalic(settings) => {
+                let (problem, x0) = solvers::authalic::authalic_start(&mesh, settings)?;
+                let objective = Objective::Authalic { problem: Box::new(problem), settings: *settings };
+                (objective, Vec::new(), x0, StartMap::ArclengthStretch)
+            }
         };
-        let (problem, x0, start) = built;
-        let e0 = problem.energy(&x0);
+        let e0 = objective.energy_of(&x0);
         if !e0.is_finite() {
             bail!("{}: the common start's energy is {e0}", mesh.source);
         }
-        Ok(Problem {
-            mesh,
-            settings: run.settings.clone(),
-            handles,
-            objective: Objective::Map { energy, problem },
-            x0,
-            start,
-            e0,
-            ideal: ideal(energy),
-        })
+        let ideal = match &objective {
+            Objective::Map { energy, .. } => ideal(*energy),
+            // E_A at an area-preserving map
+            Objective::Authalic { .. } => 0.0,
+        };
+        Ok(Problem { mesh, settings: run.settings.clone(), handles, objective, x0, start, e0, ideal })
     }
 
     pub fn task(&self) -> Task {
@@ -141,10 +135,7 @@ impl Problem {
 
     /// The energy of the map `x`.
     pub fn energy_of(&self, x: &[f64]) -> f64 {
-        match &self.objective {
-            Objective::Map { problem, .. } => problem.energy(x),
-            Objective::Authalic { problem, .. } => problem.terms(&problem.vars_of(x)).energy,
-        }
+        self.objective.energy_of(x)
     }
 
     /// Solve with the catalogue's `solver` (its default options) from the map `x` with the

@@ -24,32 +24,36 @@ pub fn resolve(
     notice: &dyn Fn(&str),
     interrupt: &AtomicBool,
 ) -> Result<()> {
-    resolve_with(plan, run, book, true, notice, interrupt).map(|_| ())
+    resolve_with(plan, run, Lookup { book, compute: true, notice, interrupt }).map(|_| ())
 }
 
 /// Whether the chained start of `run` is in `book` (resolved then), without computing it:
 /// what [`super::missing`] counts. `true` for a run without a chained start, and for one whose
 /// SD problem cannot be made (its runs fail on their own).
 pub fn stored(plan: &Plan, run: &PlannedRun, book: &mut Book) -> bool {
-    !matches!(resolve_with(plan, run, Some(book), false, &|_| {}, &AtomicBool::new(false)), Ok(false))
+    let lookup = Lookup { book: Some(book), compute: false, notice: &|_| {}, interrupt: &AtomicBool::new(false) };
+    !matches!(resolve_with(plan, run, lookup), Ok(false))
 }
 
-/// [`resolve`], computing a missing SD reference only when `compute`; `Ok(false)` when it is
-/// missing and not computed.
-fn resolve_with(
-    plan: &Plan,
-    run: &PlannedRun,
-    book: Option<&mut Book>,
+/// Where an SD reference is looked for and whether a missing one is computed.
+struct Lookup<'a> {
+    /// The caller's book; `None`: the plan's stores.
+    book: Option<&'a mut Book>,
     compute: bool,
-    notice: &dyn Fn(&str),
-    interrupt: &AtomicBool,
-) -> Result<bool> {
+    notice: &'a dyn Fn(&str),
+    interrupt: &'a AtomicBool,
+}
+
+/// [`resolve`], computing a missing SD reference only when `lookup.compute`; `Ok(false)` when
+/// it is missing and not computed.
+fn resolve_with(plan: &Plan, run: &PlannedRun, lookup: Lookup) -> Result<bool> {
+    let interrupt = lookup.interrupt;
     let Some(sd) = sd_problem(plan, run) else { return Ok(true) };
     let key = memo_key(plan, &sd);
     let mut memo = plan.starts.lock();
     let resolved = match memo.get(&key) {
         Some(r) => r.clone(),
-        None => match sd_minimum(plan, &sd, book, compute, notice, interrupt) {
+        None => match sd_minimum(plan, &sd, lookup) {
             Ok(None) => return Ok(false),
             found => {
                 let r = found.map(|x| Arc::new(x.unwrap_or_default())).map_err(|e| format!("{e:#}"));
@@ -66,14 +70,8 @@ fn resolve_with(
 
 /// The reference minimum of the SD problem `sd`: looked up in `book` (or the plan's stores),
 /// or (when `compute`) computed and added there; `None` when missing and not computed.
-fn sd_minimum(
-    plan: &Plan,
-    sd: &PlannedRun,
-    book: Option<&mut Book>,
-    compute: bool,
-    notice: &dyn Fn(&str),
-    interrupt: &AtomicBool,
-) -> Result<Option<Vec<f64>>> {
+fn sd_minimum(plan: &Plan, sd: &PlannedRun, lookup: Lookup) -> Result<Option<Vec<f64>>> {
+    let Lookup { book, compute, notice, interrupt } = lookup;
     let problem = Problem::of(plan, sd)?;
     let dataset = plan.dataset(sd).name.clone();
     let mut opened;
