@@ -10,17 +10,18 @@ use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::corpus::{
     data_profiles, performance_profiles, DataProfiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME,
 };
-use crate::report::{is_param_or_deform, tau_text, tightest_target};
+use crate::report::{tau_text, tightest_target};
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// The two performance profiles of every `param`/`deform` energy with at least one problem in
-/// its common problem set, and its data profile when some solver solved a problem, written
-/// under `run_dir/plots/`.
+/// The two performance profiles of every energy (the authalic one too: its runs are judged
+/// against a reference minimum like the others) with at least one problem in its common
+/// problem set, and its data profile when some solver solved a problem, written under
+/// `run_dir/plots/`.
 pub(super) fn render_profiles(run_dir: &Path, summaries: &[SummaryRow], solvers: &[&str]) -> Result<Vec<Plot>> {
-    let rows: Vec<&SummaryRow> = summaries.iter().filter(|r| is_param_or_deform(r)).collect();
+    let rows: Vec<&SummaryRow> = summaries.iter().collect();
     let unit = TimeUnit::choose(rows.iter().copied());
     let mut energies: Vec<&str> = Vec::new();
     for r in &rows {
@@ -197,12 +198,23 @@ mod tests {
             row("b", "sd", "cm", Status::Ok, 40),
             // bconf: every pair skipped, no profile.
             row("a", "bconf", "kp-newton", Status::Skipped, 0),
+            // authalic at a fixed budget: a run that reached the target is solved, one that
+            // spent the budget above it is not
+            SummaryRow { task: Task::Authalic, ..row("c", "authalic", "aem-cg", Status::Ok, 100) },
+            SummaryRow { task: Task::Authalic, ..row("c", "authalic", "sem", Status::Budget, 100) },
         ];
-        let plots = render_profiles(dir.path(), &rows, &["kp-newton", "cm"]).unwrap();
+        let plots = render_profiles(dir.path(), &rows, &["kp-newton", "cm", "aem-cg", "sem"]).unwrap();
         let files: Vec<&str> = plots.iter().map(|p| p.file.as_str()).collect();
         assert_eq!(
             files,
-            ["plots/profile__sd__iterations.png", "plots/profile__sd__time.png", "plots/profile__sd__data.png"]
+            [
+                "plots/profile__sd__iterations.png",
+                "plots/profile__sd__time.png",
+                "plots/profile__sd__data.png",
+                "plots/profile__authalic__iterations.png",
+                "plots/profile__authalic__time.png",
+                "plots/profile__authalic__data.png"
+            ]
         );
         assert_eq!(plots[0].kind, PlotKind::ProfileIterations);
         assert_eq!(plots[2].kind, PlotKind::ProfileData);
