@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{mapbench, text, write_config};
+use common::{mapbench, read_csv, text, write_config};
 use mapbench::history::HistoryDb;
 use std::path::Path;
 use std::process::Command;
@@ -306,4 +306,38 @@ fn the_nightly_gate_on_the_history_exits_by_the_rules_of_check() {
     let o = mapbench(&["history", "--config", "h", "--out", "trend", "--fail-on-regression"], tmp.path());
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("kp-newton"), "the missing run is named: {}", text(&o));
+}
+
+/// The authalic nightly's gate: at the paper's fixed budget every run is `budget`, and a night
+/// whose authalic energy at the budget rose (a smaller budget stands in for a worse method) is
+/// a regression of that run, named with its energy.
+#[test]
+fn the_nightly_gate_holds_the_authalic_energy_at_the_budget() {
+    let tmp = tempfile::tempdir().unwrap();
+    let night = |n: usize, budget: usize| {
+        let cfg = write_config(
+            tmp.path(),
+            &format!(
+                "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"bumpy_1k\"]\nsolvers = [\"sem\", \"aem-cg\"]\n\
+                 [stop]\nmax_iters = {budget}\n"
+            ),
+        );
+        let out = tmp.path().join(format!("n{n}"));
+        let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        let (header, rows) = read_csv(&out.join("summary.csv"));
+        let status = header.iter().position(|h| h == "status").unwrap();
+        assert!(rows.iter().all(|r| r[status] == "budget"), "{rows:?}");
+        let o = mapbench(&["history", "--config", "a", "--out", "trend", "--fail-on-regression"], tmp.path());
+        (o.status.code(), text(&o))
+    };
+    assert_eq!(night(1, 20).0, Some(0));
+    let (code, said) = night(2, 20);
+    assert_eq!(code, Some(0), "{said}");
+    assert!(said.contains("0 regressions"), "{said}");
+    let (code, said) = night(3, 10);
+    assert_eq!(code, Some(1), "{said}");
+    assert!(said.contains("REGRESSIONS") && said.contains("bumpy_1k authalic authalic aem-cg"), "{said}");
+    let regressions = said.split("Improvements").next().unwrap_or_default();
+    assert!(regressions.lines().any(|l| l.contains("aem-cg") && l.contains("final_energy")), "{said}");
 }
