@@ -13,6 +13,7 @@ pub mod map;
 pub mod meta;
 pub mod reuse;
 pub mod sidecar;
+pub mod status;
 pub mod summary;
 pub mod timed;
 
