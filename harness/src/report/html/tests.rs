@@ -38,7 +38,7 @@ fn index_links_every_run_plot_and_table_and_escapes_errors() {
         assert!(png_size(&p.join("plots").join(&name)).0 > 0);
         shown += 1;
     }
-    assert_eq!(shown, 12);
+    assert_eq!(shown, 15);
     // Every run CSV is linked (the failed run's too), and every map OBJ.
     for stem in ["tiny__sd__kp-newton", "tiny__sd__slim", "tiny__sd__cm", "disk__authalic__aem-cg"] {
         assert!(html.contains(&format!("href=\"runs/{stem}.csv\"")), "{stem}");

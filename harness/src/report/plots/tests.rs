@@ -111,6 +111,10 @@ fn renders_every_group_and_map_as_png_of_the_requested_size() {
             "plots/profile__sd__iterations.png",
             "plots/profile__sd__time.png",
             "plots/profile__sd__data.png",
+            // authalic runs are judged: their solvers are profiled too
+            "plots/profile__authalic__iterations.png",
+            "plots/profile__authalic__time.png",
+            "plots/profile__authalic__data.png",
         ]
     );
     for p in &plots {
