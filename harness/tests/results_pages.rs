@@ -22,7 +22,6 @@ const NOT_YET_REMEASURED: &[&str] = &[
     "million-vertices",
     "noise",
     "parallel-factorization",
-    "shard-balance",
     "slim-vs-libigl",
 ];
 
