@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{mapbench, read_csv, text, write_config};
+use common::{mapbench, read_csv, text, write_config, QUAD_OBJ};
 use mapbench::judge::problem::Problem;
 use mapbench::judge::reference::store::{map_checksum, Store};
 use mapbench::plan::{config::LoadedConfig, Plan};
@@ -139,4 +139,52 @@ fn the_reference_budget_covers_every_committed_config() {
         seen += 1;
     }
     assert!(seen >= 10, "{seen} configs");
+}
+
+/// `references` lists a config's reference minima: the committed seed's, the ones it computes
+/// (added to the store, found there next time) and the ones it cannot have (exit 1).
+#[test]
+fn references_computes_what_no_store_holds_and_lists_every_group() {
+    let tmp = tempfile::tempdir().unwrap();
+    let fan = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 0.3\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n";
+    std::fs::write(tmp.path().join("fan.obj"), fan).unwrap();
+    let body = "name = \"t\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"cm\"]\n\
+                [[dataset]]\nname = \"fan\"\npath = \"fan.obj\"\n";
+    let cfg = write_config(tmp.path(), body);
+    let store = tmp.path().join("refs.json");
+    let list = |cfg: &Path| {
+        let o = mapbench(&["references", cfg.to_str().unwrap(), "--store", store.to_str().unwrap()], tmp.path());
+        let out = String::from_utf8_lossy(&o.stdout).to_string();
+        let rows: Vec<Vec<String>> = out.lines().skip(1).map(|l| l.split('\t').map(String::from).collect()).collect();
+        (o.status.code(), rows, text(&o))
+    };
+    let (code, rows, log) = list(&cfg);
+    assert_eq!(code, Some(0), "{log}");
+    let origins: Vec<(&str, &str, &str)> = rows.iter().map(|r| (r[0].as_str(), r[3].as_str(), r[4].as_str())).collect();
+    assert_eq!(origins, [("bumpy_1k", "yes", "Seed"), ("fan", "yes", "Computed")], "{log}");
+    assert!(log.contains("reference minimum of fan param sd: computing"), "{log}");
+    let e_star: f64 = rows[1][2].parse().unwrap();
+    assert!(e_star.is_finite() && e_star >= 2.0, "SD is at least 2: {e_star}");
+    // the next call finds it in the store, and computes nothing
+    let (code, rows, log) = list(&cfg);
+    assert_eq!((code, rows[1][4].as_str(), rows[1][2].parse::<f64>().unwrap()), (Some(0), "Store", e_star), "{log}");
+    assert!(!log.contains("computing"), "{log}");
+    // a mesh that does not load has no reference: listed as such, exit 1
+    std::fs::write(tmp.path().join("fan.obj"), QUAD_OBJ).unwrap();
+    let (code, rows, log) = list(&cfg);
+    assert_eq!((code, rows[1][2].as_str(), rows[1][4].as_str()), (Some(1), "-", "Unavailable"), "{log}");
+    // an authalic config has them too: the normalized authalic energy's minimum from the
+    // stretch start, by AEM-CG; a flat disk is its own area-preserving map (E_A = 0)
+    let authalic = write_config(
+        tmp.path(),
+        "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"flat_disk_1k\"]\nsolvers = [\"sem\"]\n",
+    );
+    let (code, rows, log) = list(&authalic);
+    assert_eq!(
+        (code, rows.first().map(|r| (r[1].as_str(), r[3].as_str(), r[4].as_str()))),
+        (Some(0), Some(("authalic", "yes", "Computed"))),
+        "{log}"
+    );
+    let e_star: f64 = rows[0][2].parse().unwrap();
+    assert!((0.0..1e-10).contains(&e_star), "{log}");
 }

@@ -6,6 +6,11 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// One quad face: not a triangle mesh.
+pub const QUAD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+/// Two triangles apart: a mesh of two components.
+pub const TWO_LOOPS_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 0\nv 6 5 0\nv 5 6 0\nf 1 2 3\nf 4 5 6\n";
+
 /// `mapbench ARGS` in `dir`, without the shared corpus.
 pub fn mapbench(args: &[&str], dir: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_mapbench"))
