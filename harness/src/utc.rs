@@ -30,7 +30,7 @@ mod tests {
     fn civil_dates_from_unix_seconds() {
         assert_eq!(utc(0), "1970-01-01 00:00:00 UTC");
         assert_eq!(utc(951_782_400), "2000-02-29 00:00:00 UTC");
-        // 2026-12-05 16:28:17 UTC, as `date -u -d @1796488097` prints it
+        // as `date -u -d @1796488097` prints it
         assert_eq!(utc(1_796_488_097), "2026-12-05 16:28:17 UTC");
         assert_eq!(utc_date(1_796_488_097), "2026-12-05");
     }

@@ -111,7 +111,7 @@ pub enum Verdict {
     /// failed line search or linear solve; `stop_reason` says which).
     Unfinished,
     /// Not judged: the solver's own rule decided. Only in folders written before `authalic`
-    /// runs had reference minima (2026-12-05); read, never written.
+    /// runs had reference minima; read, never written.
     OwnRule,
 }
 
