@@ -1,5 +1,6 @@
 //! `submit`: a batch on a Slurm cluster, what it says of the jobs, and `--wait`.
 
+use super::args::SubmitArgs;
 use anyhow::Result;
 use mapbench::history::HistoryChoice;
 use mapbench::slurm;
@@ -8,8 +9,34 @@ use std::process::ExitCode;
 /// How often `submit --wait` looks at the queue.
 const POLL: std::time::Duration = std::time::Duration::from_secs(2);
 
+/// `submit`: a new submission (CONFIG and --shards) or the missing shards of one (--resume).
+pub(crate) fn verb(a: SubmitArgs) -> Result<ExitCode> {
+    match (a.resume, a.config, a.shards) {
+        (Some(dir), _, _) => {
+            if a.history.history.is_some() || a.history.no_history {
+                anyhow::bail!("--history and --no-history are the submission's: not with --resume");
+            }
+            submit_resume(&dir, (!a.sbatch.is_empty()).then_some(a.sbatch), a.wait)
+        }
+        (None, Some(config), Some(shards)) => {
+            let request = slurm::Request {
+                config,
+                shards,
+                out: a.out,
+                only: a.only,
+                repeat: a.repeat,
+                cpus_per_task: a.cpus_per_task,
+                sbatch: a.sbatch,
+                history: a.history.choice(),
+            };
+            submit(&request, a.dry_run, a.wait)
+        }
+        _ => anyhow::bail!("give CONFIG and --shards N, or --resume DIR"),
+    }
+}
+
 /// `submit CONFIG`: plan, write, submit (unless --dry-run), and wait when asked.
-pub fn submit(request: &slurm::Request, dry_run: bool, wait: bool) -> Result<ExitCode> {
+fn submit(request: &slurm::Request, dry_run: bool, wait: bool) -> Result<ExitCode> {
     let prepared = slurm::prepare(request, || {
         eprintln!("submit: no past times in the history: timing the calibration workload here to scale the estimates");
         let mut c = mapbench::calibration::Calibration::new();
@@ -50,7 +77,7 @@ pub fn submit(request: &slurm::Request, dry_run: bool, wait: bool) -> Result<Exi
 }
 
 /// `submit --resume DIR`.
-pub fn submit_resume(dir: &std::path::Path, sbatch: Option<Vec<String>>, wait: bool) -> Result<ExitCode> {
+fn submit_resume(dir: &std::path::Path, sbatch: Option<Vec<String>>, wait: bool) -> Result<ExitCode> {
     let resumed = slurm::resume(&slurm::scheduler::Slurm, dir, sbatch)?;
     for id in &resumed.cancelled {
         eprintln!("cancelled merge job {id}: its shards had failed, so it could never start");
