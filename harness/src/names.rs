@@ -1,7 +1,8 @@
-//! Names that become file names (design.md: dataset, energy and solver names are file-name
-//! safe). Every run writes `<dataset>__<energy>__<solver>.csv` and friends inside the run
-//! folder, so a name with a separator, `..` or a control character would write elsewhere or
-//! produce an unusable file name. Names are checked once, where the config and the registry
+//! Names that become file names (dataset, energy and solver names are file-name safe:
+//! docs/src/design/testing.md, "Bad input"). Every run writes
+//! `<dataset>__<energy>__<solver>.csv` and friends inside the run folder, so a name with a
+//! separator, `..` or a control character would write elsewhere or produce an unusable file
+//! name. Names are checked once, where the config and the registry
 //! are loaded; nothing downstream re-checks them.
 
 use thiserror::Error;

@@ -27,14 +27,14 @@ pub struct DeformSettings {
 }
 
 /// Default penalty weight. The complex-view demo passes 1000 on raw GLID coordinates (with an
-/// inconsistent factor 2, notes 1.12) and libigl's SLIM tutorial uses 1e5. Our meshes have
+/// inconsistent factor 2 in `meshNewton`'s deformation code) and libigl's SLIM tutorial uses 1e5. Our meshes have
 /// area 1, where the elastic energy is of order 1 (SD is 2 at rest): with 1e5 a handle that
 /// misses its target by 1e-3 (a thousandth of the shape's size) costs 0.1, so the handles are
 /// followed closely, while the system stays well conditioned after Jacobi scaling.
 pub const DEFAULT_LAMBDA: f64 = 1e5;
 
 /// Stop when `|grad| <= 1e-6` (the mesh has area 1, SD is 2 at rest), 1000 iterations.
-/// The paper's rule (Section 6.2, design.md: an update that lowers the energy by less than
+/// The paper's rule (Section 6.2: an update that lowers the energy by less than
 /// 1e-6) rewards short steps: L-BFGS's first step on the released bar lowers the energy by
 /// less than that and "converged" at gap 0.99999, and KP-Newton stopped with the free end
 /// still short of the rest pose. `[stop] energy_decrease_tol = 1e-6` in a config restores it.

@@ -5,7 +5,7 @@
 //! Solvers are pure: no printing, no files, no global state. Each iteration is reported
 //! to an [`solver::Observer`]; the harness turns observations into CSV rows.
 //!
-//! Conventions (`../shared/design.md`, docs/src/design/numerics.md): variables are interleaved, dof `2v` = u and `2v + 1` = v of
+//! Conventions (docs/src/design/numerics.md): variables are interleaved, dof `2v` = u and `2v + 1` = v of
 //! vertex `v`; meshes are scaled to total area 1 and energies are area-weighted means,
 //! so the symmetric Dirichlet energy scores exactly 2 at an isometry.
 

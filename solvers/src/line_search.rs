@@ -1,4 +1,4 @@
-//! The line search shared by every Newton-like solver (design.md conventions): the largest
+//! The line search shared by every Newton-like solver (docs/src/design/numerics.md): the largest
 //! orientation-preserving step (Smith and Schaefer 2015; complex-view paper Algorithm 1,
 //! line 7), `t0 = min(1, 0.9 t_max)`, then Armijo backtracking (Eq. 1).
 

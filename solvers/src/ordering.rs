@@ -1,8 +1,8 @@
 //! Fill-reducing orderings for the sparse Cholesky factorization.
 //!
 //! faer ships AMD only. Nested dissection (METIS `NodeND`) of the vertex graph cuts the fill
-//! and the flops at mesh sizes of 50k+ vertices (`../shared/notes/rust-stack.md` sections 2
-//! and 3; our timings against Pardiso: docs/src/results/linear-solvers.md). Two details
+//! and the flops at mesh sizes of 50k+ vertices (docs/src/design/linear-algebra.md;
+//! our timings against Pardiso: docs/src/results/linear-solvers.md). Two details
 //! matter:
 //! - The graph is the *vertex* graph (the two dofs of a vertex share one node), expanded to
 //!   the dofs afterwards: the same fill as ordering the dof graph, in less time.

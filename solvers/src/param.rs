@@ -46,7 +46,7 @@ pub struct ParamSettings {
     pub start: ParamStart,
 }
 
-/// design.md defaults: `|grad| <= 1e-3`, 1000 iterations, and the energy's own decrease
+/// The `param` defaults (docs/src/design/numerics.md): `|grad| <= 1e-3`, 1000 iterations, and the energy's own decrease
 /// rule if it has one (SARAP's, `energy_decrease_tol`).
 pub fn default_stop(energy: &EnergyKind) -> StopSettings {
     StopSettings { energy_decrease_tol: energy.energy_decrease_tol(), ..StopSettings::default() }

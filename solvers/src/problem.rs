@@ -1,7 +1,7 @@
 //! A planar map optimization problem: the source mesh's local operators, an energy, and
 //! evaluation of energy, gradient and element states at a map.
 //!
-//! The energy is `sum_t A_t psi_t / sum_t A_t` (design.md): SD scores 2 at an isometry.
+//! The energy is `sum_t A_t psi_t / sum_t A_t` (docs/src/design/numerics.md): SD scores 2 at an isometry.
 //! Maps are stored as interleaved `[u0, v0, u1, v1, ...]`.
 
 use crate::assembly::Pattern;
@@ -69,7 +69,7 @@ pub struct MapProblem {
     incidence: VertexCorners,
 }
 
-/// Soft handles `lambda * sum |z_P - c|^2` (design.md: gradient `2 lambda (z_P - c)`,
+/// Soft handles `lambda * sum |z_P - c|^2` (docs/src/design/numerics.md: gradient `2 lambda (z_P - c)`,
 /// Hessian `2 lambda`, one consistent convention); added to the normalized energy.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Penalty {

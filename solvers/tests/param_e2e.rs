@@ -7,7 +7,7 @@ use solvers::mesh::{load_obj, Mesh};
 use solvers::param::{solve_param, ParamSettings};
 use solvers::solver::{Recorder, StopReason};
 
-/// Runs KP-Newton with SD and checks the invariants of design.md; returns (iters, energy, s).
+/// Runs KP-Newton with SD and checks the invariants of docs/src/design/testing.md; returns (iters, energy, s).
 fn check_sd_run(mesh: &Mesh) -> (usize, f64, f64) {
     let e = EnergyKind::Sd(Sd);
     let mut rec = Recorder::default();

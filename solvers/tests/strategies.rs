@@ -1,5 +1,5 @@
 //! The Hessian strategies as peers on one pipeline:
-//! the invariants of design.md at the solver level.
+//! the invariants of docs/src/design/testing.md at the solver level.
 
 use solvers::energy::{Barap, Bconf, EnergyKind, Nh, Sarap, Sd};
 use solvers::generate::generate;
@@ -54,7 +54,7 @@ fn fp4_and_fp6_take_the_same_path() {
 
 #[test]
 fn cm_and_kp_are_identical_where_their_hessians_agree() {
-    // design.md: CM's Hessian equals KP's for SD, BCONF (k <= 1) and BARAP (k <= 2), so the
+    // docs/src/design/testing.md: CM's Hessian equals KP's for SD, BCONF (k <= 1) and BARAP (k <= 2), so the
     // runs agree iterate for iterate from the same start (the common, scaled Tutte map).
     // hilbert: long and thin, where round-off differences between KP and CM grew into
     // different iteration counts before KP used CM's arithmetic for the cone term.

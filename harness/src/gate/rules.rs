@@ -34,7 +34,7 @@ pub const DEFAULT_ENERGY_RTOL: f64 = 1e-6;
 
 /// With a single sample on either side there is no spread to compare: a time is flagged when
 /// after / before exceeds this factor (or falls below its inverse). `asv compare`'s default
-/// `--factor` (see `../shared/notes/benchmark-methodology.md`, "asv").
+/// `--factor`.
 pub const SINGLE_SAMPLE_FACTOR: f64 = 1.1;
 
 /// What the rules compare of one run: the `summary.csv` columns that are gated (and, in a

@@ -169,8 +169,8 @@ pub fn clamped_label(solver: &str) -> String {
 }
 
 /// Rewrite `energy_minus_best` of every run with the best energy any finished run of its
-/// (dataset, energy) group reached (design.md: "energy minus the best energy over all
-/// solvers"). Runs finish in any order, in shards or resumed, so this is done once they are
+/// (dataset, energy) group reached (docs/src/reference/columns.md: "energy minus the lowest energy any
+/// solver reached"). Runs finish in any order, in shards or resumed, so this is done once they are
 /// all on disk. Files whose content would not change are left alone.
 pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     let mut groups: BTreeMap<(&str, &str), Group> = BTreeMap::new();

@@ -1,4 +1,4 @@
-//! The per-iteration CSV of a run (design.md "Output of a run"): the design columns, then the
+//! The per-iteration CSV of a run (docs/src/reference/columns.md): the common columns, then the
 //! extra columns of the solver that wrote it; one writer and one reader, by header name.
 
 use super::{csv_error, read_csv_bytes, run_stem, FolderError, SummaryRow};
@@ -7,7 +7,7 @@ use serde::Serialize;
 use solvers::solver::IterationRecord;
 use std::path::Path;
 
-/// Per-iteration CSV columns, in design.md order; `shift` (empty when the row has no Newton
+/// Per-iteration CSV columns, in the book's order; `shift` (empty when the row has no Newton
 /// system), `ls_evals`, `gap` (the row's relative gap to the reference minimum the run is
 /// judged by; empty without one) and `t_record_s` (the row's record-only work, outside
 /// `t_iter_s`, `t_cum_s` and the run's `time_s`) follow as extras.
@@ -62,7 +62,7 @@ struct IterationRow {
 /// (dataset, energy) group over all solvers, `e_star` the reference minimum it is judged by
 /// and `gap_scale` the span of its gaps (the `gap` column; `E0 - E*` when not given). A
 /// solver's extra columns ([`IterationRecord::extra`], named by the first row) follow the
-/// design.md ones.
+/// common ones.
 pub fn iteration_csv(
     rows: &[IterationRecord],
     best: f64,

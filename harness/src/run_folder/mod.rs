@@ -1,4 +1,4 @@
-//! The run folder and every file in it (design.md "Output of a run"): `summary.csv`,
+//! The run folder and every file in it (docs/src/reference/run-folder.md): `summary.csv`,
 //! `meta.json`, `runs/<run>.csv` (per iteration) and `runs/<run>.json` (the resume sidecar),
 //! `uv/<run>.uv.gz` (the final map's UVs) with `meshes/<dataset>.obj.gz` (the mesh they map, once
 //! per dataset; `map.rs`), the maps that `maps` keeps (`keep.rs`). This module owns their names

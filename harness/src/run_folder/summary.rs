@@ -1,4 +1,4 @@
-//! `summary.csv`: one row per run, in design.md's columns, appended as runs finish and
+//! `summary.csv`: one row per run, in the columns of docs/src/reference/columns.md, appended as runs finish and
 //! rewritten in the plan's order at the end.
 
 pub use super::status::{RefSource, Status, ToTarget, Verdict};
@@ -11,7 +11,7 @@ use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// `summary.csv` columns, in design.md order; `area_ratio_sd` .. `folded` are filled by
+/// `summary.csv` columns, in the book's order (docs/src/reference/columns.md); `area_ratio_sd` .. `folded` are filled by
 /// `authalic` runs, `analysis_s` and `analysis_shared` by the Newton-type solvers; then the
 /// repeat and calibration columns (`time_s` is the median over `repeats`), the count of
 /// iterations whose system needed more than the base Tikhonov shift, and of those whose

@@ -5,7 +5,7 @@
 //! The weight of edge `ij` in triangle `ijk` is `cot(theta_k(f)) |f(tau)| / (2 |tau|)`. With
 //! `cot(theta_k) = <f_i - f_k, f_j - f_k> / (2 |f(tau)|)` this is `<f_i - f_k, f_j - f_k> /
 //! (4 |tau|)`, which needs neither image angles nor a positive image area
-//! (`../shared/notes/reference-implementations.md` section 5). For the identity map (3D
+//! (as the AEM authors' code computes it). For the identity map (3D
 //! positions) it is the ordinary cotangent Laplacian with `cot / 2` weights.
 
 use crate::mesh::topology::{grouped, is_proper};

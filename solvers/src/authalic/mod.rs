@@ -1,5 +1,6 @@
 //! The `authalic` task: disk area-preserving parameterization by minimizing the normalized
-//! authalic energy of Liu & Yueh (`../shared/papers/liu-yueh-authalic-energy-minimization.txt`).
+//! authalic energy of Liu & Yueh ("Authalic energy minimization",
+//! docs/src/design/methods.md).
 //!
 //! Unknowns (Eq. 7): interior image coordinates `f_I^1, f_I^2` and the boundary angles
 //! `theta`, the boundary staying on the unit circle. The variable vector is laid out as in the
@@ -158,7 +159,7 @@ pub fn default_stop() -> StopSettings {
     StopSettings { grad_tol: 0.0, energy_decrease_tol: 0.0, max_iters: 100 }
 }
 
-/// Area-distortion metrics of a map (design.md): the normalized ratio
+/// Area-distortion metrics of a map (docs/src/reference/columns.md): the normalized ratio
 /// `r = (|f(t)| / A(f)) / (|t| / |S|)` per face.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AreaMetrics {

@@ -45,7 +45,7 @@ impl Density for Sarap {
     }
 
     /// Its gradient indicator fails near conformal maps (complex-view paper, Section 6.1):
-    /// design.md stops it on an energy decrease below `1e-8`.
+    /// the `param` task stops it on an energy decrease below `1e-8` (docs/src/design/numerics.md).
     fn energy_decrease_tol(&self) -> f64 {
         1e-8
     }

@@ -1,8 +1,8 @@
 //! Sparse SPD solves with faer: the symbolic Cholesky analysis is done once per pattern and
 //! the numeric factorization is recomputed into a reused buffer each iteration
-//! (`../shared/notes/rust-stack.md` section 2).
+//! (docs/src/design/linear-algebra.md).
 //!
-//! Conventions of the complex-view reference code (notes 1.8): a Tikhonov shift `tau` is
+//! Conventions of the complex-view reference code (`meshNewton`): a Tikhonov shift `tau` is
 //! added to the diagonal, the matrix is scaled symmetrically by `S = diag(1/sqrt(a_ii))`
 //! (Jacobi), and `tau` is added again to the scaled diagonal; the step is `d = S y` with
 //! `(S A S + tau I) y = S b`.

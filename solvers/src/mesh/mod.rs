@@ -137,7 +137,7 @@ impl Mesh {
     }
 
     /// Centre on the bounding-box midpoint and scale uniformly to total surface area 1
-    /// (the convention of the complex-view reference code, design.md).
+    /// (the convention of the complex-view reference code; docs/src/design/numerics.md).
     pub fn normalized(&self) -> Mesh {
         let (mid, s) = self.normalization();
         let positions =

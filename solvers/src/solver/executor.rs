@@ -72,7 +72,7 @@ pub struct Start<M> {
     /// The method, or why it cannot start: the run then ends at row 0 with that reason
     /// (unless the observer stopped it there first).
     pub method: Result<M, StopReason>,
-    /// The method's own CSV columns, after design.md's.
+    /// The method's own CSV columns, after the common ones.
     pub columns: Vec<&'static str>,
     /// How the method obtained its symbolic analysis (`None`: no shared system).
     pub analysis: Option<AnalysisReport>,

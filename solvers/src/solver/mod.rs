@@ -27,7 +27,7 @@ pub use options::RawOptions;
 use crate::linear::{AnalysisCache, LinearSettings};
 use std::sync::Arc;
 
-/// One row of the per-iteration CSV (design.md column order). Row `iter` describes the
+/// One row of the per-iteration CSV (docs/src/reference/columns.md order). Row `iter` describes the
 /// iterate after `iter` accepted steps; `neg_eig`/`indefinite_elems` come from the
 /// unmodified element Hessians of that same iterate; timings are those of the iteration
 /// that produced it (all zero in row 0).
@@ -73,7 +73,7 @@ pub struct IterationRecord {
     pub shift: Option<f64>,
     /// Energy evaluations of the line search.
     pub ls_evals: usize,
-    /// Solver-specific columns appended after the design.md ones (same names in every row
+    /// Solver-specific columns appended after the common ones (same names in every row
     /// of a run), e.g. the safeguards of `aem-cg-safe`.
     pub extra: Vec<(&'static str, f64)>,
 }
@@ -324,7 +324,7 @@ impl<'de> serde::Deserialize<'de> for StopReason {
     }
 }
 
-/// Stopping rules (`[stop]`). The default is design.md's `param` rule; the tasks that stop
+/// Stopping rules (`[stop]`). The default is the `param` task's rule (docs/src/design/numerics.md); the tasks that stop
 /// otherwise have their own (`param::default_stop` for SARAP, `deform::default_stop`,
 /// `authalic::default_stop`), and [`StopOverrides`] lays a config's keys over any of them.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -1,4 +1,4 @@
-//! The run configuration (design.md "Config"): TOML, unknown keys are an error, every key has
+//! The run configuration: TOML, unknown keys are an error, every key has
 //! a documented default (docs/src/reference/config.md).
 
 use anyhow::{bail, Context, Result};

@@ -119,7 +119,7 @@ pub struct SolverEntry {
     pub opt_in: fn(&RawOptions) -> bool,
     /// Reads its `[solver.<name>]` table as its typed options: why it does not.
     pub options: fn(&RawOptions) -> Result<(), String>,
-    /// The solver-specific columns after the design.md ones in its iteration CSVs, in order
+    /// The solver-specific columns after the common ones in its iteration CSVs, in order
     /// (`IterationRecord::extra`).
     pub extra_columns: &'static [&'static str],
     /// Short name for tables and plots.
