@@ -61,19 +61,7 @@ pub fn merge(
 ) -> Result<Merged> {
     let Some(first) = shards.first() else { bail!("merge needs at least one shard folder") };
     let metas: Vec<Meta> = shards.iter().map(|d| read_meta(d)).collect::<Result<_>>()?;
-    let (config, plan) = (&metas[0].config, &metas[0].plan);
-    for (dir, m) in shards.iter().zip(&metas).skip(1) {
-        if &m.config != config || &m.plan != plan || m.repeat != metas[0].repeat {
-            bail!(
-                "{}: was run from a different config, --only or --repeat than {} (merge shards of one batch)",
-                dir.display(),
-                first.display()
-            );
-        }
-    }
-    let mut identity = Identity::of_meta(&metas[0])
-        .with_context(|| format!("{}: meta.json has no plan (written before shards existed)", first.display()))?;
-    identity.shard = None;
+    let identity = batch_identity(shards, &metas)?;
     let order: HashMap<&str, usize> = identity.plan.iter().enumerate().map(|(i, s)| (s.as_str(), i)).collect();
     let out_dir = match out {
         Some(o) => o.to_path_buf(),
@@ -90,25 +78,10 @@ pub fn merge(
     // An earlier merge of these same shards into this folder: its batch may be in the history.
     let previous = (reuse == Reuse::Same).then(|| read_meta(&out_dir).ok()).flatten();
 
-    // Every shard's runs and files, read and checked where they are.
-    let mut runs: Vec<ShardRun> = Vec::new();
-    let mut from: HashMap<String, &Path> = HashMap::new();
-    for dir in shards {
-        for row in read_summary(dir)? {
-            let stem = run_stem(&row.dataset, &row.energy, &row.solver);
-            let Some(&index) = order.get(stem.as_str()) else {
-                bail!("{}: run {stem} is not in the batch's plan", dir.display());
-            };
-            if let Some(other) = from.insert(stem.clone(), dir) {
-                bail!("run {stem} is in both {} and {}", other.display(), dir.display());
-            }
-            check_files(dir, &stem, &row)?;
-            runs.push(ShardRun { dir, stem, index, row });
-        }
-    }
-    runs.sort_by_key(|r| r.index);
+    let runs = read_runs(shards, &order)?;
+    let present: std::collections::HashSet<&str> = runs.iter().map(|r| r.stem.as_str()).collect();
     let missing: Vec<String> =
-        identity.plan.iter().filter(|s| !from.contains_key(s.as_str())).map(|s| s.to_string()).collect();
+        identity.plan.iter().filter(|s| !present.contains(s.as_str())).map(|s| s.to_string()).collect();
     let interrupted: Vec<PathBuf> =
         shards.iter().zip(&metas).filter(|(_, m)| m.interrupted == Some(true)).map(|(d, _)| d.clone()).collect();
 
@@ -151,6 +124,48 @@ pub fn merge(
         }
     };
     Ok(Merged { out_dir, runs: rows.len(), missing, interrupted, history })
+}
+
+/// The batch the shards are of: every shard run from the same config, `--only` and
+/// `--repeat` as the first.
+fn batch_identity(shards: &[PathBuf], metas: &[Meta]) -> Result<Identity> {
+    let first = &shards[0];
+    let (config, plan) = (&metas[0].config, &metas[0].plan);
+    for (dir, m) in shards.iter().zip(metas).skip(1) {
+        if &m.config != config || &m.plan != plan || m.repeat != metas[0].repeat {
+            bail!(
+                "{}: was run from a different config, --only or --repeat than {} (merge shards of one batch)",
+                dir.display(),
+                first.display()
+            );
+        }
+    }
+    let mut identity = Identity::of_meta(&metas[0])
+        .with_context(|| format!("{}: meta.json has no plan (written before shards existed)", first.display()))?;
+    identity.shard = None;
+    Ok(identity)
+}
+
+/// Every shard's runs and files, read and checked where they are, in the plan's order; a run
+/// outside the plan or in two shards is an error.
+fn read_runs<'a>(shards: &'a [PathBuf], order: &HashMap<&str, usize>) -> Result<Vec<ShardRun<'a>>> {
+    let mut runs: Vec<ShardRun> = Vec::new();
+    let mut from: HashMap<String, &Path> = HashMap::new();
+    for dir in shards {
+        for row in read_summary(dir)? {
+            let stem = run_stem(&row.dataset, &row.energy, &row.solver);
+            let Some(&index) = order.get(stem.as_str()) else {
+                bail!("{}: run {stem} is not in the batch's plan", dir.display());
+            };
+            if let Some(other) = from.insert(stem.clone(), dir) {
+                bail!("run {stem} is in both {} and {}", other.display(), dir.display());
+            }
+            check_files(dir, &stem, &row)?;
+            runs.push(ShardRun { dir, stem, index, row });
+        }
+    }
+    runs.sort_by_key(|r| r.index);
+    Ok(runs)
 }
 
 /// The shards' external solvers, each (name, version, availability) once: a shard that probed
@@ -224,28 +239,13 @@ fn stage(
         }
     }
     *rows = runs.iter().map(|r| r.row.clone()).collect();
-    let mut references: Vec<GroupReference> = Vec::new();
-    for m in metas {
-        let theirs: Vec<GroupReference> =
-            m.references.clone().and_then(|r| serde_json::from_value(r).ok()).unwrap_or_default();
-        // A shard whose run lowered a group's reference has the lowest: every run is judged by it.
-        for g in theirs {
-            match references.iter_mut().find(|r| r.dataset == g.dataset && r.energy == g.energy) {
-                Some(r) if g.e_star.zip(r.e_star).is_some_and(|(new, old)| new < old) => *r = g,
-                Some(_) => {}
-                None => references.push(g),
-            }
-        }
-    }
+    let references = lowest_references(metas);
     let targets: Vec<f64> = metas[0].targets.clone().unwrap_or_default();
     let grad_tol = |energy: &str| metas[0].stop_per_energy.as_ref()?.get(energy)?.grad_tol;
     crate::judge::judge_batch(staging, rows, &references, &targets, grad_tol)?;
     write_summary(&summary_csv(staging), rows)?;
     // Each shard kept its own best per group; the merged folder keeps the batch's.
     keep::prune(staging, Maps::of_meta(&metas[0]), metas[0].maps_keep.as_deref().unwrap_or_default(), rows);
-    let mut meta = metas[0].clone();
-    meta.shard = None;
-    meta.references = Some(serde_json::to_value(&references)?);
     let merged_from: Vec<MergedShard> = shards
         .iter()
         .zip(metas)
@@ -262,7 +262,35 @@ fn stage(
             started_unix: m.started_unix,
         })
         .collect();
-    meta.merged_from = Some(merged_from.clone());
+    merged_meta(metas, &references, &merged_from)?.write(staging)?;
+    Ok(merged_from)
+}
+
+/// Each group's lowest reference over the shards: a shard whose run lowered a group's
+/// reference has the lowest, and every run of the batch is judged by it.
+fn lowest_references(metas: &[Meta]) -> Vec<GroupReference> {
+    let mut references: Vec<GroupReference> = Vec::new();
+    for m in metas {
+        let theirs: Vec<GroupReference> =
+            m.references.clone().and_then(|r| serde_json::from_value(r).ok()).unwrap_or_default();
+        for g in theirs {
+            match references.iter_mut().find(|r| r.dataset == g.dataset && r.energy == g.energy) {
+                Some(r) if g.e_star.zip(r.e_star).is_some_and(|(new, old)| new < old) => *r = g,
+                Some(_) => {}
+                None => references.push(g),
+            }
+        }
+    }
+    references
+}
+
+/// The merged folder's `meta.json`: the first shard's, with the batch's references, every
+/// shard's provenance, times and calibration samples.
+fn merged_meta(metas: &[Meta], references: &[GroupReference], merged_from: &[MergedShard]) -> Result<Meta> {
+    let mut meta = metas[0].clone();
+    meta.shard = None;
+    meta.references = Some(serde_json::to_value(references)?);
+    meta.merged_from = Some(merged_from.to_vec());
     // One machine for the batch only when every shard ran on it.
     let first = metas[0].hardware.as_ref();
     meta.hardware = first.filter(|h| metas.iter().all(|m| m.hardware.as_ref() == Some(*h))).cloned();
@@ -284,8 +312,7 @@ fn stage(
     meta.calibration_median_s = calibration.median_s();
     meta.calibration_spread = calibration.spread();
     meta.calibration = Some(calibration);
-    meta.write(staging)?;
-    Ok(merged_from)
+    Ok(meta)
 }
 
 /// Move the staged folder to `out`: a rename when `out` is new; else `out`'s own entries (an

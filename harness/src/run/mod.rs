@@ -13,6 +13,7 @@ mod memory;
 mod meshes;
 mod one;
 mod repeats;
+mod round;
 
 use crate::calibration::Calibration;
 use crate::external::probe::Probe;
@@ -22,21 +23,20 @@ use crate::plan::config::Maps;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::reuse::{self, Identity, Reuse};
-use crate::run_folder::{sidecar, summary_csv, Status, SummaryRow, SummaryWriter};
+use crate::run_folder::{summary_csv, Status, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
 use finish::{batch_notices, judge_and_write, Finisher};
-use memory::Monitor;
-use meshes::MeshCache;
-use one::{run_one, RunContext, RunResult};
+use one::RunResult;
 use pages::conclude_history;
 pub use pages::Pages;
 use progress::Progress;
 use record::{code_id, BatchRecord};
 use repeats::Repeats;
+use round::{run_round, Done, Origin, Todo, Workers};
 use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::SystemTime;
 
 /// Totals of a batch.
@@ -101,36 +101,6 @@ impl Slot {
     }
 }
 
-/// Where a result of a round came from.
-enum Origin {
-    Ran,
-    /// A finished run of an earlier batch in the folder (`--resume`).
-    Resumed,
-    /// The repeats an interrupt cut short in an earlier batch (`--resume`): the rest are run.
-    Restored(Repeats),
-}
-
-/// One finished work item of a round.
-struct Done {
-    /// The run's index in the batch.
-    index: usize,
-    worker: usize,
-    result: RunResult,
-    origin: Origin,
-    key: Option<String>,
-}
-
-/// One work item of a round.
-#[derive(Clone, Copy)]
-struct Todo {
-    /// The run's index in the batch.
-    index: usize,
-    /// Where a replay of a timed-out run stops.
-    stop_at: Option<usize>,
-    /// Keep the final map (the first time the run runs in this batch).
-    keep_map: bool,
-}
-
 /// Run the plan's runs (those of `opts.shard`) into `out_dir`, then render its report and,
 /// after a history append, its config's trend page (`pages`). With `repeat = N` every run
 /// runs once, then every run again (round-robin), N times, with a calibration sample before
@@ -145,16 +115,7 @@ pub fn run_batch(
     for n in &plan.notices {
         progress.notice(n);
     }
-    let mine: Vec<&PlannedRun> = plan
-        .runs
-        .iter()
-        .enumerate()
-        .filter(|(i, p)| match (&opts.shard_runs, opts.shard) {
-            (Some(planned), _) => planned.contains(&p.stem),
-            (None, shard) => shard.is_none_or(|s| s.selects(*i)),
-        })
-        .map(|(_, p)| p)
-        .collect();
+    let mine = my_runs(plan, opts);
     let cores = crate::plan::config::available_cores();
     crate::plan::config::check_jobs(opts.jobs, cores)?;
     claim_folder(plan, out_dir, opts, progress)?;
@@ -163,25 +124,10 @@ pub fn run_batch(
         plan.threads_per_run.unwrap_or_else(|| default_threads(opts.jobs.unwrap_or(cores), cores, mine.len()));
     // A resumed folder whose batch is already in the history is not appended twice.
     let previous = opts.resume.then(|| Outcome::of_folder(out_dir)).flatten();
-    let mut meta = BatchRecord {
-        plan,
-        shard: opts.shard,
-        resume: opts.resume,
-        jobs,
-        threads,
-        started: SystemTime::now(),
-        history: previous.clone(),
-        references: Vec::new(),
-        external: probe_externals(plan, &mine, &opts.interrupt, progress),
-    };
-    // meta.json and summary.csv first: from then on the folder is a run folder, whenever
-    // the batch is stopped.
+    let probes = probe_externals(plan, &mine, &opts.interrupt, progress);
+    let mut meta = BatchRecord::starting(plan, opts, (jobs, threads), previous.clone(), probes);
     let mut calibration = Calibration::new();
-    std::fs::create_dir_all(out_dir).with_context(|| format!("{}: cannot create", out_dir.display()))?;
-    meta.write(out_dir, None, false, &calibration)?;
-    let summary = SummaryWriter::create(&summary_csv(out_dir))?;
-    std::fs::create_dir_all(crate::run_folder::runs_dir(out_dir))
-        .with_context(|| format!("{}: cannot create", out_dir.display()))?;
+    let summary = open_folder(out_dir, &meta, &calibration)?;
     // The reference minima the runs are judged by, before any run (computing a missing one
     // is a tight solve, timed by nobody).
     meta.references = crate::judge::reference::prepare(plan, &mine, &|line| progress.notice(line), &opts.interrupt)?;
@@ -197,34 +143,19 @@ pub fn run_batch(
     let mut slots: Vec<Option<Slot>> = (0..total).map(|_| None).collect();
     let mut done =
         Finisher { out_dir, mine: &mine, progress, summary, finished: Vec::new(), meshes_written: Vec::new(), report };
-    for round in 0..plan.repeat {
-        if opts.interrupt.load(Ordering::Relaxed) {
-            break;
-        }
-        let todo = round_todo(round, &slots, total, plan.maps);
-        if todo.is_empty() {
-            continue;
-        }
-        if round > 0 {
-            calibrate(&mut calibration, jobs, threads, progress);
-        }
-        let workers = Workers {
-            plan,
-            out_dir,
-            mine: &mine,
-            opts,
-            progress,
-            jobs,
-            threads,
-            code: &code,
-            probes: &meta.external,
-            references: &meta.references,
-        };
-        run_round(&workers, &todo, round, |d| match absorb(&mut slots, d, plan, &mine, progress) {
-            Some((i, worker, slot)) => done.finish(i, worker, slot),
-            None => Ok(()),
-        })?;
-    }
+    let workers = Workers {
+        plan,
+        out_dir,
+        mine: &mine,
+        opts,
+        progress,
+        jobs,
+        threads,
+        code: &code,
+        probes: &meta.external,
+        references: &meta.references,
+    };
+    run_rounds(&workers, &mut calibration, &mut slots, &mut done)?;
     done.keep_partials(&mut slots, plan.repeat)?;
     progress.finish();
     // A stopped batch ends without the last sample (Slurm kills a job some seconds after its
@@ -236,26 +167,8 @@ pub fn run_batch(
     let Finisher { mut finished, mut report, .. } = done;
     report.interrupted = total - report.runs;
     batch_notices(&report, plan.repeat, &calibration, progress);
-    // References only get better: the runs that ended below theirs lower it before the judge.
-    let candidates = finish::take_candidates(&mut finished);
-    if !candidates.is_empty() && !opts.interrupt.load(Ordering::Relaxed) {
-        let source = crate::judge::reference::BatchSource {
-            config: plan.config.config.name.clone(),
-            code: code.clone(),
-            folder: absolute(out_dir).display().to_string(),
-            run: String::new(),
-            unix_time: SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs()),
-        };
-        let candidates = candidates
-            .into_iter()
-            .map(|c| {
-                let source = crate::judge::reference::BatchSource { run: c.stem.clone(), ..source.clone() };
-                (c, source)
-            })
-            .collect();
-        let notice = |line: &str| progress.notice(line);
-        crate::judge::improve::improve(plan, &mine, &mut meta.references, candidates, &notice, &opts.interrupt)?;
-    }
+    let batch = BatchContext { plan, mine: &mine, code: &code, out_dir, opts, progress };
+    lower_references(&batch, &mut meta.references, &mut finished)?;
     let rows = judge_and_write(plan, out_dir, &mine, &meta, &calibration, finished, &mut report, progress)?;
     // meta.json before the report, which states its calibration samples, then the history,
     // which reads the finished folder and records its outcome in meta.json for the report.
@@ -265,6 +178,100 @@ pub fn run_batch(
     progress.notice(&format!("rendering the report: {}", out_dir.join("index.html").display()));
     render_report(pages, out_dir, &rows, opts.jobs.unwrap_or(cores).max(1))?;
     Ok(report)
+}
+
+/// The plan's runs this batch runs: those of its shard (`--shard`, `--shard-plan`), or all.
+fn my_runs<'a>(plan: &'a Plan, opts: &RunOptions) -> Vec<&'a PlannedRun> {
+    plan.runs
+        .iter()
+        .enumerate()
+        .filter(|(i, p)| match (&opts.shard_runs, opts.shard) {
+            (Some(planned), _) => planned.contains(&p.stem),
+            (None, shard) => shard.is_none_or(|s| s.selects(*i)),
+        })
+        .map(|(_, p)| p)
+        .collect()
+}
+
+/// meta.json and summary.csv first: from then on the folder is a run folder, whenever the
+/// batch is stopped.
+fn open_folder(out_dir: &Path, meta: &BatchRecord, calibration: &Calibration) -> Result<SummaryWriter> {
+    std::fs::create_dir_all(out_dir).with_context(|| format!("{}: cannot create", out_dir.display()))?;
+    meta.write(out_dir, None, false, calibration)?;
+    let summary = SummaryWriter::create(&summary_csv(out_dir))?;
+    std::fs::create_dir_all(crate::run_folder::runs_dir(out_dir))
+        .with_context(|| format!("{}: cannot create", out_dir.display()))?;
+    Ok(summary)
+}
+
+/// The rounds of the batch (one, or `repeat` round-robin), with a calibration sample between
+/// two rounds; an interrupt ends them.
+fn run_rounds(
+    workers: &Workers,
+    calibration: &mut Calibration,
+    slots: &mut [Option<Slot>],
+    done: &mut Finisher,
+) -> Result<()> {
+    let (plan, mine, progress) = (workers.plan, workers.mine, workers.progress);
+    for round in 0..plan.repeat {
+        if workers.opts.interrupt.load(Ordering::Relaxed) {
+            break;
+        }
+        let todo = round_todo(round, slots, mine.len(), plan.maps);
+        if todo.is_empty() {
+            continue;
+        }
+        if round > 0 {
+            calibrate(calibration, workers.jobs, workers.threads, progress);
+        }
+        run_round(workers, &todo, round, |d| match absorb(slots, d, plan, mine, progress) {
+            Some((i, worker, slot)) => done.finish(i, worker, slot),
+            None => Ok(()),
+        })?;
+    }
+    Ok(())
+}
+
+/// What [`lower_references`] needs of the batch.
+struct BatchContext<'a> {
+    plan: &'a Plan,
+    mine: &'a [&'a PlannedRun],
+    code: &'a str,
+    out_dir: &'a Path,
+    opts: &'a RunOptions,
+    progress: &'a dyn Progress,
+}
+
+/// References only get better: the finished runs that ended below theirs lower it (each
+/// candidate named with the batch and run it came from) before the judge; not after an
+/// interrupt.
+fn lower_references(
+    batch: &BatchContext,
+    references: &mut [crate::judge::reference::GroupReference],
+    finished: &mut [finish::Finished],
+) -> Result<()> {
+    let candidates = finish::take_candidates(finished);
+    if candidates.is_empty() || batch.opts.interrupt.load(Ordering::Relaxed) {
+        return Ok(());
+    }
+    let source = crate::judge::reference::BatchSource {
+        config: batch.plan.config.config.name.clone(),
+        code: batch.code.to_string(),
+        folder: absolute(batch.out_dir).display().to_string(),
+        run: String::new(),
+        unix_time: SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs()),
+    };
+    let candidates = candidates
+        .into_iter()
+        .map(|c| {
+            let source = crate::judge::reference::BatchSource { run: c.stem.clone(), ..source.clone() };
+            (c, source)
+        })
+        .collect();
+    let notice = |line: &str| batch.progress.notice(line);
+    let interrupt = &batch.opts.interrupt;
+    crate::judge::improve::improve(batch.plan, batch.mine, references, candidates, &notice, interrupt)?;
+    Ok(())
 }
 
 /// The batch's report on `threads` threads: it keeps to the batch's core budget too, so
@@ -424,155 +431,6 @@ fn default_threads(jobs: usize, cores: usize, runs: usize) -> usize {
 /// the first one did, rather than at a deadline the machine's speed moves.
 fn replay_to(first: &RunResult) -> Option<usize> {
     matches!(first.summary.stop_reason, Some(StopReason::Timeout)).then_some(first.summary.iterations).flatten()
-}
-
-/// What every worker of a batch shares.
-struct Workers<'a> {
-    plan: &'a Plan,
-    out_dir: &'a Path,
-    mine: &'a [&'a PlannedRun],
-    opts: &'a RunOptions,
-    progress: &'a dyn Progress,
-    jobs: usize,
-    threads: usize,
-    /// The code's identity in the run keys.
-    code: &'a str,
-    /// What the batch found out about its external solvers.
-    probes: &'a [Probe],
-    /// The groups' references: a run's final map is looked at against its group's.
-    references: &'a [crate::judge::reference::GroupReference],
-}
-
-/// One round: the runs `todo` on `jobs` workers; the calling thread hands each result to
-/// `done` as it arrives.
-fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done) -> Result<()>) -> Result<()> {
-    let Workers { plan, out_dir, mine, opts, progress, jobs, threads, code, probes, references } = *w;
-    let meshes = MeshCache::new(todo.iter().map(|t| mine[t.index].dataset), plan.datasets.len());
-    let next = AtomicUsize::new(0);
-    let (tx, rx) = mpsc::channel::<Done>();
-    let workers = jobs.min(todo.len());
-    let monitor = Monitor::new(workers);
-    std::thread::scope(|scope| {
-        // The sampler ends with the round, however the round ends (an error below included).
-        let _stop = StopOnDrop(&monitor);
-        scope.spawn(|| monitor.sample_until_stopped());
-        for worker in 0..workers {
-            let tx = tx.clone();
-            let (meshes, next, monitor) = (&meshes, &next, &monitor);
-            scope.spawn(move || {
-                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
-                let work = || loop {
-                    if opts.interrupt.load(Ordering::Relaxed) {
-                        break;
-                    }
-                    let Some(&Todo { index: i, stop_at, keep_map }) = todo.get(next.fetch_add(1, Ordering::Relaxed))
-                    else {
-                        break;
-                    };
-                    // Busy from here to the hand-over: a run measured beside it shares the process.
-                    let busy = monitor.busy(worker);
-                    let p = mine[i];
-                    let ds = plan.dataset(p);
-                    let again = if round > 0 { format!(" (repeat {})", round + 1) } else { String::new() };
-                    progress.run_started(worker, &format!("{} {} {}{again}", ds.name, p.energy, p.solver));
-                    // An unreadable mesh file has no key; its run fails below as usual. An external
-                    // solver's version is part of its code, and the threads it is given (ours give
-                    // the same bits on any).
-                    let probe = probes.iter().find(|x| x.name == p.solver);
-                    let code = match probe {
-                        Some(x) => format!("{code} {} {:?} threads={threads}", p.solver, x.version),
-                        None => code.to_string(),
-                    };
-                    let key = resume::run_key(plan, p, &code).ok();
-                    let earlier = |summary, rows| RunResult { summary, rows, ..Default::default() };
-                    let previous = match (&key, opts.resume && round == 0) {
-                        (Some(k), true) => resume::previous(out_dir, &p.stem, k, plan.maps)
-                            .map(|(summary, rows)| (earlier(summary, rows), Origin::Resumed))
-                            .or_else(|| {
-                                let (partial, rows) = sidecar::read_partial::<Repeats>(out_dir, &p.stem, k)?;
-                                Some((earlier(partial.summary, rows), Origin::Restored(partial.repeats)))
-                            }),
-                        _ => None,
-                    };
-                    let (result, origin) = match previous {
-                        Some(earlier) => earlier,
-                        None => {
-                            let loaded = meshes.get(p.dataset, ds);
-                            let ctx = RunContext {
-                                out_dir,
-                                threads,
-                                probes,
-                                interrupt: &opts.interrupt,
-                                progress,
-                                worker,
-                                analyses: loaded.analyses.clone(),
-                                stop_at,
-                                keep_map,
-                            };
-                            monitor.start(worker);
-                            let mut result = run_one(plan, p, loaded.mesh.as_ref(), &ctx);
-                            let memory = monitor.finish(worker);
-                            // An external run has its child's own peak.
-                            if result.summary.status != Status::Skipped && plan.external(p).is_none() {
-                                result.summary.peak_rss_mb = memory.process_mb;
-                                result.summary.peak_growth_mb = memory.growth_mb;
-                            }
-                            if result.map_uv.is_some() {
-                                result.mesh_file = loaded.mesh_file();
-                            }
-                            // What the final map says, once (a repeat reproduces it), untimed.
-                            if let (Some(x), Ok(mesh)) = (result.final_x.take(), loaded.mesh.as_ref()) {
-                                let ran = result.summary.status.ran();
-                                if round == 0 && ran {
-                                    let group =
-                                        references.iter().find(|g| g.dataset == ds.name && g.energy == p.energy);
-                                    let loosest = plan.targets.first().copied().unwrap_or(0.0);
-                                    let s = &result.summary;
-                                    let (polished, candidate) = crate::judge::confirm::after_run(
-                                        plan,
-                                        p,
-                                        mesh,
-                                        s,
-                                        x,
-                                        group,
-                                        loosest,
-                                        &opts.interrupt,
-                                    );
-                                    (result.summary.polished_energy, result.candidate) = (polished, candidate);
-                                }
-                            }
-                            (result, Origin::Ran)
-                        }
-                    };
-                    meshes.done(p.dataset);
-                    drop(busy);
-                    let key = key.filter(|_| !result.unkeyed);
-                    if tx.send(Done { index: i, worker, result, origin, key }).is_err() {
-                        break;
-                    }
-                };
-                match pool {
-                    Ok(pool) => pool.install(work),
-                    Err(_) => work(),
-                }
-            });
-        }
-        drop(tx);
-        // The calling thread writes every file as results arrive.
-        for d in rx {
-            done(d)?;
-        }
-        Ok(())
-    })
-}
-
-/// Stops the memory sampler when dropped.
-struct StopOnDrop<'a>(&'a Monitor);
-
-impl Drop for StopOnDrop<'_> {
-    fn drop(&mut self) {
-        self.0.stop();
-    }
 }
 
 /// One more calibration sample, `jobs` copies at once on pools of the runs' thread count. A

@@ -2,7 +2,7 @@
 //! summary row and rows, never stopping the batch.
 
 use super::progress::Progress;
-use crate::external::execute::{execute, ExternalError, Job, Setup};
+use crate::external::execute::{execute, Executed, ExternalError, Job, Setup};
 use crate::external::probe::Probe;
 use crate::plan::external::Declared;
 use crate::plan::{Plan, PlannedRun, RunSettings};
@@ -91,13 +91,7 @@ pub(super) fn run_one(
     };
     // A pair outside the solver's definition is not solved: no rows, no map, the reason.
     if let Some(reason) = &run.skip {
-        if let Ok(m) = mesh {
-            (summary.vertices, summary.faces) = (Some(m.n_vertices()), Some(m.n_faces()));
-        }
-        summary.status = Status::Skipped;
-        summary.stop_reason = Some(StopReason::Skipped);
-        summary.error = reason.clone();
-        return RunResult { summary, ..Default::default() };
+        return skipped(summary, reason, mesh.ok());
     }
     let mesh = match mesh {
         Ok(m) => m,
@@ -152,6 +146,17 @@ pub(super) fn run_one(
     let interrupted = matches!(outcome.stop_reason, StopReason::Interrupted);
     let final_x = Some(outcome.x);
     RunResult { summary, rows, map_uv, interrupted, final_x, ..Default::default() }
+}
+
+/// A run outside its solver's definition: the mesh's size and the reason, nothing else.
+fn skipped(mut summary: SummaryRow, reason: &str, mesh: Option<&Mesh>) -> RunResult {
+    if let Some(m) = mesh {
+        (summary.vertices, summary.faces) = (Some(m.n_vertices()), Some(m.n_faces()));
+    }
+    summary.status = Status::Skipped;
+    summary.stop_reason = Some(StopReason::Skipped);
+    summary.error = reason.to_string();
+    RunResult { summary, ..Default::default() }
 }
 
 /// The message of a caught panic.
@@ -243,6 +248,18 @@ fn run_external(
             return result(summary, Vec::new());
         }
     };
+    external_result(summary, executed, run, mesh, ctx)
+}
+
+/// What an external solver's run that ended comes to: a result like ours, with the child's
+/// own wall time and peak memory.
+fn external_result(
+    mut summary: SummaryRow,
+    executed: Executed,
+    run: &PlannedRun,
+    mesh: &Mesh,
+    ctx: &RunContext,
+) -> RunResult {
     // `time_s`: the child's wall time on our clock (its start-up included), less what it said
     // its records took; its memory is its own process group's; it has no Newton systems.
     record_outcome(&mut summary, &executed.outcome, None, &executed.rows, executed.wall_s, run, mesh);
@@ -256,7 +273,7 @@ fn run_external(
     }
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &executed.outcome.x));
     let final_x = Some(executed.outcome.x);
-    RunResult { map_uv, final_x, ..result(summary, executed.rows) }
+    RunResult { summary, rows: executed.rows, map_uv, final_x, ..Default::default() }
 }
 
 /// What a finished solve says of the run: its summary's outcome, times and counts.

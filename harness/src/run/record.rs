@@ -30,7 +30,19 @@ pub struct BatchRecord<'a> {
     pub external: Vec<Probe>,
 }
 
-impl BatchRecord<'_> {
+impl<'a> BatchRecord<'a> {
+    /// The record of a batch starting now with `jobs` runs at once of `threads` threads each.
+    pub fn starting(
+        plan: &'a Plan,
+        opts: &super::RunOptions,
+        (jobs, threads): (usize, usize),
+        history: Option<Outcome>,
+        external: Vec<Probe>,
+    ) -> Self {
+        let (shard, resume, started) = (opts.shard, opts.resume, SystemTime::now());
+        BatchRecord { plan, shard, resume, jobs, threads, started, history, references: Vec::new(), external }
+    }
+
     pub fn write(
         &self,
         out_dir: &Path,
