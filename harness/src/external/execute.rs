@@ -3,11 +3,10 @@
 
 use super::child::{self, ChildRun, Exit};
 use super::probe::ended;
-use super::protocol::{self, quoted, ExternalStop, HandlesSpec, ProblemSpec, Record, Snapshot, StopSpec};
+use super::protocol::{self, quoted, ExternalStop, HandlesSpec, ProblemSpec, Record, StopSpec};
+use super::records::{check_clock, record_cost, rows_and_outcome, Read};
 use super::sandbox::{self, Limits, Spec};
-use crate::column_names::{intern, is_column_name};
 use crate::plan::external::Declared;
-use crate::run_folder::ITERATION_COLUMNS;
 use solvers::deform::{deform_start, DeformSettings};
 use solvers::energy::EnergyKind;
 use solvers::handle::Handle;
@@ -22,10 +21,6 @@ use std::time::Duration;
 /// The most of each output stream kept in the run folder.
 pub const KEEP_OUTPUT: usize = 64 * 1024;
 
-/// The extra column that says which rows the harness recomputed (1) and which it took from the
-/// solver's record (0).
-pub const VERIFIED_COLUMN: &str = "verified";
-
 /// Without a config `timeout`, an external run is killed after this long: a solver that
 /// hangs fails its run instead of holding a worker for ever.
 pub const DEFAULT_KILL: Duration = Duration::from_secs(3600);
@@ -33,27 +28,6 @@ pub const DEFAULT_KILL: Duration = Duration::from_secs(3600);
 /// A repeat of a run that timed out replays it to the same iteration (asked as `max_iters`),
 /// killed after this many times the timeout.
 const REPLAY_KILL_FACTOR: u32 = 4;
-
-/// The record key whose value is the time the solver spent on the record and its snapshot
-/// (left out of the run's time like our solvers' `t_record_s`), not an extra column.
-pub const RECORD_TIME_KEY: &str = "record_s";
-
-/// The extra column with the energy the solver recorded at each row (the `energy` column is
-/// ours, at the verified rows only).
-pub const REPORTED_ENERGY_COLUMN: &str = "reported_energy";
-
-/// What a solver may leave out of its time as recording, over the run: this many times what
-/// the harness takes here to write the same files (each record line, and each map it wrote;
-/// measured on the run's problem folder). An interpreter formats numbers some 10 to 20 times
-/// slower than we do; the sum over the run absorbs a write a busy machine delayed.
-pub const RECORD_FACTOR: f64 = 50.0;
-
-/// ... and at least this much per row.
-pub const RECORD_FLOOR_S: f64 = 0.005;
-
-/// Slack of the solver's clock against the wall time the sandbox measured (two clocks, read
-/// at slightly different moments), on top of 0.1 % of it.
-const CLOCK_SLACK_S: f64 = 0.002;
 
 /// A run's file-size limit without `file_size_mb`, MiB.
 pub const DEFAULT_FILE_SIZE_MB: u64 = 1024;
@@ -266,27 +240,7 @@ fn run_and_read(
         }
         other => return Err(failed(format!("{} {}{}", job.name, ended(other), said()))),
     };
-    let killed = child.exit == Exit::TimedOut;
-    let records = protocol::read_records(&dir, killed, max_iters);
-    let records = if killed {
-        // Killed at the deadline: the run ends at its last map (a line the kill cut is no
-        // record; no file at all, none).
-        let mut records = match records {
-            Ok(r) => r,
-            Err(_) if std::fs::symlink_metadata(dir.join("iterations.jsonl")).is_err() => Vec::new(),
-            Err(e) => return Err(failed(format!("{e:#}"))),
-        };
-        let last = (0..records.len())
-            .rev()
-            .find(|k| std::fs::symlink_metadata(protocol::snapshot_path(&dir, *k)).is_ok())
-            .ok_or_else(|| {
-                failed(format!("{} passed its timeout before it wrote the start map (maps/0.uv)", job.name))
-            })?;
-        records.truncate(last + 1);
-        records
-    } else {
-        records.map_err(|e| failed(format!("{e:#}")))?
-    };
+    let records = kept_records(&dir, child.exit == Exit::TimedOut, max_iters, job.name).map_err(failed)?;
     check_clock(&records, child.wall_s).map_err(|e| failed(format!("{}: {e}", job.name)))?;
     let snapshots =
         protocol::verify(&dir, problem, &records, job.declared.snapshot_every).map_err(|e| failed(format!("{e:#}")))?;
@@ -300,6 +254,26 @@ fn run_and_read(
     }
     let read = rows_and_outcome(&records, snapshots, stop, &cost).map_err(|e| failed(format!("{}: {e}", job.name)))?;
     Ok((read, child))
+}
+
+/// The records of a run that ended; killed at the deadline, it ends at its last map (a line
+/// the kill cut is no record; no file at all, none).
+fn kept_records(dir: &Path, killed: bool, max_iters: usize, name: &str) -> Result<Vec<Record>, String> {
+    let records = protocol::read_records(dir, killed, max_iters);
+    if !killed {
+        return records.map_err(|e| format!("{e:#}"));
+    }
+    let mut records = match records {
+        Ok(r) => r,
+        Err(_) if std::fs::symlink_metadata(dir.join("iterations.jsonl")).is_err() => Vec::new(),
+        Err(e) => return Err(format!("{e:#}")),
+    };
+    let last = (0..records.len())
+        .rev()
+        .find(|k| std::fs::symlink_metadata(protocol::snapshot_path(dir, *k)).is_ok())
+        .ok_or_else(|| format!("{name} passed its timeout before it wrote the start map (maps/0.uv)"))?;
+    records.truncate(last + 1);
+    Ok(records)
 }
 
 /// The solver's environment on top of ours: HOME and the temporary folder inside its problem
@@ -343,69 +317,6 @@ fn missing_module(stderr: &str) -> bool {
     stderr.lines().map(str::trim).rfind(|l| !l.is_empty()).is_some_and(|l| l.starts_with("ModuleNotFoundError: "))
 }
 
-/// What writing a record costs here, measured on the problem folder `dir`: a line appended
-/// and flushed, and the map `x` formatted, written and renamed as the protocol asks (the
-/// fastest of three of each).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct RecordCost {
-    line_s: f64,
-    map_s: f64,
-}
-
-fn record_cost(dir: &Path, x: &[f64]) -> RecordCost {
-    use std::io::Write as _;
-    let probe = dir.join(".record-cost");
-    let (mut line_s, mut map_s) = (f64::INFINITY, f64::INFINITY);
-    let uv: Vec<[f64; 2]> = x.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
-    for _ in 0..3 {
-        let t = std::time::Instant::now();
-        let written = std::fs::File::create(&probe).and_then(|mut f| {
-            f.write_all(
-                b"{\"iter\": 1, \"energy\": 2.0000000000000004, \"time_s\": 0.0123456789, \"record_s\": 0.001}\n",
-            )?;
-            f.flush()
-        });
-        line_s = line_s.min(if written.is_ok() { t.elapsed().as_secs_f64() } else { 0.0 });
-        let t = std::time::Instant::now();
-        let tmp = dir.join(".record-cost.tmp");
-        let written =
-            std::fs::write(&tmp, crate::run_folder::map::uv_text(&uv)).and_then(|()| std::fs::rename(&tmp, &probe));
-        map_s = map_s.min(if written.is_ok() { t.elapsed().as_secs_f64() } else { 0.0 });
-    }
-    let _ = std::fs::remove_file(&probe);
-    RecordCost { line_s, map_s }
-}
-
-/// The solver's clock against the wall time `wall_s` of its process: no time past it, and its
-/// times plus the recording it said it left out no more than it.
-fn check_clock(records: &[Record], wall_s: f64) -> Result<(), String> {
-    let within = wall_s * 1.001 + CLOCK_SLACK_S;
-    let mut recorded = 0.0;
-    for r in records {
-        if r.time_s > within {
-            return Err(format!(
-                "iteration {}: time_s = {} is past the {wall_s:.3} s its process ran (the harness's clock)",
-                r.iter, r.time_s
-            ));
-        }
-        match number(r, RECORD_TIME_KEY)? {
-            Some(t) if !(t.is_finite() && t >= 0.0) => {
-                return Err(format!("iteration {}: record_s = {t} is not a time (finite, at least 0)", r.iter))
-            }
-            Some(t) => recorded += t,
-            None => {}
-        }
-    }
-    let last = records.last().map_or(0.0, |r| r.time_s);
-    if last + recorded > within {
-        return Err(format!(
-            "its clock does not add up: time_s = {last} at the last record plus {recorded} s of record_s is more \
-             than the {wall_s:.3} s its process ran (record_s is the writing since the previous line, not a total)"
-        ));
-    }
-    Ok(())
-}
-
 /// The child's output beside the run's files (the last repeat's), when there is any.
 fn keep_output(logs: &Path, child: &ChildRun) {
     let stem = logs.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -434,210 +345,9 @@ fn stop_reason(s: ExternalStop, replay: bool) -> StopReason {
     }
 }
 
-/// What an external run's records and verified snapshots make of its rows and outcome.
-struct Read {
-    outcome: Outcome,
-    rows: Vec<IterationRecord>,
-    verified: usize,
-}
-
-/// The run's rows: at a verified iteration its energy, gradient norm and flips are ours,
-/// elsewhere its energy is the one recorded (gradient norm NaN, flips 0, `verified` 0); the
-/// times are the solver's clock; its numeric extras become columns.
-fn rows_and_outcome(
-    records: &[Record],
-    snapshots: Vec<Snapshot>,
-    stop: StopReason,
-    cost: &RecordCost,
-) -> Result<Read, String> {
-    const OURS: [&str; 2] = [VERIFIED_COLUMN, REPORTED_ENERGY_COLUMN];
-    let mut names: Vec<&'static str> = OURS.to_vec();
-    for r in records {
-        for key in r.extras.keys().filter(|k| k.as_str() != RECORD_TIME_KEY) {
-            if !is_column_name(key) || ITERATION_COLUMNS.contains(&key.as_str()) || OURS.contains(&key.as_str()) {
-                return Err(format!(
-                    "iteration {}: `{}` cannot be an extra column (plain names, not ours)",
-                    r.iter,
-                    quoted(key)
-                ));
-            }
-            if !names.contains(&key.as_str()) {
-                if names.len() - OURS.len() >= protocol::EXTRA_COLUMNS_MAX {
-                    return Err(format!(
-                        "more than {} extra columns (at iteration {}: `{}`)",
-                        protocol::EXTRA_COLUMNS_MAX,
-                        r.iter,
-                        quoted(key)
-                    ));
-                }
-                names.push(intern(key));
-            }
-        }
-    }
-    // Row k's record_s is the writing since row k - 1: its line, and its map if any. What is
-    // left out over the run is bounded; past the bound every row's share is scaled down.
-    let allowed: f64 = (1..records.len())
-        .map(|k| {
-            let map = if snapshots.iter().any(|s| s.iter == k - 1) { cost.map_s } else { 0.0 };
-            (RECORD_FACTOR * (cost.line_s + map)).max(RECORD_FLOOR_S)
-        })
-        .sum();
-    let mut reported = Vec::with_capacity(records.len());
-    for r in records {
-        reported.push(number(r, RECORD_TIME_KEY)?.unwrap_or(0.0).max(0.0));
-    }
-    let total: f64 = reported.iter().sum();
-    let share = if total > allowed { allowed / total } else { 1.0 };
-    let mut rows = Vec::with_capacity(records.len());
-    let mut snaps = snapshots.iter().peekable();
-    for (k, r) in records.iter().enumerate() {
-        let snap = snaps.next_if(|s| s.iter == k);
-        let mut extra =
-            vec![(VERIFIED_COLUMN, if snap.is_some() { 1.0 } else { 0.0 }), (REPORTED_ENERGY_COLUMN, r.energy)];
-        for &name in &names[OURS.len()..] {
-            extra.push((name, number(r, name)?.unwrap_or(f64::NAN)));
-        }
-        let since = |t: f64| (t - records[0].time_s).max(0.0);
-        rows.push(IterationRecord {
-            iter: k,
-            // Only our energies are judged (the convergence test, iterations and time to a
-            // target): a row without a verified map has none.
-            energy: snap.map_or(f64::NAN, |s| s.energy),
-            grad_norm: snap.and_then(|s| s.grad_norm).unwrap_or(f64::NAN),
-            step: f64::NAN,
-            flips: snap.map_or(0, |s| s.flips),
-            t_iter_s: if k == 0 { 0.0 } else { (r.time_s - records[k - 1].time_s).max(0.0) },
-            t_cum_s: since(r.time_s),
-            t_record_s: if k == 0 { 0.0 } else { reported[k] * share },
-            extra,
-            ..Default::default()
-        });
-    }
-    let (first, last) = (&snapshots[0], &snapshots[snapshots.len() - 1]);
-    let outcome = Outcome {
-        x: last.x.clone(),
-        iterations: last.iter,
-        stop_reason: stop,
-        init_energy: first.energy,
-        final_energy: last.energy,
-        grad_norm: last.grad_norm.unwrap_or(f64::NAN),
-        flips: last.flips,
-        analysis: None,
-        start: None,
-    };
-    Ok(Read { outcome, rows, verified: snapshots.len() })
-}
-
-/// A record's extra `name` as a number (`true`/`false` as 1/0, `null` as none).
-fn number(r: &Record, name: &str) -> Result<Option<f64>, String> {
-    match r.extras.get(name) {
-        None | Some(serde_json::Value::Null) => Ok(None),
-        Some(serde_json::Value::Bool(b)) => Ok(Some(if *b { 1.0 } else { 0.0 })),
-        Some(serde_json::Value::Number(n)) => Ok(n.as_f64()),
-        Some(other) => {
-            Err(format!("iteration {}: extra `{name}` = {} is not a number", r.iter, quoted(&other.to_string())))
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn record(iter: usize, energy: f64, time_s: f64, extras: serde_json::Value) -> Record {
-        let serde_json::Value::Object(map) = extras else { panic!() };
-        Record { iter, energy, time_s, extras: map.into_iter().collect() }
-    }
-
-    fn snapshot(iter: usize, energy: f64) -> Snapshot {
-        Snapshot { iter, energy, grad_norm: Some(0.5), flips: 1, x: vec![iter as f64; 4] }
-    }
-
-    /// Writing costs that allow 0.25 s after a map and 0.0125 s after a line alone.
-    const COST: RecordCost = RecordCost { line_s: 0.0125 / RECORD_FACTOR, map_s: 0.2375 / RECORD_FACTOR };
-    /// Writing that costs nothing here: the floor alone.
-    const FREE: RecordCost = RecordCost { line_s: 0.0, map_s: 0.0 };
-
-    #[test]
-    fn rows_take_our_numbers_where_verified_and_the_solvers_extras_as_columns() {
-        let records = [
-            record(0, 3.0, 0.5, serde_json::json!({})),
-            record(1, 2.5, 1.5, serde_json::json!({"decrease": 0.2, "record_s": 0.75})),
-            record(2, 2.25, 1.75, serde_json::json!({"accepted": true, "record_s": 0.125})),
-        ];
-        let snaps = vec![snapshot(0, 3.0 + 1e-12), snapshot(2, 2.25)];
-        let read = rows_and_outcome(&records, snaps.clone(), StopReason::SolverRule, &COST).unwrap();
-        let r = &read.rows;
-        // the energy of a row without its map is not ours: left out of every judgement
-        assert_eq!(r[0].energy, 3.0 + 1e-12);
-        assert!(r[1].energy.is_nan() && r[1].grad_norm.is_nan() && r[1].step.is_nan());
-        assert_eq!(r[2].energy, 2.25);
-        assert_eq!((r[0].grad_norm, r[0].flips, r[1].flips), (0.5, 1, 0));
-        // record_s over the run (0.875 s) past what writing row 0's line and map and row 1's
-        // line cost here (0.2625 s): each row's share scaled down to it
-        assert_eq!(
-            r.iter().map(|r| (r.t_iter_s, r.t_cum_s)).collect::<Vec<_>>(),
-            [(0.0, 0.0), (1.0, 1.0), (0.25, 1.25)]
-        );
-        let near = |got: &[f64], want: [f64; 3]| got.iter().zip(want).all(|(g, w)| (g - w).abs() <= 1e-15);
-        let kept: Vec<f64> = r.iter().map(|r| r.t_record_s).collect();
-        assert!(near(&kept, [0.0, 0.75 * 0.3, 0.125 * 0.3]), "{kept:?}");
-        // writing that costs nothing here still leaves 5 ms a row
-        let free = rows_and_outcome(&records, snaps, StopReason::SolverRule, &FREE).unwrap();
-        let kept: Vec<f64> = free.rows.iter().map(|r| r.t_record_s).collect();
-        assert!(near(&kept, [0.0, 0.75 * 0.01 / 0.875, 0.125 * 0.01 / 0.875]), "{kept:?}");
-        // within the bound, as reported
-        let cheap =
-            [record(0, 3.0, 0.5, serde_json::json!({})), record(1, 2.5, 1.5, serde_json::json!({"record_s": 0.2}))];
-        let within = rows_and_outcome(&cheap, vec![snapshot(0, 3.0), snapshot(1, 2.5)], StopReason::SolverRule, &COST);
-        assert_eq!(within.unwrap().rows[1].t_record_s, 0.2);
-        let names: Vec<&str> = r[1].extra.iter().map(|e| e.0).collect();
-        assert_eq!(names, [VERIFIED_COLUMN, REPORTED_ENERGY_COLUMN, "decrease", "accepted"]);
-        assert_eq!((r[1].extra[0].1, r[1].extra[1].1), (0.0, 2.5));
-        assert_eq!((r[2].extra[0].1, r[2].extra[3].1), (1.0, 1.0));
-        assert!(r[0].extra[2].1.is_nan() && r[2].extra[2].1.is_nan());
-        let o = &read.outcome;
-        assert_eq!((o.iterations, o.init_energy, o.final_energy, o.flips, read.verified), (2, 3.0 + 1e-12, 2.25, 1, 2));
-        assert_eq!((o.x.clone(), o.stop_reason.clone()), (vec![2.0; 4], StopReason::SolverRule));
-
-        // a name of ours, a name that is no column, a value that is no number
-        for (extras, says) in [
-            (serde_json::json!({"grad_norm": 1.0}), "`grad_norm` cannot be an extra column"),
-            (serde_json::json!({"reported_energy": 1.0}), "`reported_energy` cannot be an extra column"),
-            (serde_json::json!({"a b": 1.0}), "`a b` cannot be an extra column"),
-            (serde_json::json!({"note": "x"}), "extra `note` = \"x\" is not a number"),
-        ] {
-            let bad = [record(0, 3.0, 0.0, extras)];
-            let err = rows_and_outcome(&bad, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &COST).err().unwrap();
-            assert!(err.contains(says), "{err}");
-        }
-        // more names than a record may have, over the records
-        let wide: Vec<Record> = (0..=protocol::EXTRA_COLUMNS_MAX)
-            .map(|k| record(k, 3.0, k as f64, serde_json::json!({ format!("c{k}"): 1 })))
-            .collect();
-        let err = rows_and_outcome(&wide, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &COST).err().unwrap();
-        assert_eq!(err, "more than 32 extra columns (at iteration 32: `c32`)");
-    }
-
-    #[test]
-    fn a_clock_past_the_wall_time_or_that_does_not_add_up_fails() {
-        let at = |t: &[(f64, Option<f64>)]| -> Vec<Record> {
-            t.iter()
-                .enumerate()
-                .map(|(k, &(time_s, rec))| {
-                    record(k, 3.0, time_s, rec.map_or(serde_json::json!({}), |r| serde_json::json!({"record_s": r})))
-                })
-                .collect()
-        };
-        assert_eq!(check_clock(&at(&[(0.1, None), (0.5, Some(0.2)), (0.9, Some(0.05))]), 1.2), Ok(()));
-        let err = check_clock(&at(&[(0.1, None), (1e9, None)]), 1.2).unwrap_err();
-        assert_eq!(err, "iteration 1: time_s = 1000000000 is past the 1.200 s its process ran (the harness's clock)");
-        // record_s reported as a running total
-        let err = check_clock(&at(&[(0.1, None), (0.4, Some(0.3)), (0.7, Some(0.6))]), 1.2).unwrap_err();
-        assert!(err.starts_with("its clock does not add up: time_s = 0.7 at the last record plus 0.899"), "{err}");
-        let err = check_clock(&at(&[(0.1, None), (0.4, Some(-0.3))]), 1.2).unwrap_err();
-        assert_eq!(err, "iteration 1: record_s = -0.3 is not a time (finite, at least 0)");
-    }
 
     #[test]
     fn a_module_python_cannot_import_is_told_from_other_errors() {

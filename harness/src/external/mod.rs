@@ -5,4 +5,5 @@ pub mod child;
 pub mod execute;
 pub mod probe;
 pub mod protocol;
+pub mod records;
 pub mod sandbox;

@@ -40,6 +40,23 @@ impl Notes {
         self.0.push((reason.to_string(), 1));
         self.0.len()
     }
+
+    /// The numbered list under the table (nothing when no cell needed a note).
+    fn render(&self, h: &mut String) {
+        if self.0.is_empty() {
+            return;
+        }
+        *h += "<ol class=\"notes\" id=\"status-notes\">\n";
+        for (reason, cells) in &self.0 {
+            let _ = writeln!(
+                h,
+                "<li>{}<small> ({cells} cell{})</small></li>",
+                esc(reason),
+                if *cells == 1 { "" } else { "s" }
+            );
+        }
+        *h += "</ol>\n";
+    }
 }
 
 /// Whether a run is a problem of the morning: failed, finished without being solved, or
@@ -69,6 +86,42 @@ pub(super) fn status_matrix(
     // A stable sort: problem rows first, each part in the summary's order.
     datasets.sort_by_key(|d| !troubled(d));
     let several_energies = unique(summaries.iter().map(|s| s.energy.as_str())).len() > 1;
+    status_caption(h, summaries);
+    *h += "</p>\n";
+    reference_note(h, summaries, references);
+    *h += "<div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
+    if several_energies {
+        *h += "<th class=\"k\">energy</th>";
+    }
+    for s in &solvers {
+        solver_head(h, s, external);
+    }
+    *h += "</tr>\n";
+    let mut notes = Notes::default();
+    for d in datasets {
+        let energies = unique(summaries.iter().filter(|s| s.dataset == d).map(|s| s.energy.as_str()));
+        for (i, e) in energies.iter().enumerate() {
+            *h += "<tr>";
+            if i == 0 {
+                let span = if several_energies { energies.len() } else { 1 };
+                let _ = write!(h, "<td class=\"k ds\" rowspan=\"{span}\">{}</td>", esc(d));
+            }
+            if several_energies {
+                let _ = write!(h, "<td class=\"k\">{}</td>", esc(e));
+            }
+            for solver in &solvers {
+                let run = summaries.iter().find(|s| s.dataset == d && s.energy == *e && s.solver == *solver);
+                status_cell(h, run_dir, run, &mut notes);
+            }
+            *h += "</tr>\n";
+        }
+    }
+    *h += "</table></div>\n";
+    notes.render(h);
+}
+
+/// The table's legend: what a cell says, and how the harness judges.
+fn status_caption(h: &mut String, summaries: &[SummaryRow]) {
     *h += "<h2 id=\"status\">Run status</h2>\n<p class=\"caption\">Rows with a failed or unsolved run come first. \
            Each cell: iterations over the time in seconds (the median over the repeats); hover it for the \
            whole story (the spread of the repeats, the run's own stop, memory) and click it for the run's \
@@ -102,60 +155,24 @@ pub(super) fn status_matrix(
              Authalic runs keep their solvers' own rules (<b>nc</b>: not converged)."
         );
     }
-    *h += "</p>\n";
-    reference_note(h, summaries, references);
-    *h += "<div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
-    if several_energies {
-        *h += "<th class=\"k\">energy</th>";
-    }
-    for s in &solvers {
-        match external.iter().find(|p| p.name == *s) {
-            Some(p) => {
-                let version = p.version.as_deref().unwrap_or("version not recorded");
-                let _ = write!(
-                    h,
-                    "<th title=\"external solver: {}\">{}<br><a href=\"#external\" class=\"caption\">ext.</a></th>",
-                    esc(version),
-                    head(s)
-                );
-            }
-            None => {
-                let _ = write!(h, "<th>{}</th>", head(s));
-            }
-        }
-    }
-    *h += "</tr>\n";
-    let mut notes = Notes::default();
-    for d in datasets {
-        let energies = unique(summaries.iter().filter(|s| s.dataset == d).map(|s| s.energy.as_str()));
-        for (i, e) in energies.iter().enumerate() {
-            *h += "<tr>";
-            if i == 0 {
-                let span = if several_energies { energies.len() } else { 1 };
-                let _ = write!(h, "<td class=\"k ds\" rowspan=\"{span}\">{}</td>", esc(d));
-            }
-            if several_energies {
-                let _ = write!(h, "<td class=\"k\">{}</td>", esc(e));
-            }
-            for solver in &solvers {
-                let run = summaries.iter().find(|s| s.dataset == d && s.energy == *e && s.solver == *solver);
-                status_cell(h, run_dir, run, &mut notes);
-            }
-            *h += "</tr>\n";
-        }
-    }
-    *h += "</table></div>\n";
-    if !notes.0.is_empty() {
-        *h += "<ol class=\"notes\" id=\"status-notes\">\n";
-        for (reason, cells) in &notes.0 {
-            let _ = writeln!(
+}
+
+/// A solver's column head; an external solver's names its version and links to the section
+/// on external solvers.
+fn solver_head(h: &mut String, solver: &str, external: &[Probe]) {
+    match external.iter().find(|p| p.name == solver) {
+        Some(p) => {
+            let version = p.version.as_deref().unwrap_or("version not recorded");
+            let _ = write!(
                 h,
-                "<li>{}<small> ({cells} cell{})</small></li>",
-                esc(reason),
-                if *cells == 1 { "" } else { "s" }
+                "<th title=\"external solver: {}\">{}<br><a href=\"#external\" class=\"caption\">ext.</a></th>",
+                esc(version),
+                head(solver)
             );
         }
-        *h += "</ol>\n";
+        None => {
+            let _ = write!(h, "<th>{}</th>", head(solver));
+        }
     }
 }
 
@@ -197,13 +214,12 @@ pub(super) fn reference_note(h: &mut String, summaries: &[SummaryRow], reference
             lowered.join("; ")
         ));
     }
-    let mut batch: Vec<String> = Vec::new();
-    for s in summaries.iter().filter(|s| s.ref_source == Some(RefSource::Batch)) {
-        let g = format!("{} / {}", s.dataset, s.energy);
-        if !batch.contains(&g) {
-            batch.push(g);
-        }
-    }
+    let groups: Vec<String> = summaries
+        .iter()
+        .filter(|s| s.ref_source == Some(RefSource::Batch))
+        .map(|s| format!("{} / {}", s.dataset, s.energy))
+        .collect();
+    let batch = unique(groups.iter().map(String::as_str));
     if !batch.is_empty() {
         lines.push(format!(
             "No reference minimum for {} group{}: {}. E* is the batch's best final energy without flips \
@@ -219,17 +235,12 @@ pub(super) fn reference_note(h: &mut String, summaries: &[SummaryRow], reference
     let _ = writeln!(h, "<p class=\"caption\" id=\"references\">{}</p>", esc(&lines.join(" ")));
 }
 
-fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: &mut Notes) {
-    let Some(s) = run else {
-        *h += "<td class=\"none\">–</td>";
-        return;
-    };
-    // A judged run that reached its tightest target shows the iterations and time to it.
-    let target = reached_target(s);
-    let shown = to_target(s);
-    let time = Timed::time_s(&shown);
+/// The cell's tooltip after its first words: the iterations and time (to the target, and the
+/// run's own), the repeats' spread, memory, the safety nets that fired and the marks; and
+/// whether a safety net fired (a “+” after the iterations).
+fn cell_story(s: &SummaryRow, shown: &SummaryRow, time: Option<Timed>) -> (String, bool) {
     let mut more = String::new();
-    if let (Some(t), Some(i)) = (target, shown.iterations) {
+    if let (Some(t), Some(i)) = (reached_target(s), shown.iterations) {
         let own = match (s.iterations, s.time_s) {
             (Some(i), Some(t)) => format!("{i} it, {}", seconds(t)),
             (Some(i), None) => format!("{i} it"),
@@ -275,6 +286,18 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
     if let Some(d) = &s.repeats_differ {
         let _ = write!(more, "; ≠ {d} (repeat 1's result shown)");
     }
+    (more, marked)
+}
+
+fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: &mut Notes) {
+    let Some(s) = run else {
+        *h += "<td class=\"none\">–</td>";
+        return;
+    };
+    // A judged run that reached its tightest target shows the iterations and time to it.
+    let shown = to_target(s);
+    let time = Timed::time_s(&shown);
+    let (more, marked) = cell_story(s, &shown, time);
     let iterations = shown.iterations.map(|i| format!("{i}{}", if marked { "+" } else { "" })).unwrap_or_default();
     let secs = time.map(|t| brief(t.value)).unwrap_or_default();
     // The harness's verdict on a judged run it did not call solved.

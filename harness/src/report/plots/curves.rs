@@ -85,8 +85,9 @@ fn gap_floor(curves: &[Series], targets: &[f64]) -> f64 {
     }
 }
 
-fn render_curves(title: &str, kind: &PlotKind, curves: &[Series], gap: &Gap) -> Result<Vec<u8>> {
-    let floor = gap_floor(curves, gap.targets);
+/// The x axis of a plot of `curves` and each curve's points on it (gaps at or below `floor`
+/// drawn at the floor; points off a log axis left out).
+fn placed_points(kind: &PlotKind, curves: &[Series], floor: f64) -> (XAxis, Vec<Vec<(f64, f64)>>) {
     let x_axis = match kind {
         PlotKind::EnergyTime => {
             let t_max = curves.iter().flat_map(|c| c.curve.time.iter().copied()).filter(|t| t.is_finite());
@@ -107,6 +108,12 @@ fn render_curves(title: &str, kind: &PlotKind, curves: &[Series], gap: &Gap) -> 
             pts.filter(|(x, y)| x.is_finite() && y.is_finite()).collect()
         })
         .collect();
+    (x_axis, points)
+}
+
+fn render_curves(title: &str, kind: &PlotKind, curves: &[Series], gap: &Gap) -> Result<Vec<u8>> {
+    let floor = gap_floor(curves, gap.targets);
+    let (x_axis, points) = placed_points(kind, curves, floor);
     render_framed(curves, &points, |chart_area| {
         let y_max = points.iter().flatten().map(|p| p.1).fold(0.0, f64::max);
         let x_desc = x_axis.describe(if *kind == PlotKind::EnergyTime { "time (s)" } else { "iteration" });

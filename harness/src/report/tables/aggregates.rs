@@ -57,20 +57,7 @@ pub fn aggregates_table(rows: &[SummaryRow], batch: &Batch) -> Option<Table> {
         single |= marks.single_sample && !marks.best.is_empty();
         for (i, s) in e.solvers.iter().enumerate() {
             let time = s.sgm_time.map(|t| marks.label(i, t.format(3))).unwrap_or_default();
-            out.push(vec![
-                e.energy.clone(),
-                s.solver.clone(),
-                s.runs.to_string(),
-                s.solved.to_string(),
-                s.not_converged.to_string(),
-                s.failed.to_string(),
-                s.skipped.to_string(),
-                s.shifted.to_string(),
-                s.sgm_iterations.map(|v| format!("{v:.1}")).unwrap_or_default(),
-                time,
-                cap_text(e.iteration_cap, 0, ""),
-                cap_text(e.time_cap, 3, if unit == TimeUnit::Seconds { " s" } else { "" }),
-            ]);
+            out.push(aggregate_row(e, s, time, unit));
             if best_iters.contains(&i) {
                 bold.push((first + i, 8));
             }
@@ -103,6 +90,25 @@ pub fn aggregates_table(rows: &[SummaryRow], batch: &Batch) -> Option<Table> {
         ),
         bold,
     })
+}
+
+/// One solver's row of an energy: its counts, its means (`time` already marked) and the
+/// energy's caps.
+fn aggregate_row(e: &corpus::EnergyAggregate, s: &corpus::SolverAggregate, time: String, unit: TimeUnit) -> Vec<String> {
+    vec![
+        e.energy.clone(),
+        s.solver.clone(),
+        s.runs.to_string(),
+        s.solved.to_string(),
+        s.not_converged.to_string(),
+        s.failed.to_string(),
+        s.skipped.to_string(),
+        s.shifted.to_string(),
+        s.sgm_iterations.map(|v| format!("{v:.1}")).unwrap_or_default(),
+        time,
+        cap_text(e.iteration_cap, 0, ""),
+        cap_text(e.time_cap, 3, if unit == TimeUnit::Seconds { " s" } else { "" }),
+    ]
 }
 
 /// `1000 (limit)` or `412 (most seen)`.

@@ -4,7 +4,7 @@
 use super::ranking::{self, comparable, equal, fastest, lowest};
 use super::Table;
 use crate::plan::Task;
-use crate::report::{converged, failed, finished, is_param_or_deform, skipped, target_rule};
+use crate::report::{converged, failed, finished, is_param_or_deform, skipped, target_rule, unique};
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 
@@ -37,16 +37,8 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
     if done.is_empty() {
         return None;
     }
-    let mut energies: Vec<&str> = Vec::new();
-    let mut solvers: Vec<&str> = Vec::new();
-    for r in &all {
-        if !energies.contains(&r.energy.as_str()) {
-            energies.push(&r.energy);
-        }
-        if !solvers.contains(&r.solver.as_str()) {
-            solvers.push(&r.solver);
-        }
-    }
+    let energies = unique(all.iter().map(|r| r.energy.as_str()));
+    let solvers = unique(all.iter().map(|r| r.solver.as_str()));
     // The datasets each energy was run on (some solver's run there was not skipped).
     let datasets_of = |e: &str| {
         let mut d: Vec<&str> =
@@ -65,28 +57,16 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
         let (mut trow, mut crow) = (Vec::new(), Vec::new());
         for e in &energies {
             let of = |r: &&&SummaryRow| r.solver == *s && r.energy == *e;
-            let cell: Vec<&&SummaryRow> = done.iter().filter(of).collect();
+            let cell: Vec<&SummaryRow> = done.iter().filter(of).copied().collect();
             if cell.is_empty() {
                 let all_skipped = all.iter().filter(of).count() > 0 && all.iter().filter(of).all(|r| skipped(r));
                 trow.push(if all_skipped { "skipped".to_string() } else { String::new() });
                 crow.push(None);
                 continue;
             }
-            let n = cell.len() as f64;
-            let it = cell.iter().filter_map(|r| r.iterations).sum::<usize>() as f64 / n;
-            let parts: Vec<Timed> = cell.iter().filter_map(|r| (spec.time)(r).map(|t| Timed::of(r, t))).collect();
-            let t = if parts.len() == cell.len() { Timed::mean(&parts) } else { None };
-            let mark = if cell.iter().any(|r| !converged(r)) { "*" } else { "" };
-            let shifted = if cell.iter().any(|r| r.shifted_iters.unwrap_or(0) > 0) { SHIFTED } else { "" };
-            let time = t.map(|t| t.format(spec.time_digits)).unwrap_or_default();
-            trow.push(format!("{it:.1}/{time}{mark}{shifted}"));
-            // Competes: converged on every dataset the energy was run on.
-            let sets = datasets_of(e);
-            let mut solved: Vec<&str> = cell.iter().filter(|r| comparable(r)).map(|r| r.dataset.as_str()).collect();
-            solved.sort_unstable();
-            solved.dedup();
-            let all_converged = solved == sets && cell.iter().all(|r| comparable(r));
-            crow.push(t.filter(|_| all_converged));
+            let (text, time) = mean_cell(&cell, spec, &datasets_of(e));
+            trow.push(text);
+            crow.push(time);
         }
         texts.push(trow);
         times.push(crow);
@@ -126,6 +106,24 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
         ),
         bold,
     })
+}
+
+/// A solver's runs of one energy (`cell`, none skipped or failed): the mean iterations and
+/// time with their marks, and the time when the solver competes for the bold mark (converged
+/// on every dataset of the energy, `datasets`).
+fn mean_cell(cell: &[&SummaryRow], spec: &MeanSpec, datasets: &[&str]) -> (String, Option<Timed>) {
+    let n = cell.len() as f64;
+    let it = cell.iter().filter_map(|r| r.iterations).sum::<usize>() as f64 / n;
+    let parts: Vec<Timed> = cell.iter().filter_map(|r| (spec.time)(r).map(|t| Timed::of(r, t))).collect();
+    let t = if parts.len() == cell.len() { Timed::mean(&parts) } else { None };
+    let mark = if cell.iter().any(|r| !converged(r)) { "*" } else { "" };
+    let shifted = if cell.iter().any(|r| r.shifted_iters.unwrap_or(0) > 0) { SHIFTED } else { "" };
+    let time = t.map(|t| t.format(spec.time_digits)).unwrap_or_default();
+    let mut solved: Vec<&str> = cell.iter().filter(|r| comparable(r)).map(|r| r.dataset.as_str()).collect();
+    solved.sort_unstable();
+    solved.dedup();
+    let all_converged = solved == datasets && cell.iter().all(|r| comparable(r));
+    (format!("{it:.1}/{time}{mark}{shifted}"), t.filter(|_| all_converged))
 }
 
 /// ` sentence`, or nothing for an empty one.
@@ -177,12 +175,9 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
     if runs.is_empty() {
         return None;
     }
-    let mut solvers: Vec<&str> = Vec::new();
+    let solvers = unique(runs.iter().map(|r| r.solver.as_str()));
     let mut groups: Vec<(&str, &str)> = Vec::new();
     for r in &runs {
-        if !solvers.contains(&r.solver.as_str()) {
-            solvers.push(&r.solver);
-        }
         if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
             groups.push((&r.dataset, &r.energy));
         }
@@ -212,22 +207,7 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
         let (mut iters, mut times, mut energies) = (Vec::new(), Vec::new(), Vec::new());
         for s in &solvers {
             let r = of(s).copied();
-            match r {
-                Some(r) if failed(r) || skipped(r) => {
-                    row.extend([r.status.as_str().to_string(), String::new(), String::new()]);
-                }
-                Some(r) => {
-                    let mark = if converged(r) { "" } else { "*" };
-                    let shifted = match r.shifted_iters {
-                        Some(k) if k > 0 => format!(" ({k} shifted)"),
-                        _ => String::new(),
-                    };
-                    row.push(r.iterations.map(|i| format!("{i}{mark}{shifted}")).unwrap_or_default());
-                    row.push(Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default());
-                    row.push(r.final_energy.map(|x| format!("{x:.5}")).unwrap_or_default());
-                }
-                None => row.extend(std::iter::repeat_n(String::new(), 3)),
-            }
+            row.extend(solver_cells(r));
             let ranked = r.filter(|r| comparable(r));
             iters.push(ranked.and_then(|r| r.iterations).map(|i| i as f64));
             times.push(ranked.and_then(Timed::time_s));
@@ -265,6 +245,27 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
         ),
         bold,
     })
+}
+
+/// A solver's three cells of a row of the per-mesh table: iterations (with marks), time and
+/// final energy; a failed or skipped run says so.
+fn solver_cells(r: Option<&SummaryRow>) -> [String; 3] {
+    match r {
+        Some(r) if failed(r) || skipped(r) => [r.status.as_str().to_string(), String::new(), String::new()],
+        Some(r) => {
+            let mark = if converged(r) { "" } else { "*" };
+            let shifted = match r.shifted_iters {
+                Some(k) if k > 0 => format!(" ({k} shifted)"),
+                _ => String::new(),
+            };
+            [
+                r.iterations.map(|i| format!("{i}{mark}{shifted}")).unwrap_or_default(),
+                Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default(),
+                r.final_energy.map(|x| format!("{x:.5}")).unwrap_or_default(),
+            ]
+        }
+        None => Default::default(),
+    }
 }
 
 #[cfg(test)]
