@@ -124,34 +124,7 @@ impl Pattern {
     /// chunks to have many on small meshes).
     fn chunked(faces: &[[usize; 3]], edges: &[[usize; 4]], n_vertices: usize, chunk: usize) -> Pattern {
         let n = 2 * n_vertices;
-        // column -> rows (row >= col)
-        let mut cols: Vec<Vec<u32>> = vec![Vec::new(); n];
-        for (c, col) in cols.iter_mut().enumerate() {
-            col.push(c as u32);
-        }
-        for f in faces {
-            let d = local_dofs(f);
-            for &(a, b) in LOWER.iter() {
-                let (r, c) = if d[a] >= d[b] { (d[a], d[b]) } else { (d[b], d[a]) };
-                cols[c].push(r as u32);
-            }
-        }
-        for e in edges {
-            let d = edge_dofs(e);
-            for &(a, b) in LOWER8.iter() {
-                let (r, c) = if d[a] >= d[b] { (d[a], d[b]) } else { (d[b], d[a]) };
-                cols[c].push(r as u32);
-            }
-        }
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx = Vec::new();
-        col_ptr.push(0);
-        for col in cols.iter_mut() {
-            col.sort_unstable();
-            col.dedup();
-            row_idx.extend(col.iter().map(|&r| r as usize));
-            col_ptr.push(row_idx.len());
-        }
+        let (col_ptr, row_idx) = lower_pattern(faces, edges, n);
         let slot = |r: usize, c: usize| -> usize {
             let rows = &row_idx[col_ptr[c]..col_ptr[c + 1]];
             // the pattern was built from these very entries, so the search cannot miss
@@ -193,21 +166,7 @@ impl Pattern {
         };
         let element_chunks: Vec<Vec<usize>> =
             scatter.iter().map(|s| chunks_of(s)).chain(edge_scatter.iter().map(|s| chunks_of(s))).collect();
-        let mut chunk_ptr = vec![0usize; n_chunks + 1];
-        for &c in element_chunks.iter().flatten() {
-            chunk_ptr[c + 1] += 1;
-        }
-        for c in 0..n_chunks {
-            chunk_ptr[c + 1] += chunk_ptr[c];
-        }
-        let mut fill = chunk_ptr.clone();
-        let mut chunk_elements = vec![0u32; chunk_ptr[n_chunks]];
-        for (e, cs) in element_chunks.iter().enumerate() {
-            for &c in cs {
-                chunk_elements[fill[c]] = e as u32;
-                fill[c] += 1;
-            }
-        }
+        let (chunk_ptr, chunk_elements) = chunk_lists(&element_chunks, n_chunks);
         Pattern { n, col_ptr, row_idx, diag, scatter, edge_scatter, chunk, chunk_ptr, chunk_elements }
     }
 
@@ -337,6 +296,61 @@ impl SymmetricRows {
             }
         });
     }
+}
+
+/// The lower triangle's CSC structure (`col_ptr`, `row_idx`, rows sorted) of the `n x n`
+/// matrix the faces' 6x6 and the edges' 8x8 element blocks write to, diagonal included.
+fn lower_pattern(faces: &[[usize; 3]], edges: &[[usize; 4]], n: usize) -> (Vec<usize>, Vec<usize>) {
+    // column -> rows (row >= col)
+    let mut cols: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (c, col) in cols.iter_mut().enumerate() {
+        col.push(c as u32);
+    }
+    for f in faces {
+        let d = local_dofs(f);
+        for &(a, b) in LOWER.iter() {
+            let (r, c) = if d[a] >= d[b] { (d[a], d[b]) } else { (d[b], d[a]) };
+            cols[c].push(r as u32);
+        }
+    }
+    for e in edges {
+        let d = edge_dofs(e);
+        for &(a, b) in LOWER8.iter() {
+            let (r, c) = if d[a] >= d[b] { (d[a], d[b]) } else { (d[b], d[a]) };
+            cols[c].push(r as u32);
+        }
+    }
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::new();
+    col_ptr.push(0);
+    for col in cols.iter_mut() {
+        col.sort_unstable();
+        col.dedup();
+        row_idx.extend(col.iter().map(|&r| r as usize));
+        col_ptr.push(row_idx.len());
+    }
+    (col_ptr, row_idx)
+}
+
+/// Each chunk's elements from each element's chunks, by counting sort (stable: element order
+/// is kept within a chunk): `chunk_ptr` (`n_chunks + 1` offsets) and `chunk_elements`.
+fn chunk_lists(element_chunks: &[Vec<usize>], n_chunks: usize) -> (Vec<usize>, Vec<u32>) {
+    let mut chunk_ptr = vec![0usize; n_chunks + 1];
+    for &c in element_chunks.iter().flatten() {
+        chunk_ptr[c + 1] += 1;
+    }
+    for c in 0..n_chunks {
+        chunk_ptr[c + 1] += chunk_ptr[c];
+    }
+    let mut fill = chunk_ptr.clone();
+    let mut chunk_elements = vec![0u32; chunk_ptr[n_chunks]];
+    for (e, cs) in element_chunks.iter().enumerate() {
+        for &c in cs {
+            chunk_elements[fill[c]] = e as u32;
+            fill[c] += 1;
+        }
+    }
+    (chunk_ptr, chunk_elements)
 }
 
 #[cfg(test)]

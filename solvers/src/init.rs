@@ -56,15 +56,7 @@ pub fn tutte(mesh: &Mesh, boundary: TutteBoundary) -> Result<Vec<f64>, InitError
         return Err(InitError::ShortBoundary(nb));
     }
     let mut x = vec![0.0; 2 * n];
-    let mut is_boundary = vec![false; n];
-    let params = loop_parameters(mesh, bl, boundary);
-    let r = (1.0 / std::f64::consts::PI).sqrt();
-    for (k, &v) in bl.iter().enumerate() {
-        let th = 2.0 * std::f64::consts::PI * params[k];
-        x[2 * v] = r * th.cos();
-        x[2 * v + 1] = r * th.sin();
-        is_boundary[v] = true;
-    }
+    let is_boundary = place_boundary(&mut x, bl, &loop_parameters(mesh, bl, boundary));
     // Interior system L_II x_I = -L_IB x_B with the uniform Laplacian (SPD).
     let nbrs = vertex_neighbors(&mesh.faces, n);
     let mut index = vec![usize::MAX; n];
@@ -125,6 +117,20 @@ pub fn tutte(mesh: &Mesh, boundary: TutteBoundary) -> Result<Vec<f64>, InitError
         return Err(InitError::Flipped(flipped));
     }
     Ok(x)
+}
+
+/// The loop `bl`'s vertices on the circle of area 1 at their parameters `params` (in the
+/// interleaved map `x`); which vertices are on it.
+fn place_boundary(x: &mut [f64], bl: &[usize], params: &[f64]) -> Vec<bool> {
+    let mut is_boundary = vec![false; x.len() / 2];
+    let r = (1.0 / std::f64::consts::PI).sqrt();
+    for (k, &v) in bl.iter().enumerate() {
+        let th = 2.0 * std::f64::consts::PI * params[k];
+        x[2 * v] = r * th.cos();
+        x[2 * v + 1] = r * th.sin();
+        is_boundary[v] = true;
+    }
+    is_boundary
 }
 
 /// Each boundary vertex's parameter along the loop `bl`, in `[0, 1)`: uniform or by arc

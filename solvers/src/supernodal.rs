@@ -88,6 +88,41 @@ pub(crate) fn s_pattern(sym: &SymbolicSupernodalCholesky<usize>, s: usize) -> &[
     &sym.row_idx()[sym.col_ptr_for_row_idx()[s]..][..sym.nnz_per_super()[s]]
 }
 
+/// The slot in `L`'s values of every entry of `A`'s lower triangle (`col_ptr`, `row_idx`,
+/// unpermuted; `perm` as in [`Schedule::new`]), in `A`'s order; `super_of` maps a column of the
+/// permuted matrix to its supernode.
+fn entry_slots(
+    sym: &SymbolicSupernodalCholesky<usize>,
+    perm: Option<PermRef<'_, usize>>,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    super_of: &[usize],
+) -> Result<Vec<usize>, ScheduleError> {
+    let inv = perm.map(|p| p.arrays().1);
+    let new = |i: usize| inv.map_or(i, |inv| inv[i]);
+    let mut a_to_l = Vec::with_capacity(row_idx.len());
+    for j in 0..col_ptr.len() - 1 {
+        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
+            let (pi, pj) = (new(i), new(j));
+            let (r, c) = if pi >= pj { (pi, pj) } else { (pj, pi) };
+            let s = super_of[c];
+            let (b, e) = s_range(sym, s);
+            let pat = s_pattern(sym, s);
+            let local = if r < e {
+                r - b
+            } else {
+                match pat.binary_search(&r) {
+                    Ok(k) => e - b + k,
+                    Err(_) => return Err(ScheduleError::NotInPattern { row: i, col: j }),
+                }
+            };
+            let nrows = e - b + pat.len();
+            a_to_l.push(sym.col_ptr_for_val()[s] + (c - b) * nrows + local);
+        }
+    }
+    Ok(a_to_l)
+}
+
 impl Schedule {
     /// The schedule of `sym` for the lower-triangle CSC pattern `(col_ptr, row_idx)` of the
     /// unpermuted matrix, factorized as `P A P^T` with `perm` (`None`: the identity).
@@ -151,29 +186,7 @@ impl Schedule {
             }
             expected = r + 1;
         }
-        // The slot of every entry of A's lower triangle.
-        let inv = perm.map(|p| p.arrays().1);
-        let new = |i: usize| inv.map_or(i, |inv| inv[i]);
-        let mut a_to_l = Vec::with_capacity(row_idx.len());
-        for j in 0..col_ptr.len() - 1 {
-            for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
-                let (pi, pj) = (new(i), new(j));
-                let (r, c) = if pi >= pj { (pi, pj) } else { (pj, pi) };
-                let s = super_of[c];
-                let (b, e) = s_range(sym, s);
-                let pat = s_pattern(sym, s);
-                let local = if r < e {
-                    r - b
-                } else {
-                    match pat.binary_search(&r) {
-                        Ok(k) => e - b + k,
-                        Err(_) => return Err(ScheduleError::NotInPattern { row: i, col: j }),
-                    }
-                };
-                let nrows = e - b + pat.len();
-                a_to_l.push(sym.col_ptr_for_val()[s] + (c - b) * nrows + local);
-            }
-        }
+        let a_to_l = entry_slots(sym, perm, col_ptr, row_idx, &super_of)?;
         let csr = |lists: Vec<Vec<usize>>| {
             let mut ptr = vec![0];
             let mut flat = Vec::new();

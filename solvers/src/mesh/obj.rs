@@ -43,55 +43,8 @@ pub fn parse_obj(source: &str, bytes: &[u8]) -> Result<Mesh, MeshError> {
         let line = line.split('#').next().unwrap_or("");
         let mut words = line.split_ascii_whitespace();
         match words.next() {
-            Some("v") => {
-                let vertex = positions.len();
-                let mut p = [0.0; 3];
-                for (k, c) in p.iter_mut().enumerate() {
-                    let w = words.next().ok_or_else(|| {
-                        bad(format!("line {lineno}: vertex {vertex} has {k} coordinates; 3 are needed"))
-                    })?;
-                    *c = w
-                        .parse::<f64>()
-                        .map_err(|_| bad(format!("line {lineno}: vertex {vertex}: cannot read coordinate {w:?}")))?;
-                }
-                // Extra values (w, vertex colours) do not change the position we use.
-                if p.iter().any(|c| !c.is_finite()) {
-                    return Err(bad(format!("line {lineno}: vertex {vertex} has a non-finite coordinate")));
-                }
-                positions.push(p);
-            }
-            Some("f") => {
-                let face = raw.len();
-                let words: Vec<&str> = words.collect();
-                if words.len() != 3 {
-                    return Err(bad(format!(
-                        "line {lineno}: face {face} has {} vertices; only triangles are supported",
-                        words.len()
-                    )));
-                }
-                let mut idx = [0i64; 3];
-                for (slot, w) in idx.iter_mut().zip(&words) {
-                    // `v`, `v/vt`, `v//vn` or `v/vt/vn`: only the position index matters.
-                    let v = w.split('/').next().unwrap_or("");
-                    let i: i64 = v
-                        .parse()
-                        .map_err(|_| bad(format!("line {lineno}: face {face}: cannot read vertex index {w:?}")))?;
-                    *slot = match i {
-                        0 => {
-                            return Err(bad(format!("line {lineno}: face {face}: vertex index 0 (OBJ counts from 1)")))
-                        }
-                        // Relative: -1 is the last vertex defined so far.
-                        i if i < 0 => positions.len() as i64 + i + 1,
-                        i => i,
-                    };
-                    if *slot < 1 {
-                        return Err(bad(format!(
-                            "line {lineno}: face {face}: relative index {i} is before the first vertex"
-                        )));
-                    }
-                }
-                raw.push((idx, lineno));
-            }
+            Some("v") => positions.push(vertex(words, lineno, positions.len()).map_err(bad)?),
+            Some("f") => raw.push((face(words, lineno, raw.len(), positions.len()).map_err(bad)?, lineno)),
             _ => {}
         }
     }
@@ -112,6 +65,51 @@ pub fn parse_obj(source: &str, bytes: &[u8]) -> Result<Mesh, MeshError> {
         faces.push(idx.map(|i| (i - 1) as usize));
     }
     Ok(Mesh::new(source, positions, faces))
+}
+
+/// The position of vertex `vertex` from the words after `v` on line `lineno`; extra values
+/// (w, vertex colours) do not change the position we use.
+fn vertex<'a>(mut words: impl Iterator<Item = &'a str>, lineno: usize, vertex: usize) -> Result<[f64; 3], String> {
+    let mut p = [0.0; 3];
+    for (k, c) in p.iter_mut().enumerate() {
+        let w =
+            words.next().ok_or_else(|| format!("line {lineno}: vertex {vertex} has {k} coordinates; 3 are needed"))?;
+        *c = w.parse::<f64>().map_err(|_| format!("line {lineno}: vertex {vertex}: cannot read coordinate {w:?}"))?;
+    }
+    if p.iter().any(|c| !c.is_finite()) {
+        return Err(format!("line {lineno}: vertex {vertex} has a non-finite coordinate"));
+    }
+    Ok(p)
+}
+
+/// The 1-based positive vertex indices of triangle `face` from the words after `f` on line
+/// `lineno`, `defined` vertices being defined so far (relative indices count back from there).
+fn face<'a>(
+    words: impl Iterator<Item = &'a str>,
+    lineno: usize,
+    face: usize,
+    defined: usize,
+) -> Result<[i64; 3], String> {
+    let words: Vec<&str> = words.collect();
+    if words.len() != 3 {
+        return Err(format!("line {lineno}: face {face} has {} vertices; only triangles are supported", words.len()));
+    }
+    let mut idx = [0i64; 3];
+    for (slot, w) in idx.iter_mut().zip(&words) {
+        // `v`, `v/vt`, `v//vn` or `v/vt/vn`: only the position index matters.
+        let v = w.split('/').next().unwrap_or("");
+        let i: i64 = v.parse().map_err(|_| format!("line {lineno}: face {face}: cannot read vertex index {w:?}"))?;
+        *slot = match i {
+            0 => return Err(format!("line {lineno}: face {face}: vertex index 0 (OBJ counts from 1)")),
+            // Relative: -1 is the last vertex defined so far.
+            i if i < 0 => defined as i64 + i + 1,
+            i => i,
+        };
+        if *slot < 1 {
+            return Err(format!("line {lineno}: face {face}: relative index {i} is before the first vertex"));
+        }
+    }
+    Ok(idx)
 }
 
 /// The lines of `bytes`, ended by `\n`, `\r\n` or a lone `\r`, so that line numbers match

@@ -266,33 +266,13 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
     let range_ok = range.is_none();
     problems.extend(range);
 
-    // Degenerate: repeated index, or area below the manifest's threshold (1e-14 * diag^2),
-    // measured at unit extent when the squares of the file's units over- or underflow.
-    let (diag, m) = (mesh.bbox_diagonal(), mesh.extent());
-    let (k, tiny) = match 1e-14 * diag * diag {
-        tiny if tiny.is_normal() || !range_ok || !(m > 0.0) => (1.0, tiny),
-        _ => (1.0 / m, 1e-14 * (diag / m) * (diag / m)),
-    };
-    for (face, f) in mesh.faces.iter().enumerate() {
-        if in_range[face] && (!is_proper(f, n) || (tiny.is_finite() && mesh.face_area_scaled(face, k) <= tiny)) {
-            problems.push(Problem::DegenerateFace { face });
-        }
-    }
+    problems.extend(degenerate_faces(mesh, &in_range, range_ok));
 
     let (is_repeat, dups) = duplicate_faces(mesh, n);
     problems.extend(dups);
 
-    let mut referenced = vec![false; n];
-    for (_, t) in mesh.faces.iter().enumerate().filter(|(f, _)| in_range[*f]) {
-        for &v in t {
-            referenced[v] = true;
-        }
-    }
-    let unreferenced = referenced.iter().filter(|&&r| !r).count();
-    if let Some(first) = referenced.iter().position(|&r| !r) {
-        if !mesh.faces.is_empty() {
-            problems.push(Problem::UnreferencedVertices { count: unreferenced, first });
-        }
+    if !mesh.faces.is_empty() {
+        problems.extend(unreferenced_vertices(mesh, &in_range));
     }
 
     let topo: Vec<[usize; 3]> =
@@ -334,6 +314,37 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
         components,
         problems,
     }
+}
+
+/// Degenerate faces (in range): a repeated index, or an area below the manifest's threshold
+/// (1e-14 * diag^2), measured at unit extent when the squares of the file's units over- or
+/// underflow (`range_ok`: the coordinates' range allows it).
+fn degenerate_faces(mesh: &Mesh, in_range: &[bool], range_ok: bool) -> Vec<Problem> {
+    let n = mesh.n_vertices();
+    let mut problems = Vec::new();
+    let (diag, m) = (mesh.bbox_diagonal(), mesh.extent());
+    let (k, tiny) = match 1e-14 * diag * diag {
+        tiny if tiny.is_normal() || !range_ok || !(m > 0.0) => (1.0, tiny),
+        _ => (1.0 / m, 1e-14 * (diag / m) * (diag / m)),
+    };
+    for (face, f) in mesh.faces.iter().enumerate() {
+        if in_range[face] && (!is_proper(f, n) || (tiny.is_finite() && mesh.face_area_scaled(face, k) <= tiny)) {
+            problems.push(Problem::DegenerateFace { face });
+        }
+    }
+    problems
+}
+
+/// The vertices no face (in range) refers to, as one problem: their count and the first.
+fn unreferenced_vertices(mesh: &Mesh, in_range: &[bool]) -> Option<Problem> {
+    let mut referenced = vec![false; mesh.n_vertices()];
+    for (_, t) in mesh.faces.iter().enumerate().filter(|(f, _)| in_range[*f]) {
+        for &v in t {
+            referenced[v] = true;
+        }
+    }
+    let unreferenced = referenced.iter().filter(|&&r| !r).count();
+    referenced.iter().position(|&r| !r).map(|first| Problem::UnreferencedVertices { count: unreferenced, first })
 }
 
 /// Repeats of an earlier face (the same vertex set in any order), as a flag per face and the

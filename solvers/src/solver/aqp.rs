@@ -176,17 +176,9 @@ impl<'a> Method for AqpStep<'a> {
 
         // 2. the proxy direction at y
         let t0 = Instant::now();
-        p.clone_from(&at_y.grad);
-        let solved = proxy.apply(p);
-        p.iter_mut().for_each(|q| *q = -*q);
+        let direction = proxy_direction(proxy, &at_y.grad, p, iter);
         t_solve += t0.elapsed().as_secs_f64();
-        if let Err(e) = solved {
-            return Err(StopReason::LinearSolveFailed(format!("the Laplacian proxy at iterate {iter}: {e}")));
-        }
-        let g_dot_p = dot(&at_y.grad, p);
-        if !(g_dot_p < 0.0) {
-            return Err(StopReason::NotDescent);
-        }
+        let g_dot_p = direction?;
 
         // 3. the step from y: step memory, 0.5 t_max cap, Armijo against f(y)
         let t0 = Instant::now();
@@ -227,6 +219,23 @@ impl<'a> Method for AqpStep<'a> {
             extra: vec![eta, energy_y, t_init],
         })
     }
+}
+
+/// The proxy direction `p = -P^-1 grad` at the momentum point, and its slope `grad . p`,
+/// which must be negative.
+fn proxy_direction(proxy: &mut Proxy, grad: &[f64], p: &mut Vec<f64>, iter: usize) -> Result<f64, StopReason> {
+    p.clear();
+    p.extend_from_slice(grad);
+    let solved = proxy.apply(p);
+    p.iter_mut().for_each(|q| *q = -*q);
+    if let Err(e) = solved {
+        return Err(StopReason::LinearSolveFailed(format!("the Laplacian proxy at iterate {iter}: {e}")));
+    }
+    let g_dot_p = dot(grad, p);
+    if !(g_dot_p < 0.0) {
+        return Err(StopReason::NotDescent);
+    }
+    Ok(g_dot_p)
 }
 
 #[cfg(test)]
