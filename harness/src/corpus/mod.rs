@@ -276,15 +276,7 @@ pub fn fetch(entries: &[&Entry], to: &Path, from: &From, say: &mut dyn FnMut(&st
             continue;
         }
         let made: Vec<(Output, Vec<u8>)> = match from {
-            From::Copy(dir) => pending
-                .iter()
-                .map(|o| {
-                    let p = dir.join(&o.file);
-                    std::fs::read(&p)
-                        .with_context(|| format!("{}: {}: cannot read", e.name, p.display()))
-                        .map(|b| (o.clone(), b))
-                })
-                .collect::<Result<_>>()?,
+            From::Copy(dir) => copied(e, dir, &pending)?,
             From::Sources { url } => {
                 let url = e.url(url);
                 let source = download::fetch_file(&url, &downloads, e.source_bytes, &e.source_sha256, &mut |line| {
@@ -302,17 +294,7 @@ pub fn fetch(entries: &[&Entry], to: &Path, from: &From, say: &mut dyn FnMut(&st
             }
         };
         for (o, bytes) in made {
-            let got = sha256_hex(&bytes);
-            if got != o.sha256 || bytes.len() as u64 != o.bytes {
-                bail!(
-                    "{}: {} has SHA-256 {got} ({} bytes), but the corpus pins {} ({} bytes): refused, nothing installed",
-                    e.name,
-                    o.file,
-                    bytes.len(),
-                    o.sha256,
-                    o.bytes
-                );
-            }
+            check_pinned(e, &o, &bytes)?;
             crate::run_folder::write_atomic(&staging.join(&o.file), &bytes)?;
             to_install.push(o.file.clone());
         }
@@ -325,6 +307,35 @@ pub fn fetch(entries: &[&Entry], to: &Path, from: &From, say: &mut dyn FnMut(&st
     }
     std::fs::remove_dir_all(&work).with_context(|| format!("{}: cannot remove", work.display()))?;
     Ok(done)
+}
+
+/// The files `pending` of mesh `e`, read from a copy of the corpus in `dir`.
+fn copied(e: &Entry, dir: &Path, pending: &[Output]) -> Result<Vec<(Output, Vec<u8>)>> {
+    pending
+        .iter()
+        .map(|o| {
+            let p = dir.join(&o.file);
+            std::fs::read(&p)
+                .with_context(|| format!("{}: {}: cannot read", e.name, p.display()))
+                .map(|b| (o.clone(), b))
+        })
+        .collect()
+}
+
+/// `bytes`, made for the file `o` of mesh `e`, are what the corpus pins (size and SHA-256).
+fn check_pinned(e: &Entry, o: &Output, bytes: &[u8]) -> Result<()> {
+    let got = sha256_hex(bytes);
+    if got != o.sha256 || bytes.len() as u64 != o.bytes {
+        bail!(
+            "{}: {} has SHA-256 {got} ({} bytes), but the corpus pins {} ({} bytes): refused, nothing installed",
+            e.name,
+            o.file,
+            bytes.len(),
+            o.sha256,
+            o.bytes
+        );
+    }
+    Ok(())
 }
 
 /// Whether `path` is the file `o` (its size, then its SHA-256); `false` when it is absent.

@@ -308,5 +308,4 @@ mod tests {
         let err = check_clock(&at(&[(0.1, None), (0.4, Some(-0.3))]), 1.2).unwrap_err();
         assert_eq!(err, "iteration 1: record_s = -0.3 is not a time (finite, at least 0)");
     }
-
 }

@@ -237,32 +237,8 @@ fn run(spec: &Spec) -> Report {
         child.stdout.take().map(|s| Reading::start(s, spec.keep)),
         child.stderr.take().map(|s| Reading::start(s, spec.keep)),
     ];
-    let solver = child.id() as i32;
-    let timeout = spec.timeout_s.map(Duration::from_secs_f64);
-    let max_processes = spec.limits.processes.map(|p| p as usize);
     let mut peaks: BTreeMap<i32, u64> = BTreeMap::new();
-    let exit = loop {
-        if let Some(exit) = reap(solver) {
-            break exit;
-        }
-        let tree = descendants();
-        for &pid in &tree {
-            if let Some(kb) = high_water_kb(pid) {
-                let peak = peaks.entry(pid).or_default();
-                *peak = (*peak).max(kb);
-            }
-        }
-        if let Some(max) = max_processes.filter(|&m| tree.len() > m) {
-            break Exit::TooManyProcesses(max);
-        }
-        if stop.load(Ordering::SeqCst) {
-            break Exit::Interrupted;
-        }
-        if timeout.is_some_and(|t| t0.elapsed() >= t) {
-            break Exit::TimedOut;
-        }
-        thread::sleep(POLL);
-    };
+    let exit = watch(child.id() as i32, spec, t0, &stop, &mut peaks);
     report.wall_s = t0.elapsed().as_secs_f64();
     end_all();
     report.exit = Some(exit);
@@ -275,6 +251,35 @@ fn run(spec: &Spec) -> Report {
     let [stdout, stderr] = outputs.map(|o| o.map(|r| r.finish(Duration::from_secs(5))).unwrap_or_default());
     (report.stdout, report.stderr) = (stdout, stderr);
     report
+}
+
+/// Poll the solver (`solver`, started at `t0`) until it ends, it has too many processes, the
+/// harness stops the run or its time is up; each process's peak memory goes to `peaks`.
+fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, peaks: &mut BTreeMap<i32, u64>) -> Exit {
+    let timeout = spec.timeout_s.map(Duration::from_secs_f64);
+    let max_processes = spec.limits.processes.map(|p| p as usize);
+    loop {
+        if let Some(exit) = reap(solver) {
+            return exit;
+        }
+        let tree = descendants();
+        for &pid in &tree {
+            if let Some(kb) = high_water_kb(pid) {
+                let peak = peaks.entry(pid).or_default();
+                *peak = (*peak).max(kb);
+            }
+        }
+        if let Some(max) = max_processes.filter(|&m| tree.len() > m) {
+            return Exit::TooManyProcesses(max);
+        }
+        if stop.load(Ordering::SeqCst) {
+            return Exit::Interrupted;
+        }
+        if timeout.is_some_and(|t| t0.elapsed() >= t) {
+            return Exit::TimedOut;
+        }
+        thread::sleep(POLL);
+    }
 }
 
 /// Set the rlimits; what could not be set, said.

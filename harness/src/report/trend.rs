@@ -6,11 +6,9 @@
 
 use super::changes::Changes;
 use super::corpus::{ITERATION_SHIFT, TIME_NORM_SHIFT, TIME_SHIFT_S};
-use super::html::{esc, href, utc, STYLE};
+use super::html::{changes_body, esc, href, utc, STYLE};
 use super::plots::trend::{render_trend, TrendLine};
 use super::unique;
-use crate::gate::check::DEFAULT_ENERGY_RTOL;
-use crate::gate::rules::Change;
 use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
 use crate::paths::relative_link;
 use crate::run_folder::{write_atomic, Status};
@@ -414,80 +412,6 @@ fn changes_section(h: &mut String, c: &ConfigHistory) {
         esc(&prev.short_revision())
     );
     changes_body(h, &Changes::between((prev, prev_runs), (last, last_runs)));
-}
-
-/// The changes of one batch since another: a warning when the settings differ, the changed
-/// metrics (worse first) and the runs only one batch has. Shared with the report's first
-/// screen.
-pub(crate) fn changes_body(h: &mut String, ch: &Changes) {
-    let cmp = &ch.comparison;
-    if ch.settings_differ() {
-        *h += "<p class=\"warn\">The two batches ran different configs or plans (config hash differs): changes may \
-               come from the settings, not the code.</p>\n";
-    }
-    if ch.is_quiet() {
-        let _ = writeln!(
-            h,
-            "<p>No change in iterations, status or final energy (rel. tol. {DEFAULT_ENERGY_RTOL:e}) over {} runs.</p>",
-            cmp.compared
-        );
-        return;
-    }
-    let _ = writeln!(
-        h,
-        "<p>{} of {} runs in both changed: {} regressions, {} improvements.</p>",
-        unique(cmp.changes.iter().map(|c| c.run.as_str())).len(),
-        cmp.compared,
-        ch.regressions(),
-        ch.improvements()
-    );
-    let worse: Vec<&Change> = cmp.changes.iter().filter(|c| c.regression).collect();
-    let better: Vec<&Change> = cmp.changes.iter().filter(|c| !c.regression).collect();
-    // Every regression counts, but the first screen shows the first few.
-    change_table(h, &worse[..worse.len().min(FOLD)]);
-    if worse.len() > FOLD {
-        let _ = write!(h, "<details><summary>{} more regressions</summary>", worse.len() - FOLD);
-        change_table(h, &worse[FOLD..]);
-        *h += "</details>\n";
-    }
-    // Improvements matter less in the morning: many of them fold away.
-    if better.len() > FOLD {
-        let _ = write!(h, "<details><summary>{} improvements</summary>", better.len());
-        change_table(h, &better);
-        *h += "</details>\n";
-    } else {
-        change_table(h, &better);
-    }
-    for (what, list) in [("Only in the previous batch", &cmp.missing), ("New in the latest batch", &ch.added)] {
-        if !list.is_empty() {
-            let _ = writeln!(h, "<p>{what} ({}): {}</p>", list.len(), esc(&list.join(", ")));
-        }
-    }
-}
-
-/// Regressions past this many, and improvements when more, are folded.
-const FOLD: usize = 8;
-
-fn change_table(h: &mut String, changes: &[&Change]) {
-    if changes.is_empty() {
-        return;
-    }
-    *h += "<div class=\"scroll\"><table>\n<tr><th class=\"k\">run</th><th class=\"k\">metric</th><th>before</th>\
-           <th>after</th><th>delta</th><th class=\"k\"></th></tr>\n";
-    for change in changes {
-        let _ = writeln!(
-            h,
-            "<tr class=\"{}\"><td class=\"k\">{}</td><td class=\"k\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"k\">{}</td></tr>",
-            if change.regression { "failed" } else { "ok" },
-            esc(&change.run),
-            change.metric,
-            esc(&change.before),
-            esc(&change.after),
-            esc(&change.delta),
-            if change.regression { "worse" } else { "better" }
-        );
-    }
-    *h += "</table></div>\n";
 }
 
 /// Per batch and solver: solved / runs and the two means to the target.

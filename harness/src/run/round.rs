@@ -66,7 +66,12 @@ pub(super) struct Workers<'a> {
 
 /// One round: the runs `todo` on `jobs` workers; the calling thread hands each result to
 /// `done` as it arrives.
-pub(super) fn run_round(w: &Workers, todo: &[Todo], round: usize, mut done: impl FnMut(Done) -> Result<()>) -> Result<()> {
+pub(super) fn run_round(
+    w: &Workers,
+    todo: &[Todo],
+    round: usize,
+    mut done: impl FnMut(Done) -> Result<()>,
+) -> Result<()> {
     let meshes = MeshCache::new(todo.iter().map(|t| w.mine[t.index].dataset), w.plan.datasets.len());
     let next = AtomicUsize::new(0);
     let (tx, rx) = mpsc::channel::<Done>();
@@ -200,4 +205,3 @@ impl Drop for StopOnDrop<'_> {
         self.0.stop();
     }
 }
-

@@ -183,7 +183,6 @@ fn resume_resubmits_only_the_missing_and_incomplete_shards() {
 
     // a job of the submission still running: refused
     let task3 = format!("{}_3", first.array.as_deref().unwrap());
-    *fake.queue.borrow_mut() = vec![vec![queued(&task3, "RUNNING", "None")]];
     *fake.queue.borrow_mut() =
         vec![vec![queued(&task3, "RUNNING", "None"), queued(&first.merge, "PENDING", "DependencyNeverSatisfied")]];
     let e = resume(&fake, &out, None).unwrap_err().to_string();
@@ -231,13 +230,19 @@ fn resume_resubmits_only_the_missing_and_incomplete_shards() {
     assert!(round.tasks.is_empty() && round.array.is_none());
     assert!(!fake.submitted.borrow().last().unwrap().0.iter().any(|a| a.starts_with("--dependency")));
 
+    resume_refuses_a_moved_or_changed_submission(&fake, &out, &sub);
+}
+
+/// `resume` of a complete submission refuses to run from another folder or with a changed
+/// config (the end of the test above).
+fn resume_refuses_a_moved_or_changed_submission(fake: &Fake, out: &Path, sub: &Submission) {
     // resumed from elsewhere: refused, naming where
     let elsewhere = tempfile::tempdir().unwrap();
     let here = std::env::current_dir().unwrap();
-    let mut moved = Submission::read(&out).unwrap();
+    let mut moved = Submission::read(out).unwrap();
     moved.commands.workdir = elsewhere.path().to_path_buf();
     moved.write().unwrap();
-    let e = resume(&fake, &out, None).unwrap_err().to_string();
+    let e = resume(fake, out, None).unwrap_err().to_string();
     assert!(
         e.contains(&format!("resume from where the batch was submitted: in {}", elsewhere.path().display())),
         "{e}"
@@ -249,13 +254,13 @@ fn resume_resubmits_only_the_missing_and_incomplete_shards() {
     // a config changed since (another stop rule, the same runs): refused
     let text = std::fs::read_to_string(&sub.commands.config).unwrap().replace("max_iters = 5", "max_iters = 6");
     std::fs::write(&sub.commands.config, &text).unwrap();
-    let e = format!("{:#}", resume(&fake, &out, None).unwrap_err());
+    let e = format!("{:#}", resume(fake, out, None).unwrap_err());
     assert!(e.contains("cannot resume") && e.contains("settings") && e.contains("changed"), "{e}");
     std::fs::write(&sub.commands.config, text.replace("max_iters = 6", "max_iters = 5")).unwrap();
     // ... or another solver
     let text = std::fs::read_to_string(&sub.commands.config).unwrap().replace("\"cm\"", "\"slim\"");
     std::fs::write(&sub.commands.config, text).unwrap();
-    let e = format!("{:#}", resume(&fake, &out, None).unwrap_err());
+    let e = format!("{:#}", resume(fake, out, None).unwrap_err());
     assert!(e.contains("cannot resume") && e.contains("plan it again"), "{e}");
 }
 

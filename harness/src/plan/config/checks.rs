@@ -21,6 +21,34 @@ impl Config {
         self.check_names()?;
         self.check_solver_options()?;
         self.check_maps_keep()?;
+        self.check_task_keys()?;
+        if self.task == Task::Authalic {
+            return self.check_authalic();
+        }
+        if self.authalic.is_some() {
+            bail!("[authalic] applies only to task = \"authalic\"");
+        }
+        if self.energies.is_empty() {
+            bail!("'energies' is empty: name at least one of {}", ENERGY_NAMES.join(", "));
+        }
+        self.check_solvers()?;
+        if self.datasets.is_empty() && self.dataset.is_empty() {
+            bail!("no datasets: give 'datasets = [...]' (names or tag:<tag>) or [[dataset]] entries");
+        }
+        for e in &self.energies {
+            self.energy_kind(e)?;
+        }
+        for name in self.energy.keys() {
+            if !ENERGY_NAMES.contains(&name.as_str()) {
+                bail!("[energy.{name}]: unknown energy (known: {})", ENERGY_NAMES.join(", "));
+            }
+            self.energy_kind(name)?;
+        }
+        self.check_numbers()
+    }
+
+    /// `[deform]`, `[init]` and handles where the task has them.
+    fn check_task_keys(&self) -> Result<()> {
         if self.task != Task::Deform && self.deform.is_some() {
             bail!("[deform] applies only to task = \"deform\"");
         }
@@ -48,28 +76,12 @@ impl Config {
                 );
             }
         }
-        if self.task == Task::Authalic {
-            return self.check_authalic();
-        }
-        if self.authalic.is_some() {
-            bail!("[authalic] applies only to task = \"authalic\"");
-        }
-        if self.energies.is_empty() {
-            bail!("'energies' is empty: name at least one of {}", ENERGY_NAMES.join(", "));
-        }
-        self.check_solvers()?;
-        if self.datasets.is_empty() && self.dataset.is_empty() {
-            bail!("no datasets: give 'datasets = [...]' (names or tag:<tag>) or [[dataset]] entries");
-        }
-        for e in &self.energies {
-            self.energy_kind(e)?;
-        }
-        for name in self.energy.keys() {
-            if !ENERGY_NAMES.contains(&name.as_str()) {
-                bail!("[energy.{name}]: unknown energy (known: {})", ENERGY_NAMES.join(", "));
-            }
-            self.energy_kind(name)?;
-        }
+        Ok(())
+    }
+
+    /// The numeric settings of the stop rule, the start, the line search and the linear
+    /// solves are in range.
+    fn check_numbers(&self) -> Result<()> {
         let positive = |key: &str, v: Option<f64>| match v {
             Some(x) if !(x > 0.0 && x.is_finite()) => bail!("{key} = {x} must be positive and finite"),
             _ => Ok(()),

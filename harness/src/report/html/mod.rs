@@ -26,6 +26,7 @@ mod tests;
 mod timing;
 
 pub(crate) use crate::utc::utc;
+pub(crate) use changes::changes_body;
 use changes::changes_section;
 use external::{external_section, probes};
 use figures::{plots_section, tables_section};

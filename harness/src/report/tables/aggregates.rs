@@ -94,7 +94,12 @@ pub fn aggregates_table(rows: &[SummaryRow], batch: &Batch) -> Option<Table> {
 
 /// One solver's row of an energy: its counts, its means (`time` already marked) and the
 /// energy's caps.
-fn aggregate_row(e: &corpus::EnergyAggregate, s: &corpus::SolverAggregate, time: String, unit: TimeUnit) -> Vec<String> {
+fn aggregate_row(
+    e: &corpus::EnergyAggregate,
+    s: &corpus::SolverAggregate,
+    time: String,
+    unit: TimeUnit,
+) -> Vec<String> {
     vec![
         e.energy.clone(),
         s.solver.clone(),
