@@ -4,7 +4,9 @@
 - no file over 650 lines;
 - no function over 80 lines (from its `fn` line to its closing brace; unit tests included);
 - no comment cites a file outside the repository (`../shared/...`, a bare `design.md`), and
-  every book page a comment cites (`docs/src/....md`) exists.
+  every book page a comment cites (`docs/src/....md`) exists;
+- no two types (`pub`, `pub(crate)`, `pub(super)` structs, enums, aliases, traits) of the two
+  crates share a name: one name, one thing.
 
     python3 scripts/limits.py [SRC ...]   (default: harness/src solvers/src)
 
@@ -23,6 +25,7 @@ FN = re.compile(
 )
 OUTSIDE = re.compile(r"\.\./shared|(?<![\w/])design\.md")
 BOOK = re.compile(r"docs/src/[\w./-]+?\.md")
+TYPE = re.compile(r"^\s*pub(?:\([^)]*\))?\s+(?:struct|enum|type|trait)\s+([A-Z]\w*)")
 STRING = re.compile(r'"(?:\\.|[^"\\])*"')
 CHAR = re.compile(r"'(?:\\.|[^'\\])'")
 
@@ -87,17 +90,36 @@ def offences(path, text, root):
     return out
 
 
+def type_names(path, text):
+    """(name, path, line) of every public type `text` declares."""
+    return [(m.group(1), path, n) for n, line in enumerate(text.split("\n"), 1) if (m := TYPE.match(line))]
+
+
+def shared_names(declared):
+    """An offence for each declaration of a type name declared more than once."""
+    out = []
+    for name, path, line in declared:
+        others = [f"{p}:{n}" for m, p, n in declared if m == name and (p, n) != (path, line)]
+        if others:
+            out.append((path, line, f"type {name} is declared again at {', '.join(others)}"))
+    return out
+
+
 def main(argv):
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     srcs = argv or [os.path.join(root, "harness", "src"), os.path.join(root, "solvers", "src")]
-    found = []
+    found, declared = [], []
     for src in srcs:
         for base, _, files in sorted(os.walk(src)):
             for f in sorted(files):
                 if f.endswith(".rs"):
                     path = os.path.join(base, f)
                     with open(path, encoding="utf-8") as fh:
-                        found += offences(os.path.relpath(path, root), fh.read(), root)
+                        text = fh.read()
+                    rel = os.path.relpath(path, root)
+                    found += offences(rel, text, root)
+                    declared += type_names(rel, text)
+    found += shared_names(declared)
     for path, line, what in found:
         print(f"{path}:{line}: {what}")
     print(f"{len(found)} offence(s)")

@@ -6,7 +6,7 @@
 //! steps after it ran), or the reader's error message. Neither is a finding: a panic, a hang
 //! or a huge allocation is. Nothing is read from or written to disk.
 
-use crate::gate::check::{compare, render, Baseline, Record};
+use crate::gate::check::{compare, render, Baseline, GatedRun};
 use crate::plan::config::LoadedConfig;
 use crate::plan::registry::{resolve_inline, Registry};
 use crate::plan::Plan;
@@ -76,10 +76,10 @@ pub fn handles(data: &[u8]) -> Result<()> {
 pub fn baseline(data: &[u8]) -> Result<()> {
     let base = Baseline::parse(text(data)?, Path::new(SOURCE))?;
     let n = base.runs.len();
-    let now: Vec<Record> = (0..n)
+    let now: Vec<GatedRun> = (0..n)
         .map(|i| {
             let other = &base.runs[(i + 1) % n];
-            Record {
+            GatedRun {
                 iterations: other.iterations,
                 final_energy: other.final_energy,
                 status: other.status,

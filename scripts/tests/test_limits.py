@@ -53,5 +53,15 @@ def test_long_files_long_functions_and_outside_citations_are_offences(tmp_path):
     assert limits.offences("b.rs", "fn a() {}\n" * 650, str(tmp_path)) == []
 
 
+def test_two_types_of_one_name_are_offences():
+    a = limits.type_names("a.rs", "pub struct Start {}\npub(crate) enum Kind {}\nstruct Private;\n")
+    b = limits.type_names("b.rs", "/// doc\npub(super) struct Start<M> {\n    pub x: M,\n}\n")
+    assert a == [("Start", "a.rs", 1), ("Kind", "a.rs", 2)]
+    assert limits.shared_names(a + b) == [
+        ("a.rs", 1, "type Start is declared again at b.rs:2"),
+        ("b.rs", 2, "type Start is declared again at a.rs:1"),
+    ]
+
+
 def test_the_repository_keeps_its_limits():
     assert limits.main([]) == 0

@@ -18,7 +18,7 @@ pub(crate) fn check(a: CheckArgs) -> Result<ExitCode> {
 
 /// `compare`: what changed from one run folder to another, as Markdown and optionally HTML.
 pub(crate) fn compare(a: CompareArgs) -> Result<ExitCode> {
-    let options = compare::Options {
+    let options = compare::CompareOptions {
         energy_rtol: a.energy_rtol,
         iterations_tolerance: a.iterations_tolerance,
         time_regressions: a.time_regressions,

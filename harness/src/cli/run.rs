@@ -102,19 +102,19 @@ fn run_exit(signalled: i32, written: bool, failed: usize) -> ExitCode {
 /// Say what became of the batch in the history. `false` when it could not be appended (a
 /// warning: the run folder is complete either way; the command exits 2). A trend page that
 /// could not be rendered is a warning of its own: the batch is in the history.
-pub(crate) fn say_history(outcome: &history::Outcome) -> bool {
-    use history::Outcome;
+pub(crate) fn say_history(outcome: &history::HistoryOutcome) -> bool {
+    use history::HistoryOutcome;
     match outcome {
-        Outcome::Off => true,
-        Outcome::NotAppended { reason, .. } => {
+        HistoryOutcome::Off => true,
+        HistoryOutcome::NotAppended { reason, .. } => {
             eprintln!("note: not appended to the history: {reason}");
             true
         }
-        Outcome::Failed { error, .. } => {
+        HistoryOutcome::Failed { error, .. } => {
             eprintln!("warning: history not updated: {error} (the run folder is complete)");
             false
         }
-        Outcome::AlreadyIn { db, batch_id, .. } => {
+        HistoryOutcome::AlreadyIn { db, batch_id, .. } => {
             eprintln!(
                 "history: already in {} as batch {batch_id} (appended by an earlier batch of this folder); not \
                  appended again",
@@ -122,7 +122,7 @@ pub(crate) fn say_history(outcome: &history::Outcome) -> bool {
             );
             true
         }
-        Outcome::Appended { db, batch_id, runs, config, trend, trend_error } => {
+        HistoryOutcome::Appended { db, batch_id, runs, config, trend, trend_error } => {
             eprintln!("history: batch {batch_id} ({runs} runs of {config}) appended to {}", db.display());
             match (trend, trend_error) {
                 (Some(page), _) => eprintln!("history: trend page {}", page.display()),

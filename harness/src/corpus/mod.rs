@@ -61,7 +61,7 @@ impl Recipe {
 /// One mesh of the corpus.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Entry {
+pub struct CorpusEntry {
     pub name: String,
     pub file: String,
     pub recipe: Recipe,
@@ -87,18 +87,18 @@ pub struct Entry {
 
 /// A file the fetch installs: a mesh or a sidecar.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Output {
+pub struct CorpusFile {
     pub file: String,
     pub bytes: u64,
     pub sha256: String,
 }
 
-impl Entry {
+impl CorpusEntry {
     /// The files it installs: its mesh, then its sidecar.
-    pub fn outputs(&self) -> Vec<Output> {
-        let mut out = vec![Output { file: self.file.clone(), bytes: self.bytes, sha256: self.sha256.clone() }];
+    pub fn outputs(&self) -> Vec<CorpusFile> {
+        let mut out = vec![CorpusFile { file: self.file.clone(), bytes: self.bytes, sha256: self.sha256.clone() }];
         if let (Some(file), Some(bytes), Some(sha256)) = (&self.sidecar, self.sidecar_bytes, &self.sidecar_sha256) {
-            out.push(Output { file: file.clone(), bytes, sha256: sha256.clone() });
+            out.push(CorpusFile { file: file.clone(), bytes, sha256: sha256.clone() });
         }
         out
     }
@@ -117,13 +117,13 @@ impl Entry {
 struct ManifestFile {
     version: u32,
     #[serde(rename = "mesh")]
-    meshes: Vec<Entry>,
+    meshes: Vec<CorpusEntry>,
 }
 
 /// `corpus.toml`, checked.
 #[derive(Clone, Debug)]
 pub struct Manifest {
-    pub meshes: Vec<Entry>,
+    pub meshes: Vec<CorpusEntry>,
 }
 
 impl Manifest {
@@ -175,8 +175,8 @@ impl Manifest {
 
     /// The meshes whose names match one of `only` (globs; none: all), with the meshes they
     /// are made from ahead of them.
-    pub fn select(&self, only: &[String]) -> Result<Vec<&Entry>> {
-        let chosen = |e: &Entry| only.is_empty() || only.iter().any(|g| glob_match(g, &e.name));
+    pub fn select(&self, only: &[String]) -> Result<Vec<&CorpusEntry>> {
+        let chosen = |e: &CorpusEntry| only.is_empty() || only.iter().any(|g| glob_match(g, &e.name));
         let mut wanted: Vec<bool> = self.meshes.iter().map(chosen).collect();
         if !wanted.contains(&true) {
             bail!("no mesh of the corpus matches {}", only.join(" "));
@@ -243,7 +243,7 @@ pub struct Fetched {
 /// `to/.mapbench-corpus/` first; only when every file is right are they renamed into `to`,
 /// and the work folder removed. On an error nothing is installed, and what was downloaded
 /// and built so far is kept there, so that the next fetch resumes.
-pub fn fetch(entries: &[&Entry], to: &Path, from: &From, say: &mut dyn FnMut(&str)) -> Result<Fetched> {
+pub fn fetch(entries: &[&CorpusEntry], to: &Path, from: &From, say: &mut dyn FnMut(&str)) -> Result<Fetched> {
     if let From::Copy(dir) = from {
         if !dir.is_dir() {
             bail!("{}: no such folder (--from)", dir.display());
@@ -275,7 +275,7 @@ pub fn fetch(entries: &[&Entry], to: &Path, from: &From, say: &mut dyn FnMut(&st
             say(&format!("{at}: {} (checked)", if to_install.contains(&e.file) { "built before" } else { "present" }));
             continue;
         }
-        let made: Vec<(Output, Vec<u8>)> = match from {
+        let made: Vec<(CorpusFile, Vec<u8>)> = match from {
             From::Copy(dir) => copied(e, dir, &pending)?,
             From::Sources { url } => {
                 let url = e.url(url);
@@ -310,7 +310,7 @@ pub fn fetch(entries: &[&Entry], to: &Path, from: &From, say: &mut dyn FnMut(&st
 }
 
 /// The files `pending` of mesh `e`, read from a copy of the corpus in `dir`.
-fn copied(e: &Entry, dir: &Path, pending: &[Output]) -> Result<Vec<(Output, Vec<u8>)>> {
+fn copied(e: &CorpusEntry, dir: &Path, pending: &[CorpusFile]) -> Result<Vec<(CorpusFile, Vec<u8>)>> {
     pending
         .iter()
         .map(|o| {
@@ -323,7 +323,7 @@ fn copied(e: &Entry, dir: &Path, pending: &[Output]) -> Result<Vec<(Output, Vec<
 }
 
 /// `bytes`, made for the file `o` of mesh `e`, are what the corpus pins (size and SHA-256).
-fn check_pinned(e: &Entry, o: &Output, bytes: &[u8]) -> Result<()> {
+fn check_pinned(e: &CorpusEntry, o: &CorpusFile, bytes: &[u8]) -> Result<()> {
     let got = sha256_hex(bytes);
     if got != o.sha256 || bytes.len() as u64 != o.bytes {
         bail!(
@@ -339,7 +339,7 @@ fn check_pinned(e: &Entry, o: &Output, bytes: &[u8]) -> Result<()> {
 }
 
 /// Whether `path` is the file `o` (its size, then its SHA-256); `false` when it is absent.
-fn matches(path: &Path, o: &Output) -> Result<bool> {
+fn matches(path: &Path, o: &CorpusFile) -> Result<bool> {
     match std::fs::metadata(path) {
         Ok(m) if m.is_file() && m.len() == o.bytes => Ok(sha256_file(path)? == o.sha256),
         _ => Ok(false),

@@ -4,7 +4,7 @@
 //! and a GLID cage triangulated by Triangle, which runs in Python (`scripts/corpus_glid.py`,
 //! built in) since no Rust port of Triangle makes the same mesh.
 
-use super::{mat, Entry, Recipe};
+use super::{mat, CorpusEntry, Recipe};
 use anyhow::{bail, Context, Result};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -22,7 +22,7 @@ pub struct Obj {
 
 /// The files of `entry` (its mesh, then its sidecar) from its downloaded `source`; `made`
 /// gives the installed bytes of another mesh of the corpus (what `subdivide` starts from).
-pub fn build(entry: &Entry, source: &Path, made: &dyn Fn(&str) -> Result<Vec<u8>>) -> Result<Vec<Vec<u8>>> {
+pub fn build(entry: &CorpusEntry, source: &Path, made: &dyn Fn(&str) -> Result<Vec<u8>>) -> Result<Vec<Vec<u8>>> {
     let read = || std::fs::read(source).with_context(|| format!("{}: cannot read", source.display()));
     match entry.recipe {
         Recipe::Obj => Ok(vec![obj(&header(entry), &parse_obj(&read()?)?)]),
@@ -49,7 +49,7 @@ pub fn build(entry: &Entry, source: &Path, made: &dyn Fn(&str) -> Result<Vec<u8>
 }
 
 /// The first line of a converted mesh: where it came from.
-fn header(e: &Entry) -> String {
+fn header(e: &CorpusEntry) -> String {
     format!(
         "# {}: from github.com/{} {} (commit {}); see MANIFEST.toml for license/attribution\n",
         e.name, e.repository, e.path, e.commit
@@ -178,7 +178,7 @@ pub fn py_repr(x: f64) -> String {
 
 /// The GLID recipe: the cage file as `glid_<Dir>.mat` (the name the script reads the data
 /// folder from) in a scratch folder, `python3 corpus_glid.py` on it, and its OBJ and JSON.
-fn glid(entry: &Entry, source: &Path) -> Result<Vec<Vec<u8>>> {
+fn glid(entry: &CorpusEntry, source: &Path) -> Result<Vec<Vec<u8>>> {
     let dir_name = entry.path.rsplit('/').nth(1).context("the source path has no data folder")?;
     let scratch = tempdir(source)?;
     let (mat_name, script) = (format!("glid_{dir_name}.mat"), scratch.join("corpus_glid.py"));

@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-pub use super::rules::{Change, Record, DEFAULT_ENERGY_RTOL};
+pub use super::rules::{Change, GatedRun, DEFAULT_ENERGY_RTOL};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -15,7 +15,7 @@ pub struct Baseline {
     /// Relative tolerance on `final_energy`.
     #[serde(default = "default_rtol")]
     pub energy_rtol: f64,
-    pub runs: Vec<Record>,
+    pub runs: Vec<GatedRun>,
 }
 
 impl Baseline {
@@ -57,8 +57,8 @@ fn default_rtol() -> f64 {
 }
 
 /// Read the records of a run folder's `summary.csv`.
-pub fn read_summary(run_dir: &Path) -> Result<Vec<Record>> {
-    Ok(crate::run_folder::read_summary(run_dir)?.iter().map(Record::from).collect())
+pub fn read_summary(run_dir: &Path) -> Result<Vec<GatedRun>> {
+    Ok(crate::run_folder::read_summary(run_dir)?.iter().map(GatedRun::from).collect())
 }
 
 /// A baseline from a run folder.
@@ -98,7 +98,7 @@ impl Comparison {
 }
 
 /// Compare the runs of a folder with a baseline.
-pub fn compare(baseline: &Baseline, runs: &[Record]) -> Comparison {
+pub fn compare(baseline: &Baseline, runs: &[GatedRun]) -> Comparison {
     let mut cmp = Comparison::default();
     for b in &baseline.runs {
         let Some(a) = runs.iter().find(|r| r.key() == b.key()) else {
@@ -165,7 +165,7 @@ mod tests {
     use crate::gate::rules::tests::record as rec;
     use crate::run_folder::Status;
 
-    fn base(runs: Vec<Record>) -> Baseline {
+    fn base(runs: Vec<GatedRun>) -> Baseline {
         Baseline { energy_rtol: 1e-6, runs }
     }
 
@@ -226,7 +226,7 @@ mod tests {
     /// improvement.
     #[test]
     fn skipped_runs_compare_by_status_only() {
-        let skipped = |solver: &str| Record {
+        let skipped = |solver: &str| GatedRun {
             iterations: None,
             final_energy: None,
             flips: None,
@@ -237,7 +237,7 @@ mod tests {
         let c = compare(&base(vec![skipped("a")]), &[skipped("a")]);
         assert_eq!((c.exit_code(), c.compared, c.changes.len()), (0, 1, 0));
         for before in [Status::Ok, Status::NotConverged, Status::Failed] {
-            let was = Record { status: before, ..rec("a", 10, 2.0) };
+            let was = GatedRun { status: before, ..rec("a", 10, 2.0) };
             let c = compare(&base(vec![was]), &[skipped("a")]);
             assert_eq!(c.exit_code(), 1, "{before} -> skipped: {}", render(&c));
             let status = c.changes.iter().find(|ch| ch.metric == "status").unwrap();
@@ -247,7 +247,7 @@ mod tests {
         let c = compare(&base(vec![skipped("a")]), &[rec("a", 10, 2.0)]);
         assert_eq!((c.exit_code(), c.regressions(), c.improvements()), (0, 0, 2), "{}", render(&c));
         // skipped -> failed is a failure like any other
-        let failed = Record { status: Status::Failed, ..skipped("a") };
+        let failed = GatedRun { status: Status::Failed, ..skipped("a") };
         assert_eq!(compare(&base(vec![skipped("a")]), &[failed]).exit_code(), 1);
     }
 

@@ -41,7 +41,7 @@ pub const SINGLE_SAMPLE_FACTOR: f64 = 1.1;
 /// baseline, its JSON record).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Record {
+pub struct GatedRun {
     pub dataset: String,
     pub task: Task,
     pub energy: String,
@@ -75,7 +75,7 @@ pub struct Record {
     pub target: Option<f64>,
 }
 
-impl Record {
+impl GatedRun {
     pub(crate) fn key(&self) -> (&str, Task, &str, &str) {
         (&self.dataset, self.task, &self.energy, &self.solver)
     }
@@ -86,9 +86,9 @@ impl Record {
     }
 }
 
-impl From<&SummaryRow> for Record {
-    fn from(row: &SummaryRow) -> Record {
-        Record {
+impl From<&SummaryRow> for GatedRun {
+    fn from(row: &SummaryRow) -> GatedRun {
+        GatedRun {
             dataset: row.dataset.clone(),
             task: row.task,
             energy: row.energy.clone(),
@@ -113,11 +113,11 @@ fn moved(a: f64, b: f64) -> bool {
     (a - b).abs() > 1e-11 * a.abs().max(b.abs()).max(1.0)
 }
 
-impl Record {
+impl GatedRun {
     /// This run judged against `e_star` instead of its own reference: its final gap and, for
     /// a run the harness judged (it has a gap and ran), its status; `None` without what that
     /// takes (the yardstick's inputs).
-    pub fn judged_against(&self, e_star: f64) -> Option<Record> {
+    pub fn judged_against(&self, e_star: f64) -> Option<GatedRun> {
         // Only a judged run (it has a gap) is judged again.
         self.final_gap?;
         let e = self.final_energy?;
@@ -161,7 +161,7 @@ pub fn check_energy_rtol(energy_rtol: f64) -> Result<()> {
 /// What moved from `before` to `after` (the same run), in the order status, iterations,
 /// final energy, flips; `before.iterations_tolerance` (default 0) is the allowed increase of
 /// iterations. Unchanged metrics give no entry.
-pub fn changes(before: &Record, after: &Record, energy_rtol: f64) -> Vec<Change> {
+pub fn changes(before: &GatedRun, after: &GatedRun, energy_rtol: f64) -> Vec<Change> {
     // E* moved: both judged against the lower one, or (without what that takes) the status
     // and gap changes reported but not gated.
     let (mut gated, mut rejudged) = (true, None);
@@ -329,13 +329,13 @@ pub fn time_change(before: &Timed, after: &Timed) -> Option<TimeChange> {
 pub(crate) mod tests {
     use super::*;
 
-    fn rec(it: usize, e: f64) -> Record {
+    fn rec(it: usize, e: f64) -> GatedRun {
         record("kp-newton", it, e)
     }
 
     /// A converged `param` SD run of `solver` on dataset `d` (the gate's tests' fixture).
-    pub(crate) fn record(solver: &str, it: usize, e: f64) -> Record {
-        Record {
+    pub(crate) fn record(solver: &str, it: usize, e: f64) -> GatedRun {
+        GatedRun {
             dataset: "d".into(),
             task: Task::Param,
             energy: "sd".into(),
@@ -362,7 +362,7 @@ pub(crate) mod tests {
     fn each_rule_in_its_order() {
         assert!(changes(&rec(10, 2.0), &rec(10, 2.0), 1e-6).is_empty());
         // All four at once, in the order status, iterations, energy, flips.
-        let worse = Record { status: Status::NotConverged, flips: Some(2), ..rec(12, 2.1) };
+        let worse = GatedRun { status: Status::NotConverged, flips: Some(2), ..rec(12, 2.1) };
         let c = changes(&rec(10, 2.0), &worse, 1e-6);
         assert_eq!(metrics(&c), [("status", true), ("iterations", true), ("final_energy", true), ("flips", true)]);
         assert_eq!((c[1].before.as_str(), c[1].after.as_str(), c[1].delta.as_str()), ("10", "12", "+2"));
@@ -374,7 +374,7 @@ pub(crate) mod tests {
 
     #[test]
     fn tolerances_bound_what_counts() {
-        let tolerant = Record { iterations_tolerance: Some(2), ..rec(10, 2.0) };
+        let tolerant = GatedRun { iterations_tolerance: Some(2), ..rec(10, 2.0) };
         assert!(changes(&tolerant, &rec(12, 2.0), 1e-6).is_empty());
         assert_eq!(metrics(&changes(&tolerant, &rec(13, 2.0), 1e-6)), [("iterations", true)]);
         // energy: relative, both ways
@@ -385,7 +385,7 @@ pub(crate) mod tests {
 
     #[test]
     fn a_final_gap_that_rises_above_the_target_is_a_regression() {
-        let gap = |g| Record { final_gap: Some(g), ..rec(10, 2.0) };
+        let gap = |g| GatedRun { final_gap: Some(g), ..rec(10, 2.0) };
         assert_eq!(metrics(&changes(&gap(1e-9), &gap(1e-4), 1e-6)), [("final_gap", true)]);
         assert_eq!(metrics(&changes(&gap(1e-4), &gap(1e-9), 1e-6)), [("final_gap", false)]);
         // within the target, or above it, both times: no change
@@ -404,7 +404,7 @@ pub(crate) mod tests {
     #[test]
     fn when_e_star_moved_both_sides_are_judged_against_the_lower() {
         // E0 = 10, E_iso = 2: E* = 3 gives the span 1, E* = 2.9 the span 0.9
-        let judged = |e: f64, e_star: f64, status: Status| Record {
+        let judged = |e: f64, e_star: f64, status: Status| GatedRun {
             status,
             final_energy: Some(e),
             ref_energy: Some(e_star),
@@ -422,7 +422,7 @@ pub(crate) mod tests {
         let c = changes(&judged(2.9, 3.0, Status::Ok), &judged(3.0, 2.9, Status::NotConverged), 1e-6);
         assert_eq!(metrics(&c), [("ref_energy", false), ("status", true), ("final_energy", true), ("final_gap", true)]);
         // the baseline without the yardstick: listed, not gated
-        let bare = Record { start_energy: None, ..judged(3.0, 3.0, Status::Ok) };
+        let bare = GatedRun { start_energy: None, ..judged(3.0, 3.0, Status::Ok) };
         let c = changes(&bare, &judged(3.0, 2.9, Status::NotConverged), 1e-6);
         assert_eq!(metrics(&c), [("ref_energy", false), ("status (E* moved)", false), ("final_gap (E* moved)", false)]);
         // E* the same to round-off: compared as before
@@ -435,7 +435,7 @@ pub(crate) mod tests {
         // moved from solved is the yardstick's doing, not a regression
         let r = judged(3.1, 3.0, Status::Budget).judged_against(2.9).unwrap();
         assert_eq!(r.status, Status::Budget);
-        let bare = Record { start_energy: None, ..judged(3.0, 3.0, Status::Ok) };
+        let bare = GatedRun { start_energy: None, ..judged(3.0, 3.0, Status::Ok) };
         let c = changes(&bare, &judged(3.0, 2.9, Status::Budget), 1e-6);
         assert!(metrics(&c).contains(&("status (E* moved)", false)), "{c:?}");
     }
@@ -457,22 +457,22 @@ pub(crate) mod tests {
     #[test]
     fn a_baseline_keeps_non_finite_energies() {
         for e in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 2.5] {
-            let r = Record { final_energy: Some(e), ..rec(3, 0.0) };
+            let r = GatedRun { final_energy: Some(e), ..rec(3, 0.0) };
             let json = serde_json::to_string(&r).unwrap();
-            let back: Record = serde_json::from_str(&json).unwrap();
+            let back: GatedRun = serde_json::from_str(&json).unwrap();
             assert_eq!(back.final_energy.map(f64::to_bits), Some(e.to_bits()), "{json}");
         }
-        let none = Record { final_energy: None, ..rec(3, 0.0) };
-        let back: Record = serde_json::from_str(&serde_json::to_string(&none).unwrap()).unwrap();
+        let none = GatedRun { final_energy: None, ..rec(3, 0.0) };
+        let back: GatedRun = serde_json::from_str(&serde_json::to_string(&none).unwrap()).unwrap();
         assert_eq!(back.final_energy, None);
         let bad = serde_json::to_string(&rec(3, 1.0)).unwrap().replace("1.0", "\"one\"");
-        let e = serde_json::from_str::<Record>(&bad).unwrap_err().to_string();
+        let e = serde_json::from_str::<GatedRun>(&bad).unwrap_err().to_string();
         assert!(e.contains("final_energy \"one\" is not a number"), "{e}");
     }
 
     #[test]
     fn status_order_and_new_failures() {
-        let with = |s| Record { status: s, ..rec(10, 2.0) };
+        let with = |s| GatedRun { status: s, ..rec(10, 2.0) };
         for (b, a, regression) in [
             (Status::Ok, Status::NotConverged, true),
             (Status::NotConverged, Status::Ok, false),

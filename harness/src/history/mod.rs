@@ -183,7 +183,7 @@ fn insert(db: &Path, folder: &Path, recorded_as: &Path) -> Result<Recorded, Hist
 /// `merge` print (the book's "The history database").
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "outcome", rename_all = "snake_case")]
-pub enum Outcome {
+pub enum HistoryOutcome {
     /// No database: `--no-history`, or a `--shard` batch (`merge` appends the whole batch).
     #[default]
     Off,
@@ -213,40 +213,46 @@ pub enum Decision {
     Append,
     /// Not appended, for this reason.
     Skip(String),
-    /// It is in the database already ([`Outcome::in_history`] of the folder's earlier outcome).
+    /// It is in the database already ([`HistoryOutcome::in_history`] of the folder's earlier outcome).
     AlreadyIn {
         batch_id: i64,
         trend: Option<PathBuf>,
     },
 }
 
-impl Outcome {
+impl HistoryOutcome {
     /// Carry out `decision` for the finished run folder `folder` and the database `db` (none:
-    /// [`Outcome::Off`]): append the batch, its run folder recorded as `recorded_as` (where
+    /// [`HistoryOutcome::Off`]): append the batch, its run folder recorded as `recorded_as` (where
     /// the folder is moved after a merge). What happened to the database is the outcome. An
     /// appended batch comes with the database still open: the caller renders its config's
-    /// trend page, says how that went ([`Outcome::set_trend`]) and then records the outcome
-    /// in the folder ([`Outcome::write_into`]).
+    /// trend page, says how that went ([`HistoryOutcome::set_trend`]) and then records the outcome
+    /// in the folder ([`HistoryOutcome::write_into`]).
     pub fn conclude(
         db: Option<&Path>,
         folder: &Path,
         recorded_as: &Path,
         decision: Decision,
-    ) -> (Outcome, Option<Recorded>) {
+    ) -> (HistoryOutcome, Option<Recorded>) {
         match (db, decision) {
-            (None, _) => (Outcome::Off, None),
-            (Some(db), Decision::Skip(reason)) => (Outcome::NotAppended { db: absolute(db), reason }, None),
+            (None, _) => (HistoryOutcome::Off, None),
+            (Some(db), Decision::Skip(reason)) => (HistoryOutcome::NotAppended { db: absolute(db), reason }, None),
             (Some(db), Decision::AlreadyIn { batch_id, trend }) => {
-                (Outcome::AlreadyIn { db: absolute(db), batch_id, trend }, None)
+                (HistoryOutcome::AlreadyIn { db: absolute(db), batch_id, trend }, None)
             }
             (Some(db), Decision::Append) => match insert(db, folder, recorded_as) {
                 Ok(r) => {
                     let (batch_id, runs, config) = (r.batch_id, r.runs, r.config.clone());
-                    let appended =
-                        Outcome::Appended { db: absolute(db), batch_id, runs, config, trend: None, trend_error: None };
+                    let appended = HistoryOutcome::Appended {
+                        db: absolute(db),
+                        batch_id,
+                        runs,
+                        config,
+                        trend: None,
+                        trend_error: None,
+                    };
                     (appended, Some(r))
                 }
-                Err(e) => (Outcome::Failed { db: absolute(db), error: e.to_string() }, None),
+                Err(e) => (HistoryOutcome::Failed { db: absolute(db), error: e.to_string() }, None),
             },
         }
     }
@@ -254,7 +260,7 @@ impl Outcome {
     /// An appended batch's trend page: the page rendered, or why it was not (the batch is
     /// in the database either way).
     pub fn set_trend(&mut self, rendered: Result<PathBuf, HistoryError>) {
-        if let Outcome::Appended { trend, trend_error, .. } = self {
+        if let HistoryOutcome::Appended { trend, trend_error, .. } = self {
             (*trend, *trend_error) = match rendered {
                 Ok(page) => (Some(absolute(&page)), None),
                 Err(e) => (None, Some(e.to_string())),
@@ -266,7 +272,7 @@ impl Outcome {
     /// place). The database stays open for the caller to render the config's trend page
     /// without it; `None` when nothing was appended.
     pub fn withdraw(&self) -> Result<Option<HistoryDb>, HistoryError> {
-        let Outcome::Appended { db, batch_id, .. } = self else { return Ok(None) };
+        let HistoryOutcome::Appended { db, batch_id, .. } = self else { return Ok(None) };
         let history = HistoryDb::open_existing(db)?;
         history.remove_batch(*batch_id)?;
         Ok(Some(history))
@@ -275,9 +281,8 @@ impl Outcome {
     /// The database and batch id when the batch is in the history (appended now or before).
     pub fn in_history(&self) -> Option<(&Path, i64, Option<&PathBuf>)> {
         match self {
-            Outcome::Appended { db, batch_id, trend, .. } | Outcome::AlreadyIn { db, batch_id, trend } => {
-                Some((db, *batch_id, trend.as_ref()))
-            }
+            HistoryOutcome::Appended { db, batch_id, trend, .. }
+            | HistoryOutcome::AlreadyIn { db, batch_id, trend } => Some((db, *batch_id, trend.as_ref())),
             _ => None,
         }
     }
@@ -299,7 +304,7 @@ impl Outcome {
 
     /// The outcome a run folder's `meta.json` records (`None`: no meta, or a batch from
     /// before outcomes were recorded).
-    pub fn of_folder(run_dir: &Path) -> Option<Outcome> {
+    pub fn of_folder(run_dir: &Path) -> Option<HistoryOutcome> {
         serde_json::from_value(read_meta(run_dir).ok()?.history_outcome?).ok()
     }
 }

@@ -6,7 +6,7 @@
 
 use super::improve::{below, Candidate};
 use super::problem::Problem;
-use super::reference::{GroupReference, Step, StepKind};
+use super::reference::{GroupReference, ProvenanceStep, StepKind};
 use super::Yardstick;
 use crate::convergence;
 use crate::plan::{Plan, PlannedRun};
@@ -55,7 +55,7 @@ pub fn after_run(
     if summary.flips != Some(0) || !last.is_finite() {
         return (None, None);
     }
-    let run_step = Step {
+    let run_step = ProvenanceStep {
         what: StepKind::Run,
         solver: run.solver.clone(),
         from: "common start".into(),
@@ -65,7 +65,7 @@ pub fn after_run(
         grad_norm: summary.grad_norm,
         batch: None,
     };
-    let candidate = |x: Vec<f64>, energy: f64, steps: Vec<Step>| Candidate {
+    let candidate = |x: Vec<f64>, energy: f64, steps: Vec<ProvenanceStep>| Candidate {
         stem: run.stem.clone(),
         dataset: summary.dataset.clone(),
         energy_name: summary.energy.clone(),
@@ -93,7 +93,7 @@ pub fn after_run(
         return (None, None);
     }
     let lower = below(stick.e_star, m.energy).then(|| {
-        let polish = Step {
+        let polish = ProvenanceStep {
             what: StepKind::Polish,
             solver: polisher.into(),
             from: format!("the final map of {}", run.stem),

@@ -5,7 +5,7 @@
 //! its provenance; the whole group is then judged against it, and the next batch reads it.
 
 use super::problem::Problem;
-use super::reference::{self, compute, store::Book, BatchSource, GroupReference, Origin, Step, StepKind};
+use super::reference::{self, compute, store::Book, BatchSource, GroupReference, Origin, ProvenanceStep, StepKind};
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::{map, read_summary};
 use anyhow::{Context, Result};
@@ -31,7 +31,7 @@ pub struct Candidate {
     pub x: Vec<f64>,
     pub energy: f64,
     /// How it was found: the run, and the polish when it was the polish that went lower.
-    pub steps: Vec<Step>,
+    pub steps: Vec<ProvenanceStep>,
 }
 
 /// Lower the references of `groups` with `candidates` (maps of the runs of `runs` of
@@ -143,7 +143,7 @@ pub fn from_folders(plan: &Plan, groups: &[GroupReference], dirs: &[&Path]) -> R
                 continue;
             }
             let uv = map::read_uv(&path, &stored)?;
-            let step = Step {
+            let step = ProvenanceStep {
                 what: StepKind::Run,
                 solver: r.solver.clone(),
                 from: "common start".into(),

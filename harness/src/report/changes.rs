@@ -4,7 +4,7 @@
 //! (`html/changes.rs`), the trend page and `history --fail-on-regression` read it.
 
 use crate::gate::check::{self, Baseline, Comparison, DEFAULT_ENERGY_RTOL};
-use crate::gate::rules::Record;
+use crate::gate::rules::GatedRun;
 use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
 use crate::run_folder::Status;
 
@@ -39,9 +39,9 @@ impl Changes {
         let (b, b_runs) = before;
         let (a, a_runs) = after;
         let base = Baseline { energy_rtol: DEFAULT_ENERGY_RTOL, runs: b_runs.iter().map(record).collect() };
-        let now: Vec<Record> = a_runs.iter().map(record).collect();
+        let now: Vec<GatedRun> = a_runs.iter().map(record).collect();
         let comparison = check::compare(&base, &now);
-        let added = now.iter().filter(|r| !base.runs.iter().any(|p| p.key() == r.key())).map(Record::label).collect();
+        let added = now.iter().filter(|r| !base.runs.iter().any(|p| p.key() == r.key())).map(GatedRun::label).collect();
         let solvers = crate::report::unique(b_runs.iter().chain(a_runs).map(|r| r.solver.as_str()));
         let solved = solvers
             .into_iter()
@@ -79,9 +79,9 @@ fn solved_count(runs: &[RunRow], solver: &str) -> Option<(usize, usize)> {
 /// What `check`'s rules compare of a history row. SQLite keeps a NaN as NULL: a run that ran
 /// without a final energy had a NaN one, and reads back as such (as `check` and `compare`
 /// read it from `summary.csv`).
-pub fn record(r: &RunRow) -> Record {
+pub fn record(r: &RunRow) -> GatedRun {
     let ran = r.status.ran();
-    Record {
+    GatedRun {
         dataset: r.dataset.clone(),
         task: r.task,
         energy: r.energy.clone(),

@@ -4,7 +4,7 @@
 use super::html::esc;
 use super::tables::Table;
 use crate::gate::compare::{FolderComparison, TimePair};
-use crate::gate::rules::{self, Record, TimeChange};
+use crate::gate::rules::{self, GatedRun, TimeChange};
 use crate::run_folder::timed::Timed;
 
 /// A part of the output: a table, or a titled sentence.
@@ -142,7 +142,7 @@ fn time_changes(cmp: &FolderComparison) -> Option<Section> {
                 "spreads disjoint".to_string()
             };
             Some(vec![
-                Record::from(&p.before).label(),
+                GatedRun::from(&p.before).label(),
                 t.before.format(3),
                 t.after.format(3),
                 ratio(&t),

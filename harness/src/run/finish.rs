@@ -10,7 +10,7 @@ use std::path::Path;
 
 /// A finished run: its index in the batch, its row, whether it was resumed, and the key of
 /// the sidecar this batch wrote.
-pub(super) struct Finished {
+pub(super) struct FinishedRun {
     index: usize,
     summary: SummaryRow,
     resumed: bool,
@@ -20,7 +20,7 @@ pub(super) struct Finished {
 }
 
 /// The maps of the finished runs that ended below their group's reference.
-pub(super) fn take_candidates(finished: &mut [Finished]) -> Vec<crate::judge::improve::Candidate> {
+pub(super) fn take_candidates(finished: &mut [FinishedRun]) -> Vec<crate::judge::improve::Candidate> {
     finished.iter_mut().filter_map(|f| f.candidate.take()).collect()
 }
 
@@ -30,7 +30,7 @@ pub(super) struct Finisher<'a> {
     pub mine: &'a [&'a PlannedRun],
     pub progress: &'a dyn Progress,
     pub summary: SummaryWriter,
-    pub finished: Vec<Finished>,
+    pub finished: Vec<FinishedRun>,
     /// Datasets whose mesh copy this batch has written (once each, with its first map).
     pub meshes_written: Vec<usize>,
     pub report: BatchReport,
@@ -97,7 +97,7 @@ impl Finisher<'_> {
         report.resumed += usize::from(resumed);
         self.summary.append(s)?;
         let candidate = first.candidate.take();
-        self.finished.push(Finished { index: i, summary: first.summary, resumed, wrote, candidate });
+        self.finished.push(FinishedRun { index: i, summary: first.summary, resumed, wrote, candidate });
         Ok(())
     }
 
@@ -166,7 +166,7 @@ pub(super) fn judge_and_write(
     mine: &[&PlannedRun],
     meta: &super::record::BatchRecord,
     calibration: &Calibration,
-    mut finished: Vec<Finished>,
+    mut finished: Vec<FinishedRun>,
     report: &mut BatchReport,
     progress: &dyn Progress,
 ) -> Result<Vec<SummaryRow>> {
@@ -188,7 +188,7 @@ pub(super) fn judge_and_write(
         f.summary = j;
     }
     let mut rows: Vec<SummaryRow> = Vec::with_capacity(finished.len());
-    for Finished { index, mut summary, resumed, wrote, .. } in finished {
+    for FinishedRun { index, mut summary, resumed, wrote, .. } in finished {
         if !resumed && summary.time_norm.is_none() {
             summary.time_norm = summary.time_s.and_then(|t| calibration.normalize(t));
             if let Some(key) = wrote {

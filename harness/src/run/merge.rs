@@ -9,7 +9,7 @@
 use super::pages::{conclude_history, withdraw, Pages};
 use crate::calibration::Calibration;
 use crate::external::probe::Probe;
-use crate::history::{Decision, HistoryChoice, Outcome};
+use crate::history::{Decision, HistoryChoice, HistoryOutcome};
 use crate::judge::reference::GroupReference;
 use crate::run_folder::keep::{self, Maps};
 use crate::run_folder::map::{self, legacy_obj_path, mesh_path, uv_path};
@@ -33,7 +33,7 @@ pub struct Merged {
     /// Shards whose batch was interrupted.
     pub interrupted: Vec<PathBuf>,
     /// What became of the merged batch in the history.
-    pub history: Outcome,
+    pub history: HistoryOutcome,
 }
 
 fn read_meta(dir: &Path) -> Result<Meta> {
@@ -190,7 +190,7 @@ fn already_in(previous: Option<&Meta>, db: Option<&Path>, merged_from: &[MergedS
     if previous.merged_from.as_deref() != Some(merged_from) {
         return None;
     }
-    let outcome: Outcome = serde_json::from_value(previous.history_outcome.clone()?).ok()?;
+    let outcome: HistoryOutcome = serde_json::from_value(previous.history_outcome.clone()?).ok()?;
     let (was, batch_id, trend) = outcome.in_history()?;
     (Some(was) == db.map(crate::paths::absolute).as_deref())
         .then(|| Decision::AlreadyIn { batch_id, trend: trend.cloned() })

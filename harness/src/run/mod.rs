@@ -17,7 +17,7 @@ mod round;
 
 use crate::calibration::Calibration;
 use crate::external::probe::Probe;
-use crate::history::{Decision, Outcome};
+use crate::history::{Decision, HistoryOutcome};
 use crate::paths::absolute;
 use crate::plan::config::Maps;
 use crate::plan::select::Shard;
@@ -32,7 +32,7 @@ pub use pages::Pages;
 use progress::Progress;
 use record::{code_id, BatchRecord};
 use repeats::Repeats;
-use round::{run_round, Done, Origin, Todo, Workers};
+use round::{run_round, Done, RoundSource, Todo, Workers};
 use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -52,7 +52,7 @@ pub struct BatchReport {
     pub skipped: usize,
     /// Runs not done because the batch was interrupted.
     pub interrupted: usize,
-    /// Finished runs taken from an earlier batch in the folder (`--resume`).
+    /// FinishedRun runs taken from an earlier batch in the folder (`--resume`).
     pub resumed: usize,
     /// Runs an interrupt cut short in their repeats, with how many repeats finished; kept in
     /// `runs/<run>.partial.*` for `--resume`, not in `summary.csv`.
@@ -61,7 +61,7 @@ pub struct BatchReport {
     pub notices: Vec<String>,
     pub out_dir: PathBuf,
     /// What became of the batch in the history database.
-    pub history: crate::history::Outcome,
+    pub history: crate::history::HistoryOutcome,
 }
 
 /// How to run a batch (the `run` flags).
@@ -123,7 +123,7 @@ pub fn run_batch(
     let threads =
         plan.threads_per_run.unwrap_or_else(|| default_threads(opts.jobs.unwrap_or(cores), cores, mine.len()));
     // A resumed folder whose batch is already in the history is not appended twice.
-    let previous = opts.resume.then(|| Outcome::of_folder(out_dir)).flatten();
+    let previous = opts.resume.then(|| HistoryOutcome::of_folder(out_dir)).flatten();
     let probes = probe_externals(plan, &mine, &opts.interrupt, progress);
     let mut meta = BatchRecord::starting(plan, opts, (jobs, threads), previous.clone(), probes);
     let mut calibration = Calibration::new();
@@ -248,7 +248,7 @@ struct BatchContext<'a> {
 fn lower_references(
     batch: &BatchContext,
     references: &mut [crate::judge::reference::GroupReference],
-    finished: &mut [finish::Finished],
+    finished: &mut [finish::FinishedRun],
 ) -> Result<()> {
     let candidates = finish::take_candidates(finished);
     if candidates.is_empty() || batch.opts.interrupt.load(Ordering::Relaxed) {
@@ -342,13 +342,13 @@ fn record_history(
     pages: &dyn Pages,
     plan: &Plan,
     out_dir: &Path,
-    previous: Option<&Outcome>,
+    previous: Option<&HistoryOutcome>,
     report: &BatchReport,
-) -> Result<Outcome> {
+) -> Result<HistoryOutcome> {
     let decision = if report.interrupted > 0 {
         Decision::Skip("the batch was interrupted: its means would read as a change of the code".into())
     } else {
-        match previous.and_then(Outcome::in_history) {
+        match previous.and_then(HistoryOutcome::in_history) {
             Some((db, batch_id, trend))
                 if report.resumed == report.runs && plan.history.as_deref().map(absolute).as_deref() == Some(db) =>
             {
@@ -375,16 +375,16 @@ fn absorb(
         return None;
     }
     let stem = &mine[i].stem;
-    let ran = matches!(origin, Origin::Ran);
+    let ran = matches!(origin, RoundSource::Ran);
     let slot = match (slots[i].take(), origin) {
-        (None, Origin::Resumed) => Slot { first: result, resumed: true, key, repeats: None },
-        (None, Origin::Restored(repeats)) => {
+        (None, RoundSource::Resumed) => Slot { first: result, resumed: true, key, repeats: None },
+        (None, RoundSource::Restored(repeats)) => {
             // Those repeats were solved in the earlier batch.
             progress.fewer_solves(repeats.count());
             progress.notice(&format!("  {stem}: {} of {} repeats resumed", repeats.count(), plan.repeat));
             Slot { first: result, resumed: false, key, repeats: Some(repeats) }
         }
-        (None, Origin::Ran) => {
+        (None, RoundSource::Ran) => {
             let repeats = (plan.repeat > 1 && Repeats::wanted(&result)).then(|| Repeats::new(&result));
             Slot { first: result, resumed: false, key, repeats }
         }

@@ -2,7 +2,7 @@
 //! when (the order matters to a stopped batch and to a merge that fails halfway), the
 //! caller hands in how ([`Pages`], the CLI passes `report::Renderer`).
 
-use crate::history::{trend_dir, Decision, HistoryDb, HistoryError, Outcome};
+use crate::history::{trend_dir, Decision, HistoryDb, HistoryError, HistoryOutcome};
 use crate::run_folder::SummaryRow;
 use anyhow::Result;
 use std::path::Path;
@@ -16,7 +16,7 @@ pub trait Pages: Sync {
 }
 
 /// Carry out `decision` for the finished folder `folder` and the database `db`
-/// ([`Outcome::conclude`]), render the config's trend page after an append, and record the
+/// ([`HistoryOutcome::conclude`]), render the config's trend page after an append, and record the
 /// outcome in `folder`'s `meta.json`, where the report reads it.
 pub(super) fn conclude_history(
     pages: &dyn Pages,
@@ -24,8 +24,8 @@ pub(super) fn conclude_history(
     folder: &Path,
     recorded_as: &Path,
     decision: Decision,
-) -> Result<Outcome, HistoryError> {
-    let (mut outcome, appended) = Outcome::conclude(db, folder, recorded_as, decision);
+) -> Result<HistoryOutcome, HistoryError> {
+    let (mut outcome, appended) = HistoryOutcome::conclude(db, folder, recorded_as, decision);
     if let (Some(db), Some(a)) = (db, appended) {
         let dir = trend_dir(db, &a.config);
         outcome.set_trend(pages.trend(&a.history, &a.config, &dir).map(|()| dir.join("index.html")));
@@ -36,9 +36,11 @@ pub(super) fn conclude_history(
 
 /// Take an appended batch out of the history again (its folder could not be put in place),
 /// and render its config's trend page without it. Best effort: says what failed.
-pub(super) fn withdraw(pages: &dyn Pages, outcome: &Outcome) -> Result<(), HistoryError> {
+pub(super) fn withdraw(pages: &dyn Pages, outcome: &HistoryOutcome) -> Result<(), HistoryError> {
     match (outcome.withdraw()?, outcome) {
-        (Some(history), Outcome::Appended { db, config, .. }) => pages.trend(&history, config, &trend_dir(db, config)),
+        (Some(history), HistoryOutcome::Appended { db, config, .. }) => {
+            pages.trend(&history, config, &trend_dir(db, config))
+        }
         _ => Ok(()),
     }
 }
@@ -88,9 +90,9 @@ mod tests {
         let (db, f) = (dir.path().join("h.sqlite"), folder(dir.path()));
         let pages = Fake::default();
         let outcome = conclude_history(&pages, Some(&db), &f, &f, Decision::Append).unwrap();
-        let Outcome::Appended { trend, trend_error: None, .. } = &outcome else { panic!("{outcome:?}") };
+        let HistoryOutcome::Appended { trend, trend_error: None, .. } = &outcome else { panic!("{outcome:?}") };
         assert_eq!(trend.as_ref(), Some(&absolute(&trend_dir(&db, "c").join("index.html"))));
-        assert_eq!(Outcome::of_folder(&f), Some(outcome.clone()));
+        assert_eq!(HistoryOutcome::of_folder(&f), Some(outcome.clone()));
         withdraw(&pages, &outcome).unwrap();
         assert_eq!(*pages.trends.lock().unwrap(), [("c".to_string(), 1), ("c".to_string(), 0)]);
     }
@@ -102,10 +104,10 @@ mod tests {
         let (db, f) = (dir.path().join("h.sqlite"), folder(dir.path()));
         let pages = Fake { fail: true, ..Fake::default() };
         let outcome = conclude_history(&pages, Some(&db), &f, &f, Decision::Append).unwrap();
-        let Outcome::Appended { batch_id: 1, trend: None, trend_error: Some(e), .. } = &outcome else {
+        let HistoryOutcome::Appended { batch_id: 1, trend: None, trend_error: Some(e), .. } = &outcome else {
             panic!("{outcome:?}")
         };
         assert!(e.ends_with("in the way"), "{e}");
-        assert_eq!(Outcome::of_folder(&f), Some(outcome.clone()));
+        assert_eq!(HistoryOutcome::of_folder(&f), Some(outcome.clone()));
     }
 }

@@ -2,7 +2,7 @@
 
 use crate::calibration::Calibration;
 use crate::external::probe::Probe;
-use crate::history::Outcome;
+use crate::history::HistoryOutcome;
 use crate::judge::reference::GroupReference;
 use crate::plan::select::Shard;
 use crate::plan::{Plan, RunSettings};
@@ -22,7 +22,7 @@ pub struct BatchRecord<'a> {
     pub started: SystemTime,
     /// What became of the folder's batch in the history, until this one's is known: a
     /// resumed folder's earlier outcome (its batch may be in the history), else nothing.
-    pub history: Option<Outcome>,
+    pub history: Option<HistoryOutcome>,
     /// The reference minimum of each (dataset, energy) group of the batch (`merge` judges
     /// the merged batch by them).
     pub references: Vec<GroupReference>,
@@ -36,7 +36,7 @@ impl<'a> BatchRecord<'a> {
         plan: &'a Plan,
         opts: &super::RunOptions,
         (jobs, threads): (usize, usize),
-        history: Option<Outcome>,
+        history: Option<HistoryOutcome>,
         external: Vec<Probe>,
     ) -> Self {
         let (shard, resume, started) = (opts.shard, opts.resume, SystemTime::now());
@@ -92,7 +92,7 @@ impl<'a> BatchRecord<'a> {
             git_diff: code.diff,
             git_revision: code.revision,
             hardware: Some(crate::hardware::Hardware::detect()),
-            history: self.history.as_ref().and_then(Outcome::meta_history),
+            history: self.history.as_ref().and_then(HistoryOutcome::meta_history),
             history_outcome: self.history.as_ref().and_then(|o| serde_json::to_value(o).ok()),
             host: std::env::var("HOSTNAME")
                 .ok()
@@ -124,16 +124,16 @@ impl<'a> BatchRecord<'a> {
 /// The build this binary is, set at build time (`harness/build.rs`): the code's git revision,
 /// whether the code differed from it, and a hash of the difference.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Build {
+pub struct BinaryBuild {
     pub revision: Option<String>,
     pub dirty: Option<bool>,
     pub diff: Option<String>,
 }
 
-/// This binary's [`Build`].
-pub fn build() -> Build {
+/// This binary's [`BinaryBuild`].
+pub fn build() -> BinaryBuild {
     let some = |s: &str| (!s.is_empty()).then(|| s.to_string());
-    Build {
+    BinaryBuild {
         revision: some(env!("MAPBENCH_GIT_REVISION")),
         dirty: some(env!("MAPBENCH_GIT_DIRTY")).map(|d| d == "true"),
         diff: some(env!("MAPBENCH_GIT_DIFF")),

@@ -18,7 +18,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
 
 /// Where a result of a round came from.
-pub(super) enum Origin {
+pub(super) enum RoundSource {
     Ran,
     /// A finished run of an earlier batch in the folder (`--resume`).
     Resumed,
@@ -32,7 +32,7 @@ pub(super) struct Done {
     pub(super) index: usize,
     pub(super) worker: usize,
     pub(super) result: RunResult,
-    pub(super) origin: Origin,
+    pub(super) origin: RoundSource,
     pub(super) key: Option<String>,
 }
 
@@ -137,16 +137,16 @@ impl Workers<'_> {
         let earlier = |summary, rows| RunResult { summary, rows, ..Default::default() };
         let previous = match (&key, opts.resume && round == 0) {
             (Some(k), true) => resume::previous(out_dir, &p.stem, k, plan.maps)
-                .map(|(summary, rows)| (earlier(summary, rows), Origin::Resumed))
+                .map(|(summary, rows)| (earlier(summary, rows), RoundSource::Resumed))
                 .or_else(|| {
                     let (partial, rows) = sidecar::read_partial::<Repeats>(out_dir, &p.stem, k)?;
-                    Some((earlier(partial.summary, rows), Origin::Restored(partial.repeats)))
+                    Some((earlier(partial.summary, rows), RoundSource::Restored(partial.repeats)))
                 }),
             _ => None,
         };
         let (result, origin) = match previous {
             Some(earlier) => earlier,
-            None => (self.run_new(item, round, worker, meshes, monitor), Origin::Ran),
+            None => (self.run_new(item, round, worker, meshes, monitor), RoundSource::Ran),
         };
         meshes.done(p.dataset);
         let key = key.filter(|_| !result.unkeyed);

@@ -75,7 +75,7 @@ pub fn iteration_csv(
     header.write_record(ITERATION_COLUMNS.iter().copied().chain(extra_names.iter().copied()))?;
     let mut out = header.into_inner().context("flushing CSV")?;
     // Each part goes through csv's serializer so numbers are formatted the same way.
-    let record = |value: &dyn erased::Record| -> Result<Vec<u8>> {
+    let record = |value: &dyn erased::CsvRecord| -> Result<Vec<u8>> {
         let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
         value.write(&mut w)?;
         let mut bytes = w.into_inner().context("flushing CSV")?;
@@ -121,10 +121,10 @@ pub fn iteration_csv(
 
 /// Serializing either a row struct or a list of numbers through one csv writer.
 mod erased {
-    pub trait Record {
+    pub trait CsvRecord {
         fn write(&self, w: &mut csv::Writer<Vec<u8>>) -> csv::Result<()>;
     }
-    impl<T: serde::Serialize> Record for T {
+    impl<T: serde::Serialize> CsvRecord for T {
         fn write(&self, w: &mut csv::Writer<Vec<u8>>) -> csv::Result<()> {
             w.serialize(self)
         }

@@ -21,7 +21,7 @@ use super::{
     FoldGuard, Terms, AUTHALIC_COLUMNS, EXACT,
 };
 use crate::linear::{LinearError, SpdSolver};
-use crate::solver::executor::{execute, Method, Start, Step};
+use crate::solver::executor::{execute, Method, ReadyMethod, Step};
 use crate::solver::{Observer, StopReason};
 use std::time::Instant;
 
@@ -113,7 +113,7 @@ pub fn aem_cg(
             h_new: Vec::new(),
         })
         .map_err(linear_failed);
-    let start = Start { method, columns: AUTHALIC_COLUMNS.to_vec(), analysis: None, charged: 0.0 };
+    let start = ReadyMethod { method, columns: AUTHALIC_COLUMNS.to_vec(), analysis: None, charged: 0.0 };
     finished(execute(start, at, &settings.stop, observer))
 }
 

@@ -15,7 +15,7 @@ use super::{
     EXACT,
 };
 use crate::linear::{LinearError, SpdSolver};
-use crate::solver::executor::{execute, Method, Start, Step};
+use crate::solver::executor::{execute, Method, ReadyMethod, Step};
 use crate::solver::{Observer, StopReason};
 use std::time::Instant;
 
@@ -33,7 +33,7 @@ pub fn sem(
     let method = solvers
         .map(|(solver_i, solver_b)| Sem { settings, solver_i, solver_b, values: Vec::new() })
         .map_err(|e| StopReason::LinearSolveFailed(e.to_string()));
-    let start = Start { method, columns: AUTHALIC_COLUMNS.to_vec(), analysis: None, charged: 0.0 };
+    let start = ReadyMethod { method, columns: AUTHALIC_COLUMNS.to_vec(), analysis: None, charged: 0.0 };
     finished(execute(start, at, &settings.stop, observer))
 }
 

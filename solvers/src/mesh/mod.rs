@@ -6,7 +6,7 @@ pub mod validate;
 
 pub use crate::task::{Task, UnknownTask};
 pub use obj::load_obj;
-pub use validate::{validate, validate_for, Problem, ValidationReport};
+pub use validate::{validate, validate_for, Defect, ValidationReport};
 
 /// Why a mesh could not be read or used. Every message names the mesh source.
 #[derive(Debug, thiserror::Error)]
@@ -34,7 +34,7 @@ pub enum MeshError {
         /// The mesh source (file path or `generated:<name>`).
         path: String,
         /// Every defect found, as in [`ValidationReport::problems`].
-        problems: Vec<Problem>,
+        problems: Vec<Defect>,
     },
 }
 

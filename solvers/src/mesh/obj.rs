@@ -231,7 +231,7 @@ mod tests {
         assert_eq!(m.faces, vec![[2, 0, 1]]);
         assert_eq!(
             validate(&m, false).problems,
-            vec![crate::mesh::Problem::UnreferencedVertices { count: 1, first: 3 }]
+            vec![crate::mesh::Defect::UnreferencedVertices { count: 1, first: 3 }]
         );
     }
 

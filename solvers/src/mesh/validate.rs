@@ -8,7 +8,7 @@ use std::fmt;
 
 /// One defect of a mesh. Vertex and face numbers are 0-based indices into the mesh.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum Problem {
+pub enum Defect {
     /// A face names a vertex index past the end of the vertex list.
     #[error("face {face} refers to vertex {index}, but the mesh has only {n_vertices} vertices")]
     IndexOutOfRange {
@@ -134,32 +134,32 @@ pub enum Problem {
     NoInterior,
 }
 
-impl Problem {
+impl Defect {
     /// Plural name of the kind, for "... and N more `<kind>`" summaries.
     pub fn kind(&self) -> &'static str {
         match self {
-            Problem::IndexOutOfRange { .. } => "out-of-range indices",
-            Problem::UnreferencedVertices { .. } => "unreferenced-vertex reports",
-            Problem::DegenerateFace { .. } => "degenerate faces",
-            Problem::DuplicateFace { .. } => "duplicate faces",
-            Problem::NonManifoldEdge { .. } => "non-manifold edges",
-            Problem::NonManifoldVertex { .. } => "non-manifold vertices",
-            Problem::InconsistentOrientation { .. } => "inconsistently oriented edges",
-            Problem::Components { .. } => "component reports",
-            Problem::NotDisk { .. } => "topology reports",
-            Problem::NonFinitePosition { .. } => "non-finite vertices",
-            Problem::CoordinateRange { .. } => "coordinate-range reports",
-            Problem::Empty => "empty-mesh reports",
-            Problem::NotPlanar { .. } => "planarity reports",
-            Problem::ClockwiseFace { .. } => "clockwise faces",
-            Problem::NoInterior => "interior reports",
+            Defect::IndexOutOfRange { .. } => "out-of-range indices",
+            Defect::UnreferencedVertices { .. } => "unreferenced-vertex reports",
+            Defect::DegenerateFace { .. } => "degenerate faces",
+            Defect::DuplicateFace { .. } => "duplicate faces",
+            Defect::NonManifoldEdge { .. } => "non-manifold edges",
+            Defect::NonManifoldVertex { .. } => "non-manifold vertices",
+            Defect::InconsistentOrientation { .. } => "inconsistently oriented edges",
+            Defect::Components { .. } => "component reports",
+            Defect::NotDisk { .. } => "topology reports",
+            Defect::NonFinitePosition { .. } => "non-finite vertices",
+            Defect::CoordinateRange { .. } => "coordinate-range reports",
+            Defect::Empty => "empty-mesh reports",
+            Defect::NotPlanar { .. } => "planarity reports",
+            Defect::ClockwiseFace { .. } => "clockwise faces",
+            Defect::NoInterior => "interior reports",
         }
     }
 }
 
 /// One line per problem, at most `max_per_kind` of each kind followed by "... and N more `<kind>`".
 /// Keeps messages readable for a mesh with thousands of bad faces.
-pub fn summarize_problems(problems: &[Problem], max_per_kind: usize, sep: &str) -> String {
+pub fn summarize_problems(problems: &[Defect], max_per_kind: usize, sep: &str) -> String {
     let mut parts: Vec<String> = Vec::new();
     let mut i = 0;
     while i < problems.len() {
@@ -192,7 +192,7 @@ pub struct ValidationReport {
     /// Number of connected components of the topology faces (faces sharing a vertex are connected).
     pub components: usize,
     /// Every defect found, grouped by kind; empty for a usable mesh.
-    pub problems: Vec<Problem>,
+    pub problems: Vec<Defect>,
 }
 
 impl ValidationReport {
@@ -247,18 +247,18 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
     let n = mesh.n_vertices();
     let mut problems = Vec::new();
     if mesh.faces.is_empty() {
-        problems.push(Problem::Empty);
+        problems.push(Defect::Empty);
     }
     problems.extend(
         (0..n)
             .filter(|&v| mesh.positions[v].iter().any(|c| !c.is_finite()))
-            .map(|vertex| Problem::NonFinitePosition { vertex }),
+            .map(|vertex| Defect::NonFinitePosition { vertex }),
     );
 
     let in_range: Vec<bool> = mesh.faces.iter().map(|f| f.iter().all(|&v| v < n)).collect();
     for (face, f) in mesh.faces.iter().enumerate() {
         if let Some(&index) = f.iter().find(|&&v| v >= n) {
-            problems.push(Problem::IndexOutOfRange { face, index, n_vertices: n });
+            problems.push(Defect::IndexOutOfRange { face, index, n_vertices: n });
         }
     }
 
@@ -280,29 +280,29 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
     let edges = topology::edges(&topo, n);
     let mut on_bad_edge = vec![false; n];
     for e in edges.iter().filter(|e| e.faces() > 2) {
-        problems.push(Problem::NonManifoldEdge { a: e.a, b: e.b, faces: e.faces() });
+        problems.push(Defect::NonManifoldEdge { a: e.a, b: e.b, faces: e.faces() });
         on_bad_edge[e.a] = true;
         on_bad_edge[e.b] = true;
     }
     // A vertex on a non-manifold edge is already reported through the edge.
     let fans = topology::fans_per_vertex(&topo, n);
     problems
-        .extend((0..n).filter(|&v| fans[v] > 1 && !on_bad_edge[v]).map(|vertex| Problem::NonManifoldVertex { vertex }));
+        .extend((0..n).filter(|&v| fans[v] > 1 && !on_bad_edge[v]).map(|vertex| Defect::NonManifoldVertex { vertex }));
     problems.extend(
         edges
             .iter()
             .filter(|e| e.faces() == 2 && e.is_inconsistent())
-            .map(|e| Problem::InconsistentOrientation { a: e.a, b: e.b }),
+            .map(|e| Defect::InconsistentOrientation { a: e.a, b: e.b }),
     );
 
     let loops = topology::boundary_loops_of(&edges, n).len();
     let euler = topology::referenced_vertices(&topo, n) as i64 - edges.len() as i64 + topo.len() as i64;
     let components = topology::components(&topo, n);
     if components > 1 {
-        problems.push(Problem::Components { count: components });
+        problems.push(Defect::Components { count: components });
     }
     if require_disk && !topo.is_empty() && (loops != 1 || euler != 1) {
-        problems.push(Problem::NotDisk { boundary_loops: loops, euler });
+        problems.push(Defect::NotDisk { boundary_loops: loops, euler });
     }
     ValidationReport {
         source: mesh.source.clone(),
@@ -319,7 +319,7 @@ pub fn validate(mesh: &Mesh, require_disk: bool) -> ValidationReport {
 /// Degenerate faces (in range): a repeated index, or an area below the manifest's threshold
 /// (1e-14 * diag^2), measured at unit extent when the squares of the file's units over- or
 /// underflow (`range_ok`: the coordinates' range allows it).
-fn degenerate_faces(mesh: &Mesh, in_range: &[bool], range_ok: bool) -> Vec<Problem> {
+fn degenerate_faces(mesh: &Mesh, in_range: &[bool], range_ok: bool) -> Vec<Defect> {
     let n = mesh.n_vertices();
     let mut problems = Vec::new();
     let (diag, m) = (mesh.bbox_diagonal(), mesh.extent());
@@ -329,14 +329,14 @@ fn degenerate_faces(mesh: &Mesh, in_range: &[bool], range_ok: bool) -> Vec<Probl
     };
     for (face, f) in mesh.faces.iter().enumerate() {
         if in_range[face] && (!is_proper(f, n) || (tiny.is_finite() && mesh.face_area_scaled(face, k) <= tiny)) {
-            problems.push(Problem::DegenerateFace { face });
+            problems.push(Defect::DegenerateFace { face });
         }
     }
     problems
 }
 
 /// The vertices no face (in range) refers to, as one problem: their count and the first.
-fn unreferenced_vertices(mesh: &Mesh, in_range: &[bool]) -> Option<Problem> {
+fn unreferenced_vertices(mesh: &Mesh, in_range: &[bool]) -> Option<Defect> {
     let mut referenced = vec![false; mesh.n_vertices()];
     for (_, t) in mesh.faces.iter().enumerate().filter(|(f, _)| in_range[*f]) {
         for &v in t {
@@ -344,12 +344,12 @@ fn unreferenced_vertices(mesh: &Mesh, in_range: &[bool]) -> Option<Problem> {
         }
     }
     let unreferenced = referenced.iter().filter(|&&r| !r).count();
-    referenced.iter().position(|&r| !r).map(|first| Problem::UnreferencedVertices { count: unreferenced, first })
+    referenced.iter().position(|&r| !r).map(|first| Defect::UnreferencedVertices { count: unreferenced, first })
 }
 
 /// Repeats of an earlier face (the same vertex set in any order), as a flag per face and the
 /// problems in face order; the first occurrence stays in the topology.
-fn duplicate_faces(mesh: &Mesh, n: usize) -> (Vec<bool>, Vec<Problem>) {
+fn duplicate_faces(mesh: &Mesh, n: usize) -> (Vec<bool>, Vec<Defect>) {
     // Grouped by the smallest vertex, each group sorted by the other two, then the face.
     let (_, keyed) = topology::grouped(n, || {
         (0..mesh.n_faces()).filter(|&f| is_proper(&mesh.faces[f], n)).map(|f| {
@@ -366,22 +366,22 @@ fn duplicate_faces(mesh: &Mesh, n: usize) -> (Vec<bool>, Vec<Problem>) {
             first = w;
         } else {
             is_repeat[keyed[w].1] = true;
-            dups.push(Problem::DuplicateFace { face: keyed[w].1, other: keyed[first].1 });
+            dups.push(Defect::DuplicateFace { face: keyed[w].1, other: keyed[first].1 });
         }
     }
-    dups.sort_by_key(|p| if let Problem::DuplicateFace { face, .. } = p { *face } else { 0 });
+    dups.sort_by_key(|p| if let Defect::DuplicateFace { face, .. } = p { *face } else { 0 });
     (is_repeat, dups)
 }
 
 /// The first axis whose coordinates span more than an `f64` holds, or so little that areas
 /// cannot be measured even at unit extent (a subnormal span); `None` when all are usable.
-fn coordinate_range(mesh: &Mesh) -> Option<Problem> {
+fn coordinate_range(mesh: &Mesh) -> Option<Defect> {
     let finite = || mesh.positions.iter().enumerate().filter(|(_, p)| p.iter().all(|c| c.is_finite()));
     (0..3).find_map(|axis| {
         let (lo_vertex, lo) = finite().map(|(v, p)| (v, p[axis])).min_by(|a, b| a.1.total_cmp(&b.1))?;
         let (hi_vertex, hi) = finite().map(|(v, p)| (v, p[axis])).max_by(|a, b| a.1.total_cmp(&b.1))?;
         let span = hi - lo;
-        (!span.is_finite() || (span > 0.0 && !span.is_normal())).then_some(Problem::CoordinateRange {
+        (!span.is_finite() || (span > 0.0 && !span.is_normal())).then_some(Defect::CoordinateRange {
             axis,
             lo,
             lo_vertex,
@@ -407,7 +407,7 @@ pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
                 .filter(|&v| mesh.positions[v][2].is_finite() && !(mesh.positions[v][2].abs() <= 1e-12 * scale))
                 .collect();
             if let Some(&first) = off.first() {
-                report.problems.push(Problem::NotPlanar { count: off.len(), first, z: mesh.positions[first][2] });
+                report.problems.push(Defect::NotPlanar { count: off.len(), first, z: mesh.positions[first][2] });
             } else if sound {
                 // The orientation the solver sees: that of the normalized rest pose.
                 let rest = mesh.normalized();
@@ -415,7 +415,7 @@ pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
                 report.problems.extend(
                     (0..rest.n_faces())
                         .filter(|&t| super::signed_area(rest.faces[t].map(xy)) <= 0.0)
-                        .map(|face| Problem::ClockwiseFace { face }),
+                        .map(|face| Defect::ClockwiseFace { face }),
                 );
             }
         }
@@ -427,7 +427,7 @@ pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
                     .flatten()
                     .for_each(|&v| on_boundary[v] = true);
                 if on_boundary.iter().all(|&b| b) {
-                    report.problems.push(Problem::NoInterior);
+                    report.problems.push(Defect::NoInterior);
                 }
             }
         }

@@ -21,7 +21,7 @@ fn grid() -> Mesh {
     Mesh::new("test:grid", positions, faces)
 }
 
-fn problems(mesh: &Mesh, require_disk: bool) -> Vec<Problem> {
+fn problems(mesh: &Mesh, require_disk: bool) -> Vec<Defect> {
     validate(mesh, require_disk).problems
 }
 
@@ -43,12 +43,12 @@ fn valid_disk_passes() {
 fn index_out_of_range_is_reported_and_skipped() {
     let mut m = grid();
     m.faces.push([0, 12, 3]);
-    assert_eq!(problems(&m, false), vec![Problem::IndexOutOfRange { face: 8, index: 12, n_vertices: 9 }]);
+    assert_eq!(problems(&m, false), vec![Defect::IndexOutOfRange { face: 8, index: 12, n_vertices: 9 }]);
     assert_eq!(messages(&m, false), vec!["face 8 refers to vertex 12, but the mesh has only 9 vertices"]);
     // all indices bad, huge values: no panic
     let m = Mesh::new("t", vec![[0.0; 3]], vec![[usize::MAX, 5, 7]]);
     let r = validate(&m, true);
-    assert!(r.problems.contains(&Problem::IndexOutOfRange { face: 0, index: usize::MAX, n_vertices: 1 }));
+    assert!(r.problems.contains(&Defect::IndexOutOfRange { face: 0, index: usize::MAX, n_vertices: 1 }));
 }
 
 #[test]
@@ -56,7 +56,7 @@ fn unreferenced_vertices() {
     let mut m = grid();
     m.positions.push([5.0, 5.0, 0.0]);
     m.positions.push([6.0, 5.0, 0.0]);
-    assert_eq!(problems(&m, true), vec![Problem::UnreferencedVertices { count: 2, first: 9 }]);
+    assert_eq!(problems(&m, true), vec![Defect::UnreferencedVertices { count: 2, first: 9 }]);
     assert_eq!(messages(&m, true), vec!["2 vertices are not used by any face (first: vertex 9)"]);
     m.positions.pop();
     assert_eq!(messages(&m, true), vec!["1 vertex is not used by any face (first: vertex 9)"]);
@@ -70,8 +70,8 @@ fn degenerate_faces() {
     m.faces.push([0, 9, 1]);
     m.faces.push([4, 4, 5]);
     let p = problems(&m, false);
-    assert!(p.contains(&Problem::DegenerateFace { face: 8 }), "{p:?}");
-    assert!(p.contains(&Problem::DegenerateFace { face: 9 }), "{p:?}");
+    assert!(p.contains(&Defect::DegenerateFace { face: 8 }), "{p:?}");
+    assert!(p.contains(&Defect::DegenerateFace { face: 9 }), "{p:?}");
     assert!(messages(&m, false).contains(&"face 8 is degenerate (zero area)".to_string()));
 }
 
@@ -83,7 +83,7 @@ fn duplicate_faces_any_orientation() {
     let p = problems(&m, true);
     assert_eq!(
         p,
-        vec![Problem::DuplicateFace { face: 8, other: 0 }, Problem::DuplicateFace { face: 9, other: 0 }],
+        vec![Defect::DuplicateFace { face: 8, other: 0 }, Defect::DuplicateFace { face: 9, other: 0 }],
         "duplicates must not also show up as topology problems"
     );
     assert_eq!(p[0].to_string(), "face 8 duplicates face 0 (same three vertices)");
@@ -95,9 +95,9 @@ fn non_manifold_edge() {
     m.positions.push([0.5, 0.5, 1.0]); // 9
     m.faces.push([4, 1, 9]); // a third face on the interior edge (1, 4)
     let p = problems(&m, false);
-    assert!(p.contains(&Problem::NonManifoldEdge { a: 1, b: 4, faces: 3 }), "{p:?}");
+    assert!(p.contains(&Defect::NonManifoldEdge { a: 1, b: 4, faces: 3 }), "{p:?}");
     // its end vertices are reported through the edge only
-    assert!(!p.iter().any(|p| matches!(p, Problem::NonManifoldVertex { .. })), "{p:?}");
+    assert!(!p.iter().any(|p| matches!(p, Defect::NonManifoldVertex { .. })), "{p:?}");
     assert!(messages(&m, false).contains(&"edge (1, 4) is shared by 3 faces (non-manifold)".to_string()));
 }
 
@@ -106,18 +106,18 @@ fn non_manifold_vertex_bow_tie() {
     let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [-1.0, -1.0, 0.0]];
     let m = Mesh::new("t", positions, vec![[0, 1, 2], [0, 3, 4]]);
     let r = validate(&m, true);
-    assert!(r.problems.contains(&Problem::NonManifoldVertex { vertex: 0 }), "{r}");
+    assert!(r.problems.contains(&Defect::NonManifoldVertex { vertex: 0 }), "{r}");
     assert_eq!(
         r.problems[0].to_string(),
         "vertex 0 is non-manifold (its faces do not form a single fan, e.g. a bow-tie)"
     );
-    assert!(r.problems.contains(&Problem::NotDisk { boundary_loops: 2, euler: 1 }), "{r}");
+    assert!(r.problems.contains(&Defect::NotDisk { boundary_loops: 2, euler: 1 }), "{r}");
     // a closed fan touching an open fan at one vertex (cone tip glued to a disk)
     let mut faces: Vec<[usize; 3]> = (1..=4).map(|i| [0, i, i % 4 + 1]).collect();
     faces.push([0, 5, 6]);
     let positions: Vec<[f64; 3]> = (0..7).map(|i| [i as f64, (i * i) as f64, (i % 3) as f64]).collect();
     let r = validate(&Mesh::new("t", positions, faces), false);
-    assert!(r.problems.contains(&Problem::NonManifoldVertex { vertex: 0 }), "{r}");
+    assert!(r.problems.contains(&Defect::NonManifoldVertex { vertex: 0 }), "{r}");
 }
 
 #[test]
@@ -125,8 +125,8 @@ fn inconsistent_orientation() {
     let mut m = grid();
     m.faces[1] = [0, 3, 4]; // reversed: now traverses 4 -> 0 like face 0 and 3 -> 4 like face 3
     let p = problems(&m, false);
-    assert!(p.contains(&Problem::InconsistentOrientation { a: 0, b: 4 }), "{p:?}");
-    assert!(p.contains(&Problem::InconsistentOrientation { a: 3, b: 4 }), "{p:?}");
+    assert!(p.contains(&Defect::InconsistentOrientation { a: 0, b: 4 }), "{p:?}");
+    assert!(p.contains(&Defect::InconsistentOrientation { a: 3, b: 4 }), "{p:?}");
     assert!(messages(&m, false).contains(
         &"edge (0, 4) is traversed in the same direction by both its faces (inconsistent orientation)".into()
     ));
@@ -139,7 +139,7 @@ fn components_and_not_disk() {
     m.positions.extend([[10.0, 0.0, 0.0], [11.0, 0.0, 0.0], [10.0, 1.0, 0.0]]);
     m.faces.push([off, off + 1, off + 2]);
     let p = problems(&m, true);
-    assert_eq!(p, vec![Problem::Components { count: 2 }, Problem::NotDisk { boundary_loops: 2, euler: 2 }]);
+    assert_eq!(p, vec![Defect::Components { count: 2 }, Defect::NotDisk { boundary_loops: 2, euler: 2 }]);
     assert_eq!(p[0].to_string(), "mesh has 2 connected components; a single connected mesh is required");
     assert_eq!(
         p[1].to_string(),
@@ -147,7 +147,7 @@ fn components_and_not_disk() {
          (1 loop, Euler characteristic 1)"
     );
     // without require_disk only the components are a problem
-    assert_eq!(problems(&m, false), vec![Problem::Components { count: 2 }]);
+    assert_eq!(problems(&m, false), vec![Defect::Components { count: 2 }]);
 }
 
 #[test]
@@ -169,7 +169,7 @@ fn annulus_is_not_a_disk() {
     let mesh = Mesh::new("t", positions, faces);
     assert!(validate(&mesh, false).is_ok());
     let p = problems(&mesh, true);
-    assert_eq!(p, vec![Problem::NotDisk { boundary_loops: 2, euler: 0 }]);
+    assert_eq!(p, vec![Defect::NotDisk { boundary_loops: 2, euler: 0 }]);
     assert_eq!(
         p[0].to_string(),
         "mesh has 2 boundary loops and Euler characteristic 0; param/authalic need a topological disk \
@@ -183,17 +183,17 @@ fn non_finite_position() {
     m.positions[4][2] = f64::NAN;
     m.positions[7][0] = f64::INFINITY;
     let p = problems(&m, true);
-    assert_eq!(p, vec![Problem::NonFinitePosition { vertex: 4 }, Problem::NonFinitePosition { vertex: 7 }]);
+    assert_eq!(p, vec![Defect::NonFinitePosition { vertex: 4 }, Defect::NonFinitePosition { vertex: 7 }]);
     assert_eq!(p[0].to_string(), "vertex 4 has a non-finite coordinate (NaN or infinity)");
 }
 
 #[test]
 fn empty_mesh() {
     let m = Mesh::new("t", vec![[0.0; 3]; 3], vec![]);
-    assert_eq!(problems(&m, true), vec![Problem::Empty]);
-    assert_eq!(Problem::Empty.to_string(), "mesh has no faces");
+    assert_eq!(problems(&m, true), vec![Defect::Empty]);
+    assert_eq!(Defect::Empty.to_string(), "mesh has no faces");
     let m = Mesh::new("t", vec![], vec![]);
-    assert_eq!(problems(&m, true), vec![Problem::Empty]);
+    assert_eq!(problems(&m, true), vec![Defect::Empty]);
 }
 
 #[test]
@@ -235,7 +235,7 @@ fn huge_and_tiny_coordinates_are_measured_at_unit_extent() {
         let mut m = m;
         m.positions.push([0.5 * k, 0.0, 0.0]);
         m.faces.push([0, 9, 1]);
-        assert_eq!(problems(&m, false), vec![Problem::DegenerateFace { face: 8 }], "{k}");
+        assert_eq!(problems(&m, false), vec![Defect::DegenerateFace { face: 8 }], "{k}");
     }
 }
 
@@ -245,7 +245,7 @@ fn a_span_beyond_f64_is_a_problem_naming_the_vertices() {
     m.positions[0][0] = -1e308;
     m.positions[8][0] = 1e308;
     let p = problems(&m, true);
-    assert_eq!(p, vec![Problem::CoordinateRange { axis: 0, lo: -1e308, lo_vertex: 0, hi: 1e308, hi_vertex: 8 }]);
+    assert_eq!(p, vec![Defect::CoordinateRange { axis: 0, lo: -1e308, lo_vertex: 0, hi: 1e308, hi_vertex: 8 }]);
     assert_eq!(
         p[0].to_string(),
         "the x coordinates run from -1e308 (vertex 0) to 1e308 (vertex 8), a span f64 cannot hold; rescale the mesh"
@@ -253,7 +253,7 @@ fn a_span_beyond_f64_is_a_problem_naming_the_vertices() {
     // a subnormal span cannot be measured either
     let m = scaled(&grid(), 1e-320);
     assert!(
-        matches!(problems(&m, true)[..], [Problem::CoordinateRange { axis: 0, .. }, ..]),
+        matches!(problems(&m, true)[..], [Defect::CoordinateRange { axis: 0, .. }, ..]),
         "{:?}",
         problems(&m, true)
     );
@@ -266,7 +266,7 @@ fn deform_needs_a_planar_counter_clockwise_shape() {
     lifted.positions[7][2] = -0.25;
     assert!(validate(&lifted, false).is_ok());
     let p = validate_for(&lifted, Task::Deform).problems;
-    assert_eq!(p, vec![Problem::NotPlanar { count: 2, first: 4, z: 0.5 }]);
+    assert_eq!(p, vec![Defect::NotPlanar { count: 2, first: 4, z: 0.5 }]);
     assert_eq!(
         p[0].to_string(),
         "2 vertices are off the plane z = 0 (first: vertex 4, z = 0.5); the deform task needs a planar mesh"
@@ -274,7 +274,7 @@ fn deform_needs_a_planar_counter_clockwise_shape() {
     // z = const is a plane, but not the one deform works in; param takes either
     let mut raised = grid();
     raised.positions.iter_mut().for_each(|p| p[2] = 5.0);
-    assert!(matches!(validate_for(&raised, Task::Deform).problems[..], [Problem::NotPlanar { count: 9, .. }]));
+    assert!(matches!(validate_for(&raised, Task::Deform).problems[..], [Defect::NotPlanar { count: 9, .. }]));
     assert!(validate_for(&raised, Task::Param).is_ok());
     // exporters' noise (-0, 1e-17) is z = 0
     let mut noisy = grid();
@@ -286,7 +286,7 @@ fn deform_needs_a_planar_counter_clockwise_shape() {
     cw.faces.iter_mut().for_each(|f| f.swap(1, 2));
     assert!(validate_for(&cw, Task::Param).is_ok() && validate_for(&cw, Task::Authalic).is_ok());
     let p = validate_for(&cw, Task::Deform).problems;
-    assert_eq!(p, (0..8).map(|face| Problem::ClockwiseFace { face }).collect::<Vec<_>>());
+    assert_eq!(p, (0..8).map(|face| Defect::ClockwiseFace { face }).collect::<Vec<_>>());
     assert_eq!(
         p[0].to_string(),
         "face 0 is clockwise in the plane; the deform task needs counter-clockwise faces (the rest pose)"
@@ -295,7 +295,7 @@ fn deform_needs_a_planar_counter_clockwise_shape() {
     let mut folded = grid();
     folded.positions[4] = [2.5, 2.5, 0.0];
     let p = validate_for(&folded, Task::Deform).problems;
-    assert!(!p.is_empty() && p.iter().all(|p| matches!(p, Problem::ClockwiseFace { .. })), "{p:?}");
+    assert!(!p.is_empty() && p.iter().all(|p| matches!(p, Defect::ClockwiseFace { .. })), "{p:?}");
 }
 
 #[test]
@@ -307,7 +307,7 @@ fn authalic_needs_an_interior_vertex() {
     );
     assert!(validate_for(&fan, Task::Param).is_ok());
     let p = validate_for(&fan, Task::Authalic).problems;
-    assert_eq!(p, vec![Problem::NoInterior]);
+    assert_eq!(p, vec![Defect::NoInterior]);
     assert_eq!(
         p[0].to_string(),
         "mesh has no interior vertex; the authalic task moves interior vertices and needs at least one"

@@ -38,7 +38,7 @@
 //! There is no restart and no monotonicity safeguard (the authors have none); a direction
 //! that is not a descent direction or a line search that finds no step ends the run.
 
-use super::executor::{execute, Method, Start, Step};
+use super::executor::{execute, Method, ReadyMethod, Step};
 use super::map_iterate::MapIterate;
 use super::planar::PlanarSolver;
 use super::proxy::{Proxy, ProxyError};
@@ -103,7 +103,7 @@ pub fn aqp(
         scratch: EnergyScratch::default(),
         t_x_eval: 0.0,
     });
-    let start = Start { method, columns: AQP_COLUMNS.to_vec(), analysis, charged };
+    let start = ReadyMethod { method, columns: AQP_COLUMNS.to_vec(), analysis, charged };
     Ok(execute(start, at, &settings.stop, observer).outcome)
 }
 

@@ -68,7 +68,7 @@ pub trait Method {
 }
 
 /// A method ready to run, and what its setup reports.
-pub struct Start<M> {
+pub struct ReadyMethod<M> {
     /// The method, or why it cannot start: the run then ends at row 0 with that reason
     /// (unless the observer stopped it there first).
     pub method: Result<M, StopReason>,
@@ -92,12 +92,12 @@ pub struct Finished<I> {
 
 /// Run `start`'s method from the evaluated iterate `at` under the stop rules `stop`.
 pub fn execute<M: Method>(
-    start: Start<M>,
+    start: ReadyMethod<M>,
     mut at: M::Iterate,
     stop: &StopSettings,
     observer: &mut dyn Observer,
 ) -> Finished<M::Iterate> {
-    let Start { method, columns, analysis, mut charged } = start;
+    let ReadyMethod { method, columns, analysis, mut charged } = start;
     let mut record =
         IterationRecord { extra: columns.iter().copied().zip(at.initial_extra(&columns)).collect(), ..at.row(0, 0.0) };
     let init_energy = record.energy;
@@ -205,8 +205,8 @@ mod tests {
         }
     }
 
-    fn start(method: Result<Halve, StopReason>, charged: f64) -> Start<Halve> {
-        Start { method, columns: vec!["k"], analysis: None, charged }
+    fn start(method: Result<Halve, StopReason>, charged: f64) -> ReadyMethod<Halve> {
+        ReadyMethod { method, columns: vec!["k"], analysis: None, charged }
     }
 
     fn stop(grad_tol: f64, energy_decrease_tol: f64, max_iters: usize) -> StopSettings {

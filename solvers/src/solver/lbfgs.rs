@@ -17,7 +17,7 @@
 //! indefinite); a direction that is not a descent direction, or along which the line search
 //! finds no step, is replaced by `-H0 g` with the history cleared (once per iteration).
 
-use super::executor::{execute, Method, Start, Step};
+use super::executor::{execute, Method, ReadyMethod, Step};
 use super::map_iterate::MapIterate;
 use super::planar::PlanarSolver;
 use super::proxy::{Proxy, ProxyError};
@@ -199,7 +199,7 @@ pub fn lbfgs(
         g_old: Vec::new(),
         scratch: EnergyScratch::default(),
     });
-    let start = Start { method, columns: LBFGS_COLUMNS.to_vec(), analysis, charged };
+    let start = ReadyMethod { method, columns: LBFGS_COLUMNS.to_vec(), analysis, charged };
     let at = MapIterate::new(problem, x0)?;
     Ok(execute(start, at, &settings.stop, observer).outcome)
 }

@@ -3,7 +3,7 @@
 //! injective step plus Armijo line search, repeat. "All methods share the same pipeline and
 //! we only replace the system matrix" (Section 6).
 
-use super::executor::{execute, Method, Start, Step};
+use super::executor::{execute, Method, ReadyMethod, Step};
 use super::map_iterate::MapIterate;
 use super::newton_system::{Direction, SystemBuilder};
 use super::truncated::{NewtonCgOptions, Preconditioner, Truncated, CG_COLUMNS};
@@ -75,21 +75,21 @@ pub fn newton_with(
             let retries = if strategy.retries_failed_factorization() { MAX_REGULARIZATION_RETRIES } else { 0 };
             let linear = Factorized { solver: Box::new(s), base: settings.linear, retries, rhs: Vec::new() };
             let method = Ok(NewtonStep::new(builder, linear, settings));
-            run(Start { method, columns, analysis, charged: 0.0 }, problem, x0, settings, observer)
+            run(ReadyMethod { method, columns, analysis, charged: 0.0 }, problem, x0, settings, observer)
         }
         SystemSolve::Truncated(preconditioner, options) => {
             columns.extend(CG_COLUMNS);
             let (linear, analysis, charged) =
                 Truncated::new(problem, &builder.pattern, preconditioner, options, settings)?;
             let method = linear.map(|linear| NewtonStep::new(builder, linear, settings));
-            run(Start { method, columns, analysis, charged }, problem, x0, settings, observer)
+            run(ReadyMethod { method, columns, analysis, charged }, problem, x0, settings, observer)
         }
     }
 }
 
 /// `start`'s method from `x0` under `settings`' stop rules.
 fn run<'a, M: Method<Iterate = MapIterate<'a>>>(
-    start: Start<M>,
+    start: ReadyMethod<M>,
     problem: &'a MapProblem,
     x0: Vec<f64>,
     settings: &Settings,

@@ -2,11 +2,11 @@
 //! the question of `asv compare`. Per run in both: iterations, status, final energy and time
 //! before / after / ratio, gated by the rules `check` uses ([`super::rules`]); times are
 //! labelled when they moved beyond their noise and are never gated unless asked
-//! ([`Options::time_regressions`]). Runs in one folder only are listed, and the settings in
+//! ([`CompareOptions::time_regressions`]). Runs in one folder only are listed, and the settings in
 //! which the two batches' `meta.json` differ head the output. The gate computes; the report
 //! layer writes it out (`report::compare`: Markdown and HTML).
 
-use super::rules::{self, Change, Record, TimeChange};
+use super::rules::{self, Change, GatedRun, TimeChange};
 use crate::run_folder::meta::Meta;
 use crate::run_folder::timed::Timed;
 use crate::run_folder::{self, SummaryRow};
@@ -23,7 +23,7 @@ pub use settings::settings_diff;
 
 /// How strict the comparison is.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Options {
+pub struct CompareOptions {
     /// Relative tolerance on the final energy (as a baseline's `energy_rtol`).
     pub energy_rtol: f64,
     /// Allowed increase of iterations (as a baseline record's `iterations_tolerance`).
@@ -33,9 +33,9 @@ pub struct Options {
     pub time_regressions: bool,
 }
 
-impl Default for Options {
-    fn default() -> Options {
-        Options { energy_rtol: rules::DEFAULT_ENERGY_RTOL, iterations_tolerance: 0, time_regressions: false }
+impl Default for CompareOptions {
+    fn default() -> CompareOptions {
+        CompareOptions { energy_rtol: rules::DEFAULT_ENERGY_RTOL, iterations_tolerance: 0, time_regressions: false }
     }
 }
 
@@ -57,7 +57,7 @@ impl Side {
         let mut seen = HashSet::new();
         for r in &rows {
             if !seen.insert((r.dataset.as_str(), r.task, r.energy.as_str(), r.solver.as_str())) {
-                bail!("{}: run {} appears twice", summary.display(), Record::from(r).label());
+                bail!("{}: run {} appears twice", summary.display(), GatedRun::from(r).label());
             }
         }
         let meta = if run_folder::meta_json(dir).exists() { Some(Meta::read(dir)?) } else { None };
@@ -67,38 +67,38 @@ impl Side {
 
 /// Which time the comparison uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TimeUnit {
+pub enum TimeMeasure {
     /// `time_norm`, in units of each batch's calibration workload: comparable across nights.
     Norm,
     /// `time_s`, wall seconds: only comparable when the machine was the same and as fast.
     Seconds,
 }
 
-impl TimeUnit {
+impl TimeMeasure {
     /// `time_norm` when every timed run of both folders has it, else `time_s`.
-    fn of(a: &[SummaryRow], b: &[SummaryRow]) -> TimeUnit {
+    fn of(a: &[SummaryRow], b: &[SummaryRow]) -> TimeMeasure {
         let has_norm = |rows: &[SummaryRow]| {
             let timed: Vec<&SummaryRow> = rows.iter().filter(|r| r.time_s.is_some()).collect();
             !timed.is_empty() && timed.iter().all(|r| r.time_norm.is_some())
         };
         if has_norm(a) && has_norm(b) {
-            TimeUnit::Norm
+            TimeMeasure::Norm
         } else {
-            TimeUnit::Seconds
+            TimeMeasure::Seconds
         }
     }
 
     fn timed(self, r: &SummaryRow) -> Option<Timed> {
         match self {
-            TimeUnit::Norm => r.time_norm.map(|v| Timed::of(r, v)),
-            TimeUnit::Seconds => Timed::time_s(r),
+            TimeMeasure::Norm => r.time_norm.map(|v| Timed::of(r, v)),
+            TimeMeasure::Seconds => Timed::time_s(r),
         }
     }
 
     pub fn describe(self) -> &'static str {
         match self {
-            TimeUnit::Norm => "time_norm (time_s over each batch's calibration median)",
-            TimeUnit::Seconds => "time_s (wall seconds; a folder has no time_norm)",
+            TimeMeasure::Norm => "time_norm (time_s over each batch's calibration median)",
+            TimeMeasure::Seconds => "time_s (wall seconds; a folder has no time_norm)",
         }
     }
 }
@@ -147,12 +147,12 @@ pub struct FolderComparison {
     pub settings: Option<Vec<SettingDiff>>,
     /// Where and how each batch ran: (what, A, B).
     pub provenance: Vec<(String, String, String)>,
-    pub unit: TimeUnit,
+    pub unit: TimeMeasure,
     /// In A's order.
     pub pairs: Vec<RunPair>,
     pub only_a: Vec<SummaryRow>,
     pub only_b: Vec<SummaryRow>,
-    pub options: Options,
+    pub options: CompareOptions,
 }
 
 impl FolderComparison {
@@ -184,14 +184,14 @@ impl FolderComparison {
 }
 
 /// Compare two run folders.
-pub fn compare_folders(a: &Path, b: &Path, options: Options) -> Result<FolderComparison> {
+pub fn compare_folders(a: &Path, b: &Path, options: CompareOptions) -> Result<FolderComparison> {
     rules::check_energy_rtol(options.energy_rtol).context("--energy-rtol")?;
     Ok(compare(&Side::load(a)?, &Side::load(b)?, options))
 }
 
 /// Compare side `a` (before) with side `b` (after).
-pub fn compare(a: &Side, b: &Side, options: Options) -> FolderComparison {
-    let unit = TimeUnit::of(&a.rows, &b.rows);
+pub fn compare(a: &Side, b: &Side, options: CompareOptions) -> FolderComparison {
+    let unit = TimeMeasure::of(&a.rows, &b.rows);
     let key = |r: &SummaryRow| (r.dataset.clone(), r.task, r.energy.clone(), r.solver.clone());
     let in_b: BTreeMap<_, &SummaryRow> = b.rows.iter().map(|r| (key(r), r)).collect();
     let in_a: HashSet<_> = a.rows.iter().map(key).collect();
@@ -202,8 +202,8 @@ pub fn compare(a: &Side, b: &Side, options: Options) -> FolderComparison {
             only_a.push(before.clone());
             continue;
         };
-        let base = Record { iterations_tolerance: Some(options.iterations_tolerance), ..Record::from(before) };
-        let changes = rules::changes(&base, &Record::from(after), options.energy_rtol);
+        let base = GatedRun { iterations_tolerance: Some(options.iterations_tolerance), ..GatedRun::from(before) };
+        let changes = rules::changes(&base, &GatedRun::from(after), options.energy_rtol);
         let time = match (unit.timed(before), unit.timed(after)) {
             (Some(tb), Some(ta)) => Some(TimePair { before: tb, after: ta, change: rules::time_change(&tb, &ta) }),
             _ => None,

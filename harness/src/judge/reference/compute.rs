@@ -21,7 +21,7 @@
 //! so a certified `E*` is within a hundredth of the default tightest target of what two
 //! methods can find from it.
 
-use super::{Certificate, CertificateRule, Polish, Reference, Step, StepKind};
+use super::{Certificate, CertificateRule, Polish, ProvenanceStep, Reference, StepKind};
 use crate::convergence::accuracy_scale;
 use crate::judge::problem::Problem;
 use anyhow::{bail, Result};
@@ -129,7 +129,7 @@ impl Observer for Watch<'_> {
 pub struct Found {
     pub x: Vec<f64>,
     pub energy: f64,
-    pub steps: Vec<Step>,
+    pub steps: Vec<ProvenanceStep>,
 }
 
 /// A solve of `solver` from `x` (`from` names it), as a step; its map when it ended without
@@ -142,7 +142,7 @@ fn solve(
     x: Vec<f64>,
     max_iters: usize,
     interrupt: &AtomicBool,
-) -> Result<(Step, Option<Vec<f64>>, StopReason)> {
+) -> Result<(ProvenanceStep, Option<Vec<f64>>, StopReason)> {
     // The certifying polishes run their whole window: a stall is what they look for.
     let stall = (kind != StepKind::Certify).then_some(problem.ideal);
     let mut watch = Watch::new(interrupt, stall);
@@ -153,7 +153,7 @@ fn solve(
     let m = problem.measure(&out.x);
     let stop_reason =
         if watch.stalled { format!("stalled ({STALL_WINDOW} iterations)") } else { out.stop_reason.as_str().into() };
-    let step = Step {
+    let step = ProvenanceStep {
         what: kind,
         solver: solver.into(),
         from: from.into(),
@@ -227,7 +227,7 @@ pub fn certify(
         let tolerance = CERTIFY_TOL * accuracy_scale(found.energy, problem.ideal);
         notice(&format!("certifying {:.12} ({polisher} and {second}, {window} iterations each)", found.energy));
         let mut polishes = Vec::new();
-        let mut lower: Option<(Vec<f64>, f64, Step)> = None;
+        let mut lower: Option<(Vec<f64>, f64, ProvenanceStep)> = None;
         for solver in [polisher, second] {
             let (step, x, _) =
                 solve(problem, StepKind::Certify, solver, "the kept map", found.x.clone(), window, interrupt)?;
@@ -288,7 +288,7 @@ pub fn certify(
 }
 
 /// The steps in one line, for an error.
-fn steps_text(steps: &[Step]) -> String {
+fn steps_text(steps: &[ProvenanceStep]) -> String {
     steps
         .iter()
         .map(|s| format!("{}: {} after {}", s.solver, s.stop_reason, s.iterations))

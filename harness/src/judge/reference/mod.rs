@@ -49,7 +49,7 @@ pub struct Reference {
     pub map: String,
     pub map_checksum: String,
     /// How the map was found, in order.
-    pub provenance: Vec<Step>,
+    pub provenance: Vec<ProvenanceStep>,
     pub certificate: Certificate,
 }
 
@@ -70,7 +70,7 @@ pub enum StepKind {
 /// One solve of a reference's provenance.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Step {
+pub struct ProvenanceStep {
     pub what: StepKind,
     pub solver: String,
     /// Where it started: `common start`, `the kept map`, or the run.

@@ -7,7 +7,7 @@ use super::timing::significant;
 use super::{esc, href, utc};
 use crate::gate::check::DEFAULT_ENERGY_RTOL;
 use crate::gate::rules::Change;
-use crate::history::{HistoryDb, Outcome};
+use crate::history::{HistoryDb, HistoryOutcome};
 use crate::judge::verdict::Verdict;
 use crate::report::batch::Batch;
 use crate::report::changes::{since_previous, Changes, Since};
@@ -64,13 +64,14 @@ fn verdict_line(summaries: &[SummaryRow]) -> String {
 /// "Since the previous batch of this config", from the history database `meta.json` names.
 fn since_section(h: &mut String, run_dir: &Path, meta: Option<&Meta>) {
     *h += "<h3>Since the previous batch</h3>\n";
-    let outcome = meta.and_then(|m| m.history_outcome.clone()).and_then(|o| serde_json::from_value::<Outcome>(o).ok());
+    let outcome =
+        meta.and_then(|m| m.history_outcome.clone()).and_then(|o| serde_json::from_value::<HistoryOutcome>(o).ok());
     let config = meta.and_then(Meta::config_name).unwrap_or("run");
-    let in_history = outcome.as_ref().and_then(Outcome::in_history);
+    let in_history = outcome.as_ref().and_then(HistoryOutcome::in_history);
     let Some((db, batch_id, _)) = in_history else {
         let why = match &outcome {
-            Some(Outcome::NotAppended { reason, .. }) => format!("not appended to the history ({reason})"),
-            Some(Outcome::Failed { error, .. }) => format!("appending to the history failed ({error})"),
+            Some(HistoryOutcome::NotAppended { reason, .. }) => format!("not appended to the history ({reason})"),
+            Some(HistoryOutcome::Failed { error, .. }) => format!("appending to the history failed ({error})"),
             _ => "not in a history database (--no-history, or a shard)".to_string(),
         };
         let _ = writeln!(

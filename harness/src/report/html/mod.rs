@@ -112,7 +112,7 @@ pub fn write_index(
 /// report); relative, so the folders can move together.
 fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Meta>, name: &str) {
     let outcome = meta.and_then(|m| m.history_outcome.clone());
-    let Some(outcome) = outcome.and_then(|o| serde_json::from_value::<crate::history::Outcome>(o).ok()) else {
+    let Some(outcome) = outcome.and_then(|o| serde_json::from_value::<crate::history::HistoryOutcome>(o).ok()) else {
         return;
     };
     let Some((db, _, Some(page))) = outcome.in_history() else { return };

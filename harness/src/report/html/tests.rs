@@ -334,7 +334,7 @@ fn the_status_matrix_of_20_solvers_stays_narrow_and_lists_problem_rows_first() {
 /// then and now, the new run and the problems; the first batch says it is the first.
 #[test]
 fn the_first_screen_shows_what_changed_since_the_previous_batch() {
-    use crate::history::{record, Outcome};
+    use crate::history::{record, HistoryOutcome};
     let db_dir = tempfile::tempdir().unwrap();
     let db = db_dir.path().join("history.sqlite");
     let night = |rows: &[SummaryRow], rev: &str| {
@@ -345,7 +345,7 @@ fn the_first_screen_shows_what_changed_since_the_previous_batch() {
         std::fs::write(p.join("meta.json"), meta.to_string()).unwrap();
         crate::run_folder::write_summary(&p.join("summary.csv"), rows).unwrap();
         let r = record(&db, p).unwrap();
-        let outcome = Outcome::Appended {
+        let outcome = HistoryOutcome::Appended {
             db: db.clone(),
             batch_id: r.batch_id,
             runs: r.runs,

@@ -78,7 +78,7 @@ pub struct Meta {
     /// The history database the batch is in (`None`: not, or not yet).
     pub history: Option<String>,
     /// What became of the batch in the history, set once the batch is over: a
-    /// `history::Outcome`, which the history reads (the layers above own its type).
+    /// `history::HistoryOutcome`, which the history reads (the layers above own its type).
     pub history_outcome: Option<Value>,
     pub host: Option<String>,
     pub interrupted: Option<bool>,
