@@ -21,7 +21,6 @@ const NOT_YET_REMEASURED: &[&str] = &[
     "linear-solvers",
     "million-vertices",
     "noise",
-    "parallel-factorization",
     "slim-vs-libigl",
 ];
 
