@@ -15,7 +15,6 @@ use std::collections::BTreeSet;
 /// says how to measure them again). A page measured again leaves this list.
 const NOT_YET_REMEASURED: &[&str] = &[
     "after-papers",
-    "deform-and-smoothness",
     "extending-cost",
     "kp-newton-cg",
     "linear-solvers",
