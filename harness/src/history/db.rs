@@ -7,6 +7,7 @@
 
 use super::HistoryError;
 use crate::plan::Task;
+use crate::run_folder::summary::FAILED_STOP;
 use crate::run_folder::{Status, SummaryRow};
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
 use solvers::solver::StopReason;
@@ -424,7 +425,7 @@ impl HistoryDb {
             .query_map([batch_id], |r| {
                 let status = parse_text(r, 7, |t| t.parse::<Status>())?;
                 let stop_reason =
-                    parse_text(r, 8, |t| if t == FAILED { Ok(None) } else { t.parse::<StopReason>().map(Some) })?;
+                    parse_text(r, 8, |t| if t == FAILED_STOP { Ok(None) } else { t.parse::<StopReason>().map(Some) })?;
                 Ok(RunRow {
                     batch_id: r.get(0)?,
                     dataset: r.get(1)?,
@@ -568,7 +569,7 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.vertices,
             r.iterations,
             r.status.as_str(),
-            r.stop_reason.as_ref().map_or(FAILED, StopReason::as_str),
+            r.stop_reason.as_ref().map_or(FAILED_STOP, StopReason::as_str),
             r.final_energy,
             r.grad_norm,
             r.flips,
@@ -603,9 +604,6 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
     }
     Ok(id)
 }
-
-/// `stop_reason` of a failed run, as in `summary.csv`.
-const FAILED: &str = "error";
 
 /// Column `i` of `row` as text, parsed into its type (an unknown value is a conversion error
 /// naming the column).

@@ -82,13 +82,15 @@ pub fn target_columns(tau: f64) -> [String; 2] {
     [format!("iters_to_{tau:e}"), format!("time_to_{tau:e}")]
 }
 
+/// The `stop_reason` of a run that failed, in `summary.csv` and the history.
+pub const FAILED_STOP: &str = "error";
+
 /// The `stop_reason` column: the solver's reason (`skipped` for a pair outside the solver's
-/// definition, `StopReason::Skipped`), or `error` for a run that failed.
+/// definition, `StopReason::Skipped`), or [`FAILED_STOP`] for a run that failed.
 mod stop_column {
+    use super::FAILED_STOP as FAILED;
     use serde::{de::Error, Deserialize, Deserializer, Serializer};
     use solvers::solver::StopReason;
-
-    pub const FAILED: &str = "error";
 
     pub fn serialize<S: Serializer>(v: &Option<StopReason>, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(v.as_ref().map_or(FAILED, StopReason::as_str))
@@ -239,7 +241,7 @@ pub struct SummaryRow {
 impl SummaryRow {
     /// The `stop_reason` column's text.
     pub fn stop_column(&self) -> &'static str {
-        self.stop_reason.as_ref().map_or(stop_column::FAILED, StopReason::as_str)
+        self.stop_reason.as_ref().map_or(FAILED_STOP, StopReason::as_str)
     }
 }
 

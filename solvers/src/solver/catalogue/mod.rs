@@ -32,7 +32,8 @@ pub enum Start {
     TutteUnscaled,
 }
 
-/// The family a solver belongs to: reports draw the solvers of one family in related hues.
+/// The class of method a solver is: how it treats the Hessian (the book's methods page groups
+/// them so; the harness's report gives each class a hue).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Family {
     /// Newton with the element Hessians projected analytically (the complex-view paper).
