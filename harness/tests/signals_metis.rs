@@ -42,7 +42,8 @@ fn main() {
         s.spawn(|| {
             while !stop.load(SeqCst) {
                 started.fetch_add(1, SeqCst);
-                let perm = solvers::ordering::metis_order(n, &col_ptr, &row_idx, 1).expect("METIS orders the grid");
+                let perm =
+                    solvers::linear::ordering::metis_order(n, &col_ptr, &row_idx, 1).expect("METIS orders the grid");
                 assert!(perm.is_some_and(|(fwd, _)| fwd.len() == n));
                 orderings.fetch_add(1, SeqCst);
             }

@@ -16,8 +16,8 @@ use solvers::generate::generate;
 use solvers::hessian::{kp::Kp, SystemBlock};
 use solvers::init::{tutte, TutteBoundary};
 use solvers::line_search::max_injective_step;
+use solvers::linear::ordering::Ordering;
 use solvers::linear::{LinearSettings, SpdSolver};
-use solvers::ordering::Ordering;
 use solvers::problem::{EnergyScratch, Evaluation, MapProblem};
 use std::hint::black_box;
 

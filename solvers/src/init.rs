@@ -101,7 +101,7 @@ pub fn tutte(mesh: &Mesh, boundary: TutteBoundary) -> Result<Vec<f64>, InitError
     // AMD, not METIS: one factorization does not pay back METIS's slower analysis, although
     // METIS's factor is sparser.
     let mut solver = SpdSolver::from_csc(ni, col_ptr, row_idx, diag)?;
-    let exact = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
+    let exact = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::linear::ordering::Ordering::Amd };
     // One factorization, both coordinates as the two columns of one solve.
     solver.factorize(&vals, &exact)?;
     let mut uv = rhs_u;

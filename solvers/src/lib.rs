@@ -24,18 +24,14 @@ pub mod hessian;
 pub mod init;
 pub mod line_search;
 pub mod linear;
-pub mod linear_error;
 pub mod local;
 pub mod map_task;
 pub mod mesh;
-pub mod ordering;
 pub mod param;
 pub mod problem;
 pub mod smoothness;
 pub mod solver;
-pub mod supernodal;
 pub mod system;
 pub mod task;
 #[cfg(test)]
 mod test_support;
-pub mod triangular;

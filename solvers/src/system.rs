@@ -126,8 +126,8 @@ impl NewtonSystem {
 mod tests {
     use super::*;
     use crate::energy::Sd;
+    use crate::linear::ordering::Ordering;
     use crate::linear::{LinearSettings, SpdSolver};
-    use crate::ordering::Ordering;
     use crate::param::solve_param;
 
     /// Keeps the system the solver factorizes at iteration `k`, then stops it.

@@ -4,8 +4,8 @@
 use serde::de::DeserializeOwned;
 use solvers::authalic::{AuthalicSettings, FoldGuard};
 use solvers::init::TutteBoundary;
+use solvers::linear::ordering::Ordering;
 use solvers::linear::LinearSettings;
-use solvers::ordering::Ordering;
 use solvers::smoothness::Projection;
 use solvers::solver::{LineSearchSettings, StopOverrides, StopSettings};
 use std::fmt::Debug;

@@ -26,8 +26,8 @@ pub(crate) fn export_system(a: ExportSystemArgs) -> Result<ExitCode> {
 /// `time-system`: our sparse Cholesky on an exported system; one JSON line.
 pub(crate) fn time_system(a: TimeSystemArgs) -> Result<ExitCode> {
     let ordering = match a.ordering {
-        OrderingArg::Metis => solvers::ordering::Ordering::Metis,
-        OrderingArg::Amd => solvers::ordering::Ordering::Amd,
+        OrderingArg::Metis => solvers::linear::ordering::Ordering::Metis,
+        OrderingArg::Amd => solvers::linear::ordering::Ordering::Amd,
     };
     let sys = export::read_matrix_market(&a.matrix)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads.into()).build()?;

@@ -125,7 +125,7 @@ pub struct Timing {
 /// matrix as written), as `scripts/bench_linear_solvers.py` times the other solvers.
 pub fn time_system(
     sys: &SystemFile,
-    ordering: solvers::ordering::Ordering,
+    ordering: solvers::linear::ordering::Ordering,
     repeat: usize,
     faer_kernel: bool,
 ) -> Result<Timing> {

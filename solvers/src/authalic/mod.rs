@@ -309,7 +309,7 @@ impl AuthalicProblem {
             &block.col_ptr,
             &block.row_idx,
             block.diag.clone(),
-            crate::ordering::Ordering::Metis,
+            crate::linear::ordering::Ordering::Metis,
             1,
             &self.analyses,
         )
@@ -603,7 +603,8 @@ impl AuthalicProblem {
 
 /// Solves of `L_II` and `L_BB` are plain (no Jacobi scaling, no shift): `L_S` at a valid map
 /// is a Laplacian with a Dirichlet boundary.
-const EXACT: LinearSettings = LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::ordering::Ordering::Amd };
+const EXACT: LinearSettings =
+    LinearSettings { tikhonov: 0.0, jacobi: false, ordering: crate::linear::ordering::Ordering::Amd };
 
 #[cfg(test)]
 mod tests;

@@ -1,9 +1,9 @@
 //! The symbolic analysis of a pattern (ordering and symbolic Cholesky), computed once and
 //! shared by the runs on one mesh.
 
+use super::ordering::{metis_order_timed, Ordering};
+use super::supernodal::{Schedule, ScheduleError};
 use super::LinearError;
-use crate::ordering::{metis_order_timed, Ordering};
-use crate::supernodal::{Schedule, ScheduleError};
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
@@ -68,8 +68,8 @@ impl Analysis {
             // and analyse again (the same fill). Only then: an order that works stays as it is.
             Err(ScheduleError::NotPostordered) if symbolic.perm().is_some() => {
                 let fwd = symbolic.perm().map(|p| p.arrays().0.to_vec()).unwrap_or_default();
-                let post = crate::ordering::postorder(n, symbolic_a.col_ptr(), symbolic_a.row_idx(), &fwd);
-                let inv = crate::ordering::inverse(&post);
+                let post = super::ordering::postorder(n, symbolic_a.col_ptr(), symbolic_a.row_idx(), &fwd);
+                let inv = super::ordering::inverse(&post);
                 symbolic = symbolic_of(SymmetricOrdering::Custom(PermRef::new_checked(&post, &inv, n)))?;
                 schedule_of(&symbolic)
                     .map_err(|e| LinearError::Symbolic(format!("the supernodal schedule, postordered: {e:?}")))?

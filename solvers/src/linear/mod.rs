@@ -6,20 +6,28 @@
 //! added to the diagonal, the matrix is scaled symmetrically by `S = diag(1/sqrt(a_ii))`
 //! (Jacobi), and `tau` is added again to the scaled diagonal; the step is `d = S y` with
 //! `(S A S + tau I) y = S b`.
+//!
+//! The wing's parts: the orderings (`ordering.rs`), the subtree-parallel supernodal factor
+//! (`supernodal.rs`), its triangular solves (`triangular.rs`) and their errors (`error.rs`).
+
+mod analysis;
+mod error;
+pub mod ordering;
+pub mod supernodal;
+pub mod triangular;
 
 use crate::assembly::Pattern;
-mod analysis;
-pub use crate::linear_error::LinearError;
-use crate::ordering::Ordering;
-use crate::supernodal::Workspace;
 pub use analysis::{Analysis, AnalysisCache};
+pub use error::LinearError;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::sparse::SparseColMatRef;
 use faer::{Conj, MatMut, Par, Side};
+use ordering::Ordering;
 use std::sync::Arc;
 use std::time::Instant;
+use supernodal::Workspace;
 
 /// Linear-system settings (`[linear]` in the config).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -156,7 +164,7 @@ pub struct SpdSolver {
     /// exists: `time-system --kernel faer`, to measure one against the other.
     faer_kernel: bool,
     /// Scratch of `triangular::solve_in_place` (right-hand sides, the tasks' buffers).
-    solve_work: crate::triangular::SolveWork,
+    solve_work: triangular::SolveWork,
     factored: bool,
 }
 
@@ -325,7 +333,7 @@ impl SpdSolver {
         };
         match (&self.analysis.schedule, self.analysis.symbolic.raw()) {
             (Some(schedule), SymbolicCholeskyRaw::Supernodal(sn)) if !self.faer_kernel => {
-                crate::supernodal::factorize(sn, schedule, &mut self.workspace, &self.scaled, &mut self.l_values)
+                supernodal::factorize(sn, schedule, &mut self.workspace, &self.scaled, &mut self.l_values)
                     .map_err(not_pd)?;
             }
             _ => {
@@ -395,7 +403,7 @@ impl SpdSolver {
             (Some(_), SymbolicCholeskyRaw::Supernodal(sn)) if !self.faer_kernel => {
                 let perm = self.analysis.symbolic.perm();
                 let sched = self.analysis.schedule.as_ref();
-                crate::triangular::solve_in_place(sn, perm, sched, &self.l_values, x, &mut self.solve_work);
+                triangular::solve_in_place(sn, perm, sched, &self.l_values, x, &mut self.solve_work);
             }
             _ => self.faer_solve(x, k),
         }

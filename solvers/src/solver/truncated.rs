@@ -400,7 +400,7 @@ mod tests {
             last_iters = rep.iterations;
         }
         // the factorized step, moved so that vertex 0 stays: the same to the solve's accuracy
-        let mut direct = SpdSolver::new(&pattern, crate::ordering::Ordering::Amd).unwrap();
+        let mut direct = SpdSolver::new(&pattern, crate::linear::ordering::Ordering::Amd).unwrap();
         let minus_g: Vec<f64> = g.iter().map(|x| -x).collect();
         let mut dd = direct.solve(&values, &minus_g, &LinearSettings::default()).unwrap();
         let (tu, tv) = (dd[0], dd[1]);

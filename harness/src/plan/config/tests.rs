@@ -187,7 +187,7 @@ fn minimal_config_gets_the_documented_defaults() {
     assert_eq!(s.solver.line_search, LineSearchSettings::default());
     assert_eq!(
         s.solver.linear,
-        LinearSettings { tikhonov: 1e-10, jacobi: true, ordering: solvers::ordering::Ordering::Metis }
+        LinearSettings { tikhonov: 1e-10, jacobi: true, ordering: solvers::linear::ordering::Ordering::Metis }
     );
     assert_eq!(s.tutte_boundary, TutteBoundary::Uniform);
     assert_eq!(s.scaling_jump, 0.1);

@@ -17,7 +17,7 @@
 //! so the result is the same bits on every call and for any pool (it differs from faer's in
 //! the rounding of the sums: `tests::equals_faers_solve`).
 
-use crate::supernodal::{s_pattern, s_range, Schedule};
+use super::supernodal::{s_pattern, s_range, Schedule};
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use rayon::prelude::*;
@@ -418,8 +418,8 @@ fn as_rows<const K: usize>(v: &mut [f64]) -> &mut [[f64; K]] {
 
 #[cfg(test)]
 mod tests {
+    use crate::linear::supernodal::tests::{analyse, supernodal, system};
     use super::*;
-    use crate::supernodal::tests::{analyse, supernodal, system};
     use faer::dyn_stack::{MemBuffer, MemStack};
     use faer::linalg::cholesky::llt::factor::LltRegularization;
     use faer::sparse::linalg::cholesky::LltRef;
@@ -494,9 +494,9 @@ mod tests {
         let (_, sym) = analyse(n, &cp, &ri);
         let sn = supernodal(&sym);
         let sched = Schedule::new(sn, sym.perm(), &cp, &ri).unwrap();
-        let mut ws = crate::supernodal::Workspace::default();
+        let mut ws = crate::linear::supernodal::Workspace::default();
         let mut l = vec![0.0; sym.len_val()];
-        crate::supernodal::factorize(sn, &sched, &mut ws, &vals, &mut l).unwrap();
+        crate::linear::supernodal::factorize(sn, &sched, &mut ws, &vals, &mut l).unwrap();
         for k in [1, 2, 3] {
             let b = rhs(n * k, 7 + k);
             let mut want = b.clone();

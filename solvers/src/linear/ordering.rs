@@ -10,7 +10,7 @@
 //!   only contiguous columns into supernodes, and raw METIS output gives many more
 //!   supernodes and a slower factorization than AMD.
 
-use crate::linear_error::LinearError;
+use super::error::LinearError;
 use crate::mesh::topology::grouped;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};

@@ -507,7 +507,7 @@ pub(crate) mod tests {
             ..Default::default()
         };
         let with = |fwd: &[usize]| {
-            let inv = crate::ordering::inverse(fwd);
+            let inv = crate::linear::ordering::inverse(fwd);
             let custom = SymmetricOrdering::Custom(PermRef::new_checked(fwd, &inv, n));
             factorize_symbolic_cholesky(a.as_ref(), Side::Lower, custom, params).unwrap()
         };
@@ -517,7 +517,7 @@ pub(crate) mod tests {
             Schedule::new(supernodal(&sym), sym.perm(), &col_ptr, &row_idx).err(),
             Some(ScheduleError::NotPostordered)
         );
-        let post = crate::ordering::postorder(n, &col_ptr, &row_idx, &identity);
+        let post = crate::linear::ordering::postorder(n, &col_ptr, &row_idx, &identity);
         assert_eq!(post, [1, 3, 5, 7, 0, 2, 4, 6, 8]);
         let sym = with(&post);
         let mut reference = vec![0.0; sym.len_val()];
