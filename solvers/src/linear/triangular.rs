@@ -418,8 +418,8 @@ fn as_rows<const K: usize>(v: &mut [f64]) -> &mut [[f64; K]] {
 
 #[cfg(test)]
 mod tests {
-    use crate::linear::supernodal::tests::{analyse, supernodal, system};
     use super::*;
+    use crate::linear::supernodal::tests::{analyse, supernodal, system};
     use faer::dyn_stack::{MemBuffer, MemStack};
     use faer::linalg::cholesky::llt::factor::LltRegularization;
     use faer::sparse::linalg::cholesky::LltRef;
