@@ -233,9 +233,9 @@ fn is_param_or_deform(r: &SummaryRow) -> bool {
     matches!(r.task, Task::Param | Task::Deform)
 }
 
-/// First-appearance order, so rows and columns follow summary.csv.
-pub(crate) fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
-    let mut out: Vec<&str> = Vec::new();
+/// The distinct items in first-appearance order, so rows and columns follow summary.csv.
+pub(crate) fn unique<T: PartialEq>(items: impl IntoIterator<Item = T>) -> Vec<T> {
+    let mut out: Vec<T> = Vec::new();
     for i in items {
         if !out.contains(&i) {
             out.push(i);

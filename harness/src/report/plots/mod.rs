@@ -19,7 +19,7 @@ pub mod trend;
 
 pub use scaling::SCALING_MIN_SIZES;
 
-use crate::report::finished;
+use crate::report::{finished, unique};
 use crate::run_folder::SummaryRow;
 use anyhow::Result;
 use rayon::prelude::*;
@@ -75,16 +75,8 @@ pub struct Plot {
 /// per (dataset, energy) group the three curve plots, then the maps of its runs; then the
 /// scaling plots, the performance profiles and the data profile of each energy.
 pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>> {
-    let mut solvers: Vec<&str> = Vec::new();
-    let mut groups: Vec<(&str, &str)> = Vec::new();
-    for s in summaries {
-        if !solvers.contains(&s.solver.as_str()) {
-            solvers.push(&s.solver);
-        }
-        if !groups.contains(&(s.dataset.as_str(), s.energy.as_str())) {
-            groups.push((&s.dataset, &s.energy));
-        }
-    }
+    let solvers = unique(summaries.iter().map(|s| s.solver.as_str()));
+    let groups = unique(summaries.iter().map(|s| (s.dataset.as_str(), s.energy.as_str())));
     // Scaling plots and profiles rank iterations and time to the target, as the tables do (the
     // per-run files match the rows as they are, so curves and maps read those).
     let ranked = super::at_target(summaries);

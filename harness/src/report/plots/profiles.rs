@@ -10,7 +10,7 @@ use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::corpus::{
     data_profiles, performance_profiles, DataProfiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME,
 };
-use crate::report::{tau_text, tightest_target};
+use crate::report::{tau_text, tightest_target, unique};
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;
@@ -23,12 +23,7 @@ use std::path::Path;
 pub(super) fn render_profiles(run_dir: &Path, summaries: &[SummaryRow], solvers: &[&str]) -> Result<Vec<Plot>> {
     let rows: Vec<&SummaryRow> = summaries.iter().collect();
     let unit = TimeUnit::choose(rows.iter().copied());
-    let mut energies: Vec<&str> = Vec::new();
-    for r in &rows {
-        if !energies.contains(&r.energy.as_str()) {
-            energies.push(&r.energy);
-        }
-    }
+    let energies = unique(rows.iter().map(|r| r.energy.as_str()));
     let mut plots = Vec::new();
     for energy in energies {
         let runs: Vec<&SummaryRow> = rows.iter().copied().filter(|r| r.energy == energy).collect();

@@ -6,7 +6,7 @@ use super::chart::{
 };
 use super::chart::{Curve, XAxis};
 use super::{Plot, PlotKind, ALL_DATASETS};
-use crate::report::{converged, finished, is_authalic};
+use crate::report::{converged, finished, is_authalic, unique};
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;
@@ -19,12 +19,7 @@ pub const SCALING_MIN_SIZES: usize = 3;
 /// iteration and the iterations against the vertex count, one line per solver.
 pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: &[&str]) -> Result<Vec<Plot>> {
     let mut plots = Vec::new();
-    let mut energies: Vec<&str> = Vec::new();
-    for s in summaries.iter().filter(|s| !is_authalic(s)) {
-        if !energies.contains(&s.energy.as_str()) {
-            energies.push(&s.energy);
-        }
-    }
+    let energies = unique(summaries.iter().filter(|s| !is_authalic(s)).map(|s| s.energy.as_str()));
     for energy in energies {
         let runs: Vec<&SummaryRow> = summaries
             .iter()

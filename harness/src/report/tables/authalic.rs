@@ -3,7 +3,7 @@
 use super::ranking::{self, comparable_at_budget, lowest};
 use super::Table;
 use crate::plan::Task;
-use crate::report::{finished, is_authalic};
+use crate::report::{finished, is_authalic, unique};
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 use solvers::solver::catalogue;
@@ -32,12 +32,7 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
     for (_, l) in &present {
         columns.extend([format!("{l} area ratio SD"), format!("{l} E_A"), format!("{l} time_s"), format!("{l} folds")]);
     }
-    let mut datasets: Vec<&str> = Vec::new();
-    for r in &done {
-        if !datasets.contains(&r.dataset.as_str()) {
-            datasets.push(&r.dataset);
-        }
-    }
+    let datasets = unique(done.iter().map(|r| r.dataset.as_str()));
     let sci = |v: Option<f64>| v.map(|x| format!("{x:.2e}")).unwrap_or_default();
     let (mut out, mut bold) = (Vec::new(), Vec::new());
     for (i, d) in datasets.into_iter().enumerate() {

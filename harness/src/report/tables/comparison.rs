@@ -176,12 +176,7 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
         return None;
     }
     let solvers = unique(runs.iter().map(|r| r.solver.as_str()));
-    let mut groups: Vec<(&str, &str)> = Vec::new();
-    for r in &runs {
-        if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
-            groups.push((&r.dataset, &r.energy));
-        }
-    }
+    let groups = unique(runs.iter().map(|r| (r.dataset.as_str(), r.energy.as_str())));
     let mut columns = ["dataset", "energy", "# vert", "# elem", "analysis [s]"].map(String::from).to_vec();
     for s in &solvers {
         columns.extend([format!("{s} iter"), format!("{s} time [s]"), format!("{s} energy")]);

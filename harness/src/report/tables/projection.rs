@@ -2,7 +2,7 @@
 //! with the smoothness term.
 
 use super::Table;
-use crate::report::finished;
+use crate::report::{finished, unique};
 use crate::run_folder::SummaryRow;
 use solvers::solver::catalogue;
 
@@ -28,12 +28,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
         columns.push(format!("{l}_project_ms"));
         columns.push(format!("{l}_project/solve"));
     }
-    let mut groups: Vec<(&str, &str)> = Vec::new();
-    for r in rows {
-        if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
-            groups.push((&r.dataset, &r.energy));
-        }
-    }
+    let groups = unique(rows.iter().map(|r| (r.dataset.as_str(), r.energy.as_str())));
     let ms = |v: f64| format!("{v:.3}");
     let mut out = Vec::new();
     for (d, e) in groups {
@@ -80,12 +75,7 @@ pub fn smoothness_table(rows: &[SummaryRow]) -> Option<Table> {
     if !rows.iter().filter(ok).any(|r| r.solver == "kp-newton-eig8") {
         return None;
     }
-    let mut groups: Vec<(&str, &str)> = Vec::new();
-    for r in rows.iter().filter(ok) {
-        if !groups.contains(&(r.dataset.as_str(), r.energy.as_str())) {
-            groups.push((&r.dataset, &r.energy));
-        }
-    }
+    let groups = unique(rows.iter().filter(ok).map(|r| (r.dataset.as_str(), r.energy.as_str())));
     let ms = |v: Option<f64>| v.map(|v| format!("{v:.3}")).unwrap_or_default();
     let ratio = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| format!("{:.3}", a / b)).unwrap_or_default();
     let mut out = Vec::new();

@@ -2,7 +2,7 @@
 
 use super::comparison::with_space;
 use super::Table;
-use crate::report::{converged, finished, is_param_or_deform, target_rule};
+use crate::report::{converged, finished, is_param_or_deform, target_rule, unique};
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 
@@ -14,16 +14,8 @@ use crate::run_folder::SummaryRow;
 pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
     let runs: Vec<&SummaryRow> =
         rows.iter().filter(|r| is_param_or_deform(r) && finished(r) && r.vertices.is_some()).collect();
-    let mut energies: Vec<&str> = Vec::new();
-    let mut solvers: Vec<&str> = Vec::new();
-    for r in &runs {
-        if !energies.contains(&r.energy.as_str()) {
-            energies.push(&r.energy);
-        }
-        if !solvers.contains(&r.solver.as_str()) {
-            solvers.push(&r.solver);
-        }
-    }
+    let mut energies = unique(runs.iter().map(|r| r.energy.as_str()));
+    let solvers = unique(runs.iter().map(|r| r.solver.as_str()));
     energies.retain(|e| {
         let mut sizes: Vec<usize> = runs.iter().filter(|r| r.energy == *e).filter_map(|r| r.vertices).collect();
         sizes.sort_unstable();

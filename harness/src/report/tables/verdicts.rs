@@ -26,12 +26,7 @@ fn solved_at(r: &SummaryRow, tau: f64) -> bool {
 /// target. `None` when the harness judged no run (a folder from before verdicts).
 pub fn verdict_table(rows: &[SummaryRow]) -> Option<Table> {
     let rows: Vec<&SummaryRow> = rows.iter().collect();
-    let mut taus: Vec<f64> = Vec::new();
-    for t in rows.iter().flat_map(|r| &r.to_targets) {
-        if !taus.contains(&t.tau) {
-            taus.push(t.tau);
-        }
-    }
+    let mut taus = unique(rows.iter().flat_map(|r| &r.to_targets).map(|t| t.tau));
     if taus.is_empty() {
         return None;
     }
