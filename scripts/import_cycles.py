@@ -2,9 +2,11 @@
 """Import circles between the files of a crate: the strongly connected components (more than
 one file) of the graph "file A names a path into file B" (`crate::`, `super::`, `self::` paths
 in `use` items and in code, and child modules named without a prefix). A module naming its
-own submodules (`pub use summary::Row;` in `run_folder/mod.rs`) is not an import: they are
-its parts. A file's `#[cfg(test)] mod` (its unit tests, at its end) is left out: tests may
-drive a module through the entry points above it.
+own submodules counts too (`pub use summary::Row;` in `run_folder/mod.rs` is an arrow from
+`mod.rs` to `summary.rs`): so a `mod.rs` that re-exports its children cannot also hold what
+they use, which goes into a child of its own (`energy/density.rs` beside `energy/sd.rs`).
+The `mod` items themselves are wiring, not arrows. A file's `#[cfg(test)] mod` (its unit
+tests, at its end) is left out: tests may drive a module through the entry points above it.
 
     python3 scripts/import_cycles.py [CRATE_SRC ...]   (default: harness/src solvers/src)
 
@@ -75,8 +77,7 @@ def named(text, here, mods):
         for k in range(len(segs), -1, -1):
             key = start + tuple(segs[:k])
             if key in mods:
-                # a module's own submodules are its parts (re-exports, wiring), not imports
-                if key[: len(here)] != here or key == here:
+                if key != here:
                     yield written, mods[key]
                 break
 
