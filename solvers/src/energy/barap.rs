@@ -1,6 +1,6 @@
 //! Barrier ARAP `2(x + y - 2 sqrt(x) + 1) + k (|J| + |J|^-1)` (complex-view paper, Section 4.1).
 
-use super::{ConvexSplit, Density, Modifiers};
+use super::density::{ConvexSplit, Density, Modifiers};
 use serde::{Deserialize, Serialize};
 
 /// The paper's experiments use k = 0.1.
@@ -45,7 +45,7 @@ impl Density for Barap {
     }
 
     fn check(&self) -> Result<(), String> {
-        super::positive("k", self.k, "must be positive (it weighs the barrier)")
+        super::density::positive("k", self.k, "must be positive (it weighs the barrier)")
     }
 
     /// `h = (u - 1)^2 + (v - 1)^2 + k (uv + 1/(uv))` is convex in `(u, v)` iff `k <= 2`.

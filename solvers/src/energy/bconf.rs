@@ -1,7 +1,7 @@
 //! Barrier conformal `y + k (|J| + |J|^-1)` (complex-view paper, Section 4.1): the LSCM
 //! energy plus a barrier.
 
-use super::{ConvexSplit, Density, Modifiers};
+use super::density::{ConvexSplit, Density, Modifiers};
 use serde::{Deserialize, Serialize};
 
 /// The paper's experiments use k = 0.1.
@@ -45,7 +45,7 @@ impl Density for Bconf {
     }
 
     fn check(&self) -> Result<(), String> {
-        super::positive("k", self.k, "must be positive (it weighs the barrier)")
+        super::density::positive("k", self.k, "must be positive (it weighs the barrier)")
     }
 
     /// `h = (u - v)^2/4 + k (uv + 1/(uv))` is convex in `(u, v)` iff `k <= 1`.

@@ -1,8 +1,8 @@
 //! Exponential symmetric Dirichlet `exp(s * psi_SD)` with the half SD in the exponent,
 //! as in the complex-view reference code (libigl's `exp_factor` f equals s / 2).
 
-use super::{ConvexSplit, Density, Modifiers};
-use super::Sd;
+use super::density::{ConvexSplit, Density, Modifiers};
+use super::sd::Sd;
 use serde::{Deserialize, Serialize};
 
 /// Default exponent weight. Tutte initializations with slivers overflow quickly, so the
@@ -45,7 +45,7 @@ impl Density for ExpSd {
     }
 
     fn check(&self) -> Result<(), String> {
-        super::positive("s", self.s, "must be positive")
+        super::density::positive("s", self.s, "must be positive")
     }
 
     fn convex_split(&self) -> Result<ConvexSplit, String> {

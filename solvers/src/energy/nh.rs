@@ -1,6 +1,6 @@
 //! Neo-Hookean `mu/2 (||J||_F^2 / |J| - 2) + kappa/2 (|J| - 1)^2 = mu 2y/(x-y) + kappa/2 (x-y-1)^2`.
 
-use super::{ConvexSplit, Density, Modifiers};
+use super::density::{ConvexSplit, Density, Modifiers};
 use serde::{Deserialize, Serialize};
 
 /// Defaults with `mu / kappa = 0.25` as in the complex-view paper's Figure 4 and
@@ -51,7 +51,7 @@ impl Density for Nh {
     }
 
     fn check(&self) -> Result<(), String> {
-        super::positive("mu", self.mu, "must be positive")?;
+        super::density::positive("mu", self.mu, "must be positive")?;
         if !(self.kappa >= 0.0 && self.kappa.is_finite()) {
             return Err(format!("kappa = {} must be non-negative", self.kappa));
         }

@@ -4,7 +4,7 @@
 //! `alpha2 ~ y^-1/2`; the modifiers are evaluated with `y` floored at `Y_FLOOR * x` so the
 //! gradient `2 alpha2 f_zbar` stays finite (it tends to a finite limit).
 
-use super::{from_singular_values, ConvexSplit, Density, Modifiers};
+use super::density::{from_singular_values, ConvexSplit, Density, Modifiers};
 use serde::{Deserialize, Serialize};
 
 /// The modifiers use `y` floored at `Y_FLOOR * x`, so `alpha2` stays finite at conformal maps.

@@ -1,7 +1,7 @@
 //! Symmetric Dirichlet (half convention), Table 1/2 of the complex-view paper:
 //! `(x + y)(1 + (x - y)^-2)`, 2 at an isometry.
 
-use super::{ConvexSplit, Density, Modifiers};
+use super::density::{ConvexSplit, Density, Modifiers};
 use serde::{Deserialize, Serialize};
 
 /// Symmetric Dirichlet; no parameters.

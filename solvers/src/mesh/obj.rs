@@ -10,7 +10,8 @@
 //! unknown statements, comments) is ignored. A UTF-8 byte-order mark is skipped, and lines may
 //! end in `\n`, `\r\n` or a lone `\r` (classic Mac OS exports).
 
-use super::{Mesh, MeshError};
+use super::error::MeshError;
+use super::triangle_mesh::Mesh;
 use std::path::Path;
 
 /// Read a triangle mesh from an OBJ file. The mesh's `source` is the path as displayed.
@@ -436,6 +437,6 @@ mod tests {
     }
 
     fn summarize(r: &crate::mesh::ValidationReport) -> String {
-        crate::mesh::validate::summarize_problems(&r.problems, 3, "; ")
+        crate::mesh::summarize_problems(&r.problems, 3, "; ")
     }
 }
