@@ -8,8 +8,9 @@
 //! operator (`e_k = 4A (Im D_k, Re D_k)`, the inverse of `D = i/(4A) conj(e)`), mapped by
 //! the element's Jacobian.
 
+use super::element::ElementState;
 use super::slim::jacobian;
-use super::{ElementState, SystemBlock};
+use super::system_block::SystemBlock;
 use crate::local::LocalOp;
 use nalgebra::{Matrix2, Matrix6, Vector2};
 

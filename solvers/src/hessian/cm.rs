@@ -9,7 +9,8 @@
 //! For neo-Hookean the split is of `g = (||J||_F, det J)`: `a1' = mu/|J| + (h_v)+`,
 //! `a2' = mu/|J| - (h_v)-` with `h_v = -mu (x+y)/|J|^2 + kappa (|J| - 1)`, betas unchanged.
 
-use super::{k_matrix, triple_product, ElementState, SystemBlock};
+use super::element::{k_matrix, triple_product, ElementState};
+use super::system_block::SystemBlock;
 use crate::energy::{ConvexSplit, EnergyKind};
 use crate::local::LocalOp;
 use nalgebra::Matrix6;

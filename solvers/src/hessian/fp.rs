@@ -9,7 +9,8 @@
 //! * [`Fp6Abs`] replaces the 6x6 `H`'s eigenvalues by their absolute values instead (the abs
 //!   filter of Chen et al. 2024 as they apply it, to the element Hessian; see `pn`).
 
-use super::{element_hessian, k_matrix, ElementState, SystemBlock};
+use super::element::{element_hessian, k_matrix, ElementState};
+use super::system_block::SystemBlock;
 use crate::local::LocalOp;
 use nalgebra::{Matrix4, Matrix4x6, Matrix6};
 

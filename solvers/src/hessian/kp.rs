@@ -6,7 +6,8 @@
 //! for NH, SARAP and larger k the radial block is clamped too (the reference code's
 //! "branch B", which equals the eigen-clamp). A `K` that is already PSD is returned as is.
 
-use super::{k_eigen, k_eigenvalues, k_matrix, triple_product, ElementState, SystemBlock};
+use super::element::{k_eigen, k_eigenvalues, k_matrix, triple_product, ElementState};
+use super::system_block::SystemBlock;
 use crate::local::LocalOp;
 use nalgebra::{Matrix4, Matrix6};
 

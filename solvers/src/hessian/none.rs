@@ -3,7 +3,8 @@
 //! not retry a failed factorization with a larger shift: shifted Newton is another method,
 //! and the papers show plain Newton halting there (CM paper, Figure 2).
 
-use super::{element_hessian, ElementState, SystemBlock};
+use super::element::{element_hessian, ElementState};
+use super::system_block::SystemBlock;
 use crate::local::LocalOp;
 use nalgebra::Matrix6;
 

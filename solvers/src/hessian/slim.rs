@@ -10,7 +10,8 @@
 //! `sigma1 = |a| + |b|`, `sigma2 = |a| - |b|`, left singular vectors at angle `(ta + tb)/2`
 //! and right ones at `(tb - ta)/2`.
 
-use super::{triple_product, ElementState, SystemBlock};
+use super::element::{triple_product, ElementState};
+use super::system_block::SystemBlock;
 use crate::local::LocalOp;
 use nalgebra::{Matrix2, Matrix4, Matrix6, Vector2};
 use rayon::prelude::*;

@@ -81,7 +81,7 @@ fn the_trust_region_filters_record_their_modes_and_reach_kp() {
         assert_eq!(names, ["filter", "rho"]);
         assert!(col(&rows[0], "filter").is_nan() && col(&rows[0], "rho").is_nan());
         assert_eq!(col(&rows[1], "filter"), 1.0, "{solver}: the first system uses abs");
-        let tau = crate::hessian::pn::DEFAULT_TAU;
+        let tau = crate::hessian::trust_region::DEFAULT_TAU;
         for w in rows[1..].windows(2) {
             // each row's filter follows from the previous row's fit
             let rho = col(&w[0], "rho");

@@ -4,7 +4,7 @@
 
 use super::{StopReason, SystemView};
 use crate::assembly::{pack_lower, Lower6, Pattern};
-use crate::hessian::pn::{Filter, TrustRegion};
+use crate::hessian::trust_region::{Filter, TrustRegion};
 use crate::hessian::SystemBlock;
 use crate::linear::LinearSettings;
 use crate::problem::{Evaluation, MapProblem};

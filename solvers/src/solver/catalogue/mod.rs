@@ -5,7 +5,8 @@
 
 use crate::authalic::{aem, sem, AuthalicOutcome, AuthalicProblem, AuthalicSettings, AUTHALIC_COLUMNS};
 use crate::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
-use crate::hessian::pn::{Filter, Filtered, Space, TrustRegion, TRUST_REGION_COLUMNS};
+use crate::hessian::pn::Filtered;
+use crate::hessian::trust_region::{Filter, Space, TrustRegion, TRUST_REGION_COLUMNS};
 use crate::hessian::{
     akvf::Akvf, cm::Cm, fp::Fp4, fp::Fp6, fp::Fp6Abs, kp::Kp, none::Unprojected, slim::Slim, SystemBlock,
 };
@@ -77,7 +78,7 @@ pub struct TrustRegionOptions {
 
 impl Default for TrustRegionOptions {
     fn default() -> Self {
-        TrustRegionOptions { tau: crate::hessian::pn::DEFAULT_TAU }
+        TrustRegionOptions { tau: crate::hessian::trust_region::DEFAULT_TAU }
     }
 }
 
