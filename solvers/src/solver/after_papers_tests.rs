@@ -6,7 +6,9 @@ use crate::energy::{EnergyKind, Nh, Sd};
 use crate::generate::{generate, generated_handles};
 use crate::mesh::Mesh;
 use crate::param::{solve_param, ParamSettings};
-use crate::solver::{IterationRecord, Outcome, Recorder, StopSettings};
+use crate::solver::observer::{IterationRecord, Recorder};
+use crate::solver::outcome::Outcome;
+use crate::solver::stop::StopSettings;
 use crate::test_support::shared_mesh;
 
 /// The solvers after the papers that run on the Newton driver or a driver of their own.
@@ -27,7 +29,7 @@ fn param(mesh: &Mesh, solver: &str, max_iters: usize) -> (Outcome, Vec<Iteration
 /// of KP's energy but stalls at |grad| 1.4e-4 through 20000 iterations); stopped by the cap or
 /// its own convergence test, never by a failure.
 fn assert_reaches(label: &str, out: &Outcome, rows: &[IterationRecord], kp: &Outcome) {
-    let ended = out.stop_reason.is_converged() || out.stop_reason == crate::solver::StopReason::MaxIterations;
+    let ended = out.stop_reason.is_converged() || out.stop_reason == crate::solver::stop::StopReason::MaxIterations;
     assert!(ended, "{label}: {:?} after {}", out.stop_reason, out.iterations);
     assert!(rows.iter().all(|r| r.flips == 0), "{label}");
     let rel = (out.final_energy - kp.final_energy).abs() / kp.final_energy;

@@ -40,12 +40,15 @@
 
 use super::executor::{execute, Method, ReadyMethod, Step};
 use super::map_iterate::MapIterate;
+use super::observer::Observer;
+use super::outcome::Outcome;
 use super::planar::PlanarSolver;
 use super::proxy::{Proxy, ProxyError};
-use super::{Observer, Outcome, Settings, StopReason};
+use super::settings::Settings;
+use super::stop::StopReason;
 use crate::line_search::{armijo, max_injective_step};
 use crate::problem::{dot, norm, EnergyScratch, Evaluation, MapProblem};
-use crate::solver::SolveError;
+use crate::solver::outcome::SolveError;
 use std::time::Instant;
 
 /// The condition number the momentum is set for (the authors' examples).
@@ -246,7 +249,8 @@ mod tests {
     use crate::generate::{generate, generated_handles};
     use crate::mesh::Mesh;
     use crate::param::{solve_param, ParamSettings};
-    use crate::solver::{IterationRecord, Recorder, StopSettings};
+    use crate::solver::observer::{IterationRecord, Recorder};
+    use crate::solver::stop::StopSettings;
     use crate::test_support::shared_mesh;
 
     #[test]
@@ -371,7 +375,7 @@ mod tests {
     #[test]
     fn rows_record_the_energy_at_x() {
         use crate::init::{tutte, TutteBoundary};
-        use crate::solver::StopAt;
+        use crate::solver::observer::StopAt;
         let mesh = generate("bumpy_1k").unwrap().normalized();
         let problem = MapProblem::new(&mesh, EnergyKind::Sd(Sd)).unwrap();
         let x0 = tutte(&mesh, TutteBoundary::Uniform).unwrap();

@@ -4,7 +4,9 @@
 //! time with the setup charged to iteration 1 and the record-only work kept apart, the rows
 //! handed to the observer, and the outcome.
 
-use super::{AnalysisReport, IterationRecord, Observer, Outcome, StopReason, StopSettings};
+use super::observer::{IterationRecord, Observer};
+use super::outcome::{AnalysisReport, Outcome};
+use super::stop::{StopReason, StopSettings};
 use std::time::Instant;
 
 /// The state a method advances and the rows describe (a planar map with its evaluation,
@@ -162,7 +164,7 @@ fn finish<I: Iterate>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::solver::{Recorder, StopAt};
+    use crate::solver::observer::{Recorder, StopAt};
 
     /// `f(x) = x^2 / 2` halved by every step: the gradient is `x`.
     struct Halving {

@@ -19,12 +19,15 @@
 
 use super::executor::{execute, Method, ReadyMethod, Step};
 use super::map_iterate::MapIterate;
+use super::observer::Observer;
+use super::outcome::{AnalysisReport, Outcome};
 use super::planar::PlanarSolver;
 use super::proxy::{Proxy, ProxyError};
-use super::{AnalysisReport, Observer, Outcome, Settings, StopReason};
+use super::settings::Settings;
+use super::stop::StopReason;
 use crate::line_search::{armijo, max_injective_step};
 use crate::problem::{dot, norm, EnergyScratch, MapProblem};
-use crate::solver::SolveError;
+use crate::solver::outcome::SolveError;
 use std::collections::VecDeque;
 use std::time::Instant;
 
@@ -296,7 +299,8 @@ impl<'a> Method for Lbfgs<'a> {
 mod tests {
     use super::*;
     use crate::energy::{EnergyKind, Sd};
-    use crate::solver::{Recorder, StopSettings};
+    use crate::solver::observer::Recorder;
+    use crate::solver::stop::StopSettings;
     use nalgebra::{DMatrix, DVector};
 
     /// A dense SPD matrix with a spread of eigenvalues (deterministic).

@@ -1,7 +1,9 @@
 //! The iterate of the planar-map solvers (`param`, `deform`): the map with its evaluation.
 
 use super::executor::Iterate;
-use super::{IterationRecord, SolveError, StopReason};
+use super::observer::IterationRecord;
+use super::outcome::SolveError;
+use super::stop::StopReason;
 use crate::problem::{Evaluation, MapProblem};
 use std::time::Instant;
 

@@ -6,8 +6,11 @@
 use super::executor::{execute, Method, ReadyMethod, Step};
 use super::map_iterate::MapIterate;
 use super::newton_system::{Direction, SystemBuilder};
+use super::observer::Observer;
+use super::outcome::{AnalysisReport, Outcome, SolveError};
+use super::settings::Settings;
+use super::stop::StopReason;
 use super::truncated::{NewtonCgOptions, Preconditioner, Truncated, CG_COLUMNS};
-use super::{AnalysisReport, Observer, Outcome, Settings, SolveError, StopReason};
 use crate::hessian::SystemBlock;
 use crate::line_search::{armijo, max_injective_step};
 use crate::linear::{with_shift_retries, LinearSettings, SpdSolver, MAX_REGULARIZATION_RETRIES};
@@ -201,7 +204,8 @@ mod tests {
     use crate::linear::next_shift;
     use crate::local::LocalOp;
     use crate::mesh::Mesh;
-    use crate::solver::{Recorder, StopSettings};
+    use crate::solver::observer::Recorder;
+    use crate::solver::stop::StopSettings;
     use nalgebra::Matrix6;
 
     /// A 4-triangle fan mapped with a stretch, so SD has work to do.
@@ -332,7 +336,7 @@ mod tests {
     #[test]
     fn observer_can_interrupt() {
         let (pb, x) = problem();
-        let out = newton(&pb, x, &Kp, &settings(), &mut crate::solver::StopAt(1)).unwrap();
+        let out = newton(&pb, x, &Kp, &settings(), &mut crate::solver::observer::StopAt(1)).unwrap();
         assert_eq!(out.stop_reason, StopReason::Interrupted);
         assert_eq!(out.iterations, 1);
     }
@@ -341,7 +345,7 @@ mod tests {
     fn a_passed_deadline_stops_with_timeout() {
         let (pb, x) = problem();
         for k in [0, 1] {
-            let out = newton(&pb, x.clone(), &Kp, &settings(), &mut crate::solver::TimeoutAt(k)).unwrap();
+            let out = newton(&pb, x.clone(), &Kp, &settings(), &mut crate::solver::observer::TimeoutAt(k)).unwrap();
             assert_eq!(out.stop_reason, StopReason::Timeout, "at {k}");
             assert_eq!(out.iterations, k);
         }

@@ -2,7 +2,8 @@
 //! strategy's per-element blocks at the iterate, assembled on the problem's pattern, and
 //! the contract of the linear solve that turns it into a direction.
 
-use super::{StopReason, SystemView};
+use super::observer::SystemView;
+use super::stop::StopReason;
 use crate::assembly::{pack_lower, Lower6, Pattern};
 use crate::hessian::trust_region::{Filter, TrustRegion};
 use crate::hessian::SystemBlock;

@@ -2,7 +2,9 @@
 //! options: what a run of those tasks calls.
 
 use super::newton::{newton_with, SolverSpec};
-use super::{Observer, Outcome, Settings, SolveError};
+use super::observer::Observer;
+use super::outcome::{Outcome, SolveError};
+use super::settings::Settings;
 use crate::problem::MapProblem;
 use crate::smoothness::Projection;
 

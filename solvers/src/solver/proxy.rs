@@ -17,14 +17,16 @@
 //! a quarter of the entries, about an eighth of the factorization's work) and solves for both
 //! coordinates in one pass over its factor: `kp-newton-cg`'s preconditioner.
 
-use super::{AnalysisReport, Settings, StopReason};
+use super::outcome::AnalysisReport;
+use super::settings::Settings;
+use super::stop::StopReason;
 use crate::assembly::{Lower6, Pattern};
 use crate::authalic::laplacian::{LaplacianPattern, SubBlock};
 use crate::linear::{with_shift_retries, MAX_REGULARIZATION_RETRIES};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::problem::MapProblem;
 use crate::smoothness::Matrix8;
-use crate::solver::SolveError;
+use crate::solver::outcome::SolveError;
 use nalgebra::Matrix6;
 use rayon::prelude::*;
 

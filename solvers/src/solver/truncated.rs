@@ -17,8 +17,10 @@
 
 use super::newton_system::{Direction, SystemBuilder};
 use super::options::Options;
+use super::outcome::{AnalysisReport, SolveError};
 use super::proxy::{ProxyError, ScalarProxy};
-use super::{AnalysisReport, Settings, SolveError, StopReason};
+use super::settings::Settings;
+use super::stop::StopReason;
 use crate::assembly::{Pattern, SymmetricRows};
 use crate::linear::{LinearError, LinearSettings};
 use crate::problem::{dot, Evaluation, MapProblem};
@@ -327,7 +329,10 @@ mod tests {
     use crate::param::{solve_param, ParamSettings};
     use crate::problem::{Evaluation, MapProblem};
     use crate::solver::newton_system::{project_blocks, scatter};
-    use crate::solver::{IterationRecord, Outcome, Recorder, Settings, StopReason, StopSettings};
+    use crate::solver::observer::{IterationRecord, Recorder};
+    use crate::solver::outcome::Outcome;
+    use crate::solver::settings::Settings;
+    use crate::solver::stop::{StopReason, StopSettings};
     use crate::test_support::shared_mesh;
 
     /// Choice 2 by hand: the first term is `eta_max`; then `0.9 (g_k / g_{k-1})^2`, raised to

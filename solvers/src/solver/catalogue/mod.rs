@@ -15,11 +15,11 @@ use crate::smoothness::Projection;
 use crate::solver::aqp::{Aqp, AQP_COLUMNS};
 use crate::solver::lbfgs::{Variant, LBFGS_COLUMNS};
 use crate::solver::newton::{SolverSpec, SystemSolve};
+use crate::solver::observer::Observer;
 use crate::solver::options::{check, read, NoOptions, Options, RawOptions};
 use crate::solver::planar::PlanarSolver;
 pub use crate::solver::solver_error::SolverError;
 use crate::solver::truncated::{NewtonCgOptions, Preconditioner, CG_COLUMNS};
-use crate::solver::Observer;
 
 /// Where a solver's runs start.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

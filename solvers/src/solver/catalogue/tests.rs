@@ -2,7 +2,7 @@ use super::*;
 use crate::energy::{Bconf, Sd};
 use crate::generate::generate;
 use crate::param::{solve_param, ParamSettings};
-use crate::solver::Recorder;
+use crate::solver::observer::Recorder;
 
 fn energies() -> impl Iterator<Item = EnergyKind> {
     ENERGY_NAMES.iter().map(|n| EnergyKind::default_for(n).unwrap())
