@@ -1,7 +1,9 @@
 //! The per-iteration CSV of a run (docs/src/reference/columns.md): the common columns, then the
 //! extra columns of the solver that wrote it; one writer and one reader, by header name.
 
-use super::{csv_error, read_csv_bytes, run_stem, FolderError, SummaryRow};
+use super::error::{csv_error, read_csv_bytes, FolderError};
+use super::summary::SummaryRow;
+use crate::names::run_stem;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use solvers::solver::IterationRecord;
@@ -230,7 +232,7 @@ pub fn extra_columns(solver: &str) -> Option<&'static [&'static str]> {
 /// The per-iteration CSV of the run `s` in `run_dir`, refused unless it has the row of every
 /// iteration the summary counts (a file cut at a row boundary still parses).
 pub fn read_run(run_dir: &Path, s: &SummaryRow) -> Result<IterationFile, FolderError> {
-    let path = super::iterations_csv(run_dir, &run_stem(&s.dataset, &s.energy, &s.solver));
+    let path = super::layout::iterations_csv(run_dir, &run_stem(&s.dataset, &s.energy, &s.solver));
     let file = read_iterations(&path, extra_columns(&s.solver))?;
     if let Some(n) = s.iterations {
         // Iteration 0 (the initial state) has a row too.

@@ -6,9 +6,11 @@
 //! written atomically (temporary file + rename), so an interrupted batch never leaves a
 //! half-written run.
 
+mod atomic;
 mod error;
 pub mod iterations;
 pub mod keep;
+mod layout;
 pub mod map;
 pub mod meta;
 pub mod reuse;
@@ -18,40 +20,15 @@ pub mod summary;
 pub mod timed;
 
 pub use crate::names::run_stem;
-pub use error::FolderError;
+pub use atomic::write_atomic;
+pub use error::{csv_error, read_csv_bytes, FolderError};
 pub use iterations::{iteration_csv, read_iterations, read_run, IterationFile, ITERATION_COLUMNS};
+pub use layout::{external_dir, iterations_csv, meta_json, runs_dir, summary_csv};
 pub use summary::{read_summary, write_summary, Status, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use solvers::solver::IterationRecord;
 use std::path::{Path, PathBuf};
-
-/// `summary.csv` of a run folder.
-pub fn summary_csv(dir: &Path) -> PathBuf {
-    dir.join("summary.csv")
-}
-
-/// `meta.json` of a run folder.
-pub fn meta_json(dir: &Path) -> PathBuf {
-    dir.join("meta.json")
-}
-
-/// The folder of the per-iteration CSVs and sidecars.
-pub fn runs_dir(dir: &Path) -> PathBuf {
-    dir.join("runs")
-}
-
-/// `external/`: the problem folders of external runs (`external/<run>/`, removed after the run
-/// unless the solver's `keep_problem`) and their output (`external/<run>.stdout.txt`,
-/// `.stderr.txt`).
-pub fn external_dir(dir: &Path) -> PathBuf {
-    dir.join("external")
-}
-
-/// `runs/<run>.csv`, the per-iteration rows of a run.
-pub fn iterations_csv(dir: &Path, stem: &str) -> PathBuf {
-    runs_dir(dir).join(format!("{stem}.csv"))
-}
 
 /// The final map of a finished run, encoded for its files.
 pub struct MapBytes<'a> {
@@ -148,92 +125,4 @@ fn owner_within(path: &Path, links: usize) -> Option<PathBuf> {
         let first = resolved.strip_prefix(dir).ok()?.components().next()?;
         (OWN_ENTRIES.iter().any(|e| first.as_os_str() == *e) && is_run_folder(dir)).then(|| dir.to_path_buf())
     })
-}
-
-/// Write `bytes` to `path`: atomically (a temporary file in the same folder, then rename) when
-/// `path` is new or a regular file; through it when it is a symlink, a FIFO, a character
-/// device or a socket, which a rename would replace (a link broken and its target never
-/// written; as root, `/dev/stdout` replaced by a file). A link is written through whatever
-/// it points to (`/dev/stdout` to the open standard output, not to the file behind it).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    match std::fs::symlink_metadata(path) {
-        Ok(_) if path.is_dir() => bail!("{}: is a folder", path.display()),
-        Ok(m) if !m.is_file() => return write_through(path, bytes),
-        _ => {}
-    }
-    let dir = path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create folder", dir.display()))?;
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp: PathBuf = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    // Errors name `path`, the file the caller asked for; a failed write leaves no temporary.
-    let written = std::fs::write(&tmp, bytes)
-        .with_context(|| format!("{}: cannot write (temporary file {})", path.display(), tmp.display()))
-        .and_then(|()| {
-            std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot rename into place", path.display()))
-        });
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written
-}
-
-/// Open `path` for writing (following links, creating a missing target) and write `bytes`.
-fn write_through(path: &Path, bytes: &[u8]) -> Result<()> {
-    use std::io::Write;
-    let mut f = std::fs::OpenOptions::new()
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .open(path)
-        .with_context(|| format!("{}: cannot open for writing", path.display()))?;
-    f.write_all(bytes).and_then(|()| f.flush()).with_context(|| format!("{}: cannot write", path.display()))
-}
-
-/// The bytes of a CSV file mapbench wrote, refused when its last row has no line end: every
-/// row is written with one, so the file was cut mid-row (and its last cell may still parse,
-/// as a shorter number).
-pub fn read_csv_bytes(path: &Path) -> Result<Vec<u8>, FolderError> {
-    let bytes = std::fs::read(path).map_err(|source| FolderError::Read { path: path.to_path_buf(), source })?;
-    if bytes.last().is_some_and(|&b| b != b'\n') {
-        let line = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
-        return Err(FolderError::Cut { path: path.to_path_buf(), line });
-    }
-    Ok(bytes)
-}
-
-/// A CSV reader error as `FILE: line N: what`; `header` names the column of a bad cell and
-/// `record` (the row being deserialized) quotes it.
-pub fn csv_error(
-    path: &Path,
-    header: Option<&csv::StringRecord>,
-    record: Option<&csv::StringRecord>,
-    e: &csv::Error,
-) -> FolderError {
-    use csv::ErrorKind;
-    let column = |i: usize| match header.and_then(|h| h.get(i)) {
-        Some(name) => format!("column {} `{name}`", i + 1),
-        None => format!("column {}", i + 1),
-    };
-    let (pos, what) = match e.kind() {
-        ErrorKind::Utf8 { pos, err } => (pos, format!("{}: not UTF-8 text", column(err.field()))),
-        ErrorKind::UnequalLengths { pos, expected_len, len } => {
-            (pos, format!("{len} cells where the header has {expected_len}: the row is cut or corrupt"))
-        }
-        ErrorKind::Deserialize { pos, err } => (
-            pos,
-            match err.field().map(|i| i as usize) {
-                Some(i) => match record.and_then(|r| r.get(i)) {
-                    Some(cell) => format!("{}: `{cell}`: {}", column(i), err.kind()),
-                    None => format!("{}: {}", column(i), err.kind()),
-                },
-                None => err.kind().to_string(),
-            },
-        ),
-        _ => (&None, e.to_string()),
-    };
-    let path = path.to_path_buf();
-    match pos {
-        Some(p) => FolderError::Line { path, line: p.line(), what },
-        None => FolderError::File { path, what },
-    }
 }

@@ -1,7 +1,10 @@
 //! `runs/<run>.json`: the sidecar that marks a run finished, with its `--resume` key and its
 //! summary row. Written last, after the run's other files.
 
-use super::{write_atomic, SummaryRow};
+use super::atomic::write_atomic;
+use super::iterations::{extra_columns, iteration_csv, read_iterations};
+use super::layout::runs_dir;
+use super::summary::SummaryRow;
 use anyhow::Result;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
@@ -17,7 +20,7 @@ pub struct Sidecar {
 
 /// `runs/<run>.json`.
 pub fn path(out_dir: &Path, stem: &str) -> PathBuf {
-    super::runs_dir(out_dir).join(format!("{stem}.json"))
+    runs_dir(out_dir).join(format!("{stem}.json"))
 }
 
 /// Write the sidecar of a finished run.
@@ -45,7 +48,7 @@ pub struct Partial<R> {
 
 /// `runs/<run>.partial.json` and `runs/<run>.partial.csv`.
 pub fn partial_paths(out_dir: &Path, stem: &str) -> [PathBuf; 2] {
-    ["json", "csv"].map(|ext| super::runs_dir(out_dir).join(format!("{stem}.partial.{ext}")))
+    ["json", "csv"].map(|ext| runs_dir(out_dir).join(format!("{stem}.partial.{ext}")))
 }
 
 /// Write a partial run: its rows first, then the JSON that makes it resumable.
@@ -56,7 +59,7 @@ pub fn write_partial<R: Serialize>(
     rows: &[IterationRecord],
 ) -> Result<()> {
     let [json, csv] = partial_paths(out_dir, stem);
-    write_atomic(&csv, &super::iteration_csv(rows, f64::NAN, None, None)?)?;
+    write_atomic(&csv, &iteration_csv(rows, f64::NAN, None, None)?)?;
     write_atomic(&json, serde_json::to_string_pretty(partial)?.as_bytes())
 }
 
@@ -71,7 +74,7 @@ pub fn read_partial<R: DeserializeOwned>(
     if partial.key != key {
         return None;
     }
-    let rows = super::read_iterations(&csv, super::iterations::extra_columns(&partial.summary.solver)).ok()?.rows;
+    let rows = read_iterations(&csv, extra_columns(&partial.summary.solver)).ok()?.rows;
     (Some(rows.len()) == partial.summary.iterations.map(|n| n + 1)).then_some((partial, rows))
 }
 

@@ -1,8 +1,9 @@
 //! `summary.csv`: one row per run, in the columns of docs/src/reference/columns.md, appended as runs finish and
 //! rewritten in the plan's order at the end.
 
+use super::atomic::write_atomic;
+use super::error::{csv_error, read_csv_bytes, FolderError};
 pub use super::status::{RefSource, Status, ToTarget, Verdict};
-use super::{csv_error, read_csv_bytes, write_atomic, FolderError};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use solvers::mesh::Task;
@@ -88,7 +89,7 @@ pub const FAILED_STOP: &str = "error";
 /// The `stop_reason` column: the solver's reason (`skipped` for a pair outside the solver's
 /// definition, `StopReason::Skipped`), or [`FAILED_STOP`] for a run that failed.
 mod stop_column {
-    use super::FAILED_STOP as FAILED;
+    use crate::run_folder::summary::FAILED_STOP as FAILED;
     use serde::{de::Error, Deserialize, Deserializer, Serializer};
     use solvers::solver::StopReason;
 
@@ -350,7 +351,7 @@ fn read_targets(header: &csv::StringRecord, rec: &csv::StringRecord) -> Result<V
 
 /// Read a run folder's `summary.csv`; errors name the file, the line and the column.
 pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>, FolderError> {
-    let path = super::summary_csv(run_dir);
+    let path = super::layout::summary_csv(run_dir);
     let bytes = read_csv_bytes(&path)?;
     let mut r = csv::Reader::from_reader(bytes.as_slice());
     let header = r.headers().map_err(|e| csv_error(&path, None, None, &e))?.clone();

@@ -6,8 +6,8 @@
 
 use crate::calibration::Calibration;
 use crate::hardware::Hardware;
+use crate::run_folder::atomic::write_atomic;
 use crate::run_folder::keep::Maps;
-use crate::run_folder::write_atomic;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use solvers::solver::StopSettings;
@@ -155,7 +155,7 @@ pub struct MergedShard {
 impl Meta {
     /// `folder/meta.json`, checked against the schema versions this code reads.
     pub fn read(folder: &Path) -> Result<Meta, MetaError> {
-        let path = super::super::meta_json(folder);
+        let path = crate::run_folder::layout::meta_json(folder);
         let text = std::fs::read_to_string(&path).map_err(|source| MetaError::Read { path: path.clone(), source })?;
         Meta::parse(&path, &text)
     }
@@ -179,7 +179,7 @@ impl Meta {
 
     /// Write `folder/meta.json` atomically.
     pub fn write(&self, folder: &Path) -> Result<(), MetaError> {
-        let path = super::super::meta_json(folder);
+        let path = crate::run_folder::layout::meta_json(folder);
         // Whatever schema a folder was read as, it is written as this one.
         let meta = Meta { version: Some(VERSION), ..self.clone() };
         let text = serde_json::to_string_pretty(&meta)
