@@ -8,6 +8,7 @@ pub mod external;
 pub mod handles;
 pub mod paths;
 pub mod registry;
+pub mod resolved_starts;
 pub mod select;
 pub mod settings;
 pub mod shard_plan;
@@ -82,7 +83,7 @@ pub struct Plan {
     /// Where reference minima are looked up and added (every task).
     pub references: Option<paths::Stores>,
     /// The chained starts resolved so far (`judge::reference::chained`).
-    pub starts: starts::Starts,
+    pub starts: resolved_starts::Starts,
 }
 
 impl Plan {
@@ -157,7 +158,7 @@ impl Plan {
             runs,
             only: only.to_vec(),
             timeout,
-            starts: starts::Starts::default(),
+            starts: resolved_starts::Starts::default(),
         })
     }
 

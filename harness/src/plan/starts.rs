@@ -1,39 +1,21 @@
 //! Chained starts: a `param` problem with `start = "sd-minimum"` (exp-SD's default) starts
 //! from the SD minimum of its SD problem ([`sd_problem`]). The maps a batch has resolved
-//! (`judge::reference::chained` looks them up or computes them) are kept with the plan, so that the
-//! references, every run and every external solver of the batch start from the same map.
+//! (`judge::reference::chained` looks them up or computes them) are kept with the plan
+//! ([`super::resolved_starts`]), so that the references, every run and every external solver
+//! of the batch start from the same map.
 
-use super::{Plan, PlannedRun, RunSettings};
+use super::resolved_starts::{Resolved, Starts};
+use super::settings::RunSettings;
+use super::{Plan, PlannedRun};
 use solvers::energy::{EnergyKind, Sd};
 use solvers::param::{default_stop, ParamStart};
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex, MutexGuard};
-
-/// A resolved start: its map (normalized frame), or why there is none.
-pub type Resolved = Result<Arc<Vec<f64>>, String>;
-
-/// Chained starts by their SD problem ([`memo_key`]).
-#[derive(Clone, Default)]
-pub struct Starts(Arc<Mutex<HashMap<String, Resolved>>>);
 
 impl Starts {
-    /// The memo, locked: resolving a start under the lock computes it once.
-    pub fn lock(&self) -> MutexGuard<'_, HashMap<String, Resolved>> {
-        // A panic while resolving leaves the memo as it was: take it as is.
-        self.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-    }
-
     /// The resolved start of `run` of `plan`: `None` without a chained start, an error when
     /// it has not been resolved (or could not be).
     pub fn of(&self, plan: &Plan, run: &PlannedRun) -> Option<Resolved> {
         let key = memo_key(plan, &sd_problem(plan, run)?);
         Some(self.lock().get(&key).cloned().unwrap_or_else(|| Err("not resolved before the run".into())))
-    }
-}
-
-impl std::fmt::Debug for Starts {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "Starts({} resolved)", self.lock().len())
     }
 }
 
