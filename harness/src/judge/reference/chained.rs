@@ -90,8 +90,8 @@ fn sd_minimum(plan: &Plan, sd: &PlannedRun, lookup: Lookup) -> Result<Option<Vec
                 .transpose()?);
         }
     };
-    let key = super::key(plan, sd)?;
-    if let Some((_, x, _)) = super::lookup(book, &key, &problem, notice) {
+    let key = super::entry::key(plan, sd)?;
+    if let Some((_, x, _)) = super::store::lookup(book, &key, &problem, notice) {
         return Ok(Some(x));
     }
     if !compute {
@@ -101,7 +101,7 @@ fn sd_minimum(plan: &Plan, sd: &PlannedRun, lookup: Lookup) -> Result<Option<Vec
     let name = format!("{dataset} param sd");
     notice(&format!("reference minimum of {name}: computing (the sd-minimum start of {dataset})"));
     let step = |line: &str| notice(&format!("reference minimum of {name}: {line}"));
-    let (r, x) = super::compute(&problem, &key, &dataset, "sd", &step, interrupt)?;
+    let (r, x) = super::compute::compute(&problem, &key, &dataset, "sd", &step, interrupt)?;
     notice(&format!("reference minimum of {name}: E* = {:.12} (|grad| {:.1e})", r.e_star, r.grad_norm));
     book.add(r, &x, &problem.mesh).context("adding the computed SD reference")?;
     Ok(Some(x))

@@ -21,9 +21,10 @@
 //! so a certified `E*` is within a hundredth of the default tightest target of what two
 //! methods can find from it.
 
-use super::{Certificate, CertificateRule, Polish, ProvenanceStep, Reference, StepKind};
+use super::entry::{Certificate, CertificateRule, Polish, ProvenanceStep, Reference, StepKind};
 use crate::convergence::accuracy_scale;
 use crate::judge::problem::Problem;
+use crate::plan::Task;
 use anyhow::{bail, Result};
 use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason, StopSettings};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -285,6 +286,44 @@ pub fn certify(
     r.provenance = found.steps;
     r.certificate = certificate;
     Ok((r, found.x))
+}
+
+/// Compute the reference of `problem` ([`search`], then [`certify`]): the entry and its map.
+pub fn compute(
+    problem: &Problem,
+    key: &str,
+    dataset: &str,
+    energy: &str,
+    notice: &dyn Fn(&str),
+    interrupt: &AtomicBool,
+) -> Result<(Reference, Vec<f64>)> {
+    let found = search(problem, notice, interrupt)?;
+    certify(problem, found, blank(key, dataset, problem.task(), energy), notice, interrupt)
+}
+
+/// An entry of `key` whose values [`certify`] fills.
+pub fn blank(key: &str, dataset: &str, task: Task, energy: &str) -> Reference {
+    Reference {
+        key: key.into(),
+        dataset: dataset.into(),
+        task,
+        energy: energy.into(),
+        e_star: f64::NAN,
+        ideal: f64::NAN,
+        start_energy: f64::NAN,
+        start: String::new(),
+        grad_norm: f64::NAN,
+        map: String::new(),
+        map_checksum: String::new(),
+        provenance: Vec::new(),
+        certificate: Certificate {
+            rule: CertificateRule::Stationary,
+            certified: false,
+            reason: String::new(),
+            tolerance: 0.0,
+            polishes: Vec::new(),
+        },
+    }
 }
 
 /// The steps in one line, for an error.

@@ -1,7 +1,7 @@
 //! Reference minima `E*` of the convergence test, one per problem: a dataset's mesh (and
 //! handles) with a task, an energy and its parameters, and the common start. A reference is
 //! the best known minimum, with the map that has it, how it was found and a certificate of the
-//! stationarity reached (`compute`); it is kept in a reference store keyed by what determines
+//! stationarity reached (`entry`, `compute`); it is kept in a reference store keyed by what determines
 //! it (`store`), so a nightly does not compute it again. The committed `references.json`
 //! beside the registry is read with the writable store (`references` in the config, default
 //! `references.json` beside the history database), each entry verified against its map, the
@@ -11,135 +11,21 @@
 
 pub mod chained;
 pub mod compute;
+mod entry;
 pub mod store;
 
-use crate::hash::Fnv;
+pub use compute::{blank, compute};
+pub use entry::{
+    key, BatchSource, Certificate, CertificateRule, Polish, ProvenanceStep, Reference, StepKind, REFERENCE_VERSION,
+};
+pub use store::lookup;
+
 use crate::judge::problem::Problem;
-use crate::plan::{Plan, PlannedRun, Task};
+use crate::plan::{Plan, PlannedRun};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicBool, Ordering};
 use store::Book;
-
-/// Bumped whenever what a reference is changes without its key seeing it: an energy's
-/// definition, a generated mesh, the common start, how a reference is computed or certified.
-pub const REFERENCE_VERSION: u32 = 2;
-
-/// One reference minimum, as a store keeps it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Reference {
-    /// 16 hex digits of what determines it ([`key`]).
-    pub key: String,
-    /// For the reader: the dataset, task and energy it was computed for.
-    pub dataset: String,
-    pub task: Task,
-    pub energy: String,
-    /// The energy of its map.
-    pub e_star: f64,
-    /// The energy's value at an isometry (its lower bound, `E_iso` of the accuracy scale).
-    pub ideal: f64,
-    /// The energy at the common start, `E0` of every run of the problem.
-    pub start_energy: f64,
-    /// The common start (`summary.csv`'s `start`).
-    pub start: String,
-    /// `|grad|` at its map.
-    pub grad_norm: f64,
-    /// Its map, in the store's `references/` folder, and the checksum of its coordinates.
-    pub map: String,
-    pub map_checksum: String,
-    /// How the map was found, in order.
-    pub provenance: Vec<ProvenanceStep>,
-    pub certificate: Certificate,
-}
-
-/// What a step of a reference's provenance was.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StepKind {
-    /// A method of the portfolio from the common start.
-    Portfolio,
-    /// A polish from the kept map that went lower.
-    Polish,
-    /// A certifying polish that went lower (then the map's next polish).
-    Certify,
-    /// A run of a batch that ended below the reference.
-    Run,
-}
-
-/// One solve of a reference's provenance.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ProvenanceStep {
-    pub what: StepKind,
-    pub solver: String,
-    /// Where it started: `common start`, `the kept map`, or the run.
-    pub from: String,
-    pub iterations: usize,
-    pub stop_reason: String,
-    /// The energy it ended at, and `|grad|` there.
-    pub energy: f64,
-    pub grad_norm: Option<f64>,
-    /// The batch whose run it was (`what = run`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub batch: Option<BatchSource>,
-}
-
-/// The batch a run that improved a reference came from.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BatchSource {
-    pub config: String,
-    /// The build that ran it (`git describe`-like, with `-dirty` and the diff's hash).
-    pub code: String,
-    pub folder: String,
-    pub run: String,
-    pub unix_time: u64,
-}
-
-/// Which rule certifies a reference (the energy's smoothness decides).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CertificateRule {
-    /// A smooth energy: Newton stops at its floor with a small gradient, and neither
-    /// certifying polish goes lower.
-    Stationary,
-    /// SARAP: neither certifying polish goes lower over a long window.
-    Stalled,
-}
-
-/// One certifying polish.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Polish {
-    pub solver: String,
-    pub iterations: usize,
-    pub stop_reason: String,
-    /// How much lower than `E*` it ended (0 or less: not at all).
-    pub decrease: f64,
-}
-
-/// A reference's certificate ([`mod@compute`]'s rules).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Certificate {
-    pub rule: CertificateRule,
-    pub certified: bool,
-    /// Why (or why not), in words.
-    pub reason: String,
-    /// The largest decrease a certifying polish may find (`CERTIFY_TOL * A`).
-    pub tolerance: f64,
-    pub polishes: Vec<Polish>,
-}
-
-/// The reference key of a run's problem (16 hex digits).
-pub fn key(plan: &Plan, run: &PlannedRun) -> Result<String> {
-    let problem = run.settings.problem_key_text();
-    let mut h = Fnv::new();
-    h.bytes(format!("mapbench reference {REFERENCE_VERSION}").as_bytes()).bytes(problem.as_bytes());
-    plan.dataset(run).hash_into(&mut h)?;
-    Ok(format!("{:016x}", h.0))
-}
 
 /// Where a group's `E*` came from (`meta.json`'s `references`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -207,63 +93,6 @@ impl GroupReference {
         self.origin = origin;
         self.certified = r.certificate.certified;
         self.certificate = Some(r.certificate.reason.clone());
-    }
-}
-
-/// The verified reference of `key` in `book`, lowest first, with its map and whether it is the
-/// writable store's; a refused entry gives a `notice` with the reason.
-pub fn lookup(book: &Book, key: &str, problem: &Problem, notice: &dyn Fn(&str)) -> Option<(Reference, Vec<f64>, bool)> {
-    for (r, maps, own) in book.entries(key) {
-        match store::verify(r, &maps, problem) {
-            Ok(x) => return Some((r.clone(), x, own)),
-            Err(why) => notice(&format!(
-                "reference {} of {} {} {} in {} refused: {why}",
-                r.key,
-                r.dataset,
-                r.task.as_str(),
-                r.energy,
-                store::maps_dir(&maps).with_extension("json").display()
-            )),
-        }
-    }
-    None
-}
-
-/// Compute the reference of `problem` ([`mod@compute`]): the entry and its map.
-pub fn compute(
-    problem: &Problem,
-    key: &str,
-    dataset: &str,
-    energy: &str,
-    notice: &dyn Fn(&str),
-    interrupt: &AtomicBool,
-) -> Result<(Reference, Vec<f64>)> {
-    let found = compute::search(problem, notice, interrupt)?;
-    compute::certify(problem, found, blank(key, dataset, problem.task(), energy), notice, interrupt)
-}
-
-/// An entry of `key` whose values [`compute::certify`] fills.
-pub fn blank(key: &str, dataset: &str, task: Task, energy: &str) -> Reference {
-    Reference {
-        key: key.into(),
-        dataset: dataset.into(),
-        task,
-        energy: energy.into(),
-        e_star: f64::NAN,
-        ideal: f64::NAN,
-        start_energy: f64::NAN,
-        start: String::new(),
-        grad_norm: f64::NAN,
-        map: String::new(),
-        map_checksum: String::new(),
-        provenance: Vec::new(),
-        certificate: Certificate {
-            rule: CertificateRule::Stationary,
-            certified: false,
-            reason: String::new(),
-            tolerance: 0.0,
-            polishes: Vec::new(),
-        },
     }
 }
 

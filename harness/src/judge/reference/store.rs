@@ -6,7 +6,7 @@
 //! (so a hand edit is refused with the reason); of two verified entries the lower is used,
 //! and a store only ever takes a lower one.
 
-use super::{Reference, REFERENCE_VERSION};
+use super::entry::{Reference, REFERENCE_VERSION};
 use crate::judge::problem::Problem;
 use crate::plan::paths::Stores;
 use crate::run_folder::map::{self, StoredMesh};
@@ -213,4 +213,23 @@ impl Book {
         self.own = on_disk;
         Ok(taken)
     }
+}
+
+/// The verified reference of `key` in `book`, lowest first, with its map and whether it is the
+/// writable store's; a refused entry gives a `notice` with the reason.
+pub fn lookup(book: &Book, key: &str, problem: &Problem, notice: &dyn Fn(&str)) -> Option<(Reference, Vec<f64>, bool)> {
+    for (r, maps, own) in book.entries(key) {
+        match verify(r, &maps, problem) {
+            Ok(x) => return Some((r.clone(), x, own)),
+            Err(why) => notice(&format!(
+                "reference {} of {} {} {} in {} refused: {why}",
+                r.key,
+                r.dataset,
+                r.task.as_str(),
+                r.energy,
+                maps_dir(&maps).with_extension("json").display()
+            )),
+        }
+    }
+    None
 }
