@@ -4,7 +4,7 @@
 //! `<sha256>`, and a file that is not the pinned one is deleted and refused. The client is
 //! `ureq` (blocking, rustls with the Mozilla roots built in: no system TLS library needed).
 
-use super::sha256_file;
+use super::sha256::sha256_file;
 use anyhow::{bail, Context, Result};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};

@@ -4,7 +4,8 @@
 //! and a GLID cage triangulated by Triangle, which runs in Python (`scripts/corpus_glid.py`,
 //! built in) since no Rust port of Triangle makes the same mesh.
 
-use super::{mat, CorpusEntry, Recipe};
+use super::manifest::{CorpusEntry, Recipe};
+use super::mat;
 use anyhow::{bail, Context, Result};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
