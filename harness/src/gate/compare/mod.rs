@@ -19,7 +19,7 @@ mod settings;
 mod tests;
 
 use settings::provenance;
-pub use settings::settings_diff;
+pub use settings::{settings_diff, SettingDiff};
 
 /// How strict the comparison is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -128,14 +128,6 @@ pub struct RunPair {
     /// The metrics that moved, by the rules of `check`.
     pub changes: Vec<Change>,
     pub time: Option<TimePair>,
-}
-
-/// A setting in which the two batches differ.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SettingDiff {
-    pub setting: String,
-    pub a: String,
-    pub b: String,
 }
 
 /// The outcome of comparing two run folders.

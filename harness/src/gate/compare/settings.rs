@@ -1,10 +1,17 @@
 //! Which settings and provenance of two batches' `meta.json` differ.
 
-use super::SettingDiff;
 use crate::run_folder::meta::Meta;
 use serde::Serialize;
 use serde_json::Value;
 use std::collections::BTreeMap;
+
+/// A setting in which the two batches differ.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingDiff {
+    pub setting: String,
+    pub a: String,
+    pub b: String,
+}
 
 /// The `meta.json` keys of how a batch ran that change results or times, with their values
 /// (`None`: no value); the rest of `meta.json` is provenance or derived (`plan` is the list
