@@ -1,12 +1,39 @@
 //! The end of each run and of the batch: the files of a run whose last repeat is in, the
-//! repeats an interrupt cut short, the batch's notices, its verdict and its summary.
+//! repeats an interrupt cut short, the batch's totals and notices, its verdict and its summary.
 
-use super::{BatchReport, Progress, Slot};
+use super::progress::Progress;
+use super::record::BatchRecord;
+use super::repeats::Slot;
 use crate::calibration::Calibration;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::{sidecar, summary_csv, write_run, MapBytes, RunFiles, Status, SummaryRow, SummaryWriter};
 use anyhow::Result;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Totals of a batch.
+#[derive(Debug, Default, PartialEq)]
+pub struct BatchReport {
+    pub runs: usize,
+    pub ok: usize,
+    pub not_converged: usize,
+    /// Runs of a fixed-budget protocol that spent it (`Status::Budget`).
+    pub budget: usize,
+    pub failed: usize,
+    /// Pairs outside a solver's declared energies: not run.
+    pub skipped: usize,
+    /// Runs not done because the batch was interrupted.
+    pub interrupted: usize,
+    /// FinishedRun runs taken from an earlier batch in the folder (`--resume`).
+    pub resumed: usize,
+    /// Runs an interrupt cut short in their repeats, with how many repeats finished; kept in
+    /// `runs/<run>.partial.*` for `--resume`, not in `summary.csv`.
+    pub partial: Vec<(String, usize)>,
+    /// The plan's notices (datasets skipped, externals declared but not named in `solvers`).
+    pub notices: Vec<String>,
+    pub out_dir: PathBuf,
+    /// What became of the batch in the history database.
+    pub history: crate::history::HistoryOutcome,
+}
 
 /// A finished run: its index in the batch, its row, whether it was resumed, and the key of
 /// the sidecar this batch wrote.
@@ -83,7 +110,7 @@ impl Finisher<'_> {
             };
         }
         let s = &first.summary;
-        let line = super::run_line(self.finished.len() + 1, self.mine.len(), s, resumed);
+        let line = run_line(self.finished.len() + 1, self.mine.len(), s, resumed);
         self.progress.run_finished(worker, &line);
         let report = &mut self.report;
         match s.status {
@@ -164,7 +191,7 @@ pub(super) fn judge_and_write(
     plan: &Plan,
     out_dir: &Path,
     mine: &[&PlannedRun],
-    meta: &super::record::BatchRecord,
+    meta: &BatchRecord,
     calibration: &Calibration,
     mut finished: Vec<FinishedRun>,
     report: &mut BatchReport,
@@ -174,7 +201,7 @@ pub(super) fn judge_and_write(
     let mut judged: Vec<SummaryRow> = finished.iter().map(|f| f.summary.clone()).collect();
     let stop_of = |energy: &str| plan.runs.iter().find(|p| p.energy == energy).map(|p| p.settings.stop().grad_tol);
     crate::judge::judge_batch(out_dir, &mut judged, &meta.references, &plan.targets, stop_of)?;
-    if let Some(line) = super::verdict_line(&judged, &plan.targets) {
+    if let Some(line) = verdict_line(&judged, &plan.targets) {
         progress.notice(&line);
     }
     (report.ok, report.not_converged, report.budget) = (0, 0, 0);
@@ -211,4 +238,37 @@ pub(super) fn judge_and_write(
         ));
     }
     Ok(rows)
+}
+
+/// How the judged runs of a batch fared, by verdict, in one line (`None` without any).
+fn verdict_line(rows: &[SummaryRow], targets: &[f64]) -> Option<String> {
+    let tightest = targets.last()?;
+    let counts: Vec<String> = crate::judge::verdict::Verdict::ALL
+        .iter()
+        .map(|v| (v, rows.iter().filter(|r| r.verdict == Some(*v)).count()))
+        .filter(|(_, n)| *n > 0)
+        .map(|(v, n)| format!("{n} {v}"))
+        .collect();
+    (!counts.is_empty()).then(|| format!("judged at {tightest:e} against the reference minima: {}", counts.join(", ")))
+}
+
+/// The line a finished run prints.
+fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String {
+    format!(
+        "[{done}/{total}] {} {} {}: {}{}{}",
+        s.dataset,
+        s.energy,
+        s.solver,
+        if resumed { "resumed, " } else { "" },
+        // The harness judges the runs once the batch is over: until then a run has only its
+        // own rule's word (a spent budget stays what it is unless the run is solved).
+        match s.status {
+            st @ (Status::Failed | Status::Skipped | Status::Budget) => st.as_str(),
+            _ => "ran",
+        },
+        match (&s.iterations, &s.final_energy, &s.time_s) {
+            (Some(it), Some(e), Some(t)) => format!(" ({}), {it} iterations, E = {e:.8}, {t:.2} s", s.stop_column()),
+            _ => format!(": {}", s.error),
+        }
+    )
 }

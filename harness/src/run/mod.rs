@@ -12,6 +12,7 @@ mod finish;
 mod memory;
 mod meshes;
 mod one;
+mod options;
 mod repeats;
 mod round;
 
@@ -20,86 +21,24 @@ use crate::external::probe::Probe;
 use crate::history::{Decision, HistoryOutcome};
 use crate::paths::absolute;
 use crate::plan::config::Maps;
-use crate::plan::select::Shard;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::reuse::{self, Identity, Reuse};
-use crate::run_folder::{summary_csv, Status, SummaryRow, SummaryWriter};
+use crate::run_folder::{summary_csv, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
+pub use finish::BatchReport;
 use finish::{batch_notices, judge_and_write, Finisher};
 use one::RunResult;
+pub use options::RunOptions;
 use pages::conclude_history;
 pub use pages::Pages;
 use progress::Progress;
 use record::{code_id, BatchRecord};
-use repeats::Repeats;
+use repeats::{Repeats, Slot};
 use round::{run_round, Done, RoundSource, Todo, Workers};
 use solvers::solver::StopReason;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::SystemTime;
-
-/// Totals of a batch.
-#[derive(Debug, Default, PartialEq)]
-pub struct BatchReport {
-    pub runs: usize,
-    pub ok: usize,
-    pub not_converged: usize,
-    /// Runs of a fixed-budget protocol that spent it (`Status::Budget`).
-    pub budget: usize,
-    pub failed: usize,
-    /// Pairs outside a solver's declared energies: not run.
-    pub skipped: usize,
-    /// Runs not done because the batch was interrupted.
-    pub interrupted: usize,
-    /// FinishedRun runs taken from an earlier batch in the folder (`--resume`).
-    pub resumed: usize,
-    /// Runs an interrupt cut short in their repeats, with how many repeats finished; kept in
-    /// `runs/<run>.partial.*` for `--resume`, not in `summary.csv`.
-    pub partial: Vec<(String, usize)>,
-    /// The plan's notices (datasets skipped, externals declared but not named in `solvers`).
-    pub notices: Vec<String>,
-    pub out_dir: PathBuf,
-    /// What became of the batch in the history database.
-    pub history: crate::history::HistoryOutcome,
-}
-
-/// How to run a batch (the `run` flags).
-#[derive(Clone, Debug, Default)]
-pub struct RunOptions {
-    /// Reuse finished runs of a previous batch in the same folder with the same key.
-    pub resume: bool,
-    /// Runs at once (worker threads); default: the machine's cores.
-    pub jobs: Option<usize>,
-    pub shard: Option<Shard>,
-    /// With a shard plan (`--shard-plan`): the runs of `shard`, instead of every N-th run.
-    pub shard_runs: Option<std::collections::BTreeSet<String>>,
-    /// Delete the results of another batch in the output folder instead of refusing it.
-    pub force: bool,
-    /// Set (by Ctrl-C) to stop: running runs are abandoned, no new run starts.
-    pub interrupt: Arc<AtomicBool>,
-}
-
-/// A run of the batch across its repeats: its first result, where it came from, and what
-/// its repeats measured. Its files are written once its last repeat is in.
-struct Slot {
-    first: RunResult,
-    resumed: bool,
-    key: Option<String>,
-    repeats: Option<Repeats>,
-}
-
-impl Slot {
-    /// Every repeat is in (or one did not reproduce the first, which fails the run).
-    fn complete(&self, repeat: usize) -> bool {
-        self.repeats.as_ref().is_none_or(|r| r.mismatched() || r.count() >= repeat)
-    }
-
-    /// Repeat `round + 1` (of round-robin round `round`) is this run's next.
-    fn next_in(&self, round: usize) -> bool {
-        self.repeats.as_ref().is_some_and(|r| !r.mismatched() && r.count() == round)
-    }
-}
 
 /// Run the plan's runs (those of `opts.shard`) into `out_dir`, then render its report and,
 /// after a history append, its config's trend page (`pages`). With `repeat = N` every run
@@ -440,39 +379,6 @@ fn calibrate(calibration: &mut Calibration, jobs: usize, threads: usize, progres
     if let Err(e) = calibration.sample(jobs, threads) {
         progress.notice(&format!("calibration sample failed (time_norm left empty if none succeeds): {e:#}"));
     }
-}
-
-/// How the judged runs of a batch fared, by verdict, in one line (`None` without any).
-fn verdict_line(rows: &[SummaryRow], targets: &[f64]) -> Option<String> {
-    let tightest = targets.last()?;
-    let counts: Vec<String> = crate::judge::verdict::Verdict::ALL
-        .iter()
-        .map(|v| (v, rows.iter().filter(|r| r.verdict == Some(*v)).count()))
-        .filter(|(_, n)| *n > 0)
-        .map(|(v, n)| format!("{n} {v}"))
-        .collect();
-    (!counts.is_empty()).then(|| format!("judged at {tightest:e} against the reference minima: {}", counts.join(", ")))
-}
-
-/// The line a finished run prints.
-fn run_line(done: usize, total: usize, s: &SummaryRow, resumed: bool) -> String {
-    format!(
-        "[{done}/{total}] {} {} {}: {}{}{}",
-        s.dataset,
-        s.energy,
-        s.solver,
-        if resumed { "resumed, " } else { "" },
-        // The harness judges the runs once the batch is over: until then a run has only its
-        // own rule's word (a spent budget stays what it is unless the run is solved).
-        match s.status {
-            st @ (Status::Failed | Status::Skipped | Status::Budget) => st.as_str(),
-            _ => "ran",
-        },
-        match (&s.iterations, &s.final_energy, &s.time_s) {
-            (Some(it), Some(e), Some(t)) => format!(" ({}), {it} iterations, E = {e:.8}, {t:.2} s", s.stop_column()),
-            _ => format!(": {}", s.error),
-        }
-    )
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
 //! What a batch writes into its folder's `meta.json`: the plan and provenance of the batch.
 
+use super::options::RunOptions;
 use crate::calibration::Calibration;
 use crate::external::probe::Probe;
 use crate::history::HistoryOutcome;
@@ -34,7 +35,7 @@ impl<'a> BatchRecord<'a> {
     /// The record of a batch starting now with `jobs` runs at once of `threads` threads each.
     pub fn starting(
         plan: &'a Plan,
-        opts: &super::RunOptions,
+        opts: &RunOptions,
         (jobs, threads): (usize, usize),
         history: Option<HistoryOutcome>,
         external: Vec<Probe>,

@@ -143,6 +143,27 @@ fn first_difference(a: &[IterationRecord], b: &[IterationRecord]) -> Option<Stri
     })
 }
 
+/// A run of the batch across its repeats: its first result, where it came from, and what
+/// its repeats measured. Its files are written once its last repeat is in.
+pub(super) struct Slot {
+    pub first: RunResult,
+    pub resumed: bool,
+    pub key: Option<String>,
+    pub repeats: Option<Repeats>,
+}
+
+impl Slot {
+    /// Every repeat is in (or one did not reproduce the first, which fails the run).
+    pub fn complete(&self, repeat: usize) -> bool {
+        self.repeats.as_ref().is_none_or(|r| r.mismatched() || r.count() >= repeat)
+    }
+
+    /// Repeat `round + 1` (of round-robin round `round`) is this run's next.
+    pub fn next_in(&self, round: usize) -> bool {
+        self.repeats.as_ref().is_some_and(|r| !r.mismatched() && r.count() == round)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

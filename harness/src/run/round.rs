@@ -5,10 +5,10 @@
 use super::memory::Monitor;
 use super::meshes::MeshCache;
 use super::one::{run_one, RunContext, RunResult};
+use super::options::RunOptions;
 use super::progress::Progress;
 use super::repeats::Repeats;
 use super::resume;
-use super::RunOptions;
 use crate::external::probe::Probe;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::{sidecar, Status};
