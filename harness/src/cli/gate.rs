@@ -1,7 +1,7 @@
 //! `check`, `compare` and `baseline`: a run folder against a baseline or another folder.
 
 use super::args::{BaselineArgs, CheckArgs, CompareArgs};
-use super::out;
+use super::stdout::out;
 use anyhow::Result;
 use mapbench::gate::{check, compare};
 use mapbench::output::Output;

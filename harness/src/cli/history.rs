@@ -1,7 +1,7 @@
 //! `history`: the trend page of the history database and the nightly's gate.
 
 use super::args::HistoryArgs;
-use super::out;
+use super::stdout::out;
 use anyhow::Result;
 use mapbench::gate::check;
 use mapbench::{history, report};

@@ -1,7 +1,7 @@
 //! `validate`, `evaluate`, `map` and `list`: meshes, maps and the catalogues, looked at.
 
 use super::args::{EvaluateArgs, ListArgs, ListWhat, MapArgs, ValidateArgs};
-use super::out;
+use super::stdout::out;
 use anyhow::{Context, Result};
 use mapbench::export;
 use mapbench::output::Output;

@@ -15,6 +15,7 @@ mod inspect;
 mod provenance;
 mod references;
 mod run;
+mod stdout;
 mod submit;
 mod systems;
 
@@ -31,16 +32,6 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
-}
-
-/// Writes to stdout; unlike `print!`, a reader that closed the pipe is an error the caller
-/// sees (and `main` ends quietly on), not a panic.
-fn out(text: std::fmt::Arguments) -> Result<()> {
-    use std::io::Write;
-    let mut stdout = std::io::stdout().lock();
-    stdout.write_fmt(text)?;
-    stdout.flush()?;
-    Ok(())
 }
 
 fn is_closed_pipe(e: &anyhow::Error) -> bool {

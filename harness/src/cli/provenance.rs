@@ -10,7 +10,7 @@ pub fn print(run_dirs: &[PathBuf]) -> Result<ExitCode> {
     let here = std::env::current_dir().context("the current folder")?;
     for dir in run_dirs {
         let meta = Meta::read(dir)?;
-        super::out(format_args!("{}: {}\n", dir.display(), meta.provenance_line(&here)))?;
+        super::stdout::out(format_args!("{}: {}\n", dir.display(), meta.provenance_line(&here)))?;
     }
     Ok(ExitCode::SUCCESS)
 }

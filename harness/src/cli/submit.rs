@@ -126,7 +126,7 @@ fn say_round(round: &slurm::Submitted, out_dir: &std::path::Path) {
         }
     }
     ids += &format!("merge_job={}\n", round.merge);
-    let _ = super::out(format_args!("{ids}"));
+    let _ = super::stdout::out(format_args!("{ids}"));
 }
 
 fn say_unfinished(dir: &std::path::Path, shards: &[(usize, slurm::ShardState)]) {

@@ -1,7 +1,7 @@
 //! `export-system` and `time-system`: Newton systems written out and timed.
 
 use super::args::{ExportSystemArgs, KernelArg, OrderingArg, TimeSystemArgs};
-use super::out;
+use super::stdout::out;
 use anyhow::{Context, Result};
 use mapbench::export;
 use mapbench::plan::config::LoadedConfig;
