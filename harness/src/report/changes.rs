@@ -42,7 +42,7 @@ impl Changes {
         let now: Vec<GatedRun> = a_runs.iter().map(record).collect();
         let comparison = check::compare(&base, &now);
         let added = now.iter().filter(|r| !base.runs.iter().any(|p| p.key() == r.key())).map(GatedRun::label).collect();
-        let solvers = crate::report::unique(b_runs.iter().chain(a_runs).map(|r| r.solver.as_str()));
+        let solvers = crate::report::select::unique(b_runs.iter().chain(a_runs).map(|r| r.solver.as_str()));
         let solved = solvers
             .into_iter()
             .map(|s| Solved { solver: s.to_string(), before: solved_count(b_runs, s), after: solved_count(a_runs, s) })

@@ -9,21 +9,24 @@ pub mod changes;
 pub mod compare;
 pub mod corpus;
 pub mod html;
+pub mod label;
 pub mod plots;
+mod select;
 pub mod tables;
+pub mod target;
 pub mod trend;
 
 use crate::history::{HistoryDb, HistoryError};
-use crate::judge::verdict::Verdict;
-use crate::plan::Task;
 use crate::run_folder::read_run;
-use crate::run_folder::summary::ToTarget;
-use crate::run_folder::{iteration_csv, run_stem, write_atomic, Status, SummaryRow};
+use crate::run_folder::{iteration_csv, run_stem, write_atomic, SummaryRow};
 use anyhow::Result;
 use batch::Batch;
+use label::labelled;
+use select::finished;
 use std::collections::BTreeMap;
 use std::path::Path;
 use tables::Table;
+use target::at_target;
 
 /// The pages `run` and `merge` end with: the run folder's report ([`refresh`]) and, after a
 /// history append, the config's trend page ([`trend::render`]).
@@ -80,94 +83,6 @@ pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
     out
 }
 
-/// The rows as tables and profiles name them: a run that clamped SLIM weights (SLIM outside
-/// the energies it is defined for, opted in with `[solver.slim] clamp_weights`)
-/// is another method than SLIM, so it is its own solver, `"<solver> (clamped)"`, there; its
-/// files keep the plain name.
-pub fn labelled(summary: &[SummaryRow]) -> Vec<SummaryRow> {
-    summary
-        .iter()
-        .map(|r| match r.clamped_iters {
-            Some(k) if k > 0 => SummaryRow { solver: clamped_label(&r.solver), ..r.clone() },
-            _ => r.clone(),
-        })
-        .collect()
-}
-
-/// The tightest target of a judged run (`param`, `deform`) when it reached it: its iterations
-/// and time there. `None` for a run that did not, and for runs the harness does not judge
-/// (`authalic`, folders from before the verdicts).
-pub fn reached_target(r: &SummaryRow) -> Option<ToTarget> {
-    r.to_targets.last().filter(|t| t.iters.is_some() && t.time_s.is_some()).copied()
-}
-
-/// The row as every table, aggregate and profile ranks it: a judged run that
-/// reached its tightest target counts the iterations and time to it, not to its own stop; the
-/// time's min–max over the repeats, `time_norm` and `ms_per_vertex` scale by the same ratio
-/// `time_to / time_s`. Any other run counts as it ran (an unsolved run enters the means at the
-/// cap anyway). Names and statuses are unchanged, so files are found as before.
-pub fn to_target(r: &SummaryRow) -> SummaryRow {
-    let Some(ToTarget { iters: Some(iters), time_s: Some(to), .. }) = reached_target(r) else { return r.clone() };
-    // time_to <= time_s; a run of no measurable time reached it in no time.
-    let k = r.time_s.filter(|t| *t > 0.0).map_or(0.0, |t| to / t);
-    let scale = |v: Option<f64>| v.map(|v| v * k);
-    SummaryRow {
-        iterations: Some(iters),
-        time_s: Some(to),
-        time_s_min: scale(r.time_s_min),
-        time_s_max: scale(r.time_s_max),
-        time_norm: scale(r.time_norm),
-        ms_per_vertex: scale(r.ms_per_vertex),
-        ..r.clone()
-    }
-}
-
-/// [`to_target`] of every row.
-pub fn at_target(summary: &[SummaryRow]) -> Vec<SummaryRow> {
-    summary.iter().map(to_target).collect()
-}
-
-/// The tightest target the runs were judged at (`1e-6` by default), `None` when no run was
-/// judged.
-pub fn tightest_target<'a>(rows: impl IntoIterator<Item = &'a SummaryRow>) -> Option<f64> {
-    rows.into_iter().filter_map(|r| r.to_targets.last()).map(|t| t.tau).reduce(f64::min)
-}
-
-/// A target as the columns name it: `1e-6`.
-pub fn tau_text(tau: f64) -> String {
-    format!("{tau:e}")
-}
-
-/// The caption sentence of a table that counts iterations and time of judged runs: what they
-/// are counted to. Empty when no run was judged (the solvers' own stops then).
-pub fn target_rule<'a>(rows: impl IntoIterator<Item = &'a SummaryRow>) -> String {
-    let Some(tau) = tightest_target(rows) else { return String::new() };
-    let t = tau_text(tau);
-    format!(
-        "Iterations and times are to the {t} target (the harness's convergence test: the first iteration \
-         with E0 − E ≥ (1 − {t})(E0 − E*), E* the reference minimum), not to the solver's own stop; ok = solved \
-         (reached {t} with no flipped triangle, the harness's verdict); a run that did not reach it counts as it \
-         ran, to its own stop."
-    )
-}
-
-/// A verdict in the report's words (`stopped above target`).
-pub fn verdict_text(v: Verdict) -> &'static str {
-    match v {
-        Verdict::Solved => "solved",
-        Verdict::Flipped => "flipped",
-        Verdict::StoppedAboveTarget => "stopped above target",
-        Verdict::OtherMinimum => "other minimum",
-        Verdict::Unfinished => "unfinished",
-        Verdict::OwnRule => "own rule",
-    }
-}
-
-/// The label of a solver's runs that clamped weights.
-pub fn clamped_label(solver: &str) -> String {
-    format!("{solver} (clamped)")
-}
-
 /// Rewrite `energy_minus_best` of every run with the best energy any finished run of its
 /// (dataset, energy) group reached (docs/src/reference/columns.md: "energy minus the lowest energy any
 /// solver reached"). Runs finish in any order, in shards or resumed, so this is done once they are
@@ -199,55 +114,14 @@ pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
     Ok(())
 }
 
-// The report's reading of the task and status strings, in one place (the tables and plots
-// filter and mark runs through these).
-
-/// The run failed: no iterations to show, left out of means and curves.
-fn failed(r: &SummaryRow) -> bool {
-    r.status == Status::Failed
-}
-
-/// The pair was not run (outside the solver's declared energies): no files, left out of
-/// means, aggregates, profiles and curves, and never ranked.
-fn skipped(r: &SummaryRow) -> bool {
-    r.status == Status::Skipped
-}
-
-/// The run ran to a stop (converged or not): it has iterations, curves and a map to show.
-fn finished(r: &SummaryRow) -> bool {
-    r.status.ran()
-}
-
-/// The run converged (other finished runs are marked `*` or drawn dashed).
-fn converged(r: &SummaryRow) -> bool {
-    r.status == Status::Ok
-}
-
-/// An authalic run: its maps show area ratios, it has no distortion energy to compare.
-fn is_authalic(r: &SummaryRow) -> bool {
-    r.task == Task::Authalic
-}
-
-/// A `param` or `deform` run: a distortion energy minimized by the Newton-type solvers.
-fn is_param_or_deform(r: &SummaryRow) -> bool {
-    matches!(r.task, Task::Param | Task::Deform)
-}
-
-/// The distinct items in first-appearance order, so rows and columns follow summary.csv.
-pub(crate) fn unique<T: PartialEq>(items: impl IntoIterator<Item = T>) -> Vec<T> {
-    let mut out: Vec<T> = Vec::new();
-    for i in items {
-        if !out.contains(&i) {
-            out.push(i);
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
+    use super::target::{tightest_target, to_target};
     use super::*;
-    use crate::run_folder::SummaryRow;
+    use crate::judge::verdict::Verdict;
+    use crate::plan::Task;
+    use crate::run_folder::summary::ToTarget;
+    use crate::run_folder::{Status, SummaryRow};
 
     fn param(d: &str, e: &str, s: &str, clamped: Option<usize>) -> SummaryRow {
         SummaryRow {

@@ -8,7 +8,7 @@ use super::changes::Changes;
 use super::corpus::{ITERATION_SHIFT, TIME_NORM_SHIFT, TIME_SHIFT_S};
 use super::html::{changes_body, esc, href, utc, STYLE};
 use super::plots::trend::{render_trend, TrendLine};
-use super::unique;
+use super::select::unique;
 use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
 use crate::paths::relative_link;
 use crate::run_folder::{write_atomic, Status};

@@ -3,7 +3,7 @@
 //! runs at the cap (the Mittelmann convention), Dolan–Moré performance profiles and Moré–Wild
 //! data profiles. The aggregates table (`tables/aggregates.rs`) and the profile plots
 //! (`plots/profiles.rs`) only format and draw what these return. The report passes judged
-//! runs as [`crate::report::to_target`] ranks them: iterations and time to the tightest target.
+//! runs as [`crate::report::target::to_target`] ranks them: iterations and time to the tightest target.
 //!
 //! The rules, stated once (the captions and the book repeat them):
 //! - Skipped pairs are left out entirely; `runs` counts the others, `solved` the converged.
@@ -22,7 +22,7 @@
 //!   problem set.
 
 use super::batch::Batch;
-use super::{finished, skipped, unique};
+use super::select::{finished, skipped, unique};
 use crate::run_folder::timed::Timed;
 use crate::run_folder::{Status, SummaryRow};
 use crate::stats::shifted_geometric_mean;

@@ -1,6 +1,6 @@
 //! Dolan–Moré performance profiles and Moré–Wild data profiles over the common problem set.
 
-use crate::report::{skipped, unique};
+use crate::report::select::{skipped, unique};
 use crate::run_folder::{Status, SummaryRow};
 
 /// One solver's performance profile: its ratio to the best solver on each problem.

@@ -2,8 +2,9 @@
 
 use super::{esc, href};
 use crate::report::plots::{Plot, PlotKind};
+use crate::report::select::unique;
 use crate::report::tables::{Table, AGGREGATES};
-use crate::report::{tau_text, tightest_target, unique};
+use crate::report::target::{tau_text, tightest_target};
 use crate::run_folder::SummaryRow;
 use std::fmt::Write as _;
 use std::path::Path;

@@ -139,7 +139,7 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
         (r.ref_energy, r.ref_source) = (Some(4.0), Some(RefSource::Batch));
     }
     let plots = crate::report::plots::render_all(p, &rows).unwrap();
-    let tables = crate::report::tables(&crate::report::at_target(&rows), &Batch::default());
+    let tables = crate::report::tables(&crate::report::target::at_target(&rows), &Batch::default());
     write_index(p, &rows, &tables, &plots, &Batch::default()).unwrap();
     let html = std::fs::read_to_string(p.join("index.html")).unwrap();
     assert!(html.contains("<b>2</b><br><small>0.20</small>"), "the solved cell counts to the target");

@@ -5,7 +5,7 @@
 
 use super::chart::{self, draw_series, format_count, format_linear, house_style, render_framed, Curve, Series, XAxis};
 use super::{Plot, PlotKind};
-use crate::report::converged;
+use crate::report::select::converged;
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;

@@ -4,7 +4,7 @@
 //! per run the final map with each triangle colored by its distortion, and per energy the
 //! scaling plots, the Dolan–Moré performance profiles and the Moré–Wild data profiles over the
 //! corpus. The curves and maps read each run's files by its own summary row; the scaling plots
-//! and the profiles draw the rows as the report ranks them ([`crate::report::at_target`]).
+//! and the profiles draw the rows as the report ranks them ([`crate::report::target::at_target`]).
 
 mod canvas;
 mod chart;
@@ -19,7 +19,9 @@ pub mod trend;
 
 pub use scaling::SCALING_MIN_SIZES;
 
-use crate::report::{finished, unique};
+use crate::report::label::labelled;
+use crate::report::select::{finished, unique};
+use crate::report::target::at_target;
 use crate::run_folder::SummaryRow;
 use anyhow::Result;
 use rayon::prelude::*;
@@ -79,10 +81,10 @@ pub fn render_all(run_dir: &Path, summaries: &[SummaryRow]) -> Result<Vec<Plot>>
     let groups = unique(summaries.iter().map(|s| (s.dataset.as_str(), s.energy.as_str())));
     // Scaling plots and profiles rank iterations and time to the target, as the tables do (the
     // per-run files match the rows as they are, so curves and maps read those).
-    let ranked = super::at_target(summaries);
+    let ranked = at_target(summaries);
     // Profiles compare methods: clamped SLIM runs are their own solver there (as in the tables).
-    let labelled = super::labelled(&ranked);
-    let profile_solvers = super::unique(labelled.iter().map(|s| s.solver.as_str()));
+    let labelled = labelled(&ranked);
+    let profile_solvers = unique(labelled.iter().map(|s| s.solver.as_str()));
     // Groups, and the plots inside a group, render in parallel (the caller's rayon pool);
     // indexed collects keep the plots in the groups' order.
     let per_group = |&group: &(&str, &str)| -> Result<Vec<Plot>> {

@@ -10,7 +10,8 @@ use super::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::corpus::{
     data_profiles, performance_profiles, DataProfiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME,
 };
-use crate::report::{tau_text, tightest_target, unique};
+use crate::report::select::unique;
+use crate::report::target::{tau_text, tightest_target};
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;
@@ -244,7 +245,7 @@ mod tests {
             to_targets: vec![ToTarget { tau: 1e-6, iters: solved.then_some(5), time_s: solved.then_some(0.5) }],
             ..Default::default()
         };
-        let rows = crate::report::at_target(&[
+        let rows = crate::report::target::at_target(&[
             row("a", "cm", true),
             row("a", "slim", false),
             row("b", "cm", true),

@@ -6,7 +6,7 @@ use super::chart::{
 };
 use super::chart::{Curve, XAxis};
 use super::{Plot, PlotKind, ALL_DATASETS};
-use crate::report::{converged, finished, is_authalic, unique};
+use crate::report::select::{converged, finished, is_authalic, unique};
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
 use plotters::prelude::*;

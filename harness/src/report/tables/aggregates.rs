@@ -7,7 +7,8 @@ use super::ranking::{self, fastest, lowest};
 use super::Table;
 use crate::report::batch::Batch;
 use crate::report::corpus::{self, Cap, CapSource, TimeUnit, ITERATION_SHIFT};
-use crate::report::{finished, is_param_or_deform, target_rule};
+use crate::report::select::{finished, is_param_or_deform};
+use crate::report::target::target_rule;
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 

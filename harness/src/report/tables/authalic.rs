@@ -3,7 +3,7 @@
 use super::ranking::{self, comparable_at_budget, lowest};
 use super::Table;
 use crate::plan::Task;
-use crate::report::{finished, is_authalic, unique};
+use crate::report::select::{finished, is_authalic, unique};
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 use solvers::solver::catalogue;

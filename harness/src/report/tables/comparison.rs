@@ -4,7 +4,8 @@
 use super::ranking::{self, comparable, equal, fastest, lowest};
 use super::Table;
 use crate::plan::Task;
-use crate::report::{converged, failed, finished, is_param_or_deform, skipped, target_rule, unique};
+use crate::report::select::{converged, failed, finished, is_param_or_deform, skipped, unique};
+use crate::report::target::target_rule;
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 

@@ -2,7 +2,7 @@
 //! with the smoothness term.
 
 use super::Table;
-use crate::report::{finished, unique};
+use crate::report::select::{finished, unique};
 use crate::run_folder::SummaryRow;
 use solvers::solver::catalogue;
 

@@ -2,7 +2,8 @@
 
 use super::comparison::with_space;
 use super::Table;
-use crate::report::{converged, finished, is_param_or_deform, target_rule, unique};
+use crate::report::select::{converged, finished, is_param_or_deform, unique};
+use crate::report::target::target_rule;
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
 

@@ -4,7 +4,8 @@
 use super::ranking::{self, lowest};
 use super::Table;
 use crate::judge::verdict::Verdict;
-use crate::report::{failed, skipped, tau_text, unique, verdict_text};
+use crate::report::select::{failed, skipped, unique};
+use crate::report::target::{tau_text, verdict_text};
 use crate::run_folder::SummaryRow;
 
 /// The table's file stem.

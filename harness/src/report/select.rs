@@ -1,0 +1,47 @@
+//! The report's reading of the task and status strings, in one place: the tables and plots
+//! filter and mark runs through these, and list their names in summary.csv's order ([`unique`]).
+
+use crate::plan::Task;
+use crate::run_folder::{Status, SummaryRow};
+
+/// The run failed: no iterations to show, left out of means and curves.
+pub(super) fn failed(r: &SummaryRow) -> bool {
+    r.status == Status::Failed
+}
+
+/// The pair was not run (outside the solver's declared energies): no files, left out of
+/// means, aggregates, profiles and curves, and never ranked.
+pub(super) fn skipped(r: &SummaryRow) -> bool {
+    r.status == Status::Skipped
+}
+
+/// The run ran to a stop (converged or not): it has iterations, curves and a map to show.
+pub(super) fn finished(r: &SummaryRow) -> bool {
+    r.status.ran()
+}
+
+/// The run converged (other finished runs are marked `*` or drawn dashed).
+pub(super) fn converged(r: &SummaryRow) -> bool {
+    r.status == Status::Ok
+}
+
+/// An authalic run: its maps show area ratios, it has no distortion energy to compare.
+pub(super) fn is_authalic(r: &SummaryRow) -> bool {
+    r.task == Task::Authalic
+}
+
+/// A `param` or `deform` run: a distortion energy minimized by the Newton-type solvers.
+pub(super) fn is_param_or_deform(r: &SummaryRow) -> bool {
+    matches!(r.task, Task::Param | Task::Deform)
+}
+
+/// The distinct items in first-appearance order, so rows and columns follow summary.csv.
+pub(crate) fn unique<T: PartialEq>(items: impl IntoIterator<Item = T>) -> Vec<T> {
+    let mut out: Vec<T> = Vec::new();
+    for i in items {
+        if !out.contains(&i) {
+            out.push(i);
+        }
+    }
+    out
+}
