@@ -4,7 +4,7 @@
 
 use super::status::is_problem;
 use super::timing::significant;
-use super::{esc, href, utc};
+use crate::escape::{esc, href};
 use crate::gate::check::DEFAULT_ENERGY_RTOL;
 use crate::gate::rules::Change;
 use crate::history::{HistoryDb, HistoryOutcome};
@@ -15,6 +15,7 @@ use crate::report::select::unique;
 use crate::report::target::{tau_text, tightest_target, verdict_text};
 use crate::run_folder::meta::Meta;
 use crate::run_folder::{run_stem, Status, SummaryRow};
+use crate::utc::utc;
 use std::fmt::Write as _;
 use std::path::Path;
 

@@ -1,7 +1,7 @@
 //! The external solvers of a batch (`meta.json`'s `external`): what ran them, which version,
 //! how many of their maps the harness recomputed, and why any were skipped.
 
-use super::esc;
+use crate::escape::esc;
 use crate::external::probe::Probe;
 use crate::run_folder::meta::Meta;
 use crate::run_folder::{Status, SummaryRow};

@@ -1,6 +1,6 @@
 //! The tables, performance profiles and plots of the page.
 
-use super::{esc, href};
+use crate::escape::{esc, href};
 use crate::report::plots::{Plot, PlotKind};
 use crate::report::select::unique;
 use crate::report::tables::{Table, AGGREGATES};

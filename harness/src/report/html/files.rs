@@ -1,6 +1,6 @@
 //! Links to every file of the folder.
 
-use super::{esc, href};
+use crate::escape::{esc, href};
 use crate::report::tables::Table;
 use crate::run_folder::SummaryRow;
 use anyhow::{Context, Result};

@@ -1,6 +1,6 @@
 //! The report's provenance section, from `meta.json`.
 
-use super::esc;
+use crate::escape::esc;
 use crate::run_folder::meta::{shown, Meta};
 use crate::utc::utc;
 use std::fmt::Write as _;

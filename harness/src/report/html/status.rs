@@ -3,7 +3,7 @@
 //! under the table, so that 20 solvers fit one screen.
 
 use super::timing::{brief, seconds};
-use super::{esc, href};
+use crate::escape::{esc, href};
 use crate::external::probe::Probe;
 use crate::judge::reference::{GroupReference, Origin};
 use crate::judge::verdict::Verdict;

@@ -1,7 +1,7 @@
 //! The timing section: repeats, machine calibration and its spread warning.
 
-use super::esc;
 use crate::calibration::SPREAD_WARNING;
+use crate::escape::esc;
 use crate::report::batch::Batch;
 use crate::run_folder::SummaryRow;
 use std::fmt::Write as _;
