@@ -4,7 +4,7 @@
 //! one yardstick on the page.
 
 use super::chart::{self, draw_series, format_count, format_linear, house_style, render_framed, Curve, Series, XAxis};
-use super::{Plot, PlotKind};
+use super::plot::{Plot, PlotKind};
 use crate::report::select::converged;
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;

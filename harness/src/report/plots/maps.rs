@@ -3,7 +3,7 @@
 
 use super::canvas::{encode_png, register_font};
 use super::colors::{ColorScale, Measure, Shade};
-use super::{Plot, PlotKind};
+use super::plot::{Plot, PlotKind};
 use crate::report::select::is_authalic;
 use crate::run_folder::map::{self as mapfile, MapFile};
 use crate::run_folder::{run_stem, write_atomic, SummaryRow};

@@ -6,7 +6,7 @@
 
 use super::chart::{self, draw_series, format_linear, house_style, iter_gap_points, render_framed, Series};
 use super::chart::{Curve, XAxis};
-use super::{Plot, PlotKind, ALL_DATASETS};
+use super::plot::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::corpus::{
     data_profiles, performance_profiles, DataProfiles, Profiles, TimeUnit, PROFILE_MIN_ITERATIONS, PROFILE_MIN_TIME,
 };

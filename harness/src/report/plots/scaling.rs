@@ -5,7 +5,7 @@ use super::chart::{
     self, draw_series, format_count, format_linear, house_style, iter_gap_points, render_framed, Series,
 };
 use super::chart::{Curve, XAxis};
-use super::{Plot, PlotKind, ALL_DATASETS};
+use super::plot::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::select::{converged, finished, is_authalic, unique};
 use crate::run_folder::{write_atomic, SummaryRow};
 use anyhow::Result;
