@@ -4,7 +4,7 @@
 
 use super::comparison::with_space;
 use super::ranking::{self, fastest, lowest};
-use super::Table;
+use super::table::Table;
 use crate::report::batch::Batch;
 use crate::report::corpus::{self, Cap, CapSource, TimeUnit, ITERATION_SHIFT};
 use crate::report::select::{finished, is_param_or_deform};

@@ -1,7 +1,7 @@
 //! Area-preserving (authalic) disk maps.
 
 use super::ranking::{self, comparable_at_budget, lowest};
-use super::Table;
+use super::table::Table;
 use crate::plan::Task;
 use crate::report::select::{finished, is_authalic, unique};
 use crate::run_folder::timed::Timed;

@@ -2,7 +2,7 @@
 //! (`param`, `deform`) and the per-mesh iterations, time and final energy.
 
 use super::ranking::{self, comparable, equal, fastest, lowest};
-use super::Table;
+use super::table::Table;
 use crate::plan::Task;
 use crate::report::select::{converged, failed, finished, is_param_or_deform, skipped, unique};
 use crate::report::target::target_rule;

@@ -1,7 +1,7 @@
 //! Per-iteration cost tables: the Hessian projection against the linear solve, without and
 //! with the smoothness term.
 
-use super::Table;
+use super::table::Table;
 use crate::report::select::{finished, unique};
 use crate::run_folder::SummaryRow;
 use solvers::solver::catalogue;

@@ -1,7 +1,7 @@
 //! Iterations and time against the mesh size.
 
 use super::comparison::with_space;
-use super::Table;
+use super::table::Table;
 use crate::report::select::{converged, finished, is_param_or_deform, unique};
 use crate::report::target::target_rule;
 use crate::run_folder::timed::Timed;

@@ -2,7 +2,7 @@
 //! each target, and why the rest were not solved.
 
 use super::ranking::{self, lowest};
-use super::Table;
+use super::table::Table;
 use crate::judge::verdict::Verdict;
 use crate::report::select::{failed, skipped, unique};
 use crate::report::target::{tau_text, verdict_text};
