@@ -13,6 +13,7 @@
 //!
 //! Everything is deterministic: no RNG state, only a fixed integer hash of the face index.
 
+use super::grids::{cells_2d, grid_faces, ring_disk, Embedding};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
 type Shape = (Vec<[f64; 3]>, Vec<[usize; 3]>);
@@ -58,7 +59,7 @@ pub(super) fn hilbert(order: u32, m: usize) -> Shape {
         }
         prev = Some((x, y));
     }
-    super::cells_2d(side * m, side * m, 1.0 / m as f64, |i, j| kept[(j / m) * side + i / m])
+    cells_2d(side * m, side * m, 1.0 / m as f64, |i, j| kept[(j / m) * side + i / m])
 }
 
 /// A torus of radii `R = 1`, `r = 0.42` with periodic bumps on the tube radius, cut along
@@ -78,24 +79,6 @@ pub(super) fn bumpy_torus_cut(nu: usize, nv: usize, r0: f64, b1: f64, b2: f64) -
         }
     }
     (positions, grid_faces(nu + 1, nv + 1))
-}
-
-/// Counter-clockwise (in the `(i, j)` plane) triangles of an `nx x ny` vertex grid, indexed
-/// `j * nx + i`, with alternating diagonals.
-pub(super) fn grid_faces(nx: usize, ny: usize) -> Vec<[usize; 3]> {
-    let id = |i: usize, j: usize| j * nx + i;
-    let mut faces = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
-    for j in 0..ny - 1 {
-        for i in 0..nx - 1 {
-            let (p, q, r, s) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 0 {
-                faces.extend([[p, q, r], [p, r, s]]);
-            } else {
-                faces.extend([[p, q, s], [q, r, s]]);
-            }
-        }
-    }
-    faces
 }
 
 /// A glove finger: a tube of radius `a` and straight length `len` closed by a hemisphere at
@@ -121,14 +104,14 @@ pub(super) fn finger(rings: usize, a: f64, len: f64, fillet: f64, brim: f64) -> 
             (a + fillet + (s - s_tip - s_tube - s_fillet), len + fillet)
         }
     };
-    let emb = super::Embedding {
+    let emb = Embedding {
         point: Box::new(move |r, phi| {
             let (rho, z) = profile(r * total);
             [rho * phi.cos(), rho * phi.sin(), z]
         }),
         ring_radius: Box::new(move |r| profile(r * total).0 / total),
     };
-    super::ring_disk(rings, &emb)
+    ring_disk(rings, &emb)
 }
 
 /// splitmix64: a fixed integer hash (the generator's only "randomness"; the same bits on
