@@ -10,8 +10,8 @@
 use crate::stats::median;
 use serde::{Deserialize, Serialize};
 use solvers::energy::EnergyKind;
-use solvers::param::{solve_param, ParamSettings};
 use solvers::solver::StopAt;
+use solvers::tasks::param::{solve_param, ParamSettings};
 use std::time::Instant;
 
 /// The generated mesh of the reference workload.

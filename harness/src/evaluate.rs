@@ -6,8 +6,9 @@ use crate::run_folder::map::{self, StoredMesh};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use solvers::energy::EnergyKind;
-use solvers::mesh::{obj::load_obj, Mesh, Task};
+use solvers::mesh::{obj::load_obj, Mesh};
 use solvers::problem::{norm, Evaluation, MapProblem};
+use solvers::tasks::Task;
 use std::path::Path;
 
 /// The frame a map's coordinates are in.

@@ -282,7 +282,7 @@ fn the_columns_page_documents_every_column_written_and_no_other() {
     let mut written: BTreeSet<String> = mapbench::run_folder::SUMMARY_COLUMNS.iter().map(|c| c.to_string()).collect();
     written.extend(["iters_to_<tau>".to_string(), "time_to_<tau>".to_string()]);
     written.extend(mapbench::run_folder::ITERATION_COLUMNS.iter().map(|c| c.to_string()));
-    for s in solvers::solver::catalogue::SOLVERS {
+    for s in solvers::tasks::catalogue::SOLVERS {
         written.extend(s.extra_columns.iter().map(|c| c.to_string()));
     }
     let missing: Vec<&String> = written.difference(&documented).collect();
@@ -467,7 +467,7 @@ fn the_config_page_lists_every_solver_option_and_energy_parameter() {
     };
     let solvers_doc = rows("`[solver.<name>]`", "[solver.");
     let mut with_options = 0;
-    for s in solvers::solver::catalogue::SOLVERS {
+    for s in solvers::tasks::catalogue::SOLVERS {
         let task = s.tasks[0].as_str();
         let accepted = accepted_options(task, s.name, "sd", &format!("[solver.{}]", s.name));
         let documented = solvers_doc.get(s.name).cloned().unwrap_or_default();

@@ -10,7 +10,6 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::Matrix6;
 use rayon::prelude::*;
 use solvers::assembly::Pattern;
-use solvers::authalic::AuthalicProblem;
 use solvers::energy::{EnergyKind, Sd};
 use solvers::generate::generate;
 use solvers::hessian::{kp::Kp, SystemBlock};
@@ -19,6 +18,7 @@ use solvers::line_search::max_injective_step;
 use solvers::linear::ordering::Ordering;
 use solvers::linear::{LinearSettings, SpdSolver};
 use solvers::problem::{EnergyScratch, Evaluation, MapProblem};
+use solvers::tasks::authalic::AuthalicProblem;
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {

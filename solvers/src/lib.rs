@@ -15,23 +15,18 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod assembly;
-pub mod authalic;
-pub mod deform;
 pub mod energy;
 pub mod generate;
-pub mod handle;
 pub mod hessian;
 pub mod init;
+pub mod laplacian;
 pub mod line_search;
 pub mod linear;
 pub mod local;
-pub mod map_task;
 pub mod mesh;
-pub mod param;
 pub mod problem;
 pub mod smoothness;
 pub mod solver;
-pub mod system;
-pub mod task;
+pub mod tasks;
 #[cfg(test)]
 mod test_support;

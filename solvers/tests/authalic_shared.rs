@@ -2,9 +2,9 @@
 //! iterations AEM-CG has a lower area-ratio SD and authalic energy than the SEM fixed point,
 //! and no folded triangle.
 
-use solvers::authalic::{solve_authalic, AuthalicOutcome, AuthalicSettings};
 use solvers::mesh::load_obj;
 use solvers::solver::Recorder;
+use solvers::tasks::authalic::{solve_authalic, AuthalicOutcome, AuthalicSettings};
 
 #[test]
 fn aem_cg_beats_sem_after_100_iterations_on_the_aem_meshes() {

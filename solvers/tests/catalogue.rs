@@ -1,12 +1,13 @@
 //! The catalogue against the solvers themselves: every entry writes exactly the extra
 //! columns it declares, and the tasks refuse each other's solvers by name.
 
-use solvers::authalic::{solve_authalic, AuthalicSettings};
 use solvers::energy::{EnergyKind, Sd};
 use solvers::generate::{generate, generated_handles};
-use solvers::mesh::Task;
-use solvers::param::{solve_param, ParamSettings};
-use solvers::solver::{Recorder, StopSettings, SOLVERS};
+use solvers::solver::{Recorder, StopSettings};
+use solvers::tasks::authalic::{solve_authalic, AuthalicSettings};
+use solvers::tasks::catalogue::SOLVERS;
+use solvers::tasks::param::{solve_param, ParamSettings};
+use solvers::tasks::Task;
 
 #[test]
 fn every_solver_writes_exactly_the_extra_columns_it_declares() {
@@ -14,7 +15,7 @@ fn every_solver_writes_exactly_the_extra_columns_it_declares() {
     for entry in SOLVERS {
         let mut rec = Recorder::default();
         if entry.runs(Task::Authalic) {
-            let stop = StopSettings { max_iters: 2, ..solvers::authalic::default_stop() };
+            let stop = StopSettings { max_iters: 2, ..solvers::tasks::authalic::default_stop() };
             let settings = AuthalicSettings { stop, ..Default::default() };
             solve_authalic(&disk, entry.name, &settings, &mut rec).unwrap();
         } else {
@@ -41,9 +42,10 @@ fn param_and_deform_refuse_an_authalic_solver_by_name() {
     assert!(err.to_string().starts_with("'sem' is an authalic solver: task param runs kp-newton, "), "{err}");
     let bar = generate("planar_bar_2k").unwrap();
     let handles = generated_handles("planar_bar_2k").unwrap();
-    let settings = solvers::deform::DeformSettings::default();
-    let err = solvers::deform::solve_deform(&bar, &handles, None, e, "aem-cg", &settings, &mut Recorder::default())
-        .unwrap_err();
+    let settings = solvers::tasks::deform::DeformSettings::default();
+    let err =
+        solvers::tasks::deform::solve_deform(&bar, &handles, None, e, "aem-cg", &settings, &mut Recorder::default())
+            .unwrap_err();
     assert!(err.to_string().starts_with("'aem-cg' is an authalic solver: task deform runs "), "{err}");
     let err = solve_param(&disk, e, "kp", &ParamSettings::for_energy(&e), &mut Recorder::default()).unwrap_err();
     assert!(err.to_string().starts_with("unknown solver 'kp' (known: kp-newton, "), "{err}");

@@ -4,8 +4,8 @@
 use solvers::energy::{EnergyKind, Sd};
 use solvers::generate::generate;
 use solvers::mesh::{load_obj, Mesh};
-use solvers::param::{solve_param, ParamSettings};
 use solvers::solver::{Outcome, Recorder};
+use solvers::tasks::param::{solve_param, ParamSettings};
 
 fn run(mesh: &Mesh, solver: &str) -> (Outcome, Recorder) {
     let e = EnergyKind::Sd(Sd);

@@ -4,8 +4,8 @@
 use solvers::energy::{EnergyKind, Sd};
 use solvers::generate::generate;
 use solvers::mesh::{load_obj, Mesh};
-use solvers::param::{solve_param, ParamSettings};
 use solvers::solver::{Recorder, StopReason};
+use solvers::tasks::param::{solve_param, ParamSettings};
 
 /// Runs KP-Newton with SD and checks the invariants of docs/src/design/testing.md; returns (iters, energy, s).
 fn check_sd_run(mesh: &Mesh) -> (usize, f64, f64) {

@@ -2,12 +2,12 @@
 //! `Default`, a partial one keeps the other defaults, an unknown key is refused.
 
 use serde::de::DeserializeOwned;
-use solvers::authalic::{AuthalicSettings, FoldGuard};
 use solvers::init::TutteBoundary;
 use solvers::linear::ordering::Ordering;
 use solvers::linear::LinearSettings;
 use solvers::smoothness::Projection;
 use solvers::solver::{LineSearchSettings, StopOverrides, StopSettings};
+use solvers::tasks::authalic::{AuthalicSettings, FoldGuard};
 use std::fmt::Debug;
 
 fn parse<T: DeserializeOwned>(text: &str) -> Result<T, String> {
@@ -77,7 +77,7 @@ fn enum_settings_take_their_kebab_case_names() {
 #[test]
 fn run_settings_serialize_without_the_runtime_cache() {
     use solvers::energy::{EnergyKind, Sarap};
-    let mut p = solvers::param::ParamSettings::for_energy(&EnergyKind::Sarap(Sarap));
+    let mut p = solvers::tasks::param::ParamSettings::for_energy(&EnergyKind::Sarap(Sarap));
     p.solver.analyses = Some(std::sync::Arc::new(solvers::linear::AnalysisCache::new()));
     let text = toml::to_string(&p).unwrap();
     assert!(
@@ -85,6 +85,6 @@ fn run_settings_serialize_without_the_runtime_cache() {
         "{text}"
     );
     assert!(!text.contains("analyses"), "{text}");
-    let d = toml::to_string(&solvers::deform::DeformSettings::default()).unwrap();
+    let d = toml::to_string(&solvers::tasks::deform::DeformSettings::default()).unwrap();
     assert!(d.contains("lambda = 100000.0") && d.contains("max_iters = 1000"), "{d}");
 }

@@ -4,8 +4,8 @@
 use solvers::energy::{Barap, Bconf, EnergyKind, Nh, Sarap, Sd};
 use solvers::generate::generate;
 use solvers::mesh::{load_obj, Mesh};
-use solvers::param::{solve_param, ParamSettings};
 use solvers::solver::{Outcome, Recorder};
+use solvers::tasks::param::{solve_param, ParamSettings};
 
 fn run(mesh: &Mesh, energy: EnergyKind, solver: &str) -> (Outcome, Recorder) {
     let mut rec = Recorder::default();

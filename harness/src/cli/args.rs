@@ -316,7 +316,7 @@ pub(crate) struct ValidateArgs {
     /// `param` and `authalic` need a topological disk (`authalic` an interior vertex);
     /// `deform` allows holes but needs a planar, counter-clockwise shape.
     #[arg(long, default_value = "param", value_parser = task_parser())]
-    pub(crate) task: solvers::mesh::Task,
+    pub(crate) task: solvers::tasks::Task,
 }
 
 #[derive(Args)]
@@ -327,7 +327,7 @@ pub(crate) struct EvaluateArgs {
     pub(crate) map: PathBuf,
     /// The task whose energy scores the map (only `param` so far).
     #[arg(long, default_value = "param", value_parser = task_parser())]
-    pub(crate) task: solvers::mesh::Task,
+    pub(crate) task: solvers::tasks::Task,
     /// The energy (`mapbench list energies`), with its default parameters unless --param.
     #[arg(long, default_value = "sd")]
     pub(crate) energy: String,
@@ -431,8 +431,8 @@ pub(crate) enum ListWhat {
 }
 
 /// `--task`: the solvers' `Task`, its names listed in `--help` and in the error.
-pub(crate) fn task_parser() -> impl clap::builder::TypedValueParser<Value = solvers::mesh::Task> {
+pub(crate) fn task_parser() -> impl clap::builder::TypedValueParser<Value = solvers::tasks::Task> {
     use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(solvers::mesh::Task::ALL.map(|t| t.as_str()))
-        .try_map(|s| s.parse::<solvers::mesh::Task>())
+    clap::builder::PossibleValuesParser::new(solvers::tasks::Task::ALL.map(|t| t.as_str()))
+        .try_map(|s| s.parse::<solvers::tasks::Task>())
 }

@@ -119,10 +119,10 @@ fn angles(text: &str) -> String {
 
 /// `docs/src/reference/solvers.md` (and `mapbench list solvers --markdown`): the catalogue.
 pub fn solvers_markdown() -> String {
-    use solvers::solver::catalogue::{Family, SOLVERS};
+    use solvers::tasks::catalogue::{Family, SOLVERS};
     let mut s = String::from(
         "# Solvers\n\n<!-- Generated from the solver catalogue: `mapbench list solvers --markdown`; a test fails \
-         when it differs. -->\n\nThe catalogue (`solvers/src/solver/catalogue/`), one row per solver: the tasks it \
+         when it differs. -->\n\nThe catalogue (`solvers/src/tasks/catalogue/`), one row per solver: the tasks it \
          runs, the energies it is defined for, its family (the reports draw a family in related hues) and the \
          columns it adds to the per-iteration CSVs ([Columns](columns.md)).\n\n\
          | solver | tasks | energies | family | extra iteration columns | what it is |\n|---|---|---|---|---|---|\n",

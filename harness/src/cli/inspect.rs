@@ -15,7 +15,7 @@ pub(crate) fn validate(a: ValidateArgs) -> Result<ExitCode> {
         None => solvers::mesh::load_obj(std::path::Path::new(&a.mesh))?,
     };
     // The check the run of that task makes, so the two cannot disagree.
-    let report = solvers::mesh::validate_for(&mesh, a.task);
+    let report = solvers::tasks::validate_for(&mesh, a.task);
     out(format_args!("{report}\n"))?;
     Ok(if report.is_ok() { ExitCode::SUCCESS } else { ExitCode::from(1) })
 }
@@ -63,7 +63,7 @@ pub(crate) fn list(a: ListArgs) -> Result<ExitCode> {
         ListWhat::Solvers if markdown => out(format_args!("{}", super::book_pages::solvers_markdown()))?,
         // Every task's solvers, from the one catalogue.
         ListWhat::Solvers => {
-            for s in solvers::solver::catalogue::SOLVERS {
+            for s in solvers::tasks::catalogue::SOLVERS {
                 let tasks: Vec<&str> = s.tasks.iter().map(|t| t.as_str()).collect();
                 out(format_args!("{:<20} tasks={:<14} energies={}\n", s.name, tasks.join(","), s.energies.join(",")))?;
                 out(format_args!("{:<20} {}\n", "", s.description))?;

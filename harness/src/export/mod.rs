@@ -26,7 +26,7 @@ pub fn export_systems(plan: &Plan, iteration: usize, out: &Path) -> Result<Vec<P
         let notice = |line: &str| eprintln!("{line}");
         crate::judge::reference::chained::resolve(plan, r, None, &notice, &AtomicBool::new(false))?;
         let sd_min = plan.starts.of(plan, r).transpose().map_err(|e| anyhow::anyhow!("run {}: {e}", r.stem))?;
-        let sys = solvers::system::param_system(
+        let sys = solvers::tasks::system::param_system(
             &mesh,
             *energy,
             &r.solver,
@@ -170,7 +170,7 @@ pub fn time_system(
 mod tests {
     use super::*;
     use solvers::solver::{Flow, IterationRecord, Observer, SystemView};
-    use solvers::system::NewtonSystem;
+    use solvers::tasks::system::NewtonSystem;
 
     /// Keeps the first system a run factorizes, then stops it.
     #[derive(Default)]
@@ -207,13 +207,13 @@ mod tests {
         assert!(settings.smoothness.is_some());
         let mesh = plan.dataset(run).load().unwrap();
         let mut first = FirstSystem::default();
-        solvers::param::solve_param(&mesh, *energy, &run.solver, settings, &mut first).unwrap();
+        solvers::tasks::param::solve_param(&mesh, *energy, &run.solver, settings, &mut first).unwrap();
         let own = first.0.unwrap();
         assert_eq!((exported.n, &exported.col_ptr, &exported.row_idx), (own.n, &own.col_ptr, &own.row_idx));
         assert_eq!(exported.values, own.values);
         // without the term the pattern is another one
-        let plain = solvers::param::ParamSettings { smoothness: None, ..settings.clone() };
-        let other = solvers::system::param_system(&mesh, *energy, &run.solver, &plain, None, 0).unwrap();
+        let plain = solvers::tasks::param::ParamSettings { smoothness: None, ..settings.clone() };
+        let other = solvers::tasks::system::param_system(&mesh, *energy, &run.solver, &plain, None, 0).unwrap();
         assert!(other.values.len() < own.values.len(), "{} vs {}", other.values.len(), own.values.len());
     }
 }

@@ -7,13 +7,14 @@ use super::protocol::{self, quoted, ExternalStop, HandlesSpec, ProblemSpec, Reco
 use super::records::{check_clock, record_cost, rows_and_outcome, Read};
 use super::sandbox::{self, Limits, Spec};
 use crate::plan::external::Declared;
-use solvers::deform::{deform_start, DeformSettings};
 use solvers::energy::EnergyKind;
-use solvers::handle::Handle;
-use solvers::mesh::{Mesh, Task};
-use solvers::param::{param_start, ParamSettings};
+use solvers::mesh::Handle;
+use solvers::mesh::Mesh;
 use solvers::problem::MapProblem;
 use solvers::solver::{IterationRecord, Outcome, StartMap, StopReason, StopSettings};
+use solvers::tasks::deform::{deform_start, DeformSettings};
+use solvers::tasks::param::{param_start, ParamSettings};
+use solvers::tasks::Task;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;

@@ -101,7 +101,7 @@ mod tests {
         let strings = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
         Declared {
             command: strings(command),
-            tasks: vec![solvers::mesh::Task::Param],
+            tasks: vec![solvers::tasks::Task::Param],
             energies: vec!["sd".into()],
             version: version.map(strings),
             snapshot_every: 1,

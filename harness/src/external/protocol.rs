@@ -6,8 +6,9 @@ use crate::run_folder::map::{obj_text, uv_text};
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use solvers::energy::EnergyKind;
-use solvers::mesh::{Mesh, Task};
+use solvers::mesh::Mesh;
 use solvers::problem::MapProblem;
+use solvers::tasks::Task;
 use std::collections::BTreeMap;
 use std::path::Path;
 

@@ -6,11 +6,11 @@
 
 use crate::plan::{Plan, PlannedRun, RunSettings, Task};
 use anyhow::{anyhow, bail, Context, Result};
-use solvers::authalic::{AuthalicProblem, AuthalicSettings};
 use solvers::energy::EnergyKind;
 use solvers::mesh::Mesh;
 use solvers::problem::{norm, Evaluation, MapProblem};
 use solvers::solver::{Observer, Outcome, StartMap, StopSettings};
+use solvers::tasks::authalic::{AuthalicProblem, AuthalicSettings};
 
 /// What a judged problem minimizes.
 pub enum Objective {
@@ -37,7 +37,7 @@ pub struct Problem {
     /// The dataset's mesh as loaded (the maps' checksum names it).
     pub mesh: Mesh,
     settings: RunSettings,
-    handles: Vec<solvers::deform::Handle>,
+    handles: Vec<solvers::tasks::deform::Handle>,
     pub objective: Objective,
     /// The common start, interleaved `u0 v0 u1 v1 ...` in the normalized frame.
     pub x0: Vec<f64>,
@@ -75,18 +75,18 @@ impl Problem {
                     .transpose()
                     .map_err(|e| anyhow!("{}: the sd-minimum start: {e}", ds.name))?;
                 let (problem, x0, start) =
-                    solvers::param::judged_problem(&mesh, *energy, settings, sd_min.as_ref().map(|x| &x[..]))?;
+                    solvers::tasks::param::judged_problem(&mesh, *energy, settings, sd_min.as_ref().map(|x| &x[..]))?;
                 (Objective::Map { energy: *energy, problem }, Vec::new(), x0, start)
             }
             RunSettings::Deform { energy, settings } => {
                 let handles = ds.handles.load(&mesh)?;
                 let init = ds.initial_map();
                 let (problem, x0, start) =
-                    solvers::deform::deform_start(&mesh, &handles, init.as_deref(), *energy, settings)?;
+                    solvers::tasks::deform::deform_start(&mesh, &handles, init.as_deref(), *energy, settings)?;
                 (Objective::Map { energy: *energy, problem }, handles, x0, start)
             }
             RunSettings::Authalic(settings) => {
-                let (problem, x0) = solvers::authalic::authalic_start(&mesh, settings)?;
+                let (problem, x0) = solvers::tasks::authalic::authalic_start(&mesh, settings)?;
                 let objective = Objective::Authalic { problem: Box::new(problem), settings: *settings };
                 (objective, Vec::new(), x0, StartMap::ArclengthStretch)
             }
@@ -154,7 +154,7 @@ impl Problem {
                 settings.solver.stop = stop;
                 settings.solver.options = Default::default();
                 settings.solver.analyses = None;
-                solvers::param::solve_param_from(&self.mesh, *energy, solver, &settings, x, observer)
+                solvers::tasks::param::solve_param_from(&self.mesh, *energy, solver, &settings, x, observer)
                     .with_context(|| format!("{name}: {solver}"))?
             }
             RunSettings::Deform { energy, settings } => {
@@ -162,13 +162,21 @@ impl Problem {
                 settings.solver.stop = stop;
                 settings.solver.options = Default::default();
                 settings.solver.analyses = None;
-                solvers::deform::solve_deform_from(&self.mesh, &self.handles, *energy, solver, &settings, x, observer)
-                    .with_context(|| format!("{name}: {solver}"))?
+                solvers::tasks::deform::solve_deform_from(
+                    &self.mesh,
+                    &self.handles,
+                    *energy,
+                    solver,
+                    &settings,
+                    x,
+                    observer,
+                )
+                .with_context(|| format!("{name}: {solver}"))?
             }
             RunSettings::Authalic(_) => {
                 let Objective::Authalic { problem, settings } = &self.objective else { bail!("{name}: not authalic") };
                 let settings = AuthalicSettings { stop, ..*settings };
-                solvers::authalic::solve_authalic_from(problem, solver, &settings, &x, observer)
+                solvers::tasks::authalic::solve_authalic_from(problem, solver, &settings, &x, observer)
                     .with_context(|| format!("{name}: {solver}"))?
                     .outcome
             }
@@ -187,7 +195,7 @@ impl Problem {
     /// Whether the catalogue's `solver` is defined for this problem's task and energy.
     pub fn defines(&self, solver: &str) -> bool {
         let task = self.task();
-        let Ok(entry) = solvers::solver::catalogue::lookup(solver, task) else { return false };
+        let Ok(entry) = solvers::tasks::catalogue::lookup(solver, task) else { return false };
         match &self.objective {
             Objective::Map { energy, .. } => {
                 entry.skip_reason(task, energy, &solvers::solver::RawOptions::new()).is_none()

@@ -4,7 +4,7 @@
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
 use solvers::energy::ENERGY_NAMES;
-use solvers::mesh::Task;
+use solvers::tasks::Task;
 
 /// The tasks the protocol covers (`authalic`, with its own disk energy and boundary, is not
 /// part of protocol 1).

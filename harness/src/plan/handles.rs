@@ -2,9 +2,9 @@
 //! shared corpus format, from a generated shape's rule, or from a named rule.
 
 use anyhow::{bail, Context, Result};
-use solvers::deform::{rule_handles, Handle};
 use solvers::generate::generated_handles;
 use solvers::mesh::Mesh;
+use solvers::tasks::deform::{rule_handles, Handle};
 use std::path::{Path, PathBuf};
 
 /// Where a dataset's handles come from.
@@ -18,7 +18,7 @@ pub enum HandleSource {
         path: PathBuf,
         set: usize,
     },
-    /// A rule of `solvers::deform::HANDLE_RULES`.
+    /// A rule of `solvers::tasks::deform::HANDLE_RULES`.
     Rule(String),
 }
 
@@ -59,8 +59,8 @@ pub fn check_handles(file: bool, set: Option<usize>, rule: Option<&str>) -> Resu
         bail!("'handles_set' needs 'handles'");
     }
     if let Some(r) = rule {
-        if !solvers::deform::HANDLE_RULES.contains(&r) {
-            bail!("unknown handles_rule '{r}' (known: {})", solvers::deform::HANDLE_RULES.join(", "));
+        if !solvers::tasks::deform::HANDLE_RULES.contains(&r) {
+            bail!("unknown handles_rule '{r}' (known: {})", solvers::tasks::deform::HANDLE_RULES.join(", "));
         }
     }
     Ok(())

@@ -34,7 +34,7 @@ pub struct Entry {
     pub handles: Option<String>,
     /// ... and the index of its constraint set (default 0);
     pub handles_set: Option<usize>,
-    /// or a rule of `solvers::deform::HANDLE_RULES` (generated shapes bring their own).
+    /// or a rule of `solvers::tasks::deform::HANDLE_RULES` (generated shapes bring their own).
     pub handles_rule: Option<String>,
 }
 

@@ -1,12 +1,12 @@
 //! The fully resolved settings of a run: what the solver gets.
 
 use serde::Serialize;
-use solvers::authalic::AuthalicSettings;
-use solvers::deform::DeformSettings;
 use solvers::energy::EnergyKind;
-use solvers::mesh::Task;
-use solvers::param::{ParamSettings, ParamStart};
 use solvers::solver::{RawOptions, StopSettings};
+use solvers::tasks::authalic::AuthalicSettings;
+use solvers::tasks::deform::DeformSettings;
+use solvers::tasks::param::{ParamSettings, ParamStart};
+use solvers::tasks::Task;
 use std::collections::BTreeMap;
 
 /// The fully resolved settings of one run: what the solver gets, defaults and overrides
@@ -62,7 +62,7 @@ impl RunSettings {
             RunSettings::Authalic(_) => return None,
         };
         let task = self.task();
-        solvers::solver::catalogue::lookup(solver, task).ok()?.skip_reason(task, energy, options)
+        solvers::tasks::catalogue::lookup(solver, task).ok()?.skip_reason(task, energy, options)
     }
 
     /// Whether the run's problem has the smoothness term (Section 4.3).

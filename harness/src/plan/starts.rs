@@ -8,7 +8,7 @@ use super::resolved_starts::{Resolved, Starts};
 use super::settings::RunSettings;
 use super::{Plan, PlannedRun};
 use solvers::energy::{EnergyKind, Sd};
-use solvers::param::{default_stop, ParamStart};
+use solvers::tasks::param::{default_stop, ParamStart};
 
 impl Starts {
     /// The resolved start of `run` of `plan`: `None` without a chained start, an error when

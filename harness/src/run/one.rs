@@ -9,12 +9,12 @@ use crate::plan::{Plan, PlannedRun, RunSettings};
 use crate::run_folder::{Status, SummaryRow};
 use crate::stats::median;
 use anyhow::Result;
-use solvers::authalic::{solve_authalic, AreaMetrics};
-use solvers::deform::solve_deform;
 use solvers::linear::AnalysisCache;
 use solvers::mesh::Mesh;
-use solvers::param::solve_param_with;
 use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
+use solvers::tasks::authalic::{solve_authalic, AreaMetrics};
+use solvers::tasks::deform::solve_deform;
+use solvers::tasks::param::solve_param_with;
 use std::panic::AssertUnwindSafe;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -204,7 +204,7 @@ fn run_external(
         }
         RunSettings::Deform { energy, settings } => {
             // As for ours: a bad mesh fails with validate's reason, not the handle rule's.
-            let loaded = solvers::mesh::validate_for(mesh, solvers::mesh::Task::Deform)
+            let loaded = solvers::tasks::validate_for(mesh, solvers::tasks::Task::Deform)
                 .into_result()
                 .map_err(anyhow::Error::new)
                 .and_then(|()| plan.dataset(run).handles.load(mesh));
@@ -404,7 +404,7 @@ fn solve(
         RunSettings::Deform { energy, settings } => {
             // Handle rules pick vertices by position: check the mesh first, so a bad mesh fails
             // with validate's reason rather than with what the rule made of it.
-            solvers::mesh::validate_for(mesh, solvers::mesh::Task::Deform).into_result()?;
+            solvers::tasks::validate_for(mesh, solvers::tasks::Task::Deform).into_result()?;
             let handles = plan.dataset(run).handles.load(mesh)?;
             let mut settings = settings.clone();
             settings.solver.analyses = Some(analyses.clone());

@@ -226,7 +226,7 @@ pub fn read_iterations(path: &Path, extra_columns: Option<&[&'static str]>) -> R
 /// The extra columns the catalogue declares for `solver`; `None` (any) for a solver outside it,
 /// an external one.
 pub fn extra_columns(solver: &str) -> Option<&'static [&'static str]> {
-    solvers::solver::catalogue::find(solver).map(|e| e.extra_columns)
+    solvers::tasks::catalogue::find(solver).map(|e| e.extra_columns)
 }
 
 /// The per-iteration CSV of the run `s` in `run_dir`, refused unless it has the row of every

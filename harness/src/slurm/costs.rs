@@ -12,7 +12,7 @@ use crate::plan::shard_plan::CostSource;
 use crate::plan::{Plan, PlannedRun};
 use crate::stats::median;
 use anyhow::Result;
-use solvers::solver::catalogue::Family;
+use solvers::tasks::catalogue::Family;
 use std::collections::HashMap;
 use std::io::BufRead;
 
@@ -123,7 +123,7 @@ fn family_of(plan: &Plan, run: &PlannedRun) -> Option<Family> {
     if plan.external(run).is_some() {
         return None;
     }
-    solvers::solver::catalogue::find(&run.solver).map(|e| e.family)
+    solvers::tasks::catalogue::find(&run.solver).map(|e| e.family)
 }
 
 /// The stated estimate of a run's `time_norm` when the history has none: proportional to the

@@ -94,10 +94,6 @@ energies! {
     Bconf("bconf", bconf::Bconf),
 }
 
-/// The one energy of the `authalic` task (the name in CSVs and configs): the normalized
-/// authalic energy of Liu and Yueh, not a density of `f_z`, `f_zbar` like the others.
-pub const AUTHALIC_ENERGY: &str = "authalic";
-
 impl EnergyKind {
     /// The energy `name` with the parameters of `table` (a config's `[energy.<name>]`
     /// without its smoothness keys), the defaults for the others; checked

@@ -2,14 +2,15 @@
 
 mod defect;
 mod error;
+mod handle;
 pub mod obj;
 pub mod topology;
 mod triangle_mesh;
 pub mod validate;
 
-pub use crate::task::{Task, UnknownTask};
 pub use defect::{summarize_problems, Defect};
 pub use error::MeshError;
+pub use handle::Handle;
 pub use obj::load_obj;
 pub use triangle_mesh::{signed_area, Mesh};
-pub use validate::{validate, validate_for, ValidationReport};
+pub use validate::{validate, ValidationReport};

@@ -4,8 +4,7 @@
 use super::defect::{summarize_problems, Defect};
 use super::error::MeshError;
 use super::topology::{self, is_proper};
-use super::triangle_mesh::{signed_area, Mesh};
-use crate::task::Task;
+use super::triangle_mesh::Mesh;
 use std::fmt;
 
 /// Counts and defects of a mesh, as found by [`validate`].
@@ -223,50 +222,6 @@ fn coordinate_range(mesh: &Mesh) -> Option<Defect> {
             hi_vertex,
         })
     })
-}
-
-/// [`validate`] with everything the run of `task` refuses in a mesh: `param` and `authalic`
-/// need a topological disk, `authalic` an interior vertex, `deform` a planar (z = 0) shape
-/// whose faces are counter-clockwise in its area-1 rest pose. The run preambles call this, so
-/// `mapbench validate --task T` and a run of `T` cannot disagree about a mesh.
-pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
-    let mut report = validate(mesh, task != Task::Deform);
-    let sound = report.is_ok();
-    match task {
-        Task::Param => {}
-        Task::Deform => {
-            // Within 1e-12 of the diagonal counts as z = 0: exporters write -0 and 1e-17.
-            let scale = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
-            let off: Vec<usize> = (0..mesh.n_vertices())
-                .filter(|&v| mesh.positions[v][2].is_finite() && !(mesh.positions[v][2].abs() <= 1e-12 * scale))
-                .collect();
-            if let Some(&first) = off.first() {
-                report.problems.push(Defect::NotPlanar { count: off.len(), first, z: mesh.positions[first][2] });
-            } else if sound {
-                // The orientation the solver sees: that of the normalized rest pose.
-                let rest = mesh.normalized();
-                let xy = |v: usize| [rest.positions[v][0], rest.positions[v][1]];
-                report.problems.extend(
-                    (0..rest.n_faces())
-                        .filter(|&t| signed_area(rest.faces[t].map(xy)) <= 0.0)
-                        .map(|face| Defect::ClockwiseFace { face }),
-                );
-            }
-        }
-        Task::Authalic => {
-            if sound && report.boundary_loops == 1 {
-                let mut on_boundary = vec![false; mesh.n_vertices()];
-                topology::boundary_loops(&mesh.faces, mesh.n_vertices())
-                    .iter()
-                    .flatten()
-                    .for_each(|&v| on_boundary[v] = true);
-                if on_boundary.iter().all(|&b| b) {
-                    report.problems.push(Defect::NoInterior);
-                }
-            }
-        }
-    }
-    report
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! Validation: each defect found, named by its element, and each task's rules.
 
 use super::*;
+use crate::tasks::{validate_for, Task};
 
 /// 3x3 grid of vertices (2x2 quads, 8 counter-clockwise triangles): a valid disk.
 fn grid() -> Mesh {

@@ -1,14 +1,14 @@
 //! The solvers that came after the three papers against `kp-newton`: each reaches
 //! KP's minimum without a flip, on generated and shared meshes, in `param` and `deform`.
 
-use crate::deform::{solve_deform, DeformSettings};
 use crate::energy::{EnergyKind, Nh, Sd};
 use crate::generate::{generate, generated_handles};
 use crate::mesh::Mesh;
-use crate::param::{solve_param, ParamSettings};
 use crate::solver::observer::{IterationRecord, Recorder};
 use crate::solver::outcome::Outcome;
 use crate::solver::stop::StopSettings;
+use crate::tasks::deform::{solve_deform, DeformSettings};
+use crate::tasks::param::{solve_param, ParamSettings};
 use crate::test_support::shared_mesh;
 
 /// The solvers after the papers that run on the Newton driver or a driver of their own.

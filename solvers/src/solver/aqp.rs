@@ -244,13 +244,13 @@ fn proxy_direction(proxy: &mut Proxy, grad: &[f64], p: &mut Vec<f64>, iter: usiz
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::deform::{solve_deform, DeformSettings};
     use crate::energy::{EnergyKind, Sd};
     use crate::generate::{generate, generated_handles};
     use crate::mesh::Mesh;
-    use crate::param::{solve_param, ParamSettings};
     use crate::solver::observer::{IterationRecord, Recorder};
     use crate::solver::stop::StopSettings;
+    use crate::tasks::deform::{solve_deform, DeformSettings};
+    use crate::tasks::param::{solve_param, ParamSettings};
     use crate::test_support::shared_mesh;
 
     #[test]

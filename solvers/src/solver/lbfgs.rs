@@ -396,7 +396,7 @@ mod tests {
     /// meshes: `harness/tests`).
     #[test]
     fn both_variants_reach_kp_on_a_generated_mesh() {
-        use crate::param::{solve_param, ParamSettings};
+        use crate::tasks::param::{solve_param, ParamSettings};
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
         let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
         settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters: 5000 };

@@ -6,7 +6,6 @@
 #[cfg(test)]
 mod after_papers_tests;
 pub mod aqp;
-pub mod catalogue;
 pub mod executor;
 pub mod lbfgs;
 pub mod map_iterate;
@@ -18,12 +17,10 @@ mod outcome;
 pub mod planar;
 pub mod proxy;
 mod settings;
-pub mod solver_error;
 mod stop;
 pub mod truncated;
 
 pub use crate::line_search::LineSearchSettings;
-pub use catalogue::{SlimOptions, SolverEntry, SolverError, SOLVERS};
 pub use newton::SolverSpec;
 pub use newton::{newton, NewtonSettings};
 #[cfg(test)]

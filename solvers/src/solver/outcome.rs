@@ -53,7 +53,7 @@ pub enum StartMap {
     /// steps.
     ArclengthStretch,
     /// `param`: the SD minimum of the same problem (exp-SD's chained start,
-    /// [`crate::param::ParamStart::SdMinimum`]).
+    /// [`crate::tasks::param::ParamStart::SdMinimum`]).
     SdMinimum,
 }
 

@@ -21,7 +21,7 @@ use super::outcome::AnalysisReport;
 use super::settings::Settings;
 use super::stop::StopReason;
 use crate::assembly::{Lower6, Pattern};
-use crate::authalic::laplacian::{LaplacianPattern, SubBlock};
+use crate::laplacian::{LaplacianPattern, SubBlock};
 use crate::linear::{with_shift_retries, MAX_REGULARIZATION_RETRIES};
 use crate::linear::{LinearError, LinearSettings, SpdSolver};
 use crate::problem::MapProblem;

@@ -319,20 +319,20 @@ impl Direction for Truncated<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::deform::{solve_deform, DeformSettings};
     use crate::energy::{EnergyKind, Sarap, Sd};
     use crate::generate::{generate, generated_handles};
     use crate::hessian::kp::Kp;
     use crate::init::{tutte, TutteBoundary};
     use crate::linear::{LinearSettings, SpdSolver};
     use crate::mesh::Mesh;
-    use crate::param::{solve_param, ParamSettings};
     use crate::problem::{Evaluation, MapProblem};
     use crate::solver::newton_system::{project_blocks, scatter};
     use crate::solver::observer::{IterationRecord, Recorder};
     use crate::solver::outcome::Outcome;
     use crate::solver::settings::Settings;
     use crate::solver::stop::{StopReason, StopSettings};
+    use crate::tasks::deform::{solve_deform, DeformSettings};
+    use crate::tasks::param::{solve_param, ParamSettings};
     use crate::test_support::shared_mesh;
 
     /// Choice 2 by hand: the first term is `eta_max`; then `0.9 (g_k / g_{k-1})^2`, raised to

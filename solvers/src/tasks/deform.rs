@@ -7,13 +7,14 @@
 //! file's frame and transformed the same way.
 
 use crate::energy::EnergyKind;
-pub use crate::handle::Handle;
-pub use crate::map_task::MapError;
-use crate::map_task::{check_handles, checked_solver, map_problem};
-use crate::mesh::{validate_for, Mesh, Task};
+pub use crate::mesh::Handle;
+use crate::mesh::Mesh;
 use crate::problem::{MapProblem, Penalty};
 use crate::smoothness::Projection;
 use crate::solver::{Observer, Outcome, Settings, StartMap, StopSettings};
+pub use crate::tasks::map_task::MapError;
+use crate::tasks::map_task::{check_handles, checked_solver, map_problem};
+use crate::tasks::{validate_for, Task};
 
 /// Settings of a `deform` run.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -3,14 +3,15 @@
 //! problem on the normalized mesh with its smoothness term) and the error type.
 
 use crate::energy::EnergyKind;
-use crate::handle::Handle;
 use crate::init::InitError;
-use crate::mesh::{validate_for, Mesh, MeshError, Task};
+use crate::mesh::Handle;
+use crate::mesh::{Mesh, MeshError};
 use crate::problem::{DegenerateFace, MapProblem};
 use crate::smoothness::Projection;
-use crate::solver::catalogue::{planar_solver, SolverError};
 use crate::solver::planar::PlanarSolver;
 use crate::solver::{RawOptions, SolveError};
+use crate::tasks::catalogue::{planar_solver, SolverError};
+use crate::tasks::{validate_for, Task};
 
 /// Why a `param` or `deform` run could not start.
 #[derive(Debug, thiserror::Error)]

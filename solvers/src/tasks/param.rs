@@ -3,13 +3,14 @@
 
 use crate::energy::{EnergyKind, Sd};
 use crate::init::{global_scale, tutte, TutteBoundary};
-pub use crate::map_task::MapError;
-use crate::map_task::{checked_solver, map_problem};
-use crate::mesh::{Mesh, Task};
+use crate::mesh::Mesh;
 use crate::problem::MapProblem;
 use crate::smoothness::Projection;
-use crate::solver::catalogue::{lookup, Start};
 use crate::solver::{Observer, Outcome, RawOptions, Settings, StartMap, StopAt, StopSettings};
+use crate::tasks::catalogue::{lookup, Start};
+pub use crate::tasks::map_task::MapError;
+use crate::tasks::map_task::{checked_solver, map_problem};
+use crate::tasks::Task;
 
 /// Which map every solver of a `param` run starts from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -138,7 +139,7 @@ fn common_start(
     sd_min: Option<&[f64]>,
 ) -> Result<(MapProblem, Vec<f64>, StartMap), MapError> {
     energy.check().map_err(MapError::Energy)?;
-    crate::mesh::validate_for(mesh, Task::Param).into_result()?;
+    crate::tasks::validate_for(mesh, Task::Param).into_result()?;
     let rest = mesh.normalized();
     let problem = map_problem(&rest, energy, None, smoothness)?;
     let (x, start) = run_start(&rest, &problem, Start::Common, settings, sd_min)?;
@@ -260,7 +261,7 @@ mod tests {
     /// with the scaling rule, except the one that declares its own (`kp-newton-noscale`).
     #[test]
     fn every_solver_starts_from_the_common_map_unless_it_declares_its_own() {
-        use crate::solver::catalogue::names_for;
+        use crate::tasks::catalogue::names_for;
         let mesh = generate("bumpy_1k").unwrap();
         for (energy, scaled) in
             [(EnergyKind::Sd(Sd), StartMap::TutteScaled), (EnergyKind::Sarap(Sarap), StartMap::Tutte)]

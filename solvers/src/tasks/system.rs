@@ -4,14 +4,14 @@
 
 use crate::energy::EnergyKind;
 use crate::linear::regularize;
-use crate::map_task::{map_problem, MapError};
 use crate::mesh::Mesh;
-use crate::mesh::Task;
-use crate::param::{solve_param_with, ParamSettings};
 use crate::problem::Evaluation;
-use crate::solver::catalogue::lookup;
 use crate::solver::newton_system::{project_blocks, scatter};
 use crate::solver::{StopAt, SystemView};
+use crate::tasks::catalogue::lookup;
+use crate::tasks::map_task::{map_problem, MapError};
+use crate::tasks::param::{solve_param_with, ParamSettings};
+use crate::tasks::Task;
 use std::fmt::Write as _;
 
 /// A symmetric system `A d = b` with `A` as its lower triangle in CSC form.
@@ -36,7 +36,7 @@ pub struct NewtonSystem {
 /// `settings.solver.linear` ([`crate::linear::regularize`]; SPD, unlike the raw matrix, whose
 /// kernel holds the translations), and the right-hand side scaled to match, `-S grad`.
 /// `sd_min` is the SD minimum of a chained start, as the run is given it
-/// ([`crate::param::solve_param_with`]).
+/// ([`crate::tasks::param::solve_param_with`]).
 pub fn param_system(
     mesh: &Mesh,
     energy: EnergyKind,
@@ -128,7 +128,7 @@ mod tests {
     use crate::energy::Sd;
     use crate::linear::ordering::Ordering;
     use crate::linear::{LinearSettings, SpdSolver};
-    use crate::param::solve_param;
+    use crate::tasks::param::solve_param;
 
     /// Keeps the system the solver factorizes at iteration `k`, then stops it.
     struct Capture {

@@ -1,7 +1,11 @@
-//! The tasks (`param`, `deform`, `authalic`): one enum from the config to the CSV.
+//! The tasks (`param`, `deform`, `authalic`): one enum from the config to the CSV, and what
+//! each refuses in a mesh.
+
+use crate::mesh::topology;
+use crate::mesh::{signed_area, validate, Defect, Mesh, ValidationReport};
 
 /// The tasks of mapbench: what a config runs, what a mesh is validated for (each task's run
-/// refuses exactly what [`crate::mesh::validate_for`] reports for it) and which solvers run.
+/// refuses exactly what [`validate_for`] reports for it) and which solvers run.
 /// Its string (`task = "param"` in a config) is [`Task::as_str`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -46,6 +50,50 @@ impl std::str::FromStr for Task {
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Task::ALL.into_iter().find(|t| t.as_str() == s).ok_or_else(|| UnknownTask(s.to_string()))
     }
+}
+
+/// [`validate`] with everything the run of `task` refuses in a mesh: `param` and `authalic`
+/// need a topological disk, `authalic` an interior vertex, `deform` a planar (z = 0) shape
+/// whose faces are counter-clockwise in its area-1 rest pose. The run preambles call this, so
+/// `mapbench validate --task T` and a run of `T` cannot disagree about a mesh.
+pub fn validate_for(mesh: &Mesh, task: Task) -> ValidationReport {
+    let mut report = validate(mesh, task != Task::Deform);
+    let sound = report.is_ok();
+    match task {
+        Task::Param => {}
+        Task::Deform => {
+            // Within 1e-12 of the diagonal counts as z = 0: exporters write -0 and 1e-17.
+            let scale = mesh.bbox_diagonal().max(f64::MIN_POSITIVE);
+            let off: Vec<usize> = (0..mesh.n_vertices())
+                .filter(|&v| mesh.positions[v][2].is_finite() && !(mesh.positions[v][2].abs() <= 1e-12 * scale))
+                .collect();
+            if let Some(&first) = off.first() {
+                report.problems.push(Defect::NotPlanar { count: off.len(), first, z: mesh.positions[first][2] });
+            } else if sound {
+                // The orientation the solver sees: that of the normalized rest pose.
+                let rest = mesh.normalized();
+                let xy = |v: usize| [rest.positions[v][0], rest.positions[v][1]];
+                report.problems.extend(
+                    (0..rest.n_faces())
+                        .filter(|&t| signed_area(rest.faces[t].map(xy)) <= 0.0)
+                        .map(|face| Defect::ClockwiseFace { face }),
+                );
+            }
+        }
+        Task::Authalic => {
+            if sound && report.boundary_loops == 1 {
+                let mut on_boundary = vec![false; mesh.n_vertices()];
+                topology::boundary_loops(&mesh.faces, mesh.n_vertices())
+                    .iter()
+                    .flatten()
+                    .for_each(|&v| on_boundary[v] = true);
+                if on_boundary.iter().all(|&b| b) {
+                    report.problems.push(Defect::NoInterior);
+                }
+            }
+        }
+    }
+    report
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! Resolving chained starts (`crate::plan::starts`): the SD minimum a run with
 //! `start = "sd-minimum"` starts from is the SD problem's reference minimum, looked up in the
 //! stores or computed and stored like any other, so a nightly computes it once and every batch
-//! starts from the same map; without a store it is `solvers::param::sd_minimum`. The book's
+//! starts from the same map; without a store it is `solvers::tasks::param::sd_minimum`. The book's
 //! numerics page, "Starts", says why.
 
 use super::store::Book;
@@ -86,7 +86,7 @@ fn sd_minimum(plan: &Plan, sd: &PlannedRun, lookup: Lookup) -> Result<Option<Vec
                 anyhow::bail!("{dataset}: not a param problem")
             };
             return Ok(compute
-                .then(|| solvers::param::sd_minimum(&problem.mesh.normalized(), settings))
+                .then(|| solvers::tasks::param::sd_minimum(&problem.mesh.normalized(), settings))
                 .transpose()?);
         }
     };

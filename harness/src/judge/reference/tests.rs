@@ -285,5 +285,5 @@ fn exp_sd_starts_from_the_sd_reference_of_the_same_problem() {
     assert_ne!(Some(&tutte_key), groups[0].key.as_ref());
     let crate::plan::RunSettings::Param { settings, .. } = &tutte.runs[0].settings else { panic!() };
     let text = tutte.runs[0].settings.problem_key_text();
-    assert!(!text.contains("start") && settings.start == solvers::param::ParamStart::Tutte, "{text}");
+    assert!(!text.contains("start") && settings.start == solvers::tasks::param::ParamStart::Tutte, "{text}");
 }

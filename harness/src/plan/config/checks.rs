@@ -3,8 +3,9 @@
 
 use super::{available_cores, check_repeat, check_threads_per_run, Config, InitConfig, Task};
 use anyhow::{bail, Context, Result};
-use solvers::energy::{AUTHALIC_ENERGY, ENERGY_NAMES};
-use solvers::solver::catalogue::{self, names_for, SolverError};
+use solvers::energy::ENERGY_NAMES;
+use solvers::tasks::authalic::AUTHALIC_ENERGY;
+use solvers::tasks::catalogue::{self, names_for, SolverError};
 
 impl Config {
     /// Checks names and values that serde cannot (unknown solver/energy names, parameters

@@ -3,17 +3,17 @@
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
-use solvers::authalic::AuthalicSettings;
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
-use solvers::param::ParamStart;
 use solvers::smoothness::Projection;
 use solvers::solver::{LineSearchSettings, RawOptions, StopOverrides};
+use solvers::tasks::authalic::AuthalicSettings;
+use solvers::tasks::param::ParamStart;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The task of a config: the solvers' own enum (one definition from the config to the CSV).
-pub use solvers::mesh::Task;
+pub use solvers::tasks::Task;
 
 /// The `maps` key's values: the run folder owns the maps.
 pub use crate::run_folder::keep::Maps;
@@ -48,7 +48,7 @@ pub struct InitConfig {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DeformConfig {
-    /// Handle penalty weight on the area-1 mesh, default `solvers::deform::DEFAULT_LAMBDA`.
+    /// Handle penalty weight on the area-1 mesh, default `solvers::tasks::deform::DEFAULT_LAMBDA`.
     pub lambda: Option<f64>,
 }
 

@@ -5,12 +5,13 @@ use super::{Config, ProblemKeys, Task};
 use crate::plan::settings::RunSettings;
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
-use solvers::authalic::AuthalicSettings;
-use solvers::deform::DeformSettings;
-use solvers::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
-use solvers::param::{ParamSettings, ParamStart};
+use solvers::energy::{EnergyKind, ENERGY_NAMES};
 use solvers::smoothness::Projection;
 use solvers::solver::Settings;
+use solvers::tasks::authalic::AuthalicSettings;
+use solvers::tasks::authalic::AUTHALIC_ENERGY;
+use solvers::tasks::deform::DeformSettings;
+use solvers::tasks::param::{ParamSettings, ParamStart};
 
 impl Config {
     /// The energies of the runs: the configured ones, or the authalic task's one energy.

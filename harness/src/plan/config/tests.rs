@@ -1,12 +1,12 @@
 //! The config's documented defaults, overrides and refusals.
 
 use super::*;
-use solvers::authalic::FoldGuard;
 use solvers::energy::{Bconf, EnergyKind, Sarap, Sd};
 use solvers::init::TutteBoundary;
 use solvers::linear::LinearSettings;
 use solvers::smoothness::Projection;
 use solvers::solver::LineSearchSettings;
+use solvers::tasks::authalic::FoldGuard;
 
 const AUTH: &str = "name = \"a\"\ntask = \"authalic\"\ndatasets = [\"bumpy_1k\"]\nsolvers = [\"sem\", \"aem-cg\"]\n";
 
@@ -28,7 +28,7 @@ fn smoothness_is_an_energy_option() {
 /// may ask for that start, SD itself and the other tasks may not.
 #[test]
 fn the_start_is_an_energy_option_with_exp_sd_chained_by_default() {
-    use solvers::param::ParamStart;
+    use solvers::tasks::param::ParamStart;
     let start = |c: &Config, e: &str| match c.run_settings(e).unwrap() {
         crate::plan::RunSettings::Param { settings, .. } => settings.start,
         other => panic!("{other:?}"),
@@ -230,7 +230,7 @@ fn bad_configs_name_what_is_wrong() {
     let c = parse(&format!("{def}[deform]\nlambda = 50.0\n")).unwrap();
     let s = c.deform_settings();
     assert_eq!((s.lambda, s.solver.stop.energy_decrease_tol, s.solver.stop.grad_tol), (50.0, 0.0, 1e-6));
-    assert_eq!(parse(&def).unwrap().deform_settings().lambda, solvers::deform::DEFAULT_LAMBDA);
+    assert_eq!(parse(&def).unwrap().deform_settings().lambda, solvers::tasks::deform::DEFAULT_LAMBDA);
     let inline = "[[dataset]]\nname = \"x\"\npath = \"x.obj\"\nhandles = \"x.json\"\nhandles_rule = \"twist\"\n";
     assert!(err(&format!("{def}{inline}")).contains("not both"));
     assert!(err(&format!("{MIN}[authalic]\nalpha0 = 1.0\n")).contains("only to task = \"authalic\""));

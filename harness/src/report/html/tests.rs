@@ -255,7 +255,7 @@ fn status_cells(html: &str, tag: &str) -> Vec<Vec<String>> {
 fn the_status_matrix_of_20_solvers_stays_narrow_and_lists_problem_rows_first() {
     use crate::run_folder::summary::ToTarget;
     let mut names: Vec<String> =
-        solvers::solver::catalogue::names_for(crate::plan::Task::Param).iter().map(|s| s.to_string()).collect();
+        solvers::tasks::catalogue::names_for(crate::plan::Task::Param).iter().map(|s| s.to_string()).collect();
     names.extend(["igl-slim", "external-trust-region-6x6", "example-gd"].map(String::from));
     names.truncate(20);
     assert_eq!(names.len(), 20);

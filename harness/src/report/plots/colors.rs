@@ -42,7 +42,7 @@ pub(super) struct Look {
 /// last row for anything else (external solvers). Tables call SLIM with clamped weights
 /// `slim (clamped)`: the same family as `slim`.
 fn family(solver: &str) -> usize {
-    use solvers::solver::catalogue::{find, Family};
+    use solvers::tasks::catalogue::{find, Family};
     let name = solver.strip_suffix(" (clamped)").unwrap_or(solver);
     match find(name).map(|e| e.family) {
         Some(Family::AnalyticNewton) => 0,
@@ -217,7 +217,7 @@ mod tests {
     /// marker, colors of different solvers apart by a visible margin, families together.
     #[test]
     fn twenty_four_solvers_look_different_and_families_related() {
-        let mut names: Vec<&str> = solvers::solver::catalogue::SOLVERS.iter().map(|e| e.name).collect();
+        let mut names: Vec<&str> = solvers::tasks::catalogue::SOLVERS.iter().map(|e| e.name).collect();
         names.extend(["igl-slim", "example-gd", "their-newton", "slim (clamped)"]);
         names.truncate(24);
         assert_eq!(names.len(), 24);

@@ -6,7 +6,7 @@ use crate::plan::Task;
 use crate::report::select::{finished, is_authalic, unique};
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
-use solvers::solver::catalogue;
+use solvers::tasks::catalogue;
 
 /// The AEM paper's Table 1 shape: per mesh, for each solver the SD of the area ratios, the
 /// normalized authalic energy, the time and the number of folded triangles. `None` when no

@@ -4,7 +4,7 @@
 use super::table::Table;
 use crate::report::select::{finished, unique};
 use crate::run_folder::SummaryRow;
-use solvers::solver::catalogue;
+use solvers::tasks::catalogue;
 
 /// The solvers whose per-element projection the projection table compares (Table 5); their
 /// column labels come from the catalogue.

@@ -16,10 +16,11 @@
 //! whether the accepted step meets the curvature condition (22b) that the convergence proof
 //! assumes (recorded for both variants, never enforced).
 
-use super::{
-    dot, finished, norm, AuthalicIterate, AuthalicOutcome, AuthalicProblem, AuthalicSettings, EvalBuffers, Extras,
-    FoldGuard, Terms, AUTHALIC_COLUMNS, EXACT,
-};
+use crate::problem::{dot, norm};
+
+use super::iterate::{finished, AuthalicIterate, Extras, AUTHALIC_COLUMNS};
+
+use super::problem::{AuthalicOutcome, AuthalicProblem, AuthalicSettings, EvalBuffers, FoldGuard, Terms, EXACT};
 use crate::linear::{LinearError, SpdSolver};
 use crate::solver::executor::{execute, Method, ReadyMethod, Step};
 use crate::solver::{Observer, StopReason};

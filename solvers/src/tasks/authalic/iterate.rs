@@ -1,6 +1,8 @@
 //! The authalic iterate as the executor sees it: the variables `z` with their terms.
 
-use super::{norm, AuthalicOutcome, AuthalicProblem, Terms};
+use crate::problem::norm;
+
+use super::problem::{AuthalicOutcome, AuthalicProblem, Terms};
 use crate::solver::executor::{Finished, Iterate};
 use crate::solver::{IterationRecord, StartMap};
 

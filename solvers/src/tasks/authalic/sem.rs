@@ -10,10 +10,11 @@
 //! by iteration 5). With `sem_stop_on_increase` it stops and keeps the previous iterate
 //! instead, as the reference code SEMc does.
 
-use super::{
-    finished, norm, AuthalicIterate, AuthalicOutcome, AuthalicProblem, AuthalicSettings, Extras, AUTHALIC_COLUMNS,
-    EXACT,
-};
+use super::iterate::{finished, AuthalicIterate, Extras, AUTHALIC_COLUMNS};
+
+use crate::problem::norm;
+
+use super::problem::{AuthalicOutcome, AuthalicProblem, AuthalicSettings, EXACT};
 use crate::linear::{LinearError, SpdSolver};
 use crate::solver::executor::{execute, Method, ReadyMethod, Step};
 use crate::solver::{Observer, StopReason};

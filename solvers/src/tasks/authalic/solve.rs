@@ -1,9 +1,10 @@
 //! A run of the `authalic` task: the catalogue's solver on the prepared disk.
 
-use super::{AuthalicError, AuthalicOutcome, AuthalicProblem, AuthalicSettings};
-use crate::mesh::{Mesh, Task};
-use crate::solver::catalogue::{lookup, Build, SolveAuthalic};
+use super::problem::{AuthalicError, AuthalicOutcome, AuthalicProblem, AuthalicSettings};
+use crate::mesh::Mesh;
 use crate::solver::{Observer, RawOptions};
+use crate::tasks::catalogue::{lookup, Build, SolveAuthalic};
+use crate::tasks::Task;
 
 /// Run the named authalic solver (of the catalogue) on `mesh` (validated here).
 pub fn solve_authalic(

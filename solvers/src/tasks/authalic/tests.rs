@@ -1,8 +1,13 @@
+use super::problem::*;
 use super::*;
 use crate::generate::generate;
+use crate::problem::dot;
 use crate::solver::Recorder;
 use crate::solver::StopReason;
+use crate::solver::StopSettings;
+use crate::tasks::Task;
 use nalgebra::{Matrix6, SymmetricEigen};
+use std::f64::consts::PI;
 
 /// A deterministic pseudo-random sequence in [-1, 1].
 fn noise(seed: u64) -> impl FnMut() -> f64 {
@@ -306,7 +311,7 @@ fn each_authalic_name_is_dispatched_to_exactly_its_method() {
     };
     let mut seen = Vec::new();
     let expected = ["sem", "aem-cg", "aem-cg-safe"];
-    assert_eq!(crate::solver::catalogue::names_for(Task::Authalic), expected);
+    assert_eq!(crate::tasks::catalogue::names_for(Task::Authalic), expected);
     for name in expected {
         let mut rec = Recorder::default();
         solve_authalic(&mesh, name, &settings, &mut rec).unwrap();

@@ -3,23 +3,24 @@
 //! built. Config checks, `list solvers`, dispatch and table labels all read it. Adding a
 //! solver is its file plus one entry here.
 
-use crate::authalic::{aem, sem, AuthalicOutcome, AuthalicProblem, AuthalicSettings, AUTHALIC_COLUMNS};
-use crate::energy::{EnergyKind, AUTHALIC_ENERGY, ENERGY_NAMES};
+use crate::energy::{EnergyKind, ENERGY_NAMES};
 use crate::hessian::pn::Filtered;
 use crate::hessian::trust_region::{Filter, Space, TrustRegion, TRUST_REGION_COLUMNS};
 use crate::hessian::{
     akvf::Akvf, cm::Cm, fp::Fp4, fp::Fp6, fp::Fp6Abs, kp::Kp, none::Unprojected, slim::Slim, SystemBlock,
 };
-use crate::mesh::Task;
 use crate::smoothness::Projection;
 use crate::solver::aqp::{Aqp, AQP_COLUMNS};
 use crate::solver::lbfgs::{Variant, LBFGS_COLUMNS};
 use crate::solver::newton::{SolverSpec, SystemSolve};
-use crate::solver::observer::Observer;
 use crate::solver::options::{check, read, NoOptions, Options, RawOptions};
 use crate::solver::planar::PlanarSolver;
-pub use crate::solver::solver_error::SolverError;
 use crate::solver::truncated::{NewtonCgOptions, Preconditioner, CG_COLUMNS};
+use crate::solver::Observer;
+use crate::tasks::authalic::AUTHALIC_ENERGY;
+use crate::tasks::authalic::{aem, sem, AuthalicOutcome, AuthalicProblem, AuthalicSettings, AUTHALIC_COLUMNS};
+pub use crate::tasks::solver_error::SolverError;
+use crate::tasks::Task;
 
 /// Where a solver's runs start.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,8 +1,8 @@
 use super::*;
 use crate::energy::{Bconf, Sd};
 use crate::generate::generate;
-use crate::param::{solve_param, ParamSettings};
-use crate::solver::observer::Recorder;
+use crate::solver::Recorder;
+use crate::tasks::param::{solve_param, ParamSettings};
 
 fn energies() -> impl Iterator<Item = EnergyKind> {
     ENERGY_NAMES.iter().map(|n| EnergyKind::default_for(n).unwrap())
@@ -212,7 +212,7 @@ fn extra_columns_are_those_the_solvers_write() {
                 solve_param(&mesh, e, s.name, &settings, &mut rec).unwrap();
             }
             Build::Authalic(_) => {
-                crate::authalic::solve_authalic(&mesh, s.name, &Default::default(), &mut rec).unwrap();
+                crate::tasks::authalic::solve_authalic(&mesh, s.name, &Default::default(), &mut rec).unwrap();
             }
         }
         for row in &rec.rows {

@@ -1,0 +1,15 @@
+//! The tasks, on top of the machinery: `param` and `deform` (planar maps, sharing
+//! [`map_task`]), `authalic` (disk area-preserving maps), the Newton [`system`] of a run, and
+//! the [`catalogue`] of every solver of every task. Nothing below this wing names a task
+//! (the book's Architecture page, "The numerics crate").
+
+pub mod authalic;
+pub mod catalogue;
+pub mod deform;
+pub mod map_task;
+pub mod param;
+pub mod solver_error;
+pub mod system;
+mod task;
+
+pub use task::{validate_for, Task, UnknownTask};
