@@ -44,3 +44,73 @@ def test_unit_tests_and_comments_are_not_arrows(tmp_path):
                 "#[cfg(test)]\nmod tests {\n    use crate::a::A;\n}\n",
     })
     assert import_cycles.main([src]) == 0
+
+
+def test_a_child_named_with_a_brace_group_is_an_arrow(tmp_path, capsys):
+    src = crate(tmp_path, {
+        "lib.rs": "pub mod run_folder;\n",
+        "run_folder/mod.rs": "pub mod summary;\npub use summary::{Row, Status};\npub const FAILED: &str = \"error\";\n",
+        "run_folder/summary.rs": "use super::FAILED;\npub struct Row;\npub enum Status {}\n",
+    })
+    assert import_cycles.main([src]) == 1
+    out = capsys.readouterr().out
+    assert "run_folder/mod.rs" in out and "run_folder/summary.rs" in out and "1 import circle(s)" in out
+
+
+def test_nested_brace_groups_name_each_item(tmp_path):
+    src = crate(tmp_path, {
+        "lib.rs": "pub mod a;\npub mod b;\n",
+        "a/mod.rs": "pub mod x;\npub mod y;\nuse self::{x::{X, X2}, y::Y as Z};\n",
+        "a/x.rs": "pub struct X;\npub struct X2;\n",
+        "a/y.rs": "pub struct Y;\n",
+        "b.rs": "use crate::{a::{self, x}, b as _};\n",
+    })
+    mods = import_cycles.modules(src)
+    targets = lambda rel, here: import_cycles.targets(  # noqa: E731
+        import_cycles.strip_comments(open(os.path.join(src, rel)).read()), here, mods)
+    assert targets("a/mod.rs", ("a",)) == {os.path.join(src, "a/x.rs"), os.path.join(src, "a/y.rs")}
+    assert targets("b.rs", ("b",)) == {os.path.join(src, "a/mod.rs"), os.path.join(src, "a/x.rs")}
+
+
+def test_super_in_an_inline_module_is_the_file_holding_it(tmp_path, capsys):
+    src = crate(tmp_path, {
+        "lib.rs": "pub mod run_folder;\n",
+        "run_folder/mod.rs": "pub mod summary;\npub use summary::Row;\npub const FAILED: &str = \"error\";\n",
+        "run_folder/summary.rs": "pub const FAILED_STOP: &str = \"error\";\n"
+                                 "mod stop_column {\n    use super::FAILED_STOP;\n    use self::inner::F;\n"
+                                 "    mod inner {\n        pub use super::super::FAILED_STOP as F;\n    }\n}\n"
+                                 "pub struct Row;\n",
+    })
+    assert import_cycles.main([src]) == 0
+    assert "0 import circle(s)" in capsys.readouterr().out
+
+
+def test_after_an_inline_module_super_is_the_parent_again(tmp_path):
+    src = crate(tmp_path, {
+        "lib.rs": "pub mod run_folder;\n",
+        "run_folder/mod.rs": "pub mod summary;\npub use summary::Row;\npub const FAILED: &str = \"error\";\n",
+        "run_folder/summary.rs": "mod stop_column {\n    fn f() -> &'static str { \"{\" }\n}\n"
+                                 "use super::FAILED;\npub struct Row;\n",
+    })
+    assert import_cycles.main([src]) == 1
+
+
+def test_a_segment_that_starts_with_super_is_no_super(tmp_path):
+    src = crate(tmp_path, {
+        "lib.rs": "pub mod linear;\n",
+        "linear/mod.rs": "mod analysis;\nmod supernodal;\n",
+        "linear/analysis.rs": "use super::supernodal::{Schedule};\n",
+        "linear/supernodal.rs": "pub struct Schedule;\n",
+    })
+    mods = import_cycles.modules(src)
+    text = open(os.path.join(src, "linear/analysis.rs")).read()
+    assert import_cycles.targets(text, ("linear", "analysis"), mods) == {os.path.join(src, "linear/supernodal.rs")}
+
+
+def test_a_string_holds_no_comment_and_no_block(tmp_path):
+    src = crate(tmp_path, {
+        "lib.rs": "pub mod a;\npub mod b;\n",
+        "a.rs": "const URL: &str = \"https://x/{\"; use crate::b::B;\npub struct A;\n",
+        "b.rs": "mod inner { const C: char = '}'; }\nuse crate::a::A;\npub struct B;\n",
+    })
+    assert import_cycles.main([src]) == 1
