@@ -5,7 +5,7 @@
 //! version runs the missing [`MIGRATIONS`] in one transaction; a newer one is refused
 //! ([`HistoryError::Newer`]), since this build would not know what its columns mean.
 
-use super::HistoryError;
+use super::error::HistoryError;
 use crate::plan::Task;
 use crate::run_folder::summary::FAILED_STOP;
 use crate::run_folder::{Status, SummaryRow};

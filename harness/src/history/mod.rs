@@ -5,55 +5,19 @@
 //! database the append leaves open ([`Recorded`]), and `mapbench history` anywhere.
 
 pub mod db;
+mod error;
 
 use crate::paths::absolute;
 #[cfg(test)]
 use crate::plan::paths::resolve_path;
 pub use db::{BatchRow, HistoryDb, RunRow, Source, SCHEMA_VERSION};
+pub use error::HistoryError;
 
-use crate::run_folder::meta::{Meta, MetaError};
-use crate::run_folder::{meta_json, read_summary, FolderError};
+use crate::run_folder::meta::Meta;
+use crate::run_folder::{meta_json, read_summary};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use thiserror::Error;
-
-/// What can go wrong with the history; every error names the database or the file. The
-/// underlying error is part of the message (not a `source`), so it is printed once.
-#[derive(Debug, Error)]
-pub enum HistoryError {
-    #[error("{}: {err}", path.display())]
-    Sql { path: PathBuf, err: rusqlite::Error },
-    #[error("{}: run {run}: {err}", path.display())]
-    Run { path: PathBuf, run: String, err: rusqlite::Error },
-    #[error(
-        "{}: history schema version {found} is newer than this mapbench's ({supported}); \
-         use a newer mapbench or another --history file",
-        path.display()
-    )]
-    Newer { path: PathBuf, found: i64, supported: i64 },
-    #[error(
-        "{}: history schema version {found} is negative: not a mapbench history (mapbench numbers its schemas 1, 2, ...)",
-        path.display()
-    )]
-    BadVersion { path: PathBuf, found: i64 },
-    #[error("{}: an SQLite database with tables but no mapbench schema version: not a mapbench history", path.display())]
-    Foreign { path: PathBuf },
-    #[error("{}: an empty file, not a history yet (a `run` or `merge` creates one)", path.display())]
-    Empty { path: PathBuf },
-    #[error("{}: no history database (a `run` or `merge` creates it)", path.display())]
-    Missing { path: PathBuf },
-    #[error("{}: {what}: {err}", path.display())]
-    Io { path: PathBuf, what: &'static str, err: std::io::Error },
-    #[error("{}: {what}", path.display())]
-    Meta { path: PathBuf, what: String },
-    #[error(transparent)]
-    Folder(#[from] FolderError),
-    #[error(transparent)]
-    MetaFile(#[from] MetaError),
-    #[error("trend page {}: {err:#}", path.display())]
-    Render { path: PathBuf, err: anyhow::Error },
-}
 
 /// `--history PATH` / `--no-history`, applied over what the config resolved to.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
