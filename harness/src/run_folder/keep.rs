@@ -5,31 +5,11 @@
 use super::map::{legacy_obj_path, mesh_path, uv_path};
 use super::meta::Meta;
 use super::{run_stem, Status, SummaryRow};
-use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// The `maps` config key.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Maps {
-    /// Every finished run's map.
-    All,
-    /// Per (dataset, energy) the map of the best run ([`best_of_group`]).
-    #[default]
-    Best,
-    /// No maps (and no mesh copies): the report has no map plots.
-    None,
-}
+pub use super::maps_policy::Maps;
 
 impl Maps {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Maps::All => "all",
-            Maps::Best => "best",
-            Maps::None => "none",
-        }
-    }
-
     /// The policy a run folder was written with (`meta.json`'s `maps`); folders written
     /// before the key kept every map.
     pub fn of_meta(meta: &Meta) -> Maps {

@@ -12,6 +12,7 @@ pub mod iterations;
 pub mod keep;
 mod layout;
 pub mod map;
+mod maps_policy;
 pub mod meta;
 pub mod reuse;
 pub mod sidecar;

@@ -7,7 +7,7 @@
 use crate::calibration::Calibration;
 use crate::hardware::Hardware;
 use crate::run_folder::atomic::write_atomic;
-use crate::run_folder::keep::Maps;
+use crate::run_folder::maps_policy::Maps;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use solvers::solver::StopSettings;
