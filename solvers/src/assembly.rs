@@ -11,6 +11,7 @@
 //! read about once, in order (a gather by slot read each block once per vertex, three times,
 //! in scattered order, and took twice the time of the projection at 55k vertices).
 
+use crate::linear::LowerPattern;
 use crate::smoothness::Matrix8;
 use nalgebra::Matrix6;
 use rayon::prelude::*;
@@ -41,6 +42,24 @@ pub struct Pattern {
     /// faces as their index, edge blocks as `faces + edge`.
     chunk_ptr: Vec<usize>,
     chunk_elements: Vec<u32>,
+}
+
+impl LowerPattern for Pattern {
+    fn dim(&self) -> usize {
+        self.n
+    }
+
+    fn col_ptr(&self) -> &[usize] {
+        &self.col_ptr
+    }
+
+    fn row_indices(&self) -> &[usize] {
+        &self.row_idx
+    }
+
+    fn diagonal_slots(&self) -> &[usize] {
+        &self.diag
+    }
 }
 
 /// The lower-triangular entries `(a, b)`, `a >= b`, of an `N x N` block, row-major

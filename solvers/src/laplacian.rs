@@ -8,7 +8,8 @@
 //! (as the AEM authors' code computes it). For the identity map (3D
 //! positions) it is the ordinary cotangent Laplacian with `cot / 2` weights.
 
-use crate::mesh::topology::{grouped, is_proper};
+use crate::grouping::grouped;
+use crate::mesh::topology::is_proper;
 use rayon::prelude::*;
 
 /// Faces per parallel chunk (fixed: results do not depend on the thread count).

@@ -17,6 +17,7 @@
 pub mod assembly;
 pub mod energy;
 pub mod generate;
+mod grouping;
 pub mod hessian;
 pub mod init;
 pub mod laplacian;

@@ -1,9 +1,9 @@
 //! The symbolic analysis of a pattern (ordering and symbolic Cholesky), computed once and
 //! shared by the runs on one mesh.
 
+use super::error::LinearError;
 use super::ordering::{metis_order_timed, Ordering};
 use super::supernodal::{Schedule, ScheduleError};
-use super::LinearError;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,

@@ -16,7 +16,6 @@ pub mod ordering;
 pub mod supernodal;
 pub mod triangular;
 
-use crate::assembly::Pattern;
 pub use analysis::{Analysis, AnalysisCache};
 pub use error::LinearError;
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -28,6 +27,20 @@ use ordering::Ordering;
 use std::sync::Arc;
 use std::time::Instant;
 use supernodal::Workspace;
+
+/// A lower-triangular CSC sparsity pattern, rows sorted within each column and every diagonal
+/// entry present: what [`SpdSolver::new`] analyses (the Newton pattern of
+/// `crate::assembly` is one).
+pub trait LowerPattern {
+    /// The matrix dimension.
+    fn dim(&self) -> usize;
+    /// Start of each column in [`LowerPattern::row_indices`] (length `dim + 1`).
+    fn col_ptr(&self) -> &[usize];
+    /// Row of each stored entry, sorted within each column (rows `>=` the column).
+    fn row_indices(&self) -> &[usize];
+    /// Value slot of each diagonal entry.
+    fn diagonal_slots(&self) -> &[usize];
+}
 
 /// Linear-system settings (`[linear]` in the config).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -190,26 +203,26 @@ fn scratch(symbolic: &SymbolicCholesky<usize>, par: Par) -> MemBuffer {
 impl SpdSolver {
     /// Analyse the Newton pattern once (two interleaved dofs per vertex) with `ordering`
     /// (supernodal when faer deems it worthwhile).
-    pub fn new(pattern: &Pattern, ordering: Ordering) -> Result<SpdSolver, LinearError> {
+    pub fn new(pattern: &impl LowerPattern, ordering: Ordering) -> Result<SpdSolver, LinearError> {
         Self::shared(pattern, ordering, None)
     }
 
     /// [`SpdSolver::new`], taking the analysis from `cache` when another solver on the same
     /// pattern already computed it (and leaving it there for the next one).
     pub fn shared(
-        pattern: &Pattern,
+        pattern: &impl LowerPattern,
         ordering: Ordering,
         cache: Option<&AnalysisCache>,
     ) -> Result<SpdSolver, LinearError> {
         let t0 = Instant::now();
         let (analysis, reused) = match cache {
-            Some(c) => c.get(pattern.n, &pattern.col_ptr, &pattern.row_idx, ordering, 2)?,
+            Some(c) => c.get(pattern.dim(), pattern.col_ptr(), pattern.row_indices(), ordering, 2)?,
             None => {
-                let (c, r) = (pattern.col_ptr.clone(), pattern.row_idx.clone());
-                (Arc::new(Analysis::new(pattern.n, c, r, ordering, 2)?), false)
+                let (c, r) = (pattern.col_ptr().to_vec(), pattern.row_indices().to_vec());
+                (Arc::new(Analysis::new(pattern.dim(), c, r, ordering, 2)?), false)
             }
         };
-        Ok(Self::with_analysis(analysis, pattern.diag.clone(), reused, t0.elapsed().as_secs_f64()))
+        Ok(Self::with_analysis(analysis, pattern.diagonal_slots().to_vec(), reused, t0.elapsed().as_secs_f64()))
     }
 
     /// [`SpdSolver::from_csc`] with a choice of ordering; METIS orders the graph whose nodes

@@ -11,7 +11,7 @@
 //!   supernodes and a slower factorization than AMD.
 
 use super::error::LinearError;
-use crate::mesh::topology::grouped;
+use crate::grouping::grouped;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 

@@ -1,4 +1,5 @@
 use super::*;
+use crate::assembly::Pattern;
 use nalgebra::Matrix6;
 
 #[test]

@@ -3,46 +3,13 @@
 //! Every function tolerates bad input (indices `>= n`, repeated vertices in a face,
 //! non-manifold or inconsistently oriented faces) without panicking or looping forever:
 //! such faces are skipped, so callers can run these before [`validate`](super::validate())
-//! has rejected anything. (`grouped` is the exception: a building block whose callers
-//! pass only keys in range: vertices of proper faces, or the indices of an analysed sparse
-//! pattern in `ordering`.)
+//! has rejected anything.
+
+use crate::grouping::grouped;
 
 /// True when `f` can take part in topology: all indices `< n` and pairwise distinct.
 pub fn is_proper(f: &[usize; 3], n: usize) -> bool {
     f.iter().all(|&v| v < n) && f[0] != f[1] && f[1] != f[2] && f[0] != f[2]
-}
-
-/// `items` grouped by key (every key `< n`), each group sorted: a CSR `(start, values)` with
-/// the group of key `k` at `values[start[k]..start[k + 1]]`. The same order as one sort of
-/// all `(key, value)` pairs, at O(items + n) plus the sorts of the (small) groups: on the
-/// million-vertex meshes one sort of all half-edges was most of `validate`'s time.
-///
-/// `items` must yield the same sequence on both calls (a count pass, then a fill pass).
-///
-/// # Panics
-/// When a key is `>= n`: callers pass only the vertices of proper faces or the row and
-/// column indices of a sparse pattern with `n` columns.
-pub(crate) fn grouped<T: Ord + Copy + Default, I: Iterator<Item = (usize, T)>>(
-    n: usize,
-    items: impl Fn() -> I,
-) -> (Vec<usize>, Vec<T>) {
-    let mut start = vec![0usize; n + 1];
-    for (k, _) in items() {
-        start[k + 1] += 1;
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    let mut fill = start.clone();
-    let mut values = vec![T::default(); start[n]];
-    for (k, v) in items() {
-        values[fill[k]] = v;
-        fill[k] += 1;
-    }
-    for k in 0..n {
-        values[start[k]..start[k + 1]].sort_unstable();
-    }
-    (start, values)
 }
 
 /// Each proper face's three edges as `(a, b, forward)` with `a < b`, `forward` when the face
@@ -471,21 +438,6 @@ mod tests {
         assert_eq!(components(&nm, 5), 1);
         assert!(boundary_loops(&[], 0).is_empty());
     }
-    /// Grouping is one sort of all `(key, value)` pairs, cut at the keys.
-    #[test]
-    fn grouped_is_one_sort_of_the_pairs() {
-        let pairs: Vec<(usize, (usize, bool))> =
-            (0..500).map(|i| ((i * 7919) % 13, ((i * 104729) % 17, i % 3 == 0))).collect();
-        let (start, values) = grouped(15, || pairs.iter().copied());
-        let mut sorted = pairs.clone();
-        sorted.sort_unstable();
-        assert_eq!(values, sorted.iter().map(|p| p.1).collect::<Vec<_>>());
-        for k in 0..15 {
-            assert_eq!(start[k + 1] - start[k], pairs.iter().filter(|p| p.0 == k).count());
-        }
-        assert_eq!((start[13], start[15]), (500, 500), "keys 13 and 14 are empty");
-    }
-
     /// The edges of a messy triangle soup (repeats, both orientations, non-manifold edges,
     /// improper faces) against the half-edges sorted and counted directly.
     #[test]

@@ -184,7 +184,7 @@ fn unreferenced_vertices(mesh: &Mesh, in_range: &[bool]) -> Option<Defect> {
 /// problems in face order; the first occurrence stays in the topology.
 fn duplicate_faces(mesh: &Mesh, n: usize) -> (Vec<bool>, Vec<Defect>) {
     // Grouped by the smallest vertex, each group sorted by the other two, then the face.
-    let (_, keyed) = topology::grouped(n, || {
+    let (_, keyed) = crate::grouping::grouped(n, || {
         (0..mesh.n_faces()).filter(|&f| is_proper(&mesh.faces[f], n)).map(|f| {
             let mut k = mesh.faces[f];
             k.sort_unstable();
