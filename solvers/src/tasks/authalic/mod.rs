@@ -12,20 +12,17 @@
 //! energy `E_S = sum |f(tau)|^2 / |tau|` a polynomial and its gradient exact everywhere.
 
 pub mod aem;
-mod iterate;
-mod problem;
+pub(crate) mod iterate;
+pub(crate) mod problem;
 pub mod sem;
 mod solve;
 
 pub use iterate::AUTHALIC_COLUMNS;
 pub use problem::{
     default_stop, AreaMetrics, AuthalicError, AuthalicOutcome, AuthalicProblem, AuthalicSettings, FoldGuard, Terms,
+    AUTHALIC_ENERGY,
 };
 pub use solve::{authalic_start, solve_authalic, solve_authalic_from};
-
-/// The one energy of the `authalic` task (the name in CSVs and configs): the normalized
-/// authalic energy of Liu and Yueh, not a density of `f_z`, `f_zbar` like the others.
-pub const AUTHALIC_ENERGY: &str = "authalic";
 
 #[cfg(test)]
 mod tests;

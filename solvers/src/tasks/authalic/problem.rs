@@ -14,6 +14,10 @@ use std::f64::consts::PI;
 /// Faces per parallel chunk (fixed: sums do not depend on the thread count).
 const CHUNK: usize = 2048;
 
+/// The one energy of the `authalic` task (the name in CSVs and configs): the normalized
+/// authalic energy of Liu and Yueh, not a density of `f_z`, `f_zbar` like the others.
+pub const AUTHALIC_ENERGY: &str = "authalic";
+
 /// Why an `authalic` run could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum AuthalicError {

@@ -17,8 +17,9 @@ use crate::solver::options::{check, read, NoOptions, Options, RawOptions};
 use crate::solver::planar::PlanarSolver;
 use crate::solver::truncated::{NewtonCgOptions, Preconditioner, CG_COLUMNS};
 use crate::solver::Observer;
-use crate::tasks::authalic::AUTHALIC_ENERGY;
-use crate::tasks::authalic::{aem, sem, AuthalicOutcome, AuthalicProblem, AuthalicSettings, AUTHALIC_COLUMNS};
+use crate::tasks::authalic::iterate::AUTHALIC_COLUMNS;
+use crate::tasks::authalic::problem::{AuthalicOutcome, AuthalicProblem, AuthalicSettings, AUTHALIC_ENERGY};
+use crate::tasks::authalic::{aem, sem};
 pub use crate::tasks::solver_error::SolverError;
 use crate::tasks::Task;
 
