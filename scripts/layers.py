@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""The harness's modules point one way: each top-level module of harness/src has a layer
-rank, and a file may name (by a `crate::`, `super::` or `self::` path, or a child module
-named without a prefix; the parsing of scripts/import_cycles.py) only modules of its own
-rank or below:
+"""Each crate's modules point one way: each top-level module of harness/src and of
+solvers/src has a layer rank, and a file may name (by a `crate::`, `super::` or `self::`
+path, or a child module named without a prefix; the parsing of scripts/import_cycles.py)
+only modules of its own rank or below. The harness:
 
     0  leaves        hash, paths, stats, names, escape, convergence, signals, calibration, utc
     1  run_folder    every file of a run folder, meta.json typed and versioned
@@ -10,6 +10,17 @@ rank or below:
                      corpus
     3  report        tables, plots, the report and trend pages, the comparison page
     4  edges         cli (the binary) and fuzzing (what the fuzz targets call)
+
+The numerics crate (solvers), in wings; nothing below the tasks names a task:
+
+    0  leaves        grouping; linear: sparse Cholesky, triangular solves, orderings and
+                     their errors, on any lower CSC pattern (`LowerPattern`)
+    1  the mesh      mesh (with topology, validation, handles) and generate
+    2  the element   energy, local, hessian, smoothness, assembly, laplacian, problem, init,
+                     line_search: an element's energy, derivatives and Hessian blocks, the
+                     assembled problem and its start
+    3  solver        the executor and the solvers' steps (Newton, L-BFGS, AQP, proxies)
+    4  tasks         param, deform, authalic, the Newton system of a run, the catalogue
 
 A rank is what a module is, not the least its imports allow: calibration names only stats,
 output names run_folder (whose files it refuses to overwrite) and so sits with the batch,
@@ -24,7 +35,7 @@ unit tests, at its end) and a module's test file (`#[cfg(test)] mod tests;`, `te
 since tests may drive a module through the layers above it. A new top-level module must be
 given a rank here.
 
-    python3 scripts/layers.py [HARNESS_SRC]   (default: harness/src)
+    python3 scripts/layers.py [CRATE_SRC ...]   (default: harness/src solvers/src)
 
 Prints each offending file with the path it names and exits 1 when there is any.
 """
@@ -35,7 +46,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from import_cycles import modules, named, sccs, strip_comments  # noqa: E402
 
-RANKS = {
+HARNESS_RANKS = {
     "hash": 0,
     "paths": 0,
     "stats": 0,
@@ -64,19 +75,51 @@ RANKS = {
     "fuzzing": 4,
 }
 
-TEST_MOD = re.compile(r"#\[cfg\(test\)\]\s*(?:pub(?:\([a-z]+\))?\s+)?mod\s+(\w+)\s*;")
+SOLVERS_RANKS = {
+    "grouping": 0,
+    "linear": 0,
+    "mesh": 1,
+    "generate": 1,
+    "energy": 2,
+    "local": 2,
+    "hessian": 2,
+    "smoothness": 2,
+    "assembly": 2,
+    "laplacian": 2,
+    "problem": 2,
+    "init": 2,
+    "line_search": 2,
+    "test_support": 2,
+    "solver": 3,
+    "tasks": 4,
+}
+
+RANKS_OF = {"harness/src": HARNESS_RANKS, "solvers/src": SOLVERS_RANKS}
+
+TEST_MOD = re.compile(
+    r"#\[cfg\(test\)\]\s*(?:#\[path\s*=\s*\"([\w/]+)\.rs\"\]\s*)?(?:pub(?:\([a-z]+\))?\s+)?mod\s+(\w+)\s*;"
+)
 
 
 def test_files(mods):
-    """The files of modules declared `#[cfg(test)] mod name;`, and of their submodules."""
+    """The files of modules declared `#[cfg(test)] mod name;` (or with `#[path = "x.rs"]`, the
+    file beside the declaring one), and of their submodules."""
     tests = set()
     for here, path in mods.items():
-        for name in TEST_MOD.findall(open(path, encoding="utf-8").read()):
-            tests.add(here + (name,))
+        own_dir = os.path.basename(path) in ("mod.rs", "lib.rs", "main.rs")
+        for file, name in TEST_MOD.findall(open(path, encoding="utf-8").read()):
+            if file:
+                tests.add((here if own_dir else here[:-1]) + tuple(file.split("/")))
+            else:
+                tests.add(here + (name,))
     return {path for key, path in mods.items() if any(key[: len(t)] == t for t in tests)}
 
 
-def main(src):
+def main(srcs):
+    return max(check(src, RANKS_OF[os.path.normpath(src).replace(os.sep, "/")[-len("harness/src"):]]) for src in srcs)
+
+
+def check(src, RANKS):
     mods = modules(src)
     skip = test_files(mods)
     top = {path: key[0] for key, path in mods.items() if key}
@@ -106,4 +149,4 @@ def main(src):
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1] if len(sys.argv) > 1 else "harness/src"))
+    sys.exit(main(sys.argv[1:] or ["harness/src", "solvers/src"]))
