@@ -384,9 +384,9 @@ fn the_statuses_page_lists_every_value_the_code_writes() {
         .map(|s| s.as_str())
         .to_vec());
     assert_eq!(first_cells(&page, "Status"), statuses);
-    // a skipped run's stop_reason says `skipped`, a failed one's `error`
+    // the solvers' reasons, and the harness's: a skipped run's `skipped`, a failed one's `error`
     let mut reasons = set(StopReason::ALL.iter().map(|r| r.as_str()).collect());
-    reasons.extend(["skipped".to_string(), "error".to_string()]);
+    reasons.extend([mapbench::run_folder::SKIPPED_STOP.to_string(), mapbench::run_folder::FAILED_STOP.to_string()]);
     assert_eq!(first_cells(&page, "Stop reasons"), reasons);
     assert_eq!(first_cells(&page, "Verdicts"), set(Verdict::ALL.map(|v| v.as_str()).to_vec()));
     for m in StartMap::ALL {

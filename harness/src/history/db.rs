@@ -7,10 +7,9 @@
 
 use super::error::HistoryError;
 use crate::plan::Task;
-use crate::run_folder::summary::FAILED_STOP;
+use crate::run_folder::run_stop::{parse_stop, stop_text, RunStop};
 use crate::run_folder::{Status, SummaryRow};
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
-use solvers::solver::StopReason;
 use std::path::{Path, PathBuf};
 
 /// The schema this build writes. docs/src/reference/history-schema.md documents it.
@@ -177,7 +176,7 @@ pub struct RunRow {
     pub iterations: Option<i64>,
     pub status: Status,
     /// `None` for a failed run (the column says `error`, as in `summary.csv`).
-    pub stop_reason: Option<StopReason>,
+    pub stop_reason: Option<RunStop>,
     pub final_energy: Option<f64>,
     pub grad_norm: Option<f64>,
     pub flips: Option<i64>,
@@ -424,8 +423,7 @@ impl HistoryDb {
         let rows = stmt
             .query_map([batch_id], |r| {
                 let status = parse_text(r, 7, |t| t.parse::<Status>())?;
-                let stop_reason =
-                    parse_text(r, 8, |t| if t == FAILED_STOP { Ok(None) } else { t.parse::<StopReason>().map(Some) })?;
+                let stop_reason = parse_text(r, 8, parse_stop)?;
                 Ok(RunRow {
                     batch_id: r.get(0)?,
                     dataset: r.get(1)?,
@@ -569,7 +567,7 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.vertices,
             r.iterations,
             r.status.as_str(),
-            r.stop_reason.as_ref().map_or(FAILED_STOP, StopReason::as_str),
+            stop_text(r.stop_reason.as_ref()),
             r.final_energy,
             r.grad_norm,
             r.flips,

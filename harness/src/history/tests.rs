@@ -17,7 +17,7 @@ fn run(dataset: &str, solver: &str, iterations: usize, energy: f64) -> RunRow {
         solver: solver.into(),
         iterations: Some(iterations),
         converged: true,
-        stop_reason: Some(StopReason::GradientTolerance),
+        stop_reason: Some(StopReason::GradientTolerance.into()),
         final_energy: Some(energy),
         time_s: Some(0.5),
         time_norm: Some(1.25),
@@ -135,7 +135,7 @@ fn an_older_schema_is_migrated_in_place() {
             r[0].cg_capped_iters,
             r[0].target_tau
         ),
-        (Some(9), Status::Ok, Some(StopReason::GradientTolerance), None, None, None)
+        (Some(9), Status::Ok, Some(StopReason::GradientTolerance.into()), None, None, None)
     );
     // version 0 (an empty file, as `sqlite3 FILE` or `touch` leaves it) becomes a history
     // when a batch is appended, and is left alone by a reader

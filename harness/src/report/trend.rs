@@ -489,7 +489,7 @@ mod tests {
                 solver: solver.into(),
                 iterations: Some(it),
                 converged: true,
-                stop_reason: Some(StopReason::GradientTolerance),
+                stop_reason: Some(StopReason::GradientTolerance.into()),
                 final_energy: Some(2.0),
                 time_s: Some(0.1 * it as f64),
                 time_norm: Some(0.2 * it as f64),

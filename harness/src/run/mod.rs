@@ -23,6 +23,7 @@ use crate::paths::absolute;
 use crate::plan::config::Maps;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::reuse::{self, Identity, Reuse};
+use crate::run_folder::RunStop;
 use crate::run_folder::{summary_csv, SummaryRow, SummaryWriter};
 use anyhow::{Context, Result};
 pub use finish::BatchReport;
@@ -369,7 +370,9 @@ fn default_threads(jobs: usize, cores: usize, runs: usize) -> usize {
 /// A repeat of a run that timed out replays its iterations: it stops (as a timeout) where
 /// the first one did, rather than at a deadline the machine's speed moves.
 fn replay_to(first: &RunResult) -> Option<usize> {
-    matches!(first.summary.stop_reason, Some(StopReason::Timeout)).then_some(first.summary.iterations).flatten()
+    matches!(first.summary.stop_reason, Some(RunStop::Solver(StopReason::Timeout)))
+        .then_some(first.summary.iterations)
+        .flatten()
 }
 
 /// One more calibration sample, `jobs` copies at once on pools of the runs' thread count. A

@@ -6,7 +6,7 @@ use crate::external::execute::{execute, Executed, ExternalError, Job, Setup};
 use crate::external::probe::Probe;
 use crate::plan::external::Declared;
 use crate::plan::{Plan, PlannedRun, RunSettings};
-use crate::run_folder::{Status, SummaryRow};
+use crate::run_folder::{RunStop, Status, SummaryRow};
 use crate::stats::median;
 use anyhow::Result;
 use solvers::linear::AnalysisCache;
@@ -154,7 +154,7 @@ fn skipped(mut summary: SummaryRow, reason: &str, mesh: Option<&Mesh>) -> RunRes
         (summary.vertices, summary.faces) = (Some(m.n_vertices()), Some(m.n_faces()));
     }
     summary.status = Status::Skipped;
-    summary.stop_reason = Some(StopReason::Skipped);
+    summary.stop_reason = Some(RunStop::Skipped);
     summary.error = reason.to_string();
     RunResult { summary, ..Default::default() }
 }
@@ -182,7 +182,7 @@ fn run_external(
     let result = |summary, rows| RunResult { summary, rows, ..Default::default() };
     let skip = |mut summary: SummaryRow, reason: String| {
         summary.status = Status::Skipped;
-        summary.stop_reason = Some(StopReason::Skipped);
+        summary.stop_reason = Some(RunStop::Skipped);
         summary.error = reason;
         RunResult { unkeyed: true, ..result(summary, Vec::new()) }
     };
@@ -294,7 +294,7 @@ fn record_outcome(
     }
     summary.iterations = Some(outcome.iterations);
     summary.converged = outcome.stop_reason.is_converged();
-    summary.stop_reason = Some(outcome.stop_reason.clone());
+    summary.stop_reason = Some(outcome.stop_reason.clone().into());
     summary.init_energy = Some(outcome.init_energy);
     summary.final_energy = Some(outcome.final_energy);
     summary.grad_norm = Some(outcome.grad_norm);

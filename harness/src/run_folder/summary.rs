@@ -3,10 +3,11 @@
 
 use super::atomic::write_atomic;
 use super::error::{csv_error, read_csv_bytes, FolderError};
+use super::run_stop::{stop_text, RunStop};
 pub use super::status::{RefSource, Status, ToTarget, Verdict};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
-use solvers::solver::{StartMap, StopReason};
+use solvers::solver::StartMap;
 use solvers::tasks::Task;
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -83,29 +84,6 @@ pub fn target_columns(tau: f64) -> [String; 2] {
     [format!("iters_to_{tau:e}"), format!("time_to_{tau:e}")]
 }
 
-/// The `stop_reason` of a run that failed, in `summary.csv` and the history.
-pub const FAILED_STOP: &str = "error";
-
-/// The `stop_reason` column: the solver's reason (`skipped` for a pair outside the solver's
-/// definition, `StopReason::Skipped`), or [`FAILED_STOP`] for a run that failed.
-mod stop_column {
-    use crate::run_folder::summary::FAILED_STOP as FAILED;
-    use serde::{de::Error, Deserialize, Deserializer, Serializer};
-    use solvers::solver::StopReason;
-
-    pub fn serialize<S: Serializer>(v: &Option<StopReason>, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(v.as_ref().map_or(FAILED, StopReason::as_str))
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<StopReason>, D::Error> {
-        let text = String::deserialize(d)?;
-        if text == FAILED {
-            return Ok(None);
-        }
-        text.parse().map(Some).map_err(D::Error::custom)
-    }
-}
-
 /// One row of `summary.csv`. Fields unknown for a failed run are empty.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SummaryRow {
@@ -117,9 +95,9 @@ pub struct SummaryRow {
     pub faces: Option<usize>,
     pub iterations: Option<usize>,
     pub converged: bool,
-    /// Why the solver stopped; `None` for a failed run (the column says `error`).
-    #[serde(with = "stop_column")]
-    pub stop_reason: Option<StopReason>,
+    /// Why the run ended; `None` for a failed run (the column says `error`).
+    #[serde(with = "super::run_stop::column")]
+    pub stop_reason: Option<RunStop>,
     pub init_energy: Option<f64>,
     pub final_energy: Option<f64>,
     pub grad_norm: Option<f64>,
@@ -242,7 +220,7 @@ pub struct SummaryRow {
 impl SummaryRow {
     /// The `stop_reason` column's text.
     pub fn stop_column(&self) -> &'static str {
-        self.stop_reason.as_ref().map_or(FAILED_STOP, StopReason::as_str)
+        stop_text(self.stop_reason.as_ref())
     }
 }
 
@@ -397,6 +375,7 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>, FolderError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use solvers::solver::StopReason;
 
     /// Task, status and stop reason are enums up to the file: their column strings are
     /// written and read back to the same values, a failed run's reason as `error`.
@@ -412,11 +391,11 @@ mod tests {
             stop_reason,
             ..Default::default()
         };
-        let mut skipped = row(Task::Param, Status::Skipped, Some(StopReason::Skipped));
+        let mut skipped = row(Task::Param, Status::Skipped, Some(RunStop::Skipped));
         skipped.error = "slim is not defined for nh: its reweighting ...".into();
         let mut rows = vec![
-            row(Task::Param, Status::Ok, Some(StopReason::GradientTolerance)),
-            row(Task::Deform, Status::NotConverged, Some(StopReason::Timeout)),
+            row(Task::Param, Status::Ok, Some(StopReason::GradientTolerance.into())),
+            row(Task::Deform, Status::NotConverged, Some(StopReason::Timeout.into())),
             row(Task::Authalic, Status::Failed, None),
             skipped,
         ];

@@ -26,10 +26,6 @@ pub enum StopReason {
     /// An external solver stopped by its own convergence rule (its `result.json` says
     /// `converged`); the harness's verdict judges the run as any other.
     SolverRule,
-    /// Never started: the solver is not defined for the energy (or its parameters). No
-    /// solver returns it; the harness records such pairs as skipped, the reason in `error`
-    /// (`SolverEntry::skip_reason`).
-    Skipped,
 }
 
 /// A `stop_reason` string that names no [`StopReason`].
@@ -39,7 +35,7 @@ pub struct UnknownStopReason(pub String);
 
 impl StopReason {
     /// Every reason, payloads empty (parsing, listings).
-    pub const ALL: [StopReason; 12] = [
+    pub const ALL: [StopReason; 11] = [
         StopReason::GradientTolerance,
         StopReason::EnergyDecrease,
         StopReason::MaxIterations,
@@ -51,7 +47,6 @@ impl StopReason {
         StopReason::Interrupted,
         StopReason::Timeout,
         StopReason::SolverRule,
-        StopReason::Skipped,
     ];
 
     /// The `stop_reason` column's string.
@@ -68,7 +63,6 @@ impl StopReason {
             StopReason::Interrupted => "interrupted",
             StopReason::Timeout => "timeout",
             StopReason::SolverRule => "solver_rule",
-            StopReason::Skipped => "skipped",
         }
     }
 

@@ -26,7 +26,9 @@ fn summary(dataset: &str, task: &str, solver: &str, status: &str, error: &str) -
         iterations: Some(3),
         time_s: Some(0.25),
         converged: status == "ok",
-        stop_reason: Some(if status == "ok" { StopReason::GradientTolerance } else { StopReason::MaxIterations }),
+        stop_reason: Some(
+            if status == "ok" { StopReason::GradientTolerance } else { StopReason::MaxIterations }.into(),
+        ),
         status: status.parse().unwrap(),
         error: error.into(),
         ..Default::default()

@@ -103,7 +103,7 @@ mod tests {
             iterations: Some(100),
             time_s: Some(1.234),
             status: Status::NotConverged,
-            stop_reason: Some(StopReason::MaxIterations),
+            stop_reason: Some(StopReason::MaxIterations.into()),
             area_ratio_sd: Some(sd),
             authalic_energy: Some(e),
             folded: Some(0),
@@ -129,7 +129,7 @@ mod tests {
         // An AEM-CG run that stopped early (energy increase) is not comparable with one that
         // ran the budget, however low its SD: SEM is bold on "face" now.
         let mut early = rows.clone();
-        early[1].stop_reason = Some(StopReason::EnergyIncreased);
+        early[1].stop_reason = Some(StopReason::EnergyIncreased.into());
         early[1].iterations = Some(7);
         assert_eq!(authalic_table(&early).unwrap().bold, [(0, 3), (0, 4), (1, 7), (1, 8)]);
         // Repeats show their spread.

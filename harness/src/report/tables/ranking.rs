@@ -12,6 +12,7 @@
 //!   [`SINGLE_SAMPLE`] and the caption says so ([`time_rule`]).
 
 use crate::run_folder::timed::Timed;
+use crate::run_folder::RunStop;
 use crate::run_folder::{Status, SummaryRow};
 use solvers::solver::StopReason;
 
@@ -30,7 +31,7 @@ pub fn comparable(r: &SummaryRow) -> bool {
 pub fn comparable_at_budget(r: &SummaryRow) -> bool {
     comparable(r)
         || r.status == Status::Budget
-        || (r.status == Status::NotConverged && r.stop_reason == Some(StopReason::MaxIterations))
+        || (r.status == Status::NotConverged && r.stop_reason == Some(RunStop::Solver(StopReason::MaxIterations)))
 }
 
 /// The indices of the lowest of the competing `values` (`None` = does not compete; non-finite
@@ -175,13 +176,13 @@ mod tests {
     #[test]
     fn fixed_budget_tables_admit_runs_that_used_the_whole_budget() {
         let r = |status, stop| SummaryRow { status, stop_reason: stop, ..Default::default() };
-        assert!(comparable_at_budget(&r(Status::Ok, Some(StopReason::GradientTolerance))));
-        assert!(comparable_at_budget(&r(Status::NotConverged, Some(StopReason::MaxIterations))));
-        assert!(comparable_at_budget(&r(Status::Budget, Some(StopReason::MaxIterations))));
-        assert!(!comparable_at_budget(&r(Status::NotConverged, Some(StopReason::NonFinite("energy".into())))));
-        assert!(!comparable_at_budget(&r(Status::NotConverged, Some(StopReason::Timeout))));
+        assert!(comparable_at_budget(&r(Status::Ok, Some(StopReason::GradientTolerance.into()))));
+        assert!(comparable_at_budget(&r(Status::NotConverged, Some(StopReason::MaxIterations.into()))));
+        assert!(comparable_at_budget(&r(Status::Budget, Some(StopReason::MaxIterations.into()))));
+        assert!(!comparable_at_budget(&r(Status::NotConverged, Some(StopReason::NonFinite("energy".into()).into()))));
+        assert!(!comparable_at_budget(&r(Status::NotConverged, Some(StopReason::Timeout.into()))));
         assert!(!comparable_at_budget(&r(Status::Failed, None)));
         assert!(!comparable_at_budget(&r(Status::Skipped, None)));
-        assert!(!comparable(&r(Status::NotConverged, Some(StopReason::MaxIterations))));
+        assert!(!comparable(&r(Status::NotConverged, Some(StopReason::MaxIterations.into()))));
     }
 }
