@@ -112,7 +112,7 @@ impl Mesh {
     /// Meshes whose areas over- or underflow in the file's units (coordinates beyond about
     /// 1e77 or below 1e-77) get the same transform computed at unit extent; the usual path is
     /// left as it is, so ordinary meshes keep their exact bits. The result is not finite only
-    /// when the coordinates span more than an `f64` holds (reported by [`validate()`]).
+    /// when the coordinates span more than an `f64` holds (reported by [`validate()`](super::validate())).
     pub fn normalization(&self) -> ([f64; 3], f64) {
         let (lo, hi) = self.bbox().unwrap_or(([0.0; 3], [0.0; 3]));
         let mut mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];

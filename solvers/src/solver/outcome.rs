@@ -23,7 +23,7 @@ pub struct AnalysisReport {
     /// This run's wall time spent obtaining it: computing it, or waiting while another run
     /// on the same mesh computed it (about 0 when it was ready).
     pub setup_seconds: f64,
-    /// Taken from an [`AnalysisCache`] entry another run computed.
+    /// Taken from an [`AnalysisCache`](crate::linear::AnalysisCache) entry another run computed.
     pub reused: bool,
 }
 

@@ -52,7 +52,7 @@ impl std::str::FromStr for Task {
     }
 }
 
-/// [`validate`] with everything the run of `task` refuses in a mesh: `param` and `authalic`
+/// [`validate()`] with everything the run of `task` refuses in a mesh: `param` and `authalic`
 /// need a topological disk, `authalic` an interior vertex, `deform` a planar (z = 0) shape
 /// whose faces are counter-clockwise in its area-1 rest pose. The run preambles call this, so
 /// `mapbench validate --task T` and a run of `T` cannot disagree about a mesh.
