@@ -7,7 +7,7 @@
 
 use super::error::HistoryError;
 use crate::plan::Task;
-use crate::run_folder::run_stop::{parse_stop, stop_text, RunStop};
+use crate::run_folder::{parse_stop, stop_text, RunStop};
 use crate::run_folder::{Status, SummaryRow};
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
 use std::path::{Path, PathBuf};

@@ -15,7 +15,7 @@ pub mod map;
 mod maps_policy;
 pub mod meta;
 pub mod reuse;
-pub mod run_stop;
+mod run_stop;
 pub mod sidecar;
 pub mod status;
 pub mod summary;
@@ -26,7 +26,7 @@ pub use atomic::write_atomic;
 pub use error::{csv_error, read_csv_bytes, FolderError};
 pub use iterations::{iteration_csv, read_iterations, read_run, IterationFile, ITERATION_COLUMNS};
 pub use layout::{external_dir, iterations_csv, meta_json, runs_dir, summary_csv};
-pub use run_stop::{RunStop, FAILED_STOP, SKIPPED_STOP};
+pub use run_stop::{parse_stop, stop_text, RunStop, FAILED_STOP, SKIPPED_STOP};
 pub use summary::{read_summary, write_summary, Status, SummaryRow, SummaryWriter, SUMMARY_COLUMNS};
 
 use anyhow::Result;

@@ -1,7 +1,7 @@
 //! The tasks, on top of the machinery: `param` and `deform` (planar maps, sharing
 //! [`map_task`]), `authalic` (disk area-preserving maps), the Newton [`system`] of a run, and
 //! the [`catalogue`] of every solver of every task. Nothing below this wing names a task
-//! (the book's Architecture page, "The numerics crate").
+//! (the book's Architecture page, "The layers").
 
 pub mod authalic;
 pub mod catalogue;

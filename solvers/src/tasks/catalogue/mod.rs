@@ -1,7 +1,8 @@
 //! The solver catalogue: every solver of every task, with the tasks it runs, the energies it
 //! is defined for, the extra CSV columns it writes, its labels, its options and how it is
 //! built. Config checks, `list solvers`, dispatch and table labels all read it. Adding a
-//! solver is its file plus one entry here.
+//! solver is its file, its `mod` line and one entry here (the book's "Adding your own
+//! solver" page lists the rest).
 
 use crate::energy::{EnergyKind, ENERGY_NAMES};
 use crate::hessian::pn::Filtered;
