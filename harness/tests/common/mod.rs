@@ -112,3 +112,17 @@ pub fn interrupted_batch_is_kept_and_resumed(signal: &str, code: i32) {
     let (_, rows) = read_csv(&out.join("summary.csv"));
     assert_eq!(rows.len(), 12);
 }
+
+/// Lines outside fenced code blocks.
+pub fn prose(text: &str) -> Vec<&str> {
+    let mut inside = false;
+    text.lines()
+        .filter(|l| {
+            if l.trim_start().starts_with("```") {
+                inside = !inside;
+                return false;
+            }
+            !inside
+        })
+        .collect()
+}
