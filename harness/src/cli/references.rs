@@ -25,6 +25,8 @@ pub(crate) fn references(a: ReferencesArgs) -> Result<ExitCode> {
     if let Some(p) = store {
         stores.store = p;
     }
+    // Computing them is this verb's job, whatever the config says of its batches.
+    stores.compute = true;
     let store = stores.store.clone();
     for n in &plan.notices {
         eprintln!("{n}");

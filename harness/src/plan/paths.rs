@@ -29,6 +29,8 @@ pub struct Stores {
     pub store: PathBuf,
     /// Computed references are written to `store` (off with `--no-history`).
     pub persist: bool,
+    /// A missing reference is computed (the config's `compute_references`, default true).
+    pub compute: bool,
 }
 
 impl Stores {
@@ -44,6 +46,6 @@ impl Stores {
                 history.parent().unwrap_or(Path::new("")).join(REFERENCES_FILE)
             }
         };
-        Stores { seed, store, persist: true }
+        Stores { seed, store, persist: true, compute: cfg.config.compute_references.unwrap_or(true) }
     }
 }

@@ -97,8 +97,8 @@ impl GroupReference {
 }
 
 /// The references of the groups of `runs` (every task; a chained start first): looked up and verified, or
-/// computed and added to the writable store, with a `notice` each. Stops computing when
-/// `interrupt` is set.
+/// computed and added to the writable store, with a `notice` each (not computed when the
+/// config sets `compute_references = false`). Stops computing when `interrupt` is set.
 pub fn prepare(
     plan: &Plan,
     runs: &[&PlannedRun],
@@ -144,6 +144,13 @@ pub fn prepare(
         let name = format!("{} {} {}", group.dataset, plan.task.as_str(), group.energy);
         if let Some((r, _, own)) = lookup(&book, &key, &problem, notice) {
             group.take(&r, if own { Origin::Store } else { Origin::Seed });
+        } else if !stores.compute {
+            let why = "not computed: the config sets `compute_references = false`";
+            notice(&format!(
+                "reference minimum of {name}: {why}; the batch's best final energy is used, uncertified \
+                 (`mapbench references` computes it)"
+            ));
+            group.note = Some(why.to_string());
         } else if !interrupt.load(Ordering::Relaxed) {
             notice(&format!("reference minimum of {name}: computing (the book's numerics page, \"Reference minima\")"));
             let step = |line: &str| notice(&format!("reference minimum of {name}: {line}"));
@@ -218,9 +225,9 @@ pub fn recertify(
 /// The (dataset, energy) groups of `plan` whose reference no store holds (verified) yet: what
 /// a `references` run would compute (with the SD minimum a chained start needs). A group
 /// whose problem cannot be made (its mesh unreadable) is not counted: its runs will fail on
-/// their own.
+/// their own. None with `compute_references = false`: the batch would not compute them.
 pub fn missing(plan: &Plan) -> Result<Vec<(String, String)>> {
-    let Some(stores) = &plan.references else { return Ok(Vec::new()) };
+    let Some(stores) = plan.references.as_ref().filter(|s| s.compute) else { return Ok(Vec::new()) };
     let mut book = Book::open(stores)?;
     let mut out: Vec<(String, String)> = Vec::new();
     let mut seen = std::collections::HashSet::new();

@@ -137,6 +137,30 @@ fn a_hand_edited_store_is_refused_with_the_reason() {
     assert_eq!(again[0].origin, Origin::Computed);
 }
 
+/// `compute_references = false` computes nothing: the group is judged by the batch's best
+/// final energy, with a notice and a note that say why, and nothing counts as missing (no
+/// reference job for `submit`); a reference a store holds is still used.
+#[test]
+fn compute_references_false_computes_nothing_and_says_so() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::fs::write(dir.join("m.obj"), fan(0.3)).unwrap();
+    let text = "name = \"t\"\nreferences = \"refs.json\"\ncompute_references = false\nenergies = [\"sd\"]\n\
+                solvers = [\"kp-newton\"]\n[[dataset]]\nname = \"m\"\npath = \"m.obj\"\n";
+    let off = Plan::resolve(LoadedConfig::parse(text, &dir.join("c.toml")).unwrap(), &[]).unwrap();
+    assert!(missing(&off).unwrap().is_empty());
+    let (groups, notices) = prepared_plan(&off);
+    assert_eq!((groups[0].origin, groups[0].e_star), (Origin::Unavailable, None));
+    assert!(groups[0].note.as_deref().unwrap_or("").contains("compute_references = false"), "{groups:?}");
+    assert!(notices[0].contains("not computed") && notices[0].contains("best final energy"), "{notices:?}");
+    assert!(!dir.join("refs.json").exists(), "nothing written");
+    // computed by a batch that may (as `mapbench references` does), then found by this one
+    let (on, _) = prepared(dir, "m", "\"sd\"", "");
+    let (found, notices) = prepared_plan(&off);
+    assert_eq!((found[0].origin, found[0].e_star), (Origin::Store, on[0].e_star));
+    assert!(notices.is_empty(), "{notices:?}");
+}
+
 /// The store only gets better: a lower entry replaces a higher one, never the reverse; an
 /// entry as low but certified replaces an uncertified one. Of the seed and the writable
 /// store, the lower verified entry is used; the seed is never written.
@@ -153,7 +177,7 @@ fn references_only_get_better() {
     let r = stored.entries.values().next().unwrap().clone();
     let x = store::verify(&r, &stored.maps(), &problem).unwrap();
     // a higher map (the start's) is not taken; the uncertified copy of the entry neither
-    let stores = crate::plan::paths::Stores { seed: None, store: store_path.clone(), persist: true };
+    let stores = crate::plan::paths::Stores { seed: None, store: store_path.clone(), persist: true, compute: true };
     let mut book = Book::open(&stores).unwrap();
     let mut higher = r.clone();
     (higher.e_star, higher.map_checksum) = (problem.e0, map_checksum(&problem.x0));

@@ -147,6 +147,12 @@ pub struct Config {
     /// config's folder; default `references.json` beside the history database. The
     /// committed `references.json` beside the registry is read first.
     pub references: Option<PathBuf>,
+    /// Whether a batch computes the reference minimum of a problem no store holds (default
+    /// true). `false` judges such groups by the batch's best final energy, uncertified, as
+    /// when the computation fails: for scaling batches whose references would cost hours
+    /// (the authalic reference runs AEM-CG 5000 iterations twice). `mapbench references`
+    /// computes them regardless.
+    pub compute_references: Option<bool>,
 }
 
 /// The default targets of the convergence test.
