@@ -9,7 +9,8 @@ hold what they use, which goes into a child of its own (`energy/density.rs` besi
 `energy/sd.rs`). A path inside an inline `mod name { ... }` is read from that module: its
 `super::` is the file holding the block (`mod stop_column { use super::FAILED_STOP; }` in
 `summary.rs` names `summary.rs`, not its parent), its `self::` and unprefixed children are the
-inline module's. The `mod` items themselves are wiring, not arrows. Comments are left out, and
+inline module's. A file declared with `#[path = "x_tests.rs"] mod tests;` is that module (its
+`super::` is the declaring file). The `mod` items themselves are wiring, not arrows. Comments are left out, and
 so is a file's `#[cfg(test)] mod name { ... }` (its unit tests, at its end): tests may drive a
 module through the entry points above it.
 
@@ -31,8 +32,13 @@ LEXEME = re.compile(r"//|/\*|(?<!\w)b?r(#*)\"|\"|'(?:\\(?:u\{[0-9a-fA-F]+\}|x[0-
 STRING = re.compile(r'"(?:\\.|[^"\\])*"', re.S)
 
 
+PATH_MOD = re.compile(r"#\[path\s*=\s*\"([^\"]+)\.rs\"\]\s*(?:#\[[^\]]*\]\s*)*(?:pub(?:\([a-z]+\))?\s+)?mod\s+(\w+)\s*;")
+
+
 def modules(src):
-    """Module path (tuple) -> file, for every .rs file under `src`."""
+    """Module path (tuple) -> file, for every .rs file under `src`; a file declared with
+    `#[path = "x.rs"] mod name;` is the module `name` of the declaring file (the path taken
+    beside that file, as rustc does for a `mod.rs` and, for these tests, a leaf file)."""
     out = {}
     for root, _, files in os.walk(src):
         for f in files:
@@ -43,6 +49,13 @@ def modules(src):
             if parts[-1] in ("mod", "lib", "main"):
                 parts = parts[:-1]
             out[tuple(parts)] = os.path.join(src, rel)
+    for here, path in list(out.items()):
+        for file, name in PATH_MOD.findall(open(path, encoding="utf-8").read()):
+            target = os.path.normpath(os.path.join(os.path.dirname(path), file + ".rs"))
+            for key in [k for k, p in out.items() if os.path.normpath(p) == target and k != here + (name,)]:
+                del out[key]
+            if os.path.exists(target):
+                out[here + (name,)] = target
     return out
 
 

@@ -94,7 +94,8 @@ SOLVERS_RANKS = {
     "tasks": 4,
 }
 
-RANKS_OF = {"harness/src": HARNESS_RANKS, "solvers/src": SOLVERS_RANKS}
+# Each crate's ranks, by the crate's folder (the parent of its `src`).
+RANKS_OF = {"harness": HARNESS_RANKS, "solvers": SOLVERS_RANKS}
 
 TEST_MOD = re.compile(
     r"#\[cfg\(test\)\]\s*(?:#\[path\s*=\s*\"([\w/]+)\.rs\"\]\s*)?(?:pub(?:\([a-z]+\))?\s+)?mod\s+(\w+)\s*;"
@@ -102,21 +103,26 @@ TEST_MOD = re.compile(
 
 
 def test_files(mods):
-    """The files of modules declared `#[cfg(test)] mod name;` (or with `#[path = "x.rs"]`, the
-    file beside the declaring one), and of their submodules."""
+    """The files of modules declared `#[cfg(test)] mod name;` (with or without `#[path =
+    "x.rs"]`: `modules` keys such a file by its module's name), and of their submodules."""
     tests = set()
     for here, path in mods.items():
-        own_dir = os.path.basename(path) in ("mod.rs", "lib.rs", "main.rs")
-        for file, name in TEST_MOD.findall(open(path, encoding="utf-8").read()):
-            if file:
-                tests.add((here if own_dir else here[:-1]) + tuple(file.split("/")))
-            else:
-                tests.add(here + (name,))
+        for _file, name in TEST_MOD.findall(open(path, encoding="utf-8").read()):
+            tests.add(here + (name,))
     return {path for key, path in mods.items() if any(key[: len(t)] == t for t in tests)}
 
 
+def ranks_of(src):
+    """The ranks of the crate whose `src` folder is `src`, by the crate's folder name."""
+    crate = os.path.basename(os.path.dirname(os.path.abspath(src)))
+    if os.path.basename(os.path.abspath(src)) != "src" or crate not in RANKS_OF:
+        known = ", ".join(f"{c}/src" for c in RANKS_OF)
+        raise SystemExit(f"{src}: not the src folder of a crate with ranks ({known}); add its ranks to RANKS_OF")
+    return RANKS_OF[crate]
+
+
 def main(srcs):
-    return max(check(src, RANKS_OF[os.path.normpath(src).replace(os.sep, "/")[-len("harness/src"):]]) for src in srcs)
+    return max(check(src, ranks_of(src)) for src in srcs)
 
 
 def check(src, RANKS):

@@ -114,3 +114,18 @@ def test_a_string_holds_no_comment_and_no_block(tmp_path):
         "b.rs": "mod inner { const C: char = '}'; }\nuse crate::a::A;\npub struct B;\n",
     })
     assert import_cycles.main([src]) == 1
+
+
+def test_a_file_declared_with_path_is_the_module_it_declares(tmp_path):
+    src = crate(tmp_path, {
+        "lib.rs": "pub mod mesh;\n",
+        "mesh/mod.rs": "pub mod validate;\npub use validate::check;\n",
+        "mesh/validate.rs": "pub fn check() {}\n#[cfg(test)]\n#[path = \"validate_tests.rs\"]\nmod tests;\n",
+        "mesh/validate_tests.rs": "use super::check;\n",
+    })
+    mods = import_cycles.modules(src)
+    tests = os.path.join(src, "mesh/validate_tests.rs")
+    assert mods[("mesh", "validate", "tests")] == tests
+    assert ("mesh", "validate_tests") not in mods
+    text = import_cycles.strip_comments(open(tests).read())
+    assert import_cycles.targets(text, ("mesh", "validate", "tests"), mods) == {os.path.join(src, "mesh/validate.rs")}
