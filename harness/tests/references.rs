@@ -132,7 +132,7 @@ fn the_reference_budget_covers_every_committed_config() {
         let table: toml::Table = std::fs::read_to_string(&path).unwrap().parse().unwrap();
         let max_iters = table.get("stop").and_then(|s| s.get("max_iters")).and_then(|m| m.as_integer()).unwrap_or(1000);
         assert!(
-            max_iters as usize <= mapbench::judge::reference::compute::BUDGET,
+            max_iters as usize <= mapbench::judge::reference::computation::BUDGET,
             "{}: max_iters = {max_iters} is past the reference budget",
             path.display()
         );

@@ -16,7 +16,7 @@ use solvers::solver::{Flow, IterationRecord, Observer, StopSettings};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The polish's iterations at most; its solver is the reference's polish of the task
-/// (`compute::polisher`: `kp-newton`, `aem-cg-safe` for `authalic`).
+/// (`computation::polisher`: `kp-newton`, `aem-cg-safe` for `authalic`).
 pub const WINDOW: usize = 100;
 
 /// Stops the polish once it is within `limit` (it went on towards `E*`: not another
@@ -86,7 +86,7 @@ pub fn after_run(
     let Ok(problem) = Problem::with_mesh(plan, run, mesh.clone()) else { return (None, None) };
     let mut until = Until { limit: stick.e_star + loosest * span, interrupt };
     let stop = StopSettings { grad_tol: 1e-12, energy_decrease_tol: 0.0, max_iters: WINDOW };
-    let polisher = super::reference::compute::polisher(&problem);
+    let polisher = super::reference::computation::polisher(&problem);
     let Ok(out) = problem.solve_from(polisher, x, stop, &mut until) else { return (None, None) };
     let m = problem.measure(&out.x);
     if m.flips > 0 || !m.energy.is_finite() {

@@ -5,7 +5,7 @@
 //! its provenance; the whole group is then judged against it, and the next batch reads it.
 
 use super::problem::Problem;
-use super::reference::{self, compute, store::Book, BatchSource, GroupReference, Origin, ProvenanceStep, StepKind};
+use super::reference::{self, computation, store::Book, BatchSource, GroupReference, Origin, ProvenanceStep, StepKind};
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::{map, read_summary};
 use anyhow::{Context, Result};
@@ -85,10 +85,10 @@ pub fn improve(
         for s in steps.iter_mut() {
             s.batch = Some(source.clone());
         }
-        let found = compute::Found { x: c.x.clone(), energy: m.energy, steps };
-        let certified = compute::polish(&problem, found, &step, interrupt).and_then(|found| {
+        let found = computation::Found { x: c.x.clone(), energy: m.energy, steps };
+        let certified = computation::polish(&problem, found, &step, interrupt).and_then(|found| {
             let base = reference::blank(&key, &group.dataset, problem.task(), &group.energy);
-            compute::certify(&problem, found, base, &step, interrupt)
+            computation::certify(&problem, found, base, &step, interrupt)
         });
         let (r, x) = match certified {
             Ok(done) => done,

@@ -37,7 +37,7 @@ pub struct Problem {
     /// The dataset's mesh as loaded (the maps' checksum names it).
     pub mesh: Mesh,
     settings: RunSettings,
-    handles: Vec<solvers::tasks::deform::Handle>,
+    handles: Vec<solvers::mesh::Handle>,
     pub objective: Objective,
     /// The common start, interleaved `u0 v0 u1 v1 ...` in the normalized frame.
     pub x0: Vec<f64>,

@@ -3,8 +3,9 @@
 
 use anyhow::{bail, Context, Result};
 use solvers::generate::generated_handles;
+use solvers::mesh::Handle;
 use solvers::mesh::Mesh;
-use solvers::tasks::deform::{rule_handles, Handle};
+use solvers::tasks::deform::rule_handles;
 use std::path::{Path, PathBuf};
 
 /// Where a dataset's handles come from.

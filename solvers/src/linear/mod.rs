@@ -29,8 +29,8 @@ use std::time::Instant;
 use supernodal::Workspace;
 
 /// A lower-triangular CSC sparsity pattern, rows sorted within each column and every diagonal
-/// entry present: what [`SpdSolver::new`] analyses (the Newton pattern of
-/// `crate::assembly` is one).
+/// entry present: what [`SpdSolver::new`] analyses (the assembled Newton pattern, a layer up,
+/// is one).
 pub trait LowerPattern {
     /// The matrix dimension.
     fn dim(&self) -> usize;
@@ -63,8 +63,7 @@ impl Default for LinearSettings {
 }
 
 /// How many times the Tikhonov shift is increased after a failed factorization (by the
-/// strategies that retry, [`crate::hessian::SystemBlock::retries_failed_factorization`], and
-/// the proxies' factorizations).
+/// Newton systems' strategies that retry and by the proxies' factorizations, layers up).
 pub const MAX_REGULARIZATION_RETRIES: usize = 3;
 
 /// The shift of the retry after a failed factorization with shift `tau`: x1000, at least

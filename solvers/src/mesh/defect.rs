@@ -154,7 +154,7 @@ impl Defect {
 
 /// One line per problem, at most `max_per_kind` of each kind followed by "... and N more `<kind>`".
 /// Keeps messages readable for a mesh with thousands of bad faces.
-pub fn summarize_problems(problems: &[Defect], max_per_kind: usize, sep: &str) -> String {
+pub(crate) fn summarize_problems(problems: &[Defect], max_per_kind: usize, sep: &str) -> String {
     let mut parts: Vec<String> = Vec::new();
     let mut i = 0;
     while i < problems.len() {

@@ -8,7 +8,7 @@ pub mod topology;
 mod triangle_mesh;
 pub mod validate;
 
-pub use defect::{summarize_problems, Defect};
+pub use defect::Defect;
 pub use error::MeshError;
 pub use handle::Handle;
 pub use obj::load_obj;

@@ -437,6 +437,6 @@ mod tests {
     }
 
     fn summarize(r: &crate::mesh::ValidationReport) -> String {
-        crate::mesh::summarize_problems(&r.problems, 3, "; ")
+        crate::mesh::defect::summarize_problems(&r.problems, 3, "; ")
     }
 }

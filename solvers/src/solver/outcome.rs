@@ -52,8 +52,8 @@ pub enum StartMap {
     /// `authalic`: the arc-length boundary on the unit circle and the fixed-boundary stretch
     /// steps.
     ArclengthStretch,
-    /// `param`: the SD minimum of the same problem (exp-SD's chained start,
-    /// [`crate::tasks::param::ParamStart::SdMinimum`]).
+    /// `param`: the SD minimum of the same problem (exp-SD's chained start, which the param
+    /// task's settings choose).
     SdMinimum,
 }
 

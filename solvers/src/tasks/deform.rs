@@ -7,12 +7,12 @@
 //! file's frame and transformed the same way.
 
 use crate::energy::EnergyKind;
-pub use crate::mesh::Handle;
+use crate::mesh::Handle;
 use crate::mesh::Mesh;
 use crate::problem::{MapProblem, Penalty};
 use crate::smoothness::Projection;
 use crate::solver::{Observer, Outcome, Settings, StartMap, StopSettings};
-pub use crate::tasks::map_task::MapError;
+use crate::tasks::map_task::MapError;
 use crate::tasks::map_task::{check_handles, checked_solver, map_problem};
 use crate::tasks::{validate_for, Task};
 

@@ -10,7 +10,8 @@ use crate::problem::{DegenerateFace, MapProblem};
 use crate::smoothness::Projection;
 use crate::solver::planar::PlanarSolver;
 use crate::solver::{RawOptions, SolveError};
-use crate::tasks::catalogue::{planar_solver, SolverError};
+use crate::tasks::catalogue::planar_solver;
+use crate::tasks::solver_error::SolverError;
 use crate::tasks::{validate_for, Task};
 
 /// Why a `param` or `deform` run could not start.

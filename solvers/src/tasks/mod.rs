@@ -8,8 +8,9 @@ pub mod catalogue;
 pub mod deform;
 pub mod map_task;
 pub mod param;
-pub mod solver_error;
+mod solver_error;
 pub mod system;
 mod task;
 
+pub use solver_error::SolverError;
 pub use task::{validate_for, Task, UnknownTask};

@@ -8,7 +8,7 @@ use crate::problem::MapProblem;
 use crate::smoothness::Projection;
 use crate::solver::{Observer, Outcome, RawOptions, Settings, StartMap, StopAt, StopSettings};
 use crate::tasks::catalogue::{lookup, Start};
-pub use crate::tasks::map_task::MapError;
+use crate::tasks::map_task::MapError;
 use crate::tasks::map_task::{checked_solver, map_problem};
 use crate::tasks::Task;
 

@@ -1,6 +1,6 @@
 //! Why a solver of the catalogue cannot run as asked.
 
-use crate::tasks::Task;
+use crate::tasks::task::Task;
 
 /// Why a solver cannot run as asked.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]

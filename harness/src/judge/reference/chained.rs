@@ -101,7 +101,7 @@ fn sd_minimum(plan: &Plan, sd: &PlannedRun, lookup: Lookup) -> Result<Option<Vec
     let name = format!("{dataset} param sd");
     notice(&format!("reference minimum of {name}: computing (the sd-minimum start of {dataset})"));
     let step = |line: &str| notice(&format!("reference minimum of {name}: {line}"));
-    let (r, x) = super::compute::compute(&problem, &key, &dataset, "sd", &step, interrupt)?;
+    let (r, x) = super::computation::compute(&problem, &key, &dataset, "sd", &step, interrupt)?;
     notice(&format!("reference minimum of {name}: E* = {:.12} (|grad| {:.1e})", r.e_star, r.grad_norm));
     book.add(r, &x, &problem.mesh).context("adding the computed SD reference")?;
     Ok(Some(x))

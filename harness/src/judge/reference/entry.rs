@@ -104,7 +104,7 @@ pub struct Polish {
     pub decrease: f64,
 }
 
-/// A reference's certificate ([`mod@super::compute`]'s rules).
+/// A reference's certificate ([`super::computation`]'s rules).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Certificate {

@@ -1,7 +1,7 @@
 //! Reference minima `E*` of the convergence test, one per problem: a dataset's mesh (and
 //! handles) with a task, an energy and its parameters, and the common start. A reference is
 //! the best known minimum, with the map that has it, how it was found and a certificate of the
-//! stationarity reached (`entry`, `compute`); it is kept in a reference store keyed by what determines
+//! stationarity reached (`entry`, `computation`); it is kept in a reference store keyed by what determines
 //! it (`store`), so a nightly does not compute it again. The committed `references.json`
 //! beside the registry is read with the writable store (`references` in the config, default
 //! `references.json` beside the history database), each entry verified against its map, the
@@ -10,11 +10,11 @@
 //! itself (in `meta.json`).
 
 pub mod chained;
-pub mod compute;
+pub mod computation;
 mod entry;
 pub mod store;
 
-pub use compute::{blank, compute};
+pub use computation::{blank, compute};
 pub use entry::{
     key, BatchSource, Certificate, CertificateRule, Polish, ProvenanceStep, Reference, StepKind, REFERENCE_VERSION,
 };
@@ -62,7 +62,7 @@ pub struct GroupReference {
     /// `E_iso`: the energy at an isometry.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ideal: Option<f64>,
-    /// Whether `E*` carries a certificate ([`mod@compute`]); an uncertified one is marked
+    /// Whether `E*` carries a certificate ([`computation`]); an uncertified one is marked
     /// wherever its verdicts appear.
     #[serde(default)]
     pub certified: bool,
@@ -201,8 +201,8 @@ pub fn recertify(
         let Some((r, x, _)) = lookup(&book, &key, &problem, notice) else { continue };
         let name = format!("{} {} {}", group.dataset, plan.task.as_str(), group.energy);
         let step = |line: &str| notice(&format!("reference minimum of {name}: {line}"));
-        let found = compute::Found { x, energy: r.e_star, steps: r.provenance.clone() };
-        let (again, x) = compute::certify(
+        let found = computation::Found { x, energy: r.e_star, steps: r.provenance.clone() };
+        let (again, x) = computation::certify(
             &problem,
             found,
             blank(&key, &group.dataset, problem.task(), &group.energy),

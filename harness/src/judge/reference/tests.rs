@@ -83,14 +83,14 @@ fn a_reference_carries_its_map_provenance_and_certificate() {
     assert!(dir.join("refs").join(&r.map).is_file());
     let portfolio: Vec<&str> =
         r.provenance.iter().filter(|s| s.what == StepKind::Portfolio).map(|s| s.solver.as_str()).collect();
-    assert_eq!(portfolio, compute::PORTFOLIO, "aqp is defined for sd");
+    assert_eq!(portfolio, computation::PORTFOLIO, "aqp is defined for sd");
     assert_eq!(r.certificate.rule, CertificateRule::Stationary);
     assert_eq!(
         r.certificate.polishes.iter().map(|p| p.solver.as_str()).collect::<Vec<_>>(),
         ["kp-newton", "lbfgs-laplacian"]
     );
     assert!(r.certificate.polishes.iter().all(|p| p.decrease <= r.certificate.tolerance));
-    assert!(r.grad_norm <= compute::STALL_GRAD && r.ideal == 2.0 && r.start == "tutte-scaled");
+    assert!(r.grad_norm <= computation::STALL_GRAD && r.ideal == 2.0 && r.start == "tutte-scaled");
     let problem = Problem::of(&plan, &plan.runs[0]).unwrap();
     let x = store::verify(r, &store.maps(), &problem).unwrap();
     assert_eq!(problem.measure(&x).energy, r.e_star);

@@ -5,7 +5,8 @@ use super::{available_cores, check_repeat, check_threads_per_run, Config, InitCo
 use anyhow::{bail, Context, Result};
 use solvers::energy::ENERGY_NAMES;
 use solvers::tasks::authalic::AUTHALIC_ENERGY;
-use solvers::tasks::catalogue::{self, names_for, SolverError};
+use solvers::tasks::catalogue::{self, names_for};
+use solvers::tasks::SolverError;
 
 impl Config {
     /// Checks names and values that serde cannot (unknown solver/energy names, parameters

@@ -21,7 +21,7 @@ use crate::solver::Observer;
 use crate::tasks::authalic::iterate::AUTHALIC_COLUMNS;
 use crate::tasks::authalic::problem::{AuthalicOutcome, AuthalicProblem, AuthalicSettings, AUTHALIC_ENERGY};
 use crate::tasks::authalic::{aem, sem};
-pub use crate::tasks::solver_error::SolverError;
+use crate::tasks::solver_error::SolverError;
 use crate::tasks::Task;
 
 /// Where a solver's runs start.
