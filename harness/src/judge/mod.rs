@@ -4,7 +4,7 @@
 //! run's verdict (`verdict`), its final gap, and its iterations and time to each target. A
 //! run is `ok` when its final map is valid and within the tightest target, whatever its own
 //! stop rule said. A run's verdict depends on its own rows and its group's reference only,
-//! never on which other runs the batch has. `authalic` runs keep their solvers' own rules
+//! never on which other runs the batch has; `authalic` runs are judged alike, on `E_A`
 //! (docs/src/reference/statuses.md).
 
 pub mod confirm;

@@ -77,8 +77,7 @@ pub struct Plan {
     pub maps: config::Maps,
     /// The solvers whose maps `best` keeps besides the best (`maps_keep`).
     pub maps_keep: Vec<String>,
-    /// The tolerances of the convergence test, loosest first (`targets`); empty for the
-    /// authalic task, which its solvers' own rules judge.
+    /// The tolerances of the convergence test, loosest first (`targets`), for every task.
     pub targets: Vec<f64>,
     /// Where reference minima are looked up and added (every task).
     pub references: Option<paths::Stores>,

@@ -1,7 +1,6 @@
-//! Everything of a run folder that is derived from its CSVs: each run's `energy_minus_best`
-//! against its (dataset, energy) group, the paper-style tables, the plots and `index.html`
-//! pointing at them. `run` and `merge` end here, and `report RUN_DIR` re-renders from the
-//! CSVs alone ([`Renderer`] is what `run` and `merge` are handed). Besides, the pages of the
+//! Everything of a run folder that is derived from its CSVs, which it reads and never writes:
+//! the paper-style tables, the plots and `index.html` pointing at them. `run` and `merge` end
+//! here, and `report RUN_DIR` re-renders from the CSVs alone ([`Renderer`] is what `run` and `merge` are handed). Besides, the pages of the
 //! layer below: the history's trend page (`trend`) and `compare`'s output (`compare`).
 
 pub mod batch;
@@ -17,13 +16,10 @@ pub mod target;
 pub mod trend;
 
 use crate::history::{HistoryDb, HistoryError};
-use crate::run_folder::read_run;
-use crate::run_folder::{iteration_csv, run_stem, write_atomic, SummaryRow};
+use crate::run_folder::SummaryRow;
 use anyhow::Result;
 use batch::Batch;
 use label::labelled;
-use select::finished;
-use std::collections::BTreeMap;
 use std::path::Path;
 use tables::Table;
 use target::at_target;
@@ -42,9 +38,9 @@ impl crate::run::Pages for Renderer {
     }
 }
 
-/// Re-derive everything from `summary` rows and the per-iteration CSVs in `run_dir`.
+/// Re-derive the tables, plots and `index.html` from `summary` rows and the per-iteration CSVs
+/// in `run_dir` (which it reads, never writes).
 pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
-    fill_best(run_dir, summary)?;
     let batch = Batch::read(run_dir);
     // Tables rank what the harness judged (the plots make the same view for their rankings; the
     // status matrix shows both the run's own stop and its target).
@@ -58,10 +54,6 @@ pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
 
 /// Builds one table from the summary, `None` when it does not apply.
 type TableFn = fn(&[SummaryRow]) -> Option<Table>;
-
-/// The per-iteration rows of each run of a (dataset, energy) group, by run stem, with the
-/// reference minimum the run is judged by and the span of its gaps.
-type Group = Vec<(String, Vec<solvers::solver::IterationRecord>, (Option<f64>, Option<f64>))>;
 
 /// Every table that applies to these runs (as [`at_target`] ranks them), with its file stem:
 /// the paper-shaped mean tables first, the harness's verdicts and the corpus aggregates next to
@@ -81,37 +73,6 @@ pub fn tables(summary: &[SummaryRow], batch: &Batch) -> Vec<(String, Table)> {
     out.extend(tables::aggregates_table(summary, batch).map(|t| (tables::AGGREGATES.to_string(), t)));
     out.extend(rest.iter().filter_map(build));
     out
-}
-
-/// Rewrite `energy_minus_best` of every run with the best energy any finished run of its
-/// (dataset, energy) group reached (docs/src/reference/columns.md: "energy minus the lowest energy any
-/// solver reached"). Runs finish in any order, in shards or resumed, so this is done once they are
-/// all on disk. Files whose content would not change are left alone.
-pub fn fill_best(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
-    let mut groups: BTreeMap<(&str, &str), Group> = BTreeMap::new();
-    for s in summary.iter().filter(|s| finished(s)) {
-        let stem = run_stem(&s.dataset, &s.energy, &s.solver);
-        let rows = read_run(run_dir, s)?.rows;
-        groups.entry((&s.dataset, &s.energy)).or_default().push((stem, rows, (s.ref_energy, s.gap_scale)));
-    }
-    for runs in groups.values() {
-        let best = runs
-            .iter()
-            .flat_map(|(_, r, _)| r.iter().map(|x| x.energy))
-            .filter(|e| e.is_finite())
-            .fold(f64::INFINITY, f64::min);
-        if !best.is_finite() {
-            continue;
-        }
-        for (stem, rows, (e_star, gap_scale)) in runs {
-            let path = run_dir.join("runs").join(format!("{stem}.csv"));
-            let bytes = iteration_csv(rows, best, *e_star, *gap_scale)?;
-            if std::fs::read(&path).ok().as_deref() != Some(&bytes[..]) {
-                write_atomic(&path, &bytes)?;
-            }
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -70,6 +70,5 @@ pub fn verdict_text(v: Verdict) -> &'static str {
         Verdict::StoppedAboveTarget => "stopped above target",
         Verdict::OtherMinimum => "other minimum",
         Verdict::Unfinished => "unfinished",
-        Verdict::OwnRule => "own rule",
     }
 }

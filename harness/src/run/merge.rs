@@ -107,6 +107,7 @@ pub fn merge(
         } else {
             already_in(previous.as_ref(), history_db.as_deref(), &merged_from).unwrap_or(Decision::Append)
         };
+        crate::run_folder::fill_energy_minus_best(&staging, &rows)?;
         let outcome = conclude_history(pages, history_db.as_deref(), &staging, &out_dir, decision)?;
         appended = Some(outcome.clone());
         pages.report(&staging, &rows)?;

@@ -110,6 +110,7 @@ pub fn run_batch(
     let batch = BatchContext { plan, mine: &mine, code: &code, out_dir, opts, progress };
     lower_references(&batch, &mut meta.references, &mut finished)?;
     let rows = judge_and_write(plan, out_dir, &mine, &meta, &calibration, finished, &mut report, progress)?;
+    crate::run_folder::fill_energy_minus_best(out_dir, &rows)?;
     // meta.json before the report, which states its calibration samples, then the history,
     // which reads the finished folder and records its outcome in meta.json for the report.
     let interrupted = report.interrupted > 0;

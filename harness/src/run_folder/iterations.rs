@@ -157,7 +157,7 @@ pub fn read_iterations(path: &Path, extra_columns: Option<&[&'static str]>) -> R
         None => Err(at_line(1, format!("no column `{name}`: not a mapbench iteration CSV"))),
     };
     let cols: Vec<Option<usize>> = ITERATION_COLUMNS.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
-    // The columns after the design ones are a solver's extras; `fill_best` rewrites the file
+    // The columns after the design ones are a solver's extras; `fill_energy_minus_best` rewrites the file
     // from the records, so a column they cannot hold is refused rather than dropped.
     let mut extra_cols: Vec<(&'static str, usize)> = Vec::new();
     for (j, name) in header.iter().enumerate().filter(|(_, n)| !ITERATION_COLUMNS.contains(n)) {

@@ -7,6 +7,7 @@
 //! half-written run.
 
 mod atomic;
+mod best;
 mod error;
 pub mod iterations;
 pub mod keep;
@@ -20,9 +21,11 @@ pub mod sidecar;
 pub mod status;
 pub mod summary;
 pub mod timed;
+mod upgrade;
 
 pub use crate::names::run_stem;
 pub use atomic::write_atomic;
+pub use best::fill_energy_minus_best;
 pub use error::{csv_error, read_csv_bytes, FolderError};
 pub use iterations::{iteration_csv, read_iterations, read_run, IterationFile, ITERATION_COLUMNS};
 pub use layout::{external_dir, iterations_csv, meta_json, runs_dir, summary_csv};

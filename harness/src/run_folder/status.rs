@@ -110,20 +110,11 @@ pub enum Verdict {
     /// Stopped for another reason above the target (the iteration cap, the time limit, a
     /// failed line search or linear solve; `stop_reason` says which).
     Unfinished,
-    /// Not judged: the solver's own rule decided. Only in folders written before `authalic`
-    /// runs had reference minima; read, never written.
-    OwnRule,
 }
 
 impl Verdict {
-    pub const ALL: [Verdict; 6] = [
-        Verdict::Solved,
-        Verdict::Flipped,
-        Verdict::StoppedAboveTarget,
-        Verdict::OtherMinimum,
-        Verdict::Unfinished,
-        Verdict::OwnRule,
-    ];
+    pub const ALL: [Verdict; 5] =
+        [Verdict::Solved, Verdict::Flipped, Verdict::StoppedAboveTarget, Verdict::OtherMinimum, Verdict::Unfinished];
 
     pub fn as_str(self) -> &'static str {
         match self {
@@ -132,7 +123,6 @@ impl Verdict {
             Verdict::StoppedAboveTarget => "stopped_above_target",
             Verdict::OtherMinimum => "other_minimum",
             Verdict::Unfinished => "unfinished",
-            Verdict::OwnRule => "own_rule",
         }
     }
 }

@@ -160,7 +160,7 @@ pub struct SummaryRow {
     #[serde(default)]
     pub final_gap: Option<f64>,
     /// The harness's verdict (`status` is `ok` exactly when it is `solved`).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "super::upgrade::verdict")]
     pub verdict: Option<Verdict>,
     /// Iterations whose truncated step's CG stopped at `max_cg_iters` short of its forcing
     /// term (the `cg_capped` column of `kp-newton-cg` and `kp-newton-cg-laplacian`): a safety

@@ -169,8 +169,7 @@ fn plural(n: usize) -> &'static str {
     }
 }
 
-/// An unsolved run the harness did not judge (an `authalic` run of a folder written before
-/// they were judged).
+/// An unsolved run the harness did not judge (no reference minimum).
 const NOT_CONVERGED: &str = "not converged";
 
 /// What kind of problem a failed or unsolved run is: `failed`, the harness's verdict, or
@@ -178,7 +177,7 @@ const NOT_CONVERGED: &str = "not converged";
 fn problem_kind(s: &SummaryRow) -> &'static str {
     match (s.status, s.verdict) {
         (Status::Failed, _) => "failed",
-        (_, Some(v)) if v != Verdict::OwnRule => verdict_text(v),
+        (_, Some(v)) => verdict_text(v),
         _ => NOT_CONVERGED,
     }
 }

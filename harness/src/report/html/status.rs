@@ -24,7 +24,6 @@ fn verdict_short(v: Verdict) -> &'static str {
         Verdict::StoppedAboveTarget => "above",
         Verdict::OtherMinimum => "other",
         Verdict::Unfinished => "unfin.",
-        Verdict::OwnRule => "ok",
     }
 }
 
@@ -140,7 +139,7 @@ fn status_caption(h: &mut String, summaries: &[SummaryRow]) {
         let t = tau_text(tau);
         let _ = write!(
             h,
-            " The harness judges param and deform runs against the reference minimum E* of their dataset and \
+            " The harness judges every run against the reference minimum E* of their dataset and \
              energy, whatever the solver's own stop rule said, from the common start's energy E0 for every \
              solver: <span class=\"ok\">green</span> = solved, its final map has no flipped triangle and \
              E − E* ≤ {t} × span, the span being min(E0 − E*, A) with A = max(E* − E_iso, 10⁻⁴ max(1, |E_iso|)) \
@@ -153,8 +152,7 @@ fn status_caption(h: &mut String, summaries: &[SummaryRow]) {
              unfinished, it stopped for another reason above the target (iteration cap, time limit, failed line \
              search or linear solve; the tooltip names it); <b>flipped</b> = its final map flips triangles. \
              A <b>†</b> marks the runs of a group whose E* is not certified (its reason in the notes below), a \
-             <b>≠</b> a run whose repeats did not reproduce its first (its first repeat's result is shown). \
-             Authalic runs keep their solvers' own rules (<b>nc</b>: not converged)."
+             <b>≠</b> a run whose repeats did not reproduce its first (its first repeat's result is shown)."
         );
     }
 }
@@ -303,7 +301,7 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
     let iterations = shown.iterations.map(|i| format!("{i}{}", if marked { "+" } else { "" })).unwrap_or_default();
     let secs = time.map(|t| brief(t.value)).unwrap_or_default();
     // The harness's verdict on a judged run it did not call solved.
-    let verdict = s.verdict.filter(|v| !matches!(v, Verdict::Solved | Verdict::OwnRule));
+    let verdict = s.verdict.filter(|v| !matches!(v, Verdict::Solved));
     let (class, top, bottom, tip) = match (s.status, verdict) {
         (Status::Ok, _) => {
             let what = if s.verdict == Some(Verdict::Solved) { "solved (own stop: " } else { "converged (" };
