@@ -135,13 +135,16 @@ impl SystemBlock for Slim {
     }
 
     /// The weights clamped in the system, of two per element.
-    fn counters(&self, states: &[ElementState]) -> Vec<f64> {
-        vec![states.par_iter().map(clamped_weights).sum::<usize>() as f64]
+    fn counters(&self, states: &[ElementState]) -> Vec<(&'static str, f64)> {
+        vec![(CLAMPED, states.par_iter().map(clamped_weights).sum::<usize>() as f64)]
     }
 }
 
 /// SLIM's per-iteration column: the weights clamped in the system that produced the row.
-pub const CLAMPED_COLUMN: [&str; 1] = ["clamped"];
+pub const CLAMPED: &str = "clamped";
+
+/// SLIM's per-iteration columns.
+pub const CLAMPED_COLUMN: [&str; 1] = [CLAMPED];
 
 #[cfg(test)]
 mod tests {
@@ -240,14 +243,15 @@ mod tests {
         let mut rng = Lcg(91);
         for e in all_energies() {
             let states: Vec<ElementState> = (0..2000).map(|_| random_element(&mut rng, &e).2).collect();
-            let clamped = Slim.counters(&states);
+            let counters = Slim.counters(&states);
             let separable = matches!(e, EnergyKind::Sd(_) | EnergyKind::ExpSd(_) | EnergyKind::Sarap(_));
-            assert_eq!(clamped.len(), 1);
-            assert_eq!(clamped[0] == 0.0, separable, "{e:?}: {} of 4000 clamped", clamped[0]);
+            assert_eq!((counters.len(), counters[0].0), (1, CLAMPED));
+            let clamped = counters[0].1;
+            assert_eq!(clamped == 0.0, separable, "{e:?}: {clamped} of 4000 clamped");
             // the count is of the weights `weights_sq` clamps
             let at_floor: usize =
                 states.iter().map(|s| weights_sq(s).iter().filter(|&&w| w == MIN_WEIGHT_SQ).count()).sum();
-            assert_eq!(clamped[0], at_floor as f64, "{e:?}");
+            assert_eq!(clamped, at_floor as f64, "{e:?}");
         }
     }
 

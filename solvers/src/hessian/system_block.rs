@@ -31,9 +31,9 @@ pub trait SystemBlock: Send + Sync {
         &[]
     }
 
-    /// The counters of the system built from `states` (one value per
-    /// [`SystemBlock::counter_names`] entry, in order), e.g. SLIM's clamped weights.
-    fn counters(&self, _states: &[ElementState]) -> Vec<f64> {
+    /// The counters of the system built from `states`, each named by its column (of
+    /// [`SystemBlock::counter_names`]), e.g. SLIM's clamped weights.
+    fn counters(&self, _states: &[ElementState]) -> Vec<(&'static str, f64)> {
         Vec::new()
     }
 

@@ -30,7 +30,13 @@ pub const BAD_FIT_RTOL: f64 = 1e-12;
 
 /// The extra columns of `pn-trust-region`: the filter of the system that produced the row
 /// (0 clamp, 1 abs) and the model fit `rho` of its step (NaN for a bad fit; both NaN in row 0).
-pub const TRUST_REGION_COLUMNS: [&str; 2] = ["filter", "rho"];
+pub const TRUST_REGION_COLUMNS: [&str; 2] = [FILTER, RHO];
+
+/// The column of the filter used.
+pub const FILTER: &str = "filter";
+
+/// The column of the model fit.
+pub const RHO: &str = "rho";
 
 /// What a filter acts on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

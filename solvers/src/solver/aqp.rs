@@ -65,7 +65,11 @@ pub const STEP_MEMORY_LOG2: f64 = 5.5;
 /// the line search's energy evaluations only; every iteration with `momentum > 0` also
 /// evaluates energy and gradient at `y` (and every iteration at the new `x`, for its row and
 /// the stop rule only: timed as `t_record_s`, outside the iteration's time).
-pub const AQP_COLUMNS: [&str; 3] = ["momentum", "energy_y", "t_init"];
+pub const AQP_COLUMNS: [&str; 3] = [MOMENTUM, ENERGY_Y, T_INIT];
+
+const MOMENTUM: &str = "momentum";
+const ENERGY_Y: &str = "energy_y";
+const T_INIT: &str = "t_init";
 
 /// `theta = (1 - sqrt(1/kappa)) / (1 + sqrt(1/kappa))`.
 pub fn theta(kappa: f64) -> f64 {
@@ -219,7 +223,7 @@ impl<'a> Method for AqpStep<'a> {
             t_reused,
             shift: Some(*shift),
             ls_evals,
-            extra: vec![eta, energy_y, t_init],
+            extra: vec![(MOMENTUM, eta), (ENERGY_Y, energy_y), (T_INIT, t_init)],
         })
     }
 }

@@ -4,7 +4,7 @@
 //! time with the setup charged to iteration 1 and the record-only work kept apart, the rows
 //! handed to the observer, and the outcome.
 
-use super::observer::{IterationRecord, Observer};
+use super::observer::{IterationRecord, Metric, Observer};
 use super::outcome::{AnalysisReport, Outcome};
 use super::stop::{StopReason, StopSettings};
 use std::time::Instant;
@@ -17,9 +17,10 @@ pub trait Iterate {
     /// Its time is record-only work (`t_record_s`).
     fn row(&self, iter: usize, step: f64) -> IterationRecord;
 
-    /// The values of the method's `columns` in row 0 (by default NaN: no step was taken).
-    fn initial_extra(&self, columns: &[&'static str]) -> Vec<f64> {
-        vec![f64::NAN; columns.len()]
+    /// The method's own values in row 0, by column (by default none: no step was taken, and
+    /// every declared column reads NaN).
+    fn initial_extra(&self) -> Vec<Metric> {
+        Vec::new()
     }
 
     /// The map the outcome reports, interleaved `[u0, v0, ...]` (it may be moved out: the
@@ -53,8 +54,8 @@ pub struct Step {
     pub shift: Option<f64>,
     /// Energy evaluations of the line search.
     pub ls_evals: usize,
-    /// The values of the method's columns, in their order.
-    pub extra: Vec<f64>,
+    /// The method's own values, each named by its column where it was measured.
+    pub extra: Vec<Metric>,
 }
 
 /// A method's iteration.
@@ -92,6 +93,14 @@ pub struct Finished<I> {
     pub last: I,
 }
 
+/// A row's extra columns: the method's declared `columns` in their order, each with the value
+/// named after it (NaN when the step did not measure it). A value of an undeclared column is
+/// a method's bug, caught by every test that runs the method.
+fn by_column(columns: &[&'static str], values: Vec<Metric>) -> Vec<Metric> {
+    assert!(values.iter().all(|(name, _)| columns.contains(name)), "a column the method did not declare: {values:?}");
+    columns.iter().map(|&c| (c, values.iter().find(|(name, _)| *name == c).map_or(f64::NAN, |v| v.1))).collect()
+}
+
 /// Run `start`'s method from the evaluated iterate `at` under the stop rules `stop`.
 pub fn execute<M: Method>(
     start: ReadyMethod<M>,
@@ -100,8 +109,7 @@ pub fn execute<M: Method>(
     observer: &mut dyn Observer,
 ) -> Finished<M::Iterate> {
     let ReadyMethod { method, columns, analysis, mut charged } = start;
-    let mut record =
-        IterationRecord { extra: columns.iter().copied().zip(at.initial_extra(&columns)).collect(), ..at.row(0, 0.0) };
+    let mut record = IterationRecord { extra: by_column(&columns, at.initial_extra()), ..at.row(0, 0.0) };
     let init_energy = record.energy;
     let mut halt = observer.observe(&record).stop_reason();
     let mut method = match method {
@@ -143,7 +151,7 @@ pub fn execute<M: Method>(
             t_record_s: t_record,
             shift: step.shift,
             ls_evals: step.ls_evals,
-            extra: columns.iter().copied().zip(step.extra).collect(),
+            extra: by_column(&columns, step.extra),
             ..row
         };
         halt = observer.observe(&record).stop_reason();
@@ -201,7 +209,7 @@ mod tests {
                 t_assemble: reused,
                 t_reused: reused,
                 shift: Some(1e-10),
-                extra: vec![iter as f64],
+                extra: vec![("k", iter as f64)],
                 ..Step::default()
             })
         }

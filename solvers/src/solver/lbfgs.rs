@@ -43,7 +43,11 @@ pub const CURVATURE_EPS: f64 = 1e-8;
 /// The extra CSV columns of both variants: the pairs the direction was built from, whether
 /// this step's pair was rejected by the curvature test (1/0), and whether the direction was
 /// reset to `-H0 g` (1/0). NaN in row 0 (no direction yet).
-pub const LBFGS_COLUMNS: [&str; 3] = ["pairs", "pair_skipped", "reset"];
+pub const LBFGS_COLUMNS: [&str; 3] = [PAIRS, PAIR_SKIPPED, RESET];
+
+const PAIRS: &str = "pairs";
+const PAIR_SKIPPED: &str = "pair_skipped";
+const RESET: &str = "reset";
 
 /// The initial Hessian of the two-loop recursion.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -289,7 +293,11 @@ impl<'a> Method for Lbfgs<'a> {
             t_record,
             shift: *shift,
             ls_evals,
-            extra: vec![if reset { 0 } else { pairs } as f64, f64::from(u8::from(skipped)), f64::from(u8::from(reset))],
+            extra: vec![
+                (PAIRS, if reset { 0 } else { pairs } as f64),
+                (PAIR_SKIPPED, f64::from(u8::from(skipped))),
+                (RESET, f64::from(u8::from(reset))),
+            ],
             ..Step::default()
         })
     }

@@ -25,7 +25,7 @@ pub use newton::SolverSpec;
 pub use newton::{newton, NewtonSettings};
 #[cfg(test)]
 pub(crate) use observer::TimeoutAt;
-pub use observer::{Flow, IterationRecord, Observer, Recorder, StopAt, SystemView};
+pub use observer::{Flow, IterationRecord, Metric, Observer, Recorder, StopAt, SystemView};
 pub use options::RawOptions;
 pub use outcome::{AnalysisReport, Outcome, SolveError, StartMap};
 pub use settings::Settings;

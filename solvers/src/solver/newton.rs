@@ -6,6 +6,7 @@
 use super::executor::{execute, Method, ReadyMethod, Step};
 use super::map_iterate::MapIterate;
 use super::newton_system::{Direction, SystemBuilder};
+use super::observer::Metric;
 use super::observer::Observer;
 use super::outcome::{AnalysisReport, Outcome, SolveError};
 use super::settings::Settings;
@@ -118,7 +119,7 @@ impl Direction for Factorized {
         _grad_norm: f64,
         iter: usize,
         d: &mut Vec<f64>,
-    ) -> Result<(f64, Vec<f64>), StopReason> {
+    ) -> Result<(f64, Vec<Metric>), StopReason> {
         let Factorized { solver, base, retries, rhs } = self;
         rhs.clear();
         rhs.extend(ev.grad.iter().map(|g| -g));

@@ -2,10 +2,12 @@
 //! strategy's per-element blocks at the iterate, assembled on the problem's pattern, and
 //! the contract of the linear solve that turns it into a direction.
 
+use super::observer::Metric;
 use super::observer::SystemView;
 use super::stop::StopReason;
 use crate::assembly::{pack_lower, Lower6, Pattern};
 use crate::hessian::trust_region::{Filter, TrustRegion};
+use crate::hessian::trust_region::{FILTER, RHO};
 use crate::hessian::SystemBlock;
 use crate::linear::LinearSettings;
 use crate::problem::{Evaluation, MapProblem};
@@ -93,7 +95,7 @@ impl<'a> SystemBuilder<'a> {
 
     /// Build the system at `ev`: the strategy's counters, the projection's and the
     /// scattering's times.
-    pub(crate) fn build(&mut self, ev: &Evaluation) -> (Vec<f64>, f64, f64) {
+    pub(crate) fn build(&mut self, ev: &Evaluation) -> (Vec<Metric>, f64, f64) {
         let t0 = Instant::now();
         let adaptive = self.trust_region.map(|tr| tr.system(self.filter));
         let system: &dyn SystemBlock = match &adaptive {
@@ -111,13 +113,20 @@ impl<'a> SystemBuilder<'a> {
     /// After the step `s = t d` from the iterate `ev` (its unfiltered Hessian) with the
     /// energy's `decrease`: an adaptive filter's columns (the filter used, the model fit) and
     /// its choice for the next system; `None` for the other strategies.
-    pub(crate) fn fit(&mut self, ev: &Evaluation, d: &[f64], t: f64, g_dot_d: f64, decrease: f64) -> Option<Vec<f64>> {
+    pub(crate) fn fit(
+        &mut self,
+        ev: &Evaluation,
+        d: &[f64],
+        t: f64,
+        g_dot_d: f64,
+        decrease: f64,
+    ) -> Option<Vec<Metric>> {
         let tr = self.trust_region?;
         let predicted = -(t * g_dot_d + 0.5 * t * t * self.problem.hessian_form(ev, d));
         let fit = TrustRegion::fit(decrease, predicted, ev.energy);
         let used = self.filter.code();
         self.filter = tr.next(fit);
-        Some(vec![used, fit])
+        Some(vec![(FILTER, used), (RHO, fit)])
     }
 
     pub(crate) fn view<'v>(&'v self, iter: usize, grad: &'v [f64], linear: &'v LinearSettings) -> SystemView<'v> {
@@ -136,8 +145,7 @@ impl<'a> SystemBuilder<'a> {
 /// How a Newton-type step solves its assembled system for the direction.
 pub(crate) trait Direction {
     /// The direction `d` for the system in `system` at `ev` (gradient norm `grad_norm`),
-    /// iterate `iter`: the shift of the system solved and the values of the method's extra
-    /// columns after the strategy's.
+    /// iterate `iter`: the shift of the system solved and the method's own values, by column.
     fn direction(
         &mut self,
         system: &SystemBuilder,
@@ -145,5 +153,5 @@ pub(crate) trait Direction {
         grad_norm: f64,
         iter: usize,
         d: &mut Vec<f64>,
-    ) -> Result<(f64, Vec<f64>), StopReason>;
+    ) -> Result<(f64, Vec<Metric>), StopReason>;
 }

@@ -3,6 +3,9 @@
 use super::stop::StopReason;
 use crate::linear::LinearSettings;
 
+/// A solver's own per-iteration value with its column's name, named where it is measured.
+pub type Metric = (&'static str, f64);
+
 /// One row of the per-iteration CSV (docs/src/reference/columns.md order). Row `iter` describes the
 /// iterate after `iter` accepted steps; `neg_eig`/`indefinite_elems` come from the
 /// unmodified element Hessians of that same iterate; timings are those of the iteration
@@ -51,7 +54,7 @@ pub struct IterationRecord {
     pub ls_evals: usize,
     /// Solver-specific columns appended after the common ones (same names in every row
     /// of a run), e.g. the safeguards of `aem-cg-safe`.
-    pub extra: Vec<(&'static str, f64)>,
+    pub extra: Vec<Metric>,
 }
 
 impl IterationRecord {

@@ -16,6 +16,7 @@
 //! oversolving on the last step); `gamma = 0.9`, `eta_0 = eta_max = 0.9`.
 
 use super::newton_system::{Direction, SystemBuilder};
+use super::observer::Metric;
 use super::options::Options;
 use super::outcome::{AnalysisReport, SolveError};
 use super::proxy::{ProxyError, ScalarProxy};
@@ -38,7 +39,11 @@ pub const CURVATURE_FLOOR: f64 = 1e-12;
 /// forcing term it was solved to, the relative residual `|P r| / |P g|` it reached, and
 /// whether its CG stopped at `max_cg_iters` short of the forcing term (1/0; the harness
 /// counts such rows as `cg_capped_iters`: a capped step is a safety net, not the method).
-pub const CG_COLUMNS: [&str; 4] = ["cg_iters", "forcing", "cg_residual", CG_CAPPED_COLUMN];
+pub const CG_COLUMNS: [&str; 4] = [CG_ITERS, FORCING, CG_RESIDUAL, CG_CAPPED_COLUMN];
+
+const CG_ITERS: &str = "cg_iters";
+const FORCING: &str = "forcing";
+const CG_RESIDUAL: &str = "cg_residual";
 
 /// The column of [`CG_COLUMNS`] that marks a step whose CG hit [`NewtonCgOptions::max_cg_iters`].
 pub const CG_CAPPED_COLUMN: &str = "cg_capped";
@@ -301,7 +306,7 @@ impl Direction for Truncated<'_> {
         grad_norm: f64,
         iter: usize,
         d: &mut Vec<f64>,
-    ) -> Result<(f64, Vec<f64>), StopReason> {
+    ) -> Result<(f64, Vec<Metric>), StopReason> {
         if self.preconditioner == Preconditioner::Stiffness {
             self.steps.proxy.reweight(self.problem, &system.blocks, &self.linear)?;
         }
@@ -311,7 +316,12 @@ impl Direction for Truncated<'_> {
             .solve(&system.values, &ev.grad, eta, d)
             .map_err(|e| StopReason::LinearSolveFailed(format!("the preconditioner at iterate {iter}: {e}")))?;
         // the system itself is not shifted; the preconditioner's factorization was
-        let columns = vec![cg.iterations as f64, eta, cg.residual, f64::from(u8::from(cg.capped()))];
+        let columns = vec![
+            (CG_ITERS, cg.iterations as f64),
+            (FORCING, eta),
+            (CG_RESIDUAL, cg.residual),
+            (CG_CAPPED_COLUMN, f64::from(u8::from(cg.capped()))),
+        ];
         Ok((self.steps.proxy.shift, columns))
     }
 }

@@ -4,7 +4,7 @@ use crate::problem::norm;
 
 use super::problem::{AuthalicOutcome, AuthalicProblem, Terms};
 use crate::solver::executor::{Finished, Iterate};
-use crate::solver::{IterationRecord, StartMap};
+use crate::solver::{IterationRecord, Metric, StartMap};
 
 pub(crate) struct AuthalicIterate<'a> {
     pub problem: &'a AuthalicProblem,
@@ -39,7 +39,7 @@ impl Iterate for AuthalicIterate<'_> {
         }
     }
 
-    fn initial_extra(&self, _columns: &[&'static str]) -> Vec<f64> {
+    fn initial_extra(&self) -> Vec<Metric> {
         Extras::default().values(&self.terms)
     }
 
@@ -51,7 +51,16 @@ impl Iterate for AuthalicIterate<'_> {
 /// The extra columns of the authalic solvers (they share one iterate, so all of them write
 /// all of them): image area and stretch energy, then what the step rule did.
 pub const AUTHALIC_COLUMNS: [&str; 8] =
-    ["image_area", "stretch_energy", "ascent", "wolfe", "backtracks", "restarted", "fold_rejects", "quad_fallback"];
+    [IMAGE_AREA, STRETCH_ENERGY, ASCENT, WOLFE, BACKTRACKS, RESTARTED, FOLD_REJECTS, QUAD_FALLBACK];
+
+const IMAGE_AREA: &str = "image_area";
+const STRETCH_ENERGY: &str = "stretch_energy";
+const ASCENT: &str = "ascent";
+const WOLFE: &str = "wolfe";
+const BACKTRACKS: &str = "backtracks";
+const RESTARTED: &str = "restarted";
+const FOLD_REJECTS: &str = "fold_rejects";
+const QUAD_FALLBACK: &str = "quad_fallback";
 
 /// What the step rule of one iteration did (the extra columns, [`AUTHALIC_COLUMNS`]).
 #[derive(Clone, Copy, Debug, Default)]
@@ -67,18 +76,18 @@ pub(crate) struct Extras {
 }
 
 impl Extras {
-    /// The row's extra columns at the iterate with terms `t`, in `AUTHALIC_COLUMNS` order.
-    pub fn values(&self, t: &Terms) -> Vec<f64> {
+    /// The row's extra columns at the iterate with terms `t`, by name.
+    pub fn values(&self, t: &Terms) -> Vec<Metric> {
         let b = |v: bool| f64::from(u8::from(v));
         vec![
-            t.area,
-            t.stretch,
-            b(self.ascent),
-            self.wolfe.map_or(f64::NAN, b),
-            self.backtracks as f64,
-            b(self.restarted),
-            self.fold_rejects as f64,
-            b(self.quad_fallback),
+            (IMAGE_AREA, t.area),
+            (STRETCH_ENERGY, t.stretch),
+            (ASCENT, b(self.ascent)),
+            (WOLFE, self.wolfe.map_or(f64::NAN, b)),
+            (BACKTRACKS, self.backtracks as f64),
+            (RESTARTED, b(self.restarted)),
+            (FOLD_REJECTS, self.fold_rejects as f64),
+            (QUAD_FALLBACK, b(self.quad_fallback)),
         ]
     }
 }
