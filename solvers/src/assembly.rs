@@ -174,8 +174,8 @@ impl Pattern {
                 s
             })
             .collect::<Vec<[u32; 36]>>();
-        // Each chunk's elements, by counting sort over (element, chunk) pairs (stable: element
-        // order is kept); an element is listed once per chunk it writes to.
+        // Each chunk's elements in element order, grouped by chunk (`crate::grouping`); an
+        // element is listed once per chunk it writes to.
         let n_chunks = row_idx.len().div_ceil(chunk).max(1);
         let chunks_of = |slots: &[u32]| {
             let mut cs: Vec<usize> = slots.iter().map(|&p| p as usize / chunk).collect();
@@ -185,7 +185,8 @@ impl Pattern {
         };
         let element_chunks: Vec<Vec<usize>> =
             scatter.iter().map(|s| chunks_of(s)).chain(edge_scatter.iter().map(|s| chunks_of(s))).collect();
-        let (chunk_ptr, chunk_elements) = chunk_lists(&element_chunks, n_chunks);
+        let pairs = || element_chunks.iter().enumerate().flat_map(|(e, cs)| cs.iter().map(move |&c| (c, e as u32)));
+        let (chunk_ptr, chunk_elements) = crate::grouping::grouped(n_chunks, pairs);
         Pattern { n, col_ptr, row_idx, diag, scatter, edge_scatter, chunk, chunk_ptr, chunk_elements }
     }
 
@@ -349,27 +350,6 @@ fn lower_pattern(faces: &[[usize; 3]], edges: &[[usize; 4]], n: usize) -> (Vec<u
         col_ptr.push(row_idx.len());
     }
     (col_ptr, row_idx)
-}
-
-/// Each chunk's elements from each element's chunks, by counting sort (stable: element order
-/// is kept within a chunk): `chunk_ptr` (`n_chunks + 1` offsets) and `chunk_elements`.
-fn chunk_lists(element_chunks: &[Vec<usize>], n_chunks: usize) -> (Vec<usize>, Vec<u32>) {
-    let mut chunk_ptr = vec![0usize; n_chunks + 1];
-    for &c in element_chunks.iter().flatten() {
-        chunk_ptr[c + 1] += 1;
-    }
-    for c in 0..n_chunks {
-        chunk_ptr[c + 1] += chunk_ptr[c];
-    }
-    let mut fill = chunk_ptr.clone();
-    let mut chunk_elements = vec![0u32; chunk_ptr[n_chunks]];
-    for (e, cs) in element_chunks.iter().enumerate() {
-        for &c in cs {
-            chunk_elements[fill[c]] = e as u32;
-            fill[c] += 1;
-        }
-    }
-    (chunk_ptr, chunk_elements)
 }
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
 //! Grouping by key with a counting sort: the CSR layout of the mesh's adjacency, of sparse
-//! patterns and of the orderings' graphs. Its callers pass only keys in range (vertices of
+//! patterns, of the orderings' graphs and of the assembly's chunks. Its callers pass only keys in range (vertices of
 //! proper faces, or the indices of an analysed sparse pattern), so it may panic on others.
 
 /// `items` grouped by key (every key `< n`), each group sorted: a CSR `(start, values)` with
