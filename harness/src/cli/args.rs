@@ -77,6 +77,15 @@ pub(crate) enum Command {
     Sandbox,
 }
 
+/// `--only`: the runs of a config a verb takes.
+#[derive(Args)]
+pub(crate) struct Only {
+    /// Only the runs whose `<dataset>__<energy>__<solver>` matches this glob (`*`, `?`);
+    /// repeat for several.
+    #[arg(long = "only", value_name = "GLOB")]
+    pub(crate) globs: Vec<String>,
+}
+
 #[derive(Args)]
 pub(crate) struct RunArgs {
     /// The config file (TOML; see the book's config reference).
@@ -84,10 +93,8 @@ pub(crate) struct RunArgs {
     /// Output folder (default: reports/<name>).
     #[arg(long)]
     pub(crate) out: Option<PathBuf>,
-    /// Only the runs whose `<dataset>__<energy>__<solver>` matches this glob (`*`, `?`);
-    /// repeat for several.
-    #[arg(long)]
-    pub(crate) only: Vec<String>,
+    #[command(flatten)]
+    pub(crate) only: Only,
     /// Reuse the runs a previous batch finished in the same folder with the same code,
     /// settings, mesh and handles (keys in runs/<run>.json); run the rest.
     #[arg(long)]
@@ -161,9 +168,8 @@ pub(crate) struct SubmitArgs {
 pub(crate) struct ReferencesArgs {
     /// The config file whose runs' reference minima are wanted.
     pub(crate) config: PathBuf,
-    /// Only the groups of the runs this glob selects, as `run --only`.
-    #[arg(long)]
-    pub(crate) only: Vec<String>,
+    #[command(flatten)]
+    pub(crate) only: Only,
     /// The store computed references are added to (default: the config's `references`,
     /// else references.json beside its history database). `--store references.json` in
     /// the repository's root refreshes the committed seed.
@@ -229,9 +235,8 @@ pub(crate) struct ExportSystemArgs {
     /// Output folder for `<run>__it<K>.mtx` and `.rhs.mtx`.
     #[arg(long)]
     pub(crate) out: PathBuf,
-    /// Only the runs this glob selects, as `run --only`.
-    #[arg(long)]
-    pub(crate) only: Vec<String>,
+    #[command(flatten)]
+    pub(crate) only: Only,
     /// The iterate whose system is written (0 = the initial map).
     #[arg(long, default_value_t = 0)]
     pub(crate) iteration: usize,

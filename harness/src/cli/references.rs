@@ -15,7 +15,7 @@ use std::sync::Arc;
 /// the run folders `from`, and list them.
 pub(crate) fn references(a: ReferencesArgs) -> Result<ExitCode> {
     let ReferencesArgs { config, only, store, from, recertify } = a;
-    let (config, only, from) = (config.as_path(), only.as_slice(), from.as_slice());
+    let (config, only, from) = (config.as_path(), only.globs.as_slice(), from.as_slice());
     let interrupt = Arc::new(AtomicBool::new(false));
     let signal = signals::on_interrupt(interrupt.clone());
     let mut plan = Plan::resolve(LoadedConfig::load(config)?, only)?;

@@ -23,7 +23,7 @@ pub(crate) fn run(a: RunArgs) -> Result<ExitCode> {
     let interrupt = Arc::new(AtomicBool::new(false));
     let signal = signals::on_interrupt(interrupt.clone());
     config::check_jobs(a.jobs, config::available_cores())?;
-    let plan = run_plan(&a.config, &a.only, a.repeat, &a.history.choice(), a.shard.is_some())?;
+    let plan = run_plan(&a.config, &a.only.globs, a.repeat, &a.history.choice(), a.shard.is_some())?;
     let out = a.out.unwrap_or_else(|| PathBuf::from("reports").join(&plan.config.config.name));
     let shard_runs = match (&a.shard_plan, a.shard) {
         (Some(file), Some(shard)) => {

@@ -13,7 +13,7 @@ pub(crate) fn export_system(a: ExportSystemArgs) -> Result<ExitCode> {
     let cfg = LoadedConfig::load(&a.config)?;
     // Before the registry: a config of another task is refused for what it is.
     export::check_task(&cfg)?;
-    let plan = Plan::resolve(cfg, &a.only)?;
+    let plan = Plan::resolve(cfg, &a.only.globs)?;
     mapbench::output::check_folder(&a.out)?;
     for n in &plan.notices {
         eprintln!("{n}");
