@@ -21,15 +21,20 @@ impl ElementState {
     pub fn new(w: Wirtinger, m: Modifiers) -> Self {
         ElementState { fz: w.fz, fzb: w.fzb, m }
     }
-    /// `x = |f_z|^2`.
+    /// The Wirtinger derivatives the state was evaluated at.
+    #[inline]
+    pub fn wirtinger(&self) -> Wirtinger {
+        Wirtinger { fz: self.fz, fzb: self.fzb }
+    }
+    /// `x = |f_z|^2` ([`Wirtinger::x`]).
     #[inline]
     pub fn x(&self) -> f64 {
-        self.fz[0] * self.fz[0] + self.fz[1] * self.fz[1]
+        self.wirtinger().x()
     }
-    /// `y = |f_zbar|^2`.
+    /// `y = |f_zbar|^2` ([`Wirtinger::y`]).
     #[inline]
     pub fn y(&self) -> f64 {
-        self.fzb[0] * self.fzb[0] + self.fzb[1] * self.fzb[1]
+        self.wirtinger().y()
     }
 }
 
