@@ -188,9 +188,8 @@ fn never(_: &RawOptions) -> bool {
 /// falling towards its minimum at `sigma_k = 1`, so the per-triangle minimum is a rotation
 /// and the local step's target `R` is right. On the others (NH, BARAP, BCONF) the barrier or
 /// volume term couples the singular values, `dpsi/dsigma_k` often has the other sign, and the
-/// weight is clamped: at the Tutte map of `bumpy_1k` 0 of the weights are clamped for SD,
-/// exp-SD and SARAP, and 24.2% (NH), 3.0% (BARAP) and 6.9% (BCONF) are (test
-/// `slim_weights_are_clamped_outside_its_energies_only`).
+/// weight is clamped: at the Tutte map of `bumpy_1k` none is for SD, exp-SD and SARAP, and
+/// some are for each of the others (test `slim_weights_are_clamped_outside_its_energies_only`).
 pub const SLIM_ENERGIES: [&str; 3] = ["sd", "exp-sd", "sarap"];
 
 /// The energies AQP is defined for: those whose quadratic part is the Dirichlet energy
