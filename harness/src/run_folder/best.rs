@@ -4,7 +4,10 @@
 //! column is filled once they are all on disk, by the batch (`run`, `merge`) that wrote them;
 //! the report only reads it.
 
-use super::{iteration_csv, read_run, run_stem, write_atomic, SummaryRow};
+use super::atomic::write_atomic;
+use super::iterations::{iteration_csv, read_run};
+use super::summary::SummaryRow;
+use crate::names::run_stem;
 use anyhow::Result;
 use solvers::solver::IterationRecord;
 use std::collections::BTreeMap;
