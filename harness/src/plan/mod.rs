@@ -77,6 +77,9 @@ pub struct Plan {
     pub maps: config::Maps,
     /// The solvers whose maps `best` keeps besides the best (`maps_keep`).
     pub maps_keep: Vec<String>,
+    /// The solvers the report shows apart when they leave problems unsolved
+    /// (`expected_to_fail`).
+    pub expected_to_fail: Vec<String>,
     /// The tolerances of the convergence test, loosest first (`targets`), for every task.
     pub targets: Vec<f64>,
     /// Where reference minima are looked up and added (every task).
@@ -149,6 +152,7 @@ impl Plan {
             history,
             maps: c.maps.unwrap_or_default(),
             maps_keep: c.maps_keep.clone().unwrap_or_default(),
+            expected_to_fail: c.expected_to_fail.clone().unwrap_or_default(),
             task: c.task,
             threads_per_run: c.threads_per_run,
             config: cfg,

@@ -104,6 +104,7 @@ impl<'a> BatchRecord<'a> {
             mapbench_version: Some(env!("CARGO_PKG_VERSION").into()),
             maps: Some(plan.maps),
             maps_keep: (!plan.maps_keep.is_empty()).then(|| plan.maps_keep.clone()),
+            expected_to_fail: (!plan.expected_to_fail.is_empty()).then(|| plan.expected_to_fail.clone()),
             merged_from: None,
             meshes_dir: std::env::var(crate::plan::registry::MESHES_ENV).ok(),
             only: Some(plan.only.clone()),

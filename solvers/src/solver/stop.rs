@@ -66,6 +66,20 @@ impl StopReason {
         }
     }
 
+    /// The method broke down: a linear system it could not solve, a direction that does not
+    /// descend, a non-finite value, an energy that rose where it must fall. Not a stop short
+    /// of the target, which another iteration or a looser rule would pass, but a failure of
+    /// the method on this problem.
+    pub fn is_breakdown(&self) -> bool {
+        matches!(
+            self,
+            StopReason::LinearSolveFailed(_)
+                | StopReason::NotDescent
+                | StopReason::NonFinite(_)
+                | StopReason::EnergyIncreased
+        )
+    }
+
     /// Convergence by one of the configured stopping rules.
     pub fn is_converged(&self) -> bool {
         matches!(self, StopReason::GradientTolerance | StopReason::EnergyDecrease | StopReason::SolverRule)

@@ -23,6 +23,7 @@ impl Config {
         self.check_names()?;
         self.check_solver_options()?;
         self.check_maps_keep()?;
+        self.check_expected_to_fail()?;
         self.check_task_keys()?;
         if self.task == Task::Authalic {
             return self.check_authalic();
@@ -164,6 +165,19 @@ impl Config {
         for s in keep {
             if !self.solvers.contains(s) {
                 bail!("maps_keep names {s:?}, not a solver of this config (solvers = [{}])", self.solvers.join(", "));
+            }
+        }
+        Ok(())
+    }
+
+    /// `expected_to_fail` names solvers of this config.
+    fn check_expected_to_fail(&self) -> Result<()> {
+        for s in self.expected_to_fail.iter().flatten() {
+            if !self.solvers.contains(s) {
+                bail!(
+                    "expected_to_fail names {s:?}, not a solver of this config (solvers = [{}])",
+                    self.solvers.join(", ")
+                );
             }
         }
         Ok(())

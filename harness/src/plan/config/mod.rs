@@ -139,6 +139,10 @@ pub struct Config {
     /// With `maps = "best"`, the solvers whose maps are kept besides the best, so that the
     /// report shows them side by side with it.
     pub maps_keep: Option<Vec<String>>,
+    /// Solvers known to leave problems of this config unsolved (plain `newton`'s failed
+    /// factorizations, say): the report's first screen rolls their unsolved runs up apart
+    /// from the problems that are news. Their runs are judged like any other.
+    pub expected_to_fail: Option<Vec<String>>,
     /// The tolerances of the convergence test (`param`, `deform`): a run solves its problem
     /// at `tau` once its energy is within `tau` of the way from its start to the reference
     /// minimum; it is `ok` at the tightest. Default `[1e-3, 1e-6]`.

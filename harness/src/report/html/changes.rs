@@ -11,6 +11,7 @@ use crate::history::{HistoryDb, HistoryOutcome};
 use crate::judge::verdict::Verdict;
 use crate::report::batch::Batch;
 use crate::report::changes::{since_previous, Changes, Since};
+use crate::report::plots::Plot;
 use crate::report::select::unique;
 use crate::report::target::{tau_text, tightest_target, verdict_text};
 use crate::run_folder::meta::Meta;
@@ -29,22 +30,29 @@ pub(super) fn changes_section(
     run_dir: &Path,
     meta: Option<&Meta>,
     summaries: &[SummaryRow],
+    plots: &[Plot],
     batch: &Batch,
 ) {
     *h += "<section id=\"changes\">\n";
     let _ = writeln!(h, "<p class=\"verdict\"><b>{}</b></p>", esc(&verdict_line(summaries)));
+    super::provenance::glance(h, meta);
     if batch.calibration.as_ref().is_some_and(|c| c.unsteady()) {
         *h += "<p class=\"warn\">The machine changed speed during this batch: time rankings are less certain \
                (<a href=\"#timing\">calibration</a>).</p>\n";
     }
     since_section(h, run_dir, meta);
-    problems(h, run_dir, summaries);
+    let expected = meta.and_then(|m| m.expected_to_fail.as_deref()).unwrap_or_default();
+    super::rollup::rollup_section(h, summaries, expected);
+    problems(h, run_dir, summaries, plots);
     *h += "</section>\n";
 }
 
-/// `600 runs: 540 solved at the 1e-6 target, 30 not solved, 5 failed, 25 skipped`.
+/// `600 runs: 540 solved at the 1e-6 target, 22 not solved, 13 failed (8 the method broke
+/// down, 5 errors), 25 skipped`: a run whose method broke down (a failed factorization) is
+/// counted where a reader looks for failures.
 fn verdict_line(summaries: &[SummaryRow]) -> String {
     let n = |st: Status| summaries.iter().filter(|s| s.status == st).count();
+    let broke = summaries.iter().filter(|s| super::rollup::broke_down(s)).count();
     let (ok, word) = match tightest_target(summaries) {
         Some(tau) => (format!("solved at the {} target", tau_text(tau)), "solved"),
         None => ("converged".to_string(), "converged"),
@@ -53,12 +61,20 @@ fn verdict_line(summaries: &[SummaryRow]) -> String {
         0 => String::new(),
         b => format!("{b} at their fixed budget, "),
     };
+    let errors = n(Status::Failed);
+    let failed = match broke {
+        0 => format!("{errors} failed"),
+        b => format!(
+            "{} failed ({b} the method broke down, {errors} error{})",
+            b + errors,
+            if errors == 1 { "" } else { "s" }
+        ),
+    };
     format!(
-        "{} runs: {} {ok}, {budget}{} not {word}, {} failed, {} skipped",
+        "{} runs: {} {ok}, {budget}{} not {word}, {failed}, {} skipped",
         summaries.len(),
         n(Status::Ok),
-        n(Status::NotConverged),
-        n(Status::Failed),
+        n(Status::NotConverged) - broke,
         n(Status::Skipped)
     )
 }
@@ -184,7 +200,7 @@ fn problem_kind(s: &SummaryRow) -> &'static str {
 
 /// The failed and unsolved runs, at most [`PROBLEMS_SHOWN`], each linking to its CSV when it
 /// has one.
-fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
+fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow], plots: &[Plot]) {
     let mut list: Vec<&SummaryRow> = summaries.iter().filter(|s| is_problem(s)).collect();
     // The worst first: failures, then flipped maps (at the target, but unusable), then the runs
     // that stopped short of it for another reason, last those their own rule stopped above it.
@@ -229,9 +245,7 @@ fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
                 s.time_s.map(|t| format!(" after {} s", significant(t))).unwrap_or_default()
             ),
         };
-        let name = format!("{} / {} / {}", esc(&s.dataset), esc(&s.energy), esc(&s.solver));
-        let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));
-        let name = if run_dir.join(&csv).exists() { format!("<a href=\"{}\">{name}</a>", href(&csv)) } else { name };
+        let name = problem_name(run_dir, s, plots);
         let _ = writeln!(
             h,
             "<li class=\"{}\">{name}: {}</li>",
@@ -247,6 +261,20 @@ fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow]) {
             list.len() - PROBLEMS_SHOWN
         );
     }
+}
+
+/// `dataset / energy / solver`, the problem linking its plots (when it has any) and the solver
+/// its CSV (when it has one).
+fn problem_name(run_dir: &Path, s: &SummaryRow, plots: &[Plot]) -> String {
+    let problem = format!("{} / {}", esc(&s.dataset), esc(&s.energy));
+    let problem = match super::figures::has_section(run_dir, plots, &s.dataset, &s.energy) {
+        true => format!("<a href=\"#{}\">{problem}</a>", super::figures::problem_anchor(&s.dataset, &s.energy)),
+        false => problem,
+    };
+    let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));
+    let solver = esc(&s.solver);
+    let solver = if run_dir.join(&csv).exists() { format!("<a href=\"{}\">{solver}</a>", href(&csv)) } else { solver };
+    format!("{problem} / {solver}")
 }
 
 /// The changes of one batch since another: a warning when the settings differ, the changed

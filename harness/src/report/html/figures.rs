@@ -97,11 +97,12 @@ pub(super) fn profiles_section(h: &mut String, profiles: &[&Plot], summaries: &[
 }
 
 /// Curves in a responsive grid per (dataset, energy), then the map thumbnails linking to the
-/// full image. Plots whose file is missing are left out.
+/// full image. Plots whose file is missing are left out. Each problem (dataset and energy)
+/// has its anchor ([`problem_anchor`]).
 pub(super) fn plots_section(h: &mut String, run_dir: &Path, plots: &[Plot]) {
     *h += "<h2 id=\"plots\">Plots</h2>\n";
     // Profiles are shown with the aggregates table.
-    let present: Vec<&Plot> = plots.iter().filter(|p| !p.kind.is_profile() && run_dir.join(&p.file).exists()).collect();
+    let present: Vec<&Plot> = plots.iter().filter(|p| shown(run_dir, p)).collect();
     if present.is_empty() {
         *h += "<p>No plots (no run finished).</p>\n";
         return;
@@ -122,7 +123,7 @@ pub(super) fn plots_section(h: &mut String, run_dir: &Path, plots: &[Plot]) {
         })
         .collect::<Vec<_>>();
     for (d, e) in groups {
-        let _ = writeln!(h, "<h3>{} / {}</h3>", esc(d), esc(e));
+        let _ = writeln!(h, "<h3 id=\"{}\">{} / {}</h3>", problem_anchor(d, e), esc(d), esc(e));
         let of_group = || present.iter().filter(|p| p.dataset == d && p.energy == e);
         *h += "<div class=\"grid\">\n";
         for p in of_group().filter(|p| !matches!(p.kind, PlotKind::Map { .. })) {
@@ -152,4 +153,21 @@ pub(super) fn plots_section(h: &mut String, run_dir: &Path, plots: &[Plot]) {
             *h += "</div>\n";
         }
     }
+}
+
+/// Whether the plots section has a section for the problem (dataset and energy): a plot of it
+/// that is not a profile and whose file is there.
+pub(super) fn has_section(run_dir: &Path, plots: &[Plot], dataset: &str, energy: &str) -> bool {
+    plots.iter().any(|p| shown(run_dir, p) && p.dataset == dataset && p.energy == energy)
+}
+
+/// A plot the plots section draws: not a profile (those are with the aggregates), its file there.
+fn shown(run_dir: &Path, p: &Plot) -> bool {
+    !p.kind.is_profile() && run_dir.join(&p.file).exists()
+}
+
+/// The id of a problem's plot section: `problem-<dataset>__<energy>`, as the run files name
+/// them (dataset and energy names are `[a-z0-9_-]`), escaped all the same.
+pub(super) fn problem_anchor(dataset: &str, energy: &str) -> String {
+    crate::escape::esc(&format!("problem-{dataset}__{energy}"))
 }

@@ -20,6 +20,7 @@ mod external;
 mod figures;
 mod files;
 mod provenance;
+mod rollup;
 mod status;
 #[cfg(test)]
 mod tests;
@@ -88,7 +89,7 @@ pub fn write_index(
         t = esc(&task),
         x = if external.is_empty() { "" } else { "<a href=\"#external\">external solvers</a>" },
     );
-    changes_section(&mut h, run_dir, meta.as_ref(), summaries, batch);
+    changes_section(&mut h, run_dir, meta.as_ref(), summaries, plots, batch);
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
     provenance::hardware_note(&mut h, meta.as_ref());

@@ -33,6 +33,24 @@ pub(super) fn hardware_note(h: &mut String, meta: Option<&Meta>) {
     );
 }
 
+/// The first screen's line of where the numbers come from: the binary's revision, when the
+/// batch started, the machine and the config file, with a link to the whole provenance.
+pub(super) fn glance(h: &mut String, meta: Option<&Meta>) {
+    let Some(m) = meta else { return };
+    let revision = match (shown(&m.git_revision), m.git_dirty) {
+        (Some(r), Some(true)) => {
+            format!("revision <code>{}</code> with uncommitted changes", esc(r.get(..7).unwrap_or(&r)))
+        }
+        (Some(r), _) => format!("revision <code>{}</code>", esc(r.get(..7).unwrap_or(&r))),
+        (None, _) => "revision unknown".to_string(),
+    };
+    let mut parts = vec![revision];
+    parts.extend(m.started_unix.map(|s| format!("started {}", esc(&utc(s)))));
+    parts.extend(m.hardware.as_ref().map(|hw| esc(&hw.describe())));
+    parts.extend(shown(&m.config_path).map(|c| format!("<code>{}</code>", esc(&c))));
+    let _ = writeln!(h, "<p class=\"caption\">{} (<a href=\"#provenance\">provenance</a>)</p>", parts.join(", "));
+}
+
 pub(super) fn provenance_section(h: &mut String, meta: Option<&Meta>) {
     *h += "<h2 id=\"provenance\">Provenance</h2>\n";
     let Some(m) = meta else {

@@ -378,7 +378,11 @@ fn the_first_screen_shows_what_changed_since_the_previous_batch() {
         "<td class=\"k\">tiny param sd kp-newton</td><td class=\"k\">iterations</td><td>3</td><td>5</td><td>+2</td><td class=\"k\">worse</td>",
         "New in the latest batch (1): tiny param sd akvf",
         "<h3>Problems (1: 1 not converged)</h3>",
-        "<a href=\"runs/tiny__sd__slim.csv\">tiny / sd / slim</a>: not converged: max_iters",
+        "tiny / sd / <a href=\"runs/tiny__sd__slim.csv\">slim</a>: not converged: max_iters",
+        "revision <code>2222222</code>",
+        "(<a href=\"#provenance\">provenance</a>)",
+        "Unsolved per solver (1 run of 1 solver-energy pair)",
+        "slim / sd: 1 of 1 unsolved (max_iters 1)",
     ] {
         assert!(section.contains(needle), "{needle}\nnot in\n{section}");
     }
@@ -389,5 +393,8 @@ fn the_first_screen_shows_what_changed_since_the_previous_batch() {
     write_index(dir.path(), &rows, &[], &[], &Batch::default()).unwrap();
     let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
     assert!(html.contains("This batch is not in a history database"), "{html}");
-    assert!(html.contains("<li class=\"failed\"><a href=\"runs/tiny__sd__cm.csv\">tiny / sd / cm</a>: failed: factorization failed: pivot &lt; 0"));
+    // No plots here: the problem names no section, the solver links its CSV.
+    assert!(html.contains(
+        "<li class=\"failed\">tiny / sd / <a href=\"runs/tiny__sd__cm.csv\">cm</a>: failed: factorization failed: pivot &lt; 0"
+    ));
 }

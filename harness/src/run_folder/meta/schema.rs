@@ -91,6 +91,10 @@ pub struct Meta {
     /// The solvers whose maps `best` kept besides the best (`maps_keep`), when any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub maps_keep: Option<Vec<String>>,
+    /// The solvers the config expects to leave problems unsolved (`expected_to_fail`), when
+    /// any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expected_to_fail: Option<Vec<String>>,
     /// The shards a merged folder was made of; only merged folders have the key.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub merged_from: Option<Vec<MergedShard>>,

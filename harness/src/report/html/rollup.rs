@@ -1,0 +1,187 @@
+//! The first screen's roll-up of what broke: per solver and energy, how many of its runs were
+//! left unsolved or failed and why (the stops that say so most often), the solvers the config
+//! expects to fail (`expected_to_fail`) apart from the news, and each run whose method broke
+//! down (`StopReason::is_breakdown`) counted as failed.
+
+use super::status::is_problem;
+use crate::escape::esc;
+use crate::run_folder::{RunStop, Status, SummaryRow, FAILED_STOP};
+use std::fmt::Write as _;
+
+/// The stops named per solver and energy; the rest are counted as "other".
+const REASONS_SHOWN: usize = 3;
+
+/// A run that ran and whose method broke down (a failed factorization, say): a failure of the
+/// method, not a stop short of the target.
+pub(super) fn broke_down(s: &SummaryRow) -> bool {
+    s.status == Status::NotConverged && matches!(&s.stop_reason, Some(RunStop::Solver(r)) if r.is_breakdown())
+}
+
+/// Why a run is a problem, in a word: its `stop_reason` column (`error` for a failed run).
+fn why(s: &SummaryRow) -> &'static str {
+    match s.status {
+        Status::Failed => FAILED_STOP,
+        _ => s.stop_column(),
+    }
+}
+
+/// One solver and energy's unsolved runs.
+struct Line<'a> {
+    solver: &'a str,
+    energy: &'a str,
+    unsolved: usize,
+    ran: usize,
+    /// Each stop with its count, the most frequent first.
+    reasons: Vec<(&'static str, usize)>,
+}
+
+impl Line<'_> {
+    fn text(&self) -> String {
+        let mut reasons: Vec<String> =
+            self.reasons.iter().take(REASONS_SHOWN).map(|(r, n)| format!("{r} {n}")).collect();
+        let other: usize = self.reasons.iter().skip(REASONS_SHOWN).map(|(_, n)| n).sum();
+        if other > 0 {
+            reasons.push(format!("other {other}"));
+        }
+        format!(
+            "{} / {}: {} of {} unsolved ({})",
+            self.solver,
+            self.energy,
+            self.unsolved,
+            self.ran,
+            reasons.join(", ")
+        )
+    }
+}
+
+/// The unsolved runs rolled up per (solver, energy), the most unsolved first (ties in the
+/// batch's order).
+fn lines(summaries: &[SummaryRow]) -> Vec<Line<'_>> {
+    let mut out: Vec<Line> = Vec::new();
+    for s in summaries.iter().filter(|s| s.status != Status::Skipped) {
+        let at = match out.iter().position(|l| l.solver == s.solver && l.energy == s.energy) {
+            Some(i) => i,
+            None => {
+                out.push(Line { solver: &s.solver, energy: &s.energy, unsolved: 0, ran: 0, reasons: Vec::new() });
+                out.len() - 1
+            }
+        };
+        let line = &mut out[at];
+        line.ran += 1;
+        if is_problem(s) {
+            line.unsolved += 1;
+            let w = why(s);
+            match line.reasons.iter_mut().find(|(r, _)| *r == w) {
+                Some((_, n)) => *n += 1,
+                None => line.reasons.push((w, 1)),
+            }
+        }
+    }
+    out.retain(|l| l.unsolved > 0);
+    for l in &mut out {
+        l.reasons.sort_by_key(|r| std::cmp::Reverse(r.1));
+    }
+    out.sort_by_key(|l| std::cmp::Reverse(l.unsolved));
+    out
+}
+
+/// `<h3>Unsolved per solver</h3>` with the news first and the expected failures apart.
+pub(super) fn rollup_section(h: &mut String, summaries: &[SummaryRow], expected: &[String]) {
+    let all = lines(summaries);
+    if all.is_empty() {
+        return;
+    }
+    let (known, news): (Vec<&Line>, Vec<&Line>) = all.iter().partition(|l| expected.iter().any(|e| e == l.solver));
+    let runs = |ls: &[&Line]| ls.iter().map(|l| l.unsolved).sum::<usize>();
+    let _ = writeln!(
+        h,
+        "<h3 id=\"rollup\">Unsolved per solver ({} run{} of {} solver-energy pair{})</h3>",
+        runs(&news),
+        if runs(&news) == 1 { "" } else { "s" },
+        news.len(),
+        if news.len() == 1 { "" } else { "s" }
+    );
+    if news.is_empty() {
+        *h += "<p>None but those the config expects.</p>\n";
+    } else {
+        *h += "<ul class=\"problems\">\n";
+        for l in &news {
+            let _ = writeln!(h, "<li class=\"nc\">{}</li>", esc(&l.text()));
+        }
+        *h += "</ul>\n";
+    }
+    if !known.is_empty() {
+        let texts: Vec<String> = known.iter().map(|l| l.text()).collect();
+        let _ = writeln!(
+            h,
+            "<p class=\"caption\">Expected to fail (the config's <code>expected_to_fail</code>), {} run{}: {}.</p>",
+            runs(&known),
+            if runs(&known) == 1 { "" } else { "s" },
+            esc(&texts.join("; "))
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::Task;
+    use solvers::solver::StopReason;
+
+    fn row(solver: &str, status: Status, stop: Option<StopReason>) -> SummaryRow {
+        SummaryRow {
+            dataset: "m".into(),
+            task: Task::Param,
+            energy: "sd".into(),
+            solver: solver.into(),
+            status,
+            stop_reason: stop.map(RunStop::Solver),
+            ..SummaryRow::default()
+        }
+    }
+
+    fn batch() -> Vec<SummaryRow> {
+        let failed = || Some(StopReason::LinearSolveFailed("the system at iterate 0".into()));
+        let mut rows = vec![row("kp-newton", Status::Ok, Some(StopReason::GradientTolerance)); 3];
+        rows.extend([
+            row("newton", Status::NotConverged, failed()),
+            row("newton", Status::NotConverged, failed()),
+            row("newton", Status::NotConverged, Some(StopReason::MaxIterations)),
+            row("lbfgs", Status::NotConverged, Some(StopReason::MaxIterations)),
+            row("lbfgs", Status::Ok, Some(StopReason::GradientTolerance)),
+            row("lbfgs", Status::Failed, None),
+            row("slim", Status::Skipped, Some(StopReason::MaxIterations)),
+        ]);
+        rows
+    }
+
+    /// "newton / sd: 3 of 3 unsolved (linear_solve_failed 2, max_iters 1)", the most unsolved
+    /// first; solved and skipped runs count only in "of N" (skipped not even there).
+    #[test]
+    fn unsolved_runs_roll_up_per_solver_and_energy_with_their_stops() {
+        let rows = batch();
+        let texts: Vec<String> = lines(&rows).iter().map(Line::text).collect();
+        assert_eq!(
+            texts,
+            [
+                "newton / sd: 3 of 3 unsolved (linear_solve_failed 2, max_iters 1)",
+                "lbfgs / sd: 2 of 3 unsolved (max_iters 1, error 1)"
+            ]
+        );
+        assert_eq!(rows.iter().filter(|s| broke_down(s)).count(), 2, "the failed factorizations");
+    }
+
+    /// A solver the config expects to fail is listed apart, and the heading counts the news.
+    #[test]
+    fn expected_failures_are_shown_apart_from_the_news() {
+        let mut h = String::new();
+        rollup_section(&mut h, &batch(), &["newton".to_string()]);
+        assert!(h.contains("Unsolved per solver (2 runs of 1 solver-energy pair)"), "{h}");
+        let (news, known) = h.split_once("Expected to fail").unwrap();
+        assert!(news.contains("lbfgs / sd") && !news.contains("newton"), "{h}");
+        assert!(known.contains("3 runs: newton / sd: 3 of 3 unsolved"), "{h}");
+        let mut none = String::new();
+        rollup_section(&mut none, &batch()[..3], &[]);
+        assert!(none.is_empty(), "nothing unsolved, no section");
+    }
+}
