@@ -35,6 +35,18 @@ pub(super) fn is_param_or_deform(r: &SummaryRow) -> bool {
     matches!(r.task, Task::Param | Task::Deform)
 }
 
+/// The distinct items with how often each occurs, in first-appearance order (as [`unique`]).
+pub(crate) fn counted<T: PartialEq>(items: impl IntoIterator<Item = T>) -> Vec<(T, usize)> {
+    let mut out: Vec<(T, usize)> = Vec::new();
+    for i in items {
+        match out.iter_mut().find(|(k, _)| *k == i) {
+            Some((_, n)) => *n += 1,
+            None => out.push((i, 1)),
+        }
+    }
+    out
+}
+
 /// The distinct items in first-appearance order, so rows and columns follow summary.csv.
 pub(crate) fn unique<T: PartialEq>(items: impl IntoIterator<Item = T>) -> Vec<T> {
     let mut out: Vec<T> = Vec::new();

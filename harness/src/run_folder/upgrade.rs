@@ -1,9 +1,9 @@
 //! Run folders of older releases read as today's, asv's way: each legacy shape is upgraded
-//! where it is read, here, so nothing above `run_folder` handles one. The cases, with the
-//! release that stopped writing them (the formats' history is in `CHANGELOG.md`):
+//! where it is read, here, so nothing above `run_folder` handles one (when each stopped being
+//! written is in `CHANGELOG.md`):
 //!
-//! - the `own_rule` verdict (before 2026-12-05, when `authalic` runs had no reference
-//!   minimum and the solver's own rule decided): read as no verdict, a run not judged.
+//! - the `own_rule` verdict, written while `authalic` runs had no reference minimum and the
+//!   solver's own rule decided: read as no verdict, since no target judged the run.
 
 use super::status::Verdict;
 use serde::{Deserialize, Deserializer};

@@ -12,7 +12,7 @@ use crate::judge::verdict::Verdict;
 use crate::report::batch::Batch;
 use crate::report::changes::{since_previous, Changes, Since};
 use crate::report::plots::Plot;
-use crate::report::select::unique;
+use crate::report::select::{counted, unique};
 use crate::report::target::{tau_text, tightest_target, verdict_text};
 use crate::run_folder::meta::Meta;
 use crate::run_folder::{run_stem, Status, SummaryRow};
@@ -214,15 +214,8 @@ fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow], plots: &[P
         *h += "<h3>Problems</h3>\n<p>None: every run that ran was solved.</p>\n";
         return;
     }
-    let mut kinds: Vec<(&str, usize)> = Vec::new();
-    for s in &list {
-        let kind = problem_kind(s);
-        match kinds.iter_mut().find(|(k, _)| *k == kind) {
-            Some((_, n)) => *n += 1,
-            None => kinds.push((kind, 1)),
-        }
-    }
-    let kinds: Vec<String> = kinds.iter().map(|(k, n)| format!("{n} {k}")).collect();
+    let kinds: Vec<String> =
+        counted(list.iter().map(|s| problem_kind(s))).iter().map(|(k, n)| format!("{n} {k}")).collect();
     let _ = writeln!(h, "<h3>Problems ({}: {})</h3>\n<ul class=\"problems\">", list.len(), esc(&kinds.join(", ")));
     for s in list.iter().take(PROBLEMS_SHOWN) {
         let kind = problem_kind(s);

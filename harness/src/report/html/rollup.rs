@@ -5,6 +5,7 @@
 
 use super::status::is_problem;
 use crate::escape::esc;
+use crate::report::select::{counted, unique};
 use crate::run_folder::{RunStop, Status, SummaryRow, FAILED_STOP};
 use std::fmt::Write as _;
 
@@ -57,30 +58,17 @@ impl Line<'_> {
 /// The unsolved runs rolled up per (solver, energy), the most unsolved first (ties in the
 /// batch's order).
 fn lines(summaries: &[SummaryRow]) -> Vec<Line<'_>> {
-    let mut out: Vec<Line> = Vec::new();
-    for s in summaries.iter().filter(|s| s.status != Status::Skipped) {
-        let at = match out.iter().position(|l| l.solver == s.solver && l.energy == s.energy) {
-            Some(i) => i,
-            None => {
-                out.push(Line { solver: &s.solver, energy: &s.energy, unsolved: 0, ran: 0, reasons: Vec::new() });
-                out.len() - 1
-            }
-        };
-        let line = &mut out[at];
-        line.ran += 1;
-        if is_problem(s) {
-            line.unsolved += 1;
-            let w = why(s);
-            match line.reasons.iter_mut().find(|(r, _)| *r == w) {
-                Some((_, n)) => *n += 1,
-                None => line.reasons.push((w, 1)),
-            }
-        }
-    }
-    out.retain(|l| l.unsolved > 0);
-    for l in &mut out {
-        l.reasons.sort_by_key(|r| std::cmp::Reverse(r.1));
-    }
+    let ran: Vec<&SummaryRow> = summaries.iter().filter(|s| s.status != Status::Skipped).collect();
+    let mut out: Vec<Line> = unique(ran.iter().map(|s| (s.solver.as_str(), s.energy.as_str())))
+        .into_iter()
+        .map(|(solver, energy)| {
+            let of = || ran.iter().filter(move |s| s.solver == solver && s.energy == energy);
+            let mut reasons = counted(of().filter(|s| is_problem(s)).map(|s| why(s)));
+            reasons.sort_by_key(|r| std::cmp::Reverse(r.1));
+            Line { solver, energy, unsolved: reasons.iter().map(|r| r.1).sum(), ran: of().count(), reasons }
+        })
+        .filter(|l| l.unsolved > 0)
+        .collect();
     out.sort_by_key(|l| std::cmp::Reverse(l.unsolved));
     out
 }
