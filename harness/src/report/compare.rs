@@ -2,7 +2,7 @@
 //! page (legend, verdict and tables).
 
 use super::html::esc;
-use super::tables::Table;
+use super::tables::{Layout, Table};
 use crate::gate::compare::{FolderComparison, TimePair};
 use crate::gate::rules::{self, GatedRun, TimeChange};
 use crate::run_folder::timed::Timed;
@@ -60,6 +60,7 @@ fn table(title: &str, columns: &[&str], rows: Vec<Vec<String>>, caption: &str) -
         rows,
         caption: caption.to_string(),
         bold: Vec::new(),
+        layout: Layout::default(),
     }
 }
 
@@ -143,8 +144,8 @@ fn time_changes(cmp: &FolderComparison) -> Option<Section> {
             };
             Some(vec![
                 GatedRun::from(&p.before).label(),
-                t.before.format(3),
-                t.after.format(3),
+                t.before.text(),
+                t.after.text(),
                 ratio(&t),
                 change.as_str().into(),
                 rule,
@@ -185,7 +186,7 @@ fn runs_in_both(cmp: &FolderComparison) -> Section {
         let (b, a) = (&p.before, &p.after);
         let count = |v: Option<usize>| v.map_or("-".to_string(), |x| x.to_string());
         let energy = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.8}"));
-        let time = |t: Option<Timed>| t.map_or("-".to_string(), |t| t.format(3));
+        let time = |t: Option<Timed>| t.map_or("-".to_string(), |t| t.text());
         let mut change = Vec::new();
         let metrics = |regression: bool| {
             p.changes.iter().filter(|c| c.regression == regression).map(|c| c.metric).collect::<Vec<_>>().join(", ")

@@ -159,18 +159,18 @@ mod tests {
         let tables = tables(&labelled(&at_target(&rows)), &Batch::default());
         let table = |stem: &str| &tables.iter().find(|(s, _)| s == stem).expect(stem).1;
         let per_mesh = table("per_mesh");
-        assert_eq!(per_mesh.rows[0][5..7], ["10", "1.00 (0.99–1.01)"]);
-        assert_eq!(per_mesh.rows[0][8..10], ["12", "1.20 (1.19–1.21)"]);
-        assert_eq!(per_mesh.rows[0][11..13], ["300*", "0.60 (0.59–0.61)"], "slim counts as it ran");
+        assert_eq!(per_mesh.rows[0][6..8], ["10", "1.00 (0.990–1.01)"]);
+        assert_eq!(per_mesh.rows[0][9..11], ["12", "1.20 (1.19–1.21)"]);
+        assert_eq!(per_mesh.rows[0][12..14], ["300*", "0.600 (0.594–0.606)"], "slim counts as it ran");
         // cm: the fewest iterations, the shortest time, and tied on energy with kp-newton.
-        assert_eq!(per_mesh.bold, [(0, 5), (0, 6), (0, 7), (0, 10)]);
+        assert_eq!(per_mesh.bold, [(0, 6), (0, 7), (0, 8), (0, 11)]);
         let means = table("param");
-        assert_eq!(means.rows[0], ["cm", "10.0/10.000 (9.900–10.100)"]);
+        assert_eq!(means.rows[0], ["cm", "10.0/10.0 (9.90–10.1)"]);
         assert_eq!(means.bold, [(0, 1)]);
         let agg = table(tables::AGGREGATES);
         // sgm over one dataset: cm's own 10 iterations and 2 x 1.0 calibration units.
-        assert_eq!(agg.rows[0][8..10], ["10.0", "2.000 (1.980–2.020)"]);
-        assert_eq!(agg.rows[1][8..10], ["12.0", "2.400 (2.376–2.424)"]);
+        assert_eq!(agg.rows[0][8..10], ["10.0", "2.00 (1.98–2.02)"]);
+        assert_eq!(agg.rows[1][8..10], ["12.0", "2.40 (2.38–2.42)"]);
         assert_eq!(agg.bold, [(0, 8), (0, 9)]);
         for (stem, t) in tables.iter().filter(|(s, _)| ["param", "per_mesh", tables::AGGREGATES].contains(&s.as_str()))
         {

@@ -2,11 +2,18 @@
 //! filter and mark runs through these, and list their names in summary.csv's order ([`unique`]).
 
 use crate::plan::Task;
-use crate::run_folder::{Status, SummaryRow};
+use crate::run_folder::{RunStop, Status, SummaryRow};
 
 /// The run failed: no iterations to show, left out of means and curves.
 pub(super) fn failed(r: &SummaryRow) -> bool {
     r.status == Status::Failed
+}
+
+/// A run that ran and whose method broke down (a failed factorization, a direction that does
+/// not descend: `StopReason::is_breakdown`): a failure of the method, not a stop short of the
+/// target. The tables show its stop instead of its numbers and leave it out of their means.
+pub(crate) fn broke_down(r: &SummaryRow) -> bool {
+    r.status == Status::NotConverged && matches!(&r.stop_reason, Some(RunStop::Solver(s)) if s.is_breakdown())
 }
 
 /// The pair was not run (outside the solver's declared energies): no files, left out of

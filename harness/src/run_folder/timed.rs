@@ -77,14 +77,37 @@ impl Timed {
         self.lo <= other.hi && other.lo <= self.hi
     }
 
-    /// `0.600` for a single sample, `0.600 (0.580–0.630)` with a spread.
-    pub fn format(&self, digits: usize) -> String {
+    /// `0.600` for a single sample, `0.600 (0.580–0.630)` with a spread, each number to
+    /// [`TIME_DIGITS`] significant digits.
+    pub fn text(&self) -> String {
+        let f = |x: f64| significant(x, TIME_DIGITS);
         if self.single_sample() {
-            format!("{:.digits$}", self.value)
+            f(self.value)
         } else {
-            format!("{:.digits$} ({:.digits$}–{:.digits$})", self.value, self.lo, self.hi)
+            format!("{} ({}–{})", f(self.value), f(self.lo), f(self.hi))
         }
     }
+}
+
+/// The significant digits of every time the report and the gate print: enough to tell a 2%
+/// change, few enough that `0.0213` and `213` read alike.
+pub const TIME_DIGITS: usize = 3;
+
+/// `x` to `digits` significant digits in positional notation: `0.0213`, `2.13`, `213`; a larger
+/// number keeps its magnitude (`21300`), zero is `0`, and one below 1e-4 or from 1e7 on is
+/// written in scientific notation (`2.53e-23`).
+pub fn significant(x: f64, digits: usize) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    if !(1e-4..1e7).contains(&x.abs()) {
+        return format!("{:.*e}", digits.max(1) - 1, x);
+    }
+    // Round first, so 0.09996 becomes 0.100 and not 0.1000.
+    let rounded: f64 = format!("{:.*e}", digits.max(1) - 1, x).parse().unwrap_or(x);
+    let magnitude = rounded.abs().log10().floor() as i64;
+    let decimals = (digits as i64 - 1 - magnitude).max(0) as usize;
+    format!("{rounded:.decimals$}")
 }
 
 #[cfg(test)]
@@ -105,6 +128,27 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn significant_digits_round_before_they_count() {
+        let cases = [
+            (0.021349, "0.0213"),
+            (2.1349, "2.13"),
+            (213.49, "213"),
+            (21349.0, "21300"),
+            (0.09996, "0.100"),
+            (9.996, "10.0"),
+            (-0.0004567, "-0.000457"),
+            (0.0, "0"),
+            (2.5299511e-23, "2.53e-23"),
+            (0.00012345, "0.000123"),
+            (12345678.0, "1.23e7"),
+        ];
+        for (x, want) in cases {
+            assert_eq!(significant(x, 3), want, "{x}");
+        }
+        assert_eq!(significant(f64::NAN, 3), "NaN");
+    }
+
+    #[test]
     fn spreads_scale_with_derived_units_and_average() {
         let r = run(Status::Ok, 2.0, Some((1.0, 4.0, 3)));
         // ms per vertex of a 1000-vertex mesh: 2 ms, spread 1–4 ms.
@@ -112,8 +156,8 @@ pub(crate) mod tests {
         assert_eq!((t.lo, t.hi, t.samples), (1.0, 4.0, 3));
         let half = Timed::of(&r, 1.0);
         assert!((half.lo - 0.5).abs() < 1e-12 && (half.hi - 2.0).abs() < 1e-12);
-        assert_eq!(t.format(2), "2.00 (1.00–4.00)");
-        assert_eq!(Timed::exact(2.0).format(2), "2.00");
+        assert_eq!(t.text(), "2.00 (1.00–4.00)");
+        assert_eq!(Timed::exact(0.021349).text(), "0.0213");
         let m = Timed::mean(&[t, Timed::exact(4.0)]).unwrap();
         assert!((m.value - 3.0).abs() < 1e-12 && (m.lo - 2.5).abs() < 1e-12 && (m.hi - 4.0).abs() < 1e-12);
         assert_eq!(m.samples, 3, "a cap is not a measurement: the measured part's repeats count");

@@ -114,7 +114,7 @@ fn single_samples_use_asvs_factor_and_seconds_without_time_norm() {
     old.time_norm = None;
     let c = compare(&a, &side("B", vec![old]), CompareOptions::default());
     assert_eq!(c.unit, TimeMeasure::Seconds);
-    assert!(to_markdown(&c).contains("| 1.000 | 1.200 | 1.20 | slower"));
+    assert!(to_markdown(&c).contains("| 1.00 | 1.20 | 1.20 | slower"));
     // A run without a time (failed) has none to compare.
     let failed = SummaryRow { status: Status::Failed, time_s: None, time_norm: None, ..one(1.0) };
     let c = compare(&a, &side("B", vec![failed]), CompareOptions::default());

@@ -52,7 +52,7 @@ pub(super) fn changes_section(
 /// counted where a reader looks for failures.
 fn verdict_line(summaries: &[SummaryRow]) -> String {
     let n = |st: Status| summaries.iter().filter(|s| s.status == st).count();
-    let broke = summaries.iter().filter(|s| super::rollup::broke_down(s)).count();
+    let broke = summaries.iter().filter(|s| crate::report::select::broke_down(s)).count();
     let (ok, word) = match tightest_target(summaries) {
         Some(tau) => (format!("solved at the {} target", tau_text(tau)), "solved"),
         None => ("converged".to_string(), "converged"),

@@ -9,7 +9,12 @@ use crate::run_folder::SummaryRow;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Every table, and the performance profiles right after the corpus aggregates.
+/// The tables with a row per mesh: on their own pages (`tables/<stem>.html`), linked with
+/// their caption, so the report stays light however many meshes a batch has.
+const OWN_PAGE: [&str; 4] = ["per_mesh", "projection", "smoothness", "scaling"];
+
+/// Every table (those of [`OWN_PAGE`] linked), and the performance profiles right after the
+/// corpus aggregates.
 pub(super) fn tables_section(
     h: &mut String,
     run_dir: &Path,
@@ -23,15 +28,26 @@ pub(super) fn tables_section(
     }
     let profiles: Vec<&Plot> = plots.iter().filter(|p| p.kind.is_profile() && run_dir.join(&p.file).exists()).collect();
     for (stem, t) in tables {
+        let file = |ext: &str| href(&format!("tables/{stem}.{ext}"));
+        let body = if OWN_PAGE.contains(&stem.as_str()) {
+            format!(
+                "<p>{} rows, on <a href=\"{}\">its own page</a>. {}</p>\n",
+                t.rows.len(),
+                file("html"),
+                esc(&t.caption)
+            )
+        } else {
+            format!("<div class=\"scroll\">\n{}</div>\n", t.to_html_fragment())
+        };
         let _ = write!(
             h,
-            "<h3 id=\"table-{}\">{}</h3>\n<div class=\"scroll\">\n{}</div>\n<p class=\"caption\">also as \
-             <a href=\"{}\">CSV</a>, <a href=\"{}\">Markdown</a></p>\n",
+            "<h3 id=\"table-{}\">{}</h3>\n{body}<p class=\"caption\">also as <a href=\"{}\">CSV</a>, \
+             <a href=\"{}\">Markdown</a>, <a href=\"{}\">LaTeX</a> (booktabs)</p>\n",
             esc(stem),
             esc(&t.title),
-            t.to_html_fragment(),
-            href(&format!("tables/{stem}.csv")),
-            href(&format!("tables/{stem}.md")),
+            file("csv"),
+            file("md"),
+            file("tex"),
         );
         if stem == AGGREGATES {
             profiles_section(h, &profiles, summaries);
@@ -87,7 +103,7 @@ pub(super) fn profiles_section(h: &mut String, profiles: &[&Plot], summaries: &[
     for p in profiles {
         let _ = writeln!(
             h,
-            "<figure><img src=\"{f}\" alt=\"{t}\" width=\"800\" height=\"500\" loading=\"lazy\">\
+            "<figure><a href=\"{f}\"><img src=\"{f}\" alt=\"{t}\" width=\"800\" height=\"500\" loading=\"lazy\"></a>\
              <figcaption>{t}</figcaption></figure>",
             f = href(&p.file),
             t = esc(&p.title)
@@ -109,7 +125,7 @@ pub(super) fn plots_section(h: &mut String, run_dir: &Path, plots: &[Plot]) {
     }
     *h += "<p class=\"caption\">Energy gap: E − E*, E* the lowest energy any solver reached on the \
            same dataset and energy; values ≤ 0 (the best run's last point) are drawn at the bottom \
-           of the log axis; dashed lines did not converge. Maps (click for the full image): each \
+           of the log axis; dashed lines did not converge. Click a plot or a map for the full image. Maps: each \
            triangle colored by its distortion max(σ₁, 1/σ₂) with the global scale removed (param, \
            deform; 1 = similarity, flipped triangles blue) or by its area ratio (authalic; folded \
            triangles black); the maps of one dataset and energy share a log color scale covering \
@@ -129,8 +145,8 @@ pub(super) fn plots_section(h: &mut String, run_dir: &Path, plots: &[Plot]) {
         for p in of_group().filter(|p| !matches!(p.kind, PlotKind::Map { .. })) {
             let _ = writeln!(
                 h,
-                "<figure><img src=\"{f}\" alt=\"{t}\" width=\"800\" height=\"500\" loading=\"lazy\">\
-                 <figcaption>{t}</figcaption></figure>",
+                "<figure><a href=\"{f}\"><img src=\"{f}\" alt=\"{t}\" width=\"800\" height=\"500\" \
+                 loading=\"lazy\"></a><figcaption>{t}</figcaption></figure>",
                 f = href(&p.file),
                 t = esc(&p.title)
             );

@@ -1,4 +1,5 @@
-//! Links to every file of the folder.
+//! Links to the folder's files: the summary, meta.json and each table's four twins by name,
+//! the per-run files by their folders (hundreds of names would outweigh the page).
 
 use crate::escape::{esc, href};
 use crate::report::tables::Table;
@@ -52,11 +53,11 @@ pub(super) fn files_section(
         }
     }
     for (stem, _) in tables {
-        for ext in ["csv", "md", "html"] {
+        for ext in ["csv", "md", "html", "tex"] {
             *h += &link(&format!("tables/{stem}.{ext}"));
         }
     }
-    *h += "</ul>\n";
+    *h += "</ul>\n<ul>\n";
     for (title, sub, ext) in [
         ("Per-iteration CSVs", "runs", "csv"),
         (
@@ -67,17 +68,20 @@ pub(super) fn files_section(
         ("Meshes of the maps (gzip OBJ)", "meshes", "obj.gz"),
         ("Final maps of an older folder (OBJ: source mesh as v, map as vt)", "uv", "obj"),
     ] {
-        let files: Vec<String> = list_files(run_dir, sub, ext)?.into_iter().filter(|f| of_batch(f, ext)).collect();
-        if files.is_empty() && sub != "runs" {
+        let files = list_files(run_dir, sub, ext)?.into_iter().filter(|f| of_batch(f, ext)).count();
+        if files == 0 && sub != "runs" {
             continue;
         }
-        // Collapsed: hundreds of links; the status matrix already links each run's CSV.
-        let _ = writeln!(h, "<details><summary>{} ({})</summary>", esc(title), files.len());
-        *h += "<ul class=\"files\">\n";
-        for f in &files {
-            *h += &link(f);
-        }
-        *h += "</ul></details>\n";
+        // The folder, not its hundreds of names: the status matrix links each run's CSV.
+        let _ = writeln!(
+            h,
+            "<li>{}: {files} <code>.{}</code> files in <a href=\"{}/\">{}/</a></li>",
+            esc(title),
+            esc(ext),
+            href(sub),
+            esc(sub)
+        );
     }
+    *h += "</ul>\n";
     Ok(())
 }

@@ -45,6 +45,8 @@ table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #bbb;paddin
 th{background:#eee}td.k,th.k{text-align:left;white-space:nowrap}\
 table.status{font-size:.75em}table.status td,table.status th{text-align:center;white-space:nowrap;padding:1px 3px}table.status th{white-space:normal;vertical-align:bottom}table.status td.k{text-align:left;background:#fff}\
 .ds{position:sticky;left:0;z-index:1}table.status th.ds{background:#eee}\
+.scroll.status{max-height:85vh;overflow:auto}table.status th{position:sticky;top:0;z-index:2}table.status th.ds{z-index:3}\
+td.fast{outline:3px solid #1a6b2e;outline-offset:-3px}\
 .ok{background:#d8f0d8}.nc{background:#fff0c2}.budget{background:#dde8f6}.failed{background:#f6d0d3}.skipped{background:#e4e4e4;color:#666}\
 ol.notes,ul.problems{font-size:.85em;word-break:break-word}ul.problems li{margin:2px 0}.verdict{font-size:1.1em;margin:.6em 0}\
 td.none{background:#f4f4f4;color:#999}td a{color:inherit;text-decoration:none}td small{color:#555}\
@@ -98,7 +100,7 @@ pub fn write_index(
         .and_then(|m| m.references.clone())
         .and_then(|r| serde_json::from_value(r).ok())
         .unwrap_or_default();
-    status_matrix(&mut h, run_dir, summaries, &external, &references);
+    status_matrix(&mut h, run_dir, summaries, plots, &external, &references);
     external_section(&mut h, &external, summaries);
     tables_section(&mut h, run_dir, tables, plots, summaries);
     plots_section(&mut h, run_dir, plots);

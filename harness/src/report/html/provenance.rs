@@ -104,7 +104,7 @@ pub(super) fn provenance_section(h: &mut String, meta: Option<&Meta>) {
         let _ = writeln!(h, "<dt>{}</dt><dd>{}</dd>", esc(k), esc(&v));
     }
     *h += "</dl>\n";
-    if let Ok(pretty) = serde_json::to_string_pretty(m) {
-        let _ = writeln!(h, "<details><summary>meta.json</summary><pre>{}</pre></details>", esc(&pretty));
-    }
+    // Linked, not inlined: the whole record (config, references, calibration) is tens of KB.
+    *h += "<p>Everything else the batch recorded (the resolved config, the references, the calibration): \
+           <a href=\"meta.json\">meta.json</a>.</p>\n";
 }

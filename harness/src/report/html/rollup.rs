@@ -6,17 +6,11 @@
 use super::status::is_problem;
 use crate::escape::esc;
 use crate::report::select::{counted, unique};
-use crate::run_folder::{RunStop, Status, SummaryRow, FAILED_STOP};
+use crate::run_folder::{Status, SummaryRow, FAILED_STOP};
 use std::fmt::Write as _;
 
 /// The stops named per solver and energy; the rest are counted as "other".
 const REASONS_SHOWN: usize = 3;
-
-/// A run that ran and whose method broke down (a failed factorization, say): a failure of the
-/// method, not a stop short of the target.
-pub(super) fn broke_down(s: &SummaryRow) -> bool {
-    s.status == Status::NotConverged && matches!(&s.stop_reason, Some(RunStop::Solver(r)) if r.is_breakdown())
-}
 
 /// Why a run is a problem, in a word: its `stop_reason` column (`error` for a failed run).
 fn why(s: &SummaryRow) -> &'static str {
@@ -116,6 +110,8 @@ mod tests {
     use crate::plan::Task;
     use solvers::solver::StopReason;
 
+    use crate::run_folder::RunStop;
+
     fn row(solver: &str, status: Status, stop: Option<StopReason>) -> SummaryRow {
         SummaryRow {
             dataset: "m".into(),
@@ -156,7 +152,11 @@ mod tests {
                 "lbfgs / sd: 2 of 3 unsolved (max_iters 1, error 1)"
             ]
         );
-        assert_eq!(rows.iter().filter(|s| broke_down(s)).count(), 2, "the failed factorizations");
+        assert_eq!(
+            rows.iter().filter(|s| crate::report::select::broke_down(s)).count(),
+            2,
+            "the failed factorizations"
+        );
     }
 
     /// A solver the config expects to fail is listed apart, and the heading counts the news.

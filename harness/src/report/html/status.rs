@@ -1,14 +1,17 @@
-//! The run status matrix: one short cell per run (linking to its CSV), the full story in the
-//! cell's tooltip, and the reasons of failed and skipped runs once each in numbered notes
-//! under the table, so that 20 solvers fit one screen.
+//! The run status matrix: one short cell per run (linking to its problem's plots, or its CSV
+//! when the problem has none), the fastest solved run of each row framed, the full story in
+//! the cell's tooltip, and the reasons of failed and skipped runs once each in numbered notes
+//! under the table, so that 20 solvers fit one screen; its column heads stay in view.
 
-use super::timing::{brief, seconds};
+use super::timing::{brief, seconds, significant};
 use crate::escape::{esc, href};
 use crate::external::probe::Probe;
 use crate::judge::reference::{GroupReference, Origin};
 use crate::judge::verdict::Verdict;
 use crate::report::label::clamped_label;
+use crate::report::plots::Plot;
 use crate::report::select::unique;
+use crate::report::tables::ranking::fastest;
 use crate::report::target::{reached_target, tau_text, tightest_target, to_target, verdict_text};
 use crate::run_folder::summary::RefSource;
 use crate::run_folder::timed::Timed;
@@ -73,11 +76,13 @@ fn head(name: &str) -> String {
 }
 
 /// Rows: dataset (and energy, when the run has several), those with a problem first;
-/// columns: solver. Each cell links to the run's per-iteration CSV when it exists.
+/// columns: solver. Each cell links to its problem's section of plots, or to the run's
+/// per-iteration CSV when the problem has no plots.
 pub(super) fn status_matrix(
     h: &mut String,
     run_dir: &Path,
     summaries: &[SummaryRow],
+    plots: &[Plot],
     external: &[Probe],
     references: &[GroupReference],
 ) {
@@ -90,7 +95,7 @@ pub(super) fn status_matrix(
     status_caption(h, summaries);
     *h += "</p>\n";
     reference_note(h, summaries, references);
-    *h += "<div class=\"scroll\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
+    *h += "<div class=\"scroll status\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
     if several_energies {
         *h += "<th class=\"k\">energy</th>";
     }
@@ -110,9 +115,19 @@ pub(super) fn status_matrix(
             if several_energies {
                 let _ = write!(h, "<td class=\"k\">{}</td>", esc(e));
             }
-            for solver in &solvers {
-                let run = summaries.iter().find(|s| s.dataset == d && s.energy == *e && s.solver == *solver);
-                status_cell(h, run_dir, run, &mut notes);
+            let runs: Vec<Option<&SummaryRow>> = solvers
+                .iter()
+                .map(|solver| summaries.iter().find(|s| s.dataset == d && s.energy == *e && s.solver == *solver))
+                .collect();
+            let fast = fastest_solved(&runs);
+            let section = super::figures::has_section(run_dir, plots, d, e)
+                .then(|| format!("#{}", super::figures::problem_anchor(d, e)));
+            for (j, run) in runs.iter().enumerate() {
+                let link = section.clone().or_else(|| {
+                    let csv = run.map(|s| format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver)))?;
+                    run_dir.join(&csv).exists().then(|| href(&csv))
+                });
+                status_cell(h, *run, &mut notes, fast.contains(&j), link.as_deref());
             }
             *h += "</tr>\n";
         }
@@ -125,16 +140,19 @@ pub(super) fn status_matrix(
 fn status_caption(h: &mut String, summaries: &[SummaryRow]) {
     *h += "<h2 id=\"status\">Run status</h2>\n<p class=\"caption\">Rows with a failed or unsolved run come first. \
            Each cell: iterations over the time in seconds (the median over the repeats); hover it for the \
-           whole story (the spread of the repeats, the run's own stop, memory) and click it for the run's \
-           per-iteration CSV. <span class=\"ok\">green</span> converged; \
+           whole story (“it” = iteration; the min–max of the repeats; the run's own stop; peak RSS = the \
+           process's peak resident memory, with other runs in flight unless its growth is given) and click it \
+           for its problem's plots (or the run's per-iteration CSV). A framed cell is the fastest solved run of \
+           its row by time to the target (those whose repeat spreads overlap it framed too). \
+           <span class=\"ok\">green</span> converged; \
            <span class=\"nc\">yellow</span> stopped by another rule (the verdict in the cell, the rule in its \
            tooltip); \
            <span class=\"failed\">failed</span> and <span class=\"skipped\">skip</span> (not run: the solver is \
            not defined for the energy; left out of every aggregate and ranking) give the number of their reason \
            in the notes under the table. A “+” after the iterations: some iterations solved their Newton system \
            with a Tikhonov shift above the base (regularized Newton), stopped CG at its iteration cap short of the \
-           forcing term (truncated solvers) or clamped SLIM weights (the solver outside the energies it is \
-           defined for; tables and profiles name it “slim (clamped)”); the tooltip counts them.";
+           forcing term (truncated solvers; “CG capped”) or clamped SLIM weights (the solver outside the energies \
+           it is defined for; tables and profiles name it “slim (clamped)”); the tooltip counts them.";
     if let Some(tau) = tightest_target(summaries) {
         let t = tau_text(tau);
         let _ = write!(
@@ -246,50 +264,58 @@ fn cell_story(s: &SummaryRow, shown: &SummaryRow, time: Option<Timed>) -> (Strin
             (Some(i), None) => format!("{i} it"),
             _ => "unknown".to_string(),
         };
-        let at = time.map(|t| format!(" ({})", seconds(t.value))).unwrap_or_default();
-        let _ = write!(more, "; reached the {} target at iteration {i}{at}; its own stop: {own}", tau_text(t.tau));
+        let at = time.map(|t| format!(", {}", seconds(t.value))).unwrap_or_default();
+        let _ = write!(more, "; {} target at it {i}{at}; own stop at {own}", tau_text(t.tau));
     } else if let Some(i) = shown.iterations {
         let at = time.map(|t| format!(", {}", seconds(t.value))).unwrap_or_default();
-        let _ = write!(more, "; {i} iterations{at}");
+        let _ = write!(more, "; {i} it{at}");
     }
     if let Some(t) = time.filter(|t| !t.single_sample()) {
-        let _ = write!(more, "; time = median of {} repeats, min–max {}–{}", t.samples, seconds(t.lo), seconds(t.hi));
+        let _ = write!(more, "; {} repeats {}–{}", t.samples, significant(t.lo), seconds(t.hi));
     } else if time.is_some() {
-        more += "; time = a single sample";
+        more += "; 1 sample";
     }
     match (s.peak_growth_mb, s.peak_rss_mb) {
         (Some(own), Some(all)) => {
-            let _ = write!(more, "; peak resident memory of the process {all:.0} MB, {own:.0} MB above its start");
+            let _ = write!(more, "; peak RSS {all:.0} MB, +{own:.0} MB its own");
         }
         (None, Some(all)) => {
-            let _ = write!(more, "; peak resident memory of the process with other runs in flight {all:.0} MB");
+            let _ = write!(more, "; peak RSS {all:.0} MB");
         }
         _ => {}
     }
     let mut marked = false;
     if let Some(k) = s.shifted_iters.filter(|k| *k > 0) {
         marked = true;
-        let _ = write!(more, "; {k} iterations solved with a Tikhonov shift above the base (regularized)");
+        let _ = write!(more, "; {k} it shifted");
     }
     if let Some(k) = s.cg_capped_iters.filter(|k| *k > 0) {
         marked = true;
-        let _ = write!(more, "; {k} steps stopped CG at max_cg_iters short of its forcing term (truncated Newton)");
+        let _ = write!(more, "; {k} it CG capped");
     }
     if let Some(k) = s.clamped_iters.filter(|k| *k > 0) {
         marked = true;
-        let _ =
-            write!(more, "; {k} iterations clamped SLIM weights (tables name the run {})", clamped_label(&s.solver));
+        let _ = write!(more, "; {k} it clamped ({})", clamped_label(&s.solver));
     }
     if s.ref_certified == Some(false) {
-        more += "; † E* of this group is not certified";
+        more += "; † E* uncertified";
     }
     if let Some(d) = &s.repeats_differ {
-        let _ = write!(more, "; ≠ {d} (repeat 1's result shown)");
+        let _ = write!(more, "; ≠ {d} (repeat 1 shown)");
     }
     (more, marked)
 }
 
-fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: &mut Notes) {
+/// The row's fastest solved runs by their time to the target: the one rule of the tables
+/// ([`fastest`]), ties on overlapping spreads included.
+fn fastest_solved(runs: &[Option<&SummaryRow>]) -> Vec<usize> {
+    let times: Vec<Option<Timed>> =
+        runs.iter().map(|r| r.filter(|s| s.status == Status::Ok).and_then(|s| Timed::time_s(&to_target(s)))).collect();
+    fastest(&times).best
+}
+
+/// One run's cell: `fast` frames it, `link` is where a click goes.
+fn status_cell(h: &mut String, run: Option<&SummaryRow>, notes: &mut Notes, fast: bool, link: Option<&str>) {
     let Some(s) = run else {
         *h += "<td class=\"none\">–</td>";
         return;
@@ -304,8 +330,8 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
     let verdict = s.verdict.filter(|v| !matches!(v, Verdict::Solved));
     let (class, top, bottom, tip) = match (s.status, verdict) {
         (Status::Ok, _) => {
-            let what = if s.verdict == Some(Verdict::Solved) { "solved (own stop: " } else { "converged (" };
-            ("ok", iterations, secs, format!("{what}{}){more}", s.stop_column()))
+            let what = if s.verdict == Some(Verdict::Solved) { "solved" } else { "converged" };
+            ("ok", iterations, secs, format!("{what}, own stop {}{more}", s.stop_column()))
         }
         (Status::NotConverged, Some(v)) => {
             let flips = match (v, s.flips) {
@@ -313,7 +339,7 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
                 _ => String::new(),
             };
             let tip = format!(
-                "not solved: {}{flips}; final gap {}; own stop: {}{more}",
+                "not solved: {}{flips}; gap {}; own stop {}{more}",
                 verdict_text(v),
                 s.final_gap.map_or("unknown".to_string(), |g| format!("{g:.3e}")),
                 s.stop_column()
@@ -345,10 +371,14 @@ fn status_cell(h: &mut String, run_dir: &Path, run: Option<&SummaryRow>, notes: 
         if s.repeats_differ.is_some() { "≠" } else { "" }
     );
     let body = format!("<b>{}{marks}</b><br><small>{}</small>", esc(&top), esc(&bottom));
-    let csv = format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver));
-    if run_dir.join(&csv).exists() {
-        let _ = write!(h, "<td class=\"{class}\" title=\"{}\"><a href=\"{}\">{body}</a></td>", esc(&tip), href(&csv));
-    } else {
-        let _ = write!(h, "<td class=\"{class}\" title=\"{}\">{body}</td>", esc(&tip));
+    let (class, tip) =
+        if fast { (format!("{class} fast"), format!("fastest of the row; {tip}")) } else { (class.to_string(), tip) };
+    match link {
+        Some(l) => {
+            let _ = write!(h, "<td class=\"{class}\" title=\"{}\"><a href=\"{l}\">{body}</a></td>", esc(&tip));
+        }
+        None => {
+            let _ = write!(h, "<td class=\"{class}\" title=\"{}\">{body}</td>", esc(&tip));
+        }
     }
 }

@@ -14,6 +14,7 @@ fn table(title: &str) -> Table {
         rows: vec![vec!["1".into(), "x<y".into()]],
         caption: "what the numbers are".into(),
         bold: Vec::new(),
+        layout: Default::default(),
     }
 }
 
@@ -39,15 +40,15 @@ fn index_links_every_run_plot_and_table_and_escapes_errors() {
         shown += 1;
     }
     assert_eq!(shown, 15);
-    // Every run CSV is linked (the failed run's too), and every map OBJ.
-    for stem in ["tiny__sd__kp-newton", "tiny__sd__slim", "tiny__sd__cm", "disk__authalic__aem-cg"] {
-        assert!(html.contains(&format!("href=\"runs/{stem}.csv\"")), "{stem}");
+    // The cells link to their problem's plots; the folders of the runs' files are linked
+    // with their counts (tiny_run leaves disk's map in the format of older folders).
+    assert_eq!(html.matches("<a href=\"#problem-tiny__sd\"><b>").count(), 3, "the three tiny runs' cells");
+    for (folder, count) in
+        [("runs/", "4 <code>.csv</code>"), ("uv/", "2 <code>.uv.gz</code>"), ("meshes/", "1 <code>.obj.gz</code>")]
+    {
+        assert!(html.contains(&format!("{count} files in <a href=\"{folder}\">")), "{folder}");
     }
-    for file in ["uv/tiny__sd__kp-newton.uv.gz", "uv/tiny__sd__slim.uv.gz", "meshes/tiny.obj.gz"] {
-        assert!(html.contains(&format!("href=\"{file}\"")), "{file}");
-    }
-    // tiny_run leaves disk's map in the format of older folders.
-    assert!(html.contains("href=\"uv/disk__authalic__aem-cg.obj\""));
+    assert!(html.contains("1 <code>.obj</code> files in <a href=\"uv/\">"));
     assert!(html.contains("factorization failed: pivot &lt; 0 &amp; NaN in &lt;K&gt;"));
     assert!(!html.contains("<K>"));
     assert!(html.contains("0123456789abcdef0123456789abcdef01234567 (dirty"));
@@ -92,9 +93,9 @@ fn index_states_repeats_calibration_spreads_shifts_and_skipped_pairs() {
     // The cell: iterations (+: some regularized or capped) over the median time; the rest in
     // its tooltip.
     assert!(html.contains("<b>3+</b><br><small>0.25</small>"), "iterations marked, time in the cell");
-    assert!(html.contains("4 steps stopped CG at max_cg_iters"), "caps in the tooltip");
-    assert!(html.contains("time = median of 5 repeats, min–max 0.240 s–0.310 s"));
-    assert!(html.contains("2 iterations solved with a Tikhonov shift above the base"));
+    assert!(html.contains("4 it CG capped"), "caps in the tooltip");
+    assert!(html.contains("5 repeats 0.240–0.310 s"));
+    assert!(html.contains("2 it shifted"));
     // The skipped pair: grey, with its reason, counted, and in the tables as skipped.
     assert!(html.contains(
         "<td class=\"skipped\" title=\"skipped: akvf is not defined for sd here\"><b>skip</b><br><small>[2]</small>"
@@ -118,7 +119,40 @@ fn index_states_repeats_calibration_spreads_shifts_and_skipped_pairs() {
     let html = page(&rows, &Batch::default());
     assert!(html.contains("Each run was timed once (repeat = 1)"));
     assert!(html.contains("No machine calibration in meta.json"));
-    assert!(html.contains("time = a single sample"));
+    assert!(html.contains("; 1 sample"));
+}
+
+#[test]
+fn the_fastest_solved_run_of_a_row_is_framed_ties_on_overlap_included() {
+    let run = |solver: &str, status: Status, t: f64| SummaryRow {
+        dataset: "cow".into(),
+        task: crate::plan::Task::Param,
+        energy: "sd".into(),
+        solver: solver.into(),
+        iterations: Some(10),
+        time_s: Some(t),
+        time_s_min: Some(t * 0.95),
+        time_s_max: Some(t * 1.05),
+        repeats: Some(3),
+        status,
+        ..Default::default()
+    };
+    let framed = |rows: &[SummaryRow]| {
+        let mut html = String::new();
+        status_matrix(&mut html, std::path::Path::new("/nonexistent"), rows, &[], &[], &[]);
+        html.split("<td class=\"").skip(1).filter(|c| c.starts_with("ok fast")).count()
+    };
+    // newton stopped fastest but unsolved: never framed; cm is, and kp-newton ties with it.
+    let mut rows = vec![
+        run("newton", Status::NotConverged, 0.01),
+        run("cm", Status::Ok, 1.0),
+        run("kp-newton", Status::Ok, 1.02),
+        run("slim", Status::Ok, 3.0),
+    ];
+    assert_eq!(framed(&rows), 2);
+    rows[2].time_s = Some(1.5);
+    (rows[2].time_s_min, rows[2].time_s_max) = (Some(1.4), Some(1.6));
+    assert_eq!(framed(&rows), 1);
 }
 
 #[test]
@@ -143,11 +177,9 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
     write_index(p, &rows, &tables, &plots, &Batch::default()).unwrap();
     let html = std::fs::read_to_string(p.join("index.html")).unwrap();
     assert!(html.contains("<b>2</b><br><small>0.20</small>"), "the solved cell counts to the target");
-    assert!(html.contains(
-        "solved (own stop: grad_tol); reached the 1e-6 target at iteration 2 (0.200 s); its own stop: 3 it, 0.250 s"
-    ));
+    assert!(html.contains("solved, own stop grad_tol; 1e-6 target at it 2, 0.200 s; own stop at 3 it, 0.250 s"));
     assert!(html.contains("<b>above</b><br><small>3e-4</small>"), "the verdict cell: verdict and gap");
-    assert!(html.contains("not solved: stopped above target; final gap 3.200e-4; own stop: max_iters"));
+    assert!(html.contains("not solved: stopped above target; gap 3.200e-4; own stop max_iters"));
     // The legend explains the verdicts; the batch's references are named.
     for words in [
         "<b>above</b> = stopped above target",
@@ -184,7 +216,7 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
     write_index(p, &rows, &[], &[], &Batch::default()).unwrap();
     let html = std::fs::read_to_string(p.join("index.html")).unwrap();
     assert!(html.contains("<b>other†≠</b><br><small>3e-4</small>"), "both marks");
-    assert!(html.contains("† E* of this group is not certified"));
+    assert!(html.contains("† E* uncertified"));
     assert!(html.contains("≠ repeat 2 does not reproduce repeat 1"));
 }
 
@@ -307,7 +339,7 @@ fn the_status_matrix_of_20_solvers_stays_narrow_and_lists_problem_rows_first() {
     }
     let dir = tempfile::tempdir().unwrap();
     let mut html = String::new();
-    status_matrix(&mut html, dir.path(), &rows, &[], &[]);
+    status_matrix(&mut html, dir.path(), &rows, &[], &[], &[]);
     let heads = status_cells(&html, "th");
     assert_eq!(heads.len(), 21, "the dataset column and one per solver");
     for head in &heads {

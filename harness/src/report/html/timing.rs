@@ -55,10 +55,9 @@ pub(super) fn seconds(t: f64) -> String {
     format!("{} s", significant(t))
 }
 
-/// 3 significant digits (0.0431, 6.59, 123).
+/// 3 significant digits (0.0431, 6.59, 123), as every time of the report.
 pub(super) fn significant(t: f64) -> String {
-    let digits = if t <= 0.0 { 3 } else { (2 - t.abs().log10().floor() as i64).clamp(0, 6) as usize };
-    format!("{t:.digits$}")
+    crate::run_folder::timed::significant(t, crate::run_folder::timed::TIME_DIGITS)
 }
 
 /// 2 significant digits in at most 7 characters, for the status cells (0.0043, 0.21, 6.6, 12,

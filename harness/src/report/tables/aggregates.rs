@@ -4,7 +4,7 @@
 
 use super::comparison::with_space;
 use super::ranking::{self, fastest, lowest};
-use super::table::Table;
+use super::table::{Layout, Table};
 use crate::report::batch::Batch;
 use crate::report::corpus::{self, Cap, CapSource, TimeUnit, ITERATION_SHIFT};
 use crate::report::select::{finished, is_param_or_deform};
@@ -57,7 +57,7 @@ pub fn aggregates_table(rows: &[SummaryRow], batch: &Batch) -> Option<Table> {
         let marks = fastest(&times);
         single |= marks.single_sample && !marks.best.is_empty();
         for (i, s) in e.solvers.iter().enumerate() {
-            let time = s.sgm_time.map(|t| marks.label(i, t.format(3))).unwrap_or_default();
+            let time = s.sgm_time.map(|t| marks.label(i, t.text())).unwrap_or_default();
             out.push(aggregate_row(e, s, time, unit));
             if best_iters.contains(&i) {
                 bold.push((first + i, 8));
@@ -90,6 +90,7 @@ pub fn aggregates_table(rows: &[SummaryRow], batch: &Batch) -> Option<Table> {
             with_space(target_rule(&rows)),
         ),
         bold,
+        layout: Layout { keys: 2, group: 1 },
     })
 }
 
@@ -112,19 +113,26 @@ fn aggregate_row(
         s.shifted.to_string(),
         s.sgm_iterations.map(|v| format!("{v:.1}")).unwrap_or_default(),
         time,
-        cap_text(e.iteration_cap, 0, ""),
-        cap_text(e.time_cap, 3, if unit == TimeUnit::Seconds { " s" } else { "" }),
+        cap_text(e.iteration_cap, |v| format!("{v:.0}")),
+        cap_text(e.time_cap, |v| {
+            let t = Timed::exact(v).text();
+            if unit == TimeUnit::Seconds {
+                format!("{t} s")
+            } else {
+                t
+            }
+        }),
     ]
 }
 
-/// `1000 (limit)` or `412 (most seen)`.
-fn cap_text(cap: Option<Cap>, digits: usize, unit: &str) -> String {
+/// `1000 (limit)` or `412 (most seen)`, the value as `text` writes it.
+fn cap_text(cap: Option<Cap>, text: impl Fn(f64) -> String) -> String {
     let Some(c) = cap else { return String::new() };
     let source = match c.source {
         CapSource::Limit => "limit",
         CapSource::Observed => "most seen",
     };
-    format!("{:.digits$}{unit} ({source})", c.value)
+    format!("{} ({source})", text(c.value))
 }
 
 #[cfg(test)]
@@ -166,12 +174,12 @@ mod tests {
         assert_eq!(t.columns[9], "sgm time [s] (shift 0.1)");
         let solvers: Vec<(&str, &str)> = t.rows.iter().map(|r| (r[0].as_str(), r[1].as_str())).collect();
         assert_eq!(solvers, [("sd", "cm"), ("sd", "kp-newton"), ("sd", "newton"), ("sd", "slim"), ("bconf", "cm")]);
-        // cm: sqrt(20 * 40) - 10 = 18.28 iterations, sqrt(1.1 * 3.1) - 0.1 = 1.747 s.
-        assert_eq!(t.rows[0][2..10], ["2", "2", "0", "0", "0", "0", "18.3", "1.747†"]);
+        // cm: sqrt(20 * 40) - 10 = 18.28 iterations, sqrt(1.1 * 3.1) - 0.1 = 1.75 s.
+        assert_eq!(t.rows[0][2..10], ["2", "2", "0", "0", "0", "0", "18.3", "1.75†"]);
         // newton at the caps: 1000 iterations, 3 s (the longest run; no timeout).
         assert_eq!(
             t.rows[2][2..],
-            ["2", "0", "2", "0", "0", "0", "1000.0", "3.000", "1000 (limit)", "3.000 s (most seen)"]
+            ["2", "0", "2", "0", "0", "0", "1000.0", "3.00", "1000 (limit)", "3.00 s (most seen)"]
         );
         assert_eq!(t.rows[3][2..10], ["0", "0", "0", "0", "2", "0", "", ""]);
         // bconf without max_iters in meta.json: the most iterations seen.
@@ -197,7 +205,7 @@ mod tests {
         }
         let t = aggregates_table(&rows, &Batch::default()).unwrap();
         assert_eq!(t.columns[9], "sgm time [cal] (shift 0.25)");
-        assert_eq!(t.rows[0][9], "2.000 (1.800–2.200)");
+        assert_eq!(t.rows[0][9], "2.00 (1.80–2.20)");
         // cm and kp tie on iterations (equal) and on time (overlap); slim does neither.
         assert_eq!(t.bold, [(0, 8), (0, 9), (1, 8), (1, 9)]);
         assert!(t.caption.contains("time_norm in calibration units") && !t.caption.contains('†'), "{}", t.caption);

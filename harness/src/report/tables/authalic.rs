@@ -55,7 +55,7 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
                 Some(r) => row.extend([
                     sci(r.area_ratio_sd),
                     sci(r.authalic_energy),
-                    Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default(),
+                    Timed::time_s(r).map(|t| t.text()).unwrap_or_default(),
                     r.folded.map(|f| f.to_string()).unwrap_or_default(),
                 ]),
                 None => row.extend(std::iter::repeat_n(String::new(), 4)),
@@ -80,6 +80,7 @@ pub fn authalic_table(rows: &[SummaryRow]) -> Option<Table> {
              energy increase, timeout), failed or was skipped is never bold."
         ),
         bold,
+        layout: Default::default(),
     })
 }
 

@@ -2,9 +2,9 @@
 //! (`param`, `deform`) and the per-mesh iterations, time and final energy.
 
 use super::ranking::{self, comparable, equal, fastest, lowest};
-use super::table::Table;
+use super::table::{Layout, Table};
 use crate::plan::Task;
-use crate::report::select::{converged, failed, finished, is_param_or_deform, skipped, unique};
+use crate::report::select::{broke_down, converged, failed, finished, is_param_or_deform, skipped, unique};
 use crate::report::target::target_rule;
 use crate::run_folder::timed::Timed;
 use crate::run_folder::SummaryRow;
@@ -16,7 +16,6 @@ struct MeanSpec {
     /// The time of one run in the table's unit (proportional to `time_s`).
     time: fn(&SummaryRow) -> Option<f64>,
     time_label: &'static str,
-    time_digits: usize,
 }
 
 /// Marks a cell whose runs solved some Newton systems with more than the base Tikhonov shift.
@@ -25,8 +24,10 @@ const SHIFTED: &str = "§";
 /// The complex-view paper's Table 4 (`param`: iterations / ms per vertex) and Table 6
 /// (`deform`: iterations / seconds) shape: per solver (rows) and energy (columns), the mean
 /// number of iterations and the mean time over the datasets, `it/t`, including runs that did
-/// not converge (marked `*`, their iterations count as run); failed runs and skipped pairs are
-/// left out and counted in the caption (a solver skipped for an energy says `skipped`).
+/// not converge (marked `*`, their iterations count as run); failed runs, runs whose method
+/// broke down ([`broke_down`]: their few iterations are no cost) and skipped pairs are left out
+/// and counted in the caption (a solver skipped for an energy says `skipped`, one whose every run
+/// broke down names the stop).
 ///
 /// Bold ([`ranking`]): per energy, the fastest solver among those that converged on every
 /// dataset of the energy (any failed, unconverged or missing run there takes a solver out:
@@ -34,10 +35,10 @@ const SHIFTED: &str = "§";
 /// means of the runs' min and max). `None` when no run of the task finished.
 fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
     let all: Vec<&SummaryRow> = rows.iter().filter(|r| r.task == spec.task).collect();
-    let done: Vec<&SummaryRow> = all.iter().copied().filter(|r| finished(r)).collect();
-    if done.is_empty() {
+    if !all.iter().any(|r| finished(r)) {
         return None;
     }
+    let done: Vec<&SummaryRow> = all.iter().copied().filter(|r| finished(r) && !broke_down(r)).collect();
     let energies = unique(all.iter().map(|r| r.energy.as_str()));
     let solvers = unique(all.iter().map(|r| r.solver.as_str()));
     // The datasets each energy was run on (some solver's run there was not skipped).
@@ -60,8 +61,10 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
             let of = |r: &&&SummaryRow| r.solver == *s && r.energy == *e;
             let cell: Vec<&SummaryRow> = done.iter().filter(of).copied().collect();
             if cell.is_empty() {
-                let all_skipped = all.iter().filter(of).count() > 0 && all.iter().filter(of).all(|r| skipped(r));
-                trow.push(if all_skipped { "skipped".to_string() } else { String::new() });
+                let runs: Vec<&SummaryRow> = all.iter().filter(of).copied().collect();
+                let all_skipped = !runs.is_empty() && runs.iter().all(|r| skipped(r));
+                let stop = runs.iter().find(|r| broke_down(r)).map(|r| r.stop_column());
+                trow.push(if all_skipped { "skipped".to_string() } else { stop.unwrap_or_default().to_string() });
                 crow.push(None);
                 continue;
             }
@@ -86,6 +89,7 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
     let out = solvers.iter().zip(texts).map(|(s, t)| std::iter::once(s.to_string()).chain(t).collect()).collect();
     let sets: std::collections::BTreeSet<&str> = done.iter().map(|r| r.dataset.as_str()).collect();
     let failed = all.iter().filter(|r| failed(r)).count();
+    let broken = all.iter().filter(|r| broke_down(r)).count();
     let skipped = all.iter().filter(|r| skipped(r)).count();
     Some(Table {
         title: spec.title.into(),
@@ -93,8 +97,9 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
         rows: out,
         caption: format!(
             "Mean iterations / mean {} over {} datasets ({}), including runs that did not converge (* = at \
-             least one, its iterations count as run); {failed} failed and {skipped} skipped runs (solver not defined \
-             for the energy) left out; \
+             least one, its iterations count as run); {failed} failed runs, {broken} whose method broke down (a \
+             failed factorization or a direction that does not descend; a cell of only those names the stop) \
+             and {skipped} skipped runs (solver not defined for the energy) left out; \
              {SHIFTED} = some run solved Newton systems with a Tikhonov shift above the base (shifted_iters > 0). \
              {} Bold: the fastest solver per energy among those that converged on every dataset of the energy \
              (a solver with a failed, unconverged or missing run there is never bold). {}{}",
@@ -106,6 +111,7 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
             with_space(target_rule(all.iter().copied())),
         ),
         bold,
+        layout: Layout::default(),
     })
 }
 
@@ -119,7 +125,7 @@ fn mean_cell(cell: &[&SummaryRow], spec: &MeanSpec, datasets: &[&str]) -> (Strin
     let t = if parts.len() == cell.len() { Timed::mean(&parts) } else { None };
     let mark = if cell.iter().any(|r| !converged(r)) { "*" } else { "" };
     let shifted = if cell.iter().any(|r| r.shifted_iters.unwrap_or(0) > 0) { SHIFTED } else { "" };
-    let time = t.map(|t| t.format(spec.time_digits)).unwrap_or_default();
+    let time = t.map(|t| t.text()).unwrap_or_default();
     let mut solved: Vec<&str> = cell.iter().filter(|r| comparable(r)).map(|r| r.dataset.as_str()).collect();
     solved.sort_unstable();
     solved.dedup();
@@ -145,7 +151,6 @@ pub fn param_table(rows: &[SummaryRow]) -> Option<Table> {
             title: "Parameterization (complex-view paper, Table 4)",
             time: |r| r.ms_per_vertex,
             time_label: "run time in ms per vertex",
-            time_digits: 3,
         },
     )
 }
@@ -159,7 +164,6 @@ pub fn deform_table(rows: &[SummaryRow]) -> Option<Table> {
             title: "Shape deformation (complex-view paper, Table 6)",
             time: |r| r.time_s,
             time_label: "run time in seconds",
-            time_digits: 3,
         },
     )
 }
@@ -178,7 +182,7 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
     }
     let solvers = unique(runs.iter().map(|r| r.solver.as_str()));
     let groups = unique(runs.iter().map(|r| (r.dataset.as_str(), r.energy.as_str())));
-    let mut columns = ["dataset", "energy", "# vert", "# elem", "analysis [s]"].map(String::from).to_vec();
+    let mut columns = ["dataset", "energy", "# vert", "# elem", "analysis [s]", "E*"].map(String::from).to_vec();
     for s in &solvers {
         columns.extend([format!("{s} iter"), format!("{s} time [s]"), format!("{s} energy")]);
     }
@@ -196,8 +200,9 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
             // One symbolic analysis per mesh and pattern, shared by the group's runs.
             runs.iter()
                 .find_map(|r| (r.dataset == *d && r.energy == *e).then_some(r.analysis_s).flatten())
-                .map(|t| format!("{t:.3}"))
+                .map(|t| Timed::exact(t).text())
                 .unwrap_or_default(),
+            reference_cell(runs.iter().copied().filter(|r| r.dataset == *d && r.energy == *e)),
         ];
         // The converged runs' iterations, times and energies compete for the bold marks.
         let (mut iters, mut times, mut energies) = (Vec::new(), Vec::new(), Vec::new());
@@ -209,7 +214,7 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
             times.push(ranked.and_then(Timed::time_s));
             energies.push(ranked.and_then(|r| r.final_energy));
         }
-        let column = |j: usize, k: usize| 5 + 3 * j + k;
+        let column = |j: usize, k: usize| KEYS + 3 * j + k;
         bold.extend(lowest(&iters, equal).into_iter().map(|j| (i, column(j, 0))));
         let marks = fastest(&times);
         single |= marks.single_sample && !marks.best.is_empty();
@@ -233,21 +238,40 @@ pub fn per_mesh_table(rows: &[SummaryRow]) -> Option<Table> {
              the analysis (the median over repeats); energy = final energy (normalized by area); \
              * = did not converge (hit max_iters or another stop rule); (k shifted) = k iterations solved \
              their Newton system with a Tikhonov shift above the base (regularized Newton); skipped = the \
-             solver is not defined for the energy (not run). {} Bold = best of the row: fewest iterations, \
-             shortest time, lowest energy to 5 decimals. {}{}",
+             solver is not defined for the energy (not run); a stop in the iterations column (linear_solve_failed, \
+             not_descent, ...) = the method broke down, its numbers are left out. E* = the reference minimum the \
+             harness judges the group's runs against († = not certified: no certificate vouches for it). {} \
+             Bold = best of the row: fewest iterations, shortest time, lowest energy to 5 decimals. {}{}",
             ranking::CONVERGED_RULE,
             ranking::time_rule(single),
             with_space(target_rule(runs.iter().copied())),
         ),
         bold,
+        layout: Layout { keys: KEYS, group: 3 },
     })
 }
 
+/// The per-mesh table's columns before the solvers' (dataset to E*), repeated in each block.
+const KEYS: usize = 6;
+
+/// The group's reference minimum E* to 8 significant digits, `†` when it is not certified;
+/// empty when the harness judged the group against none.
+fn reference_cell<'a>(mut group: impl Iterator<Item = &'a SummaryRow>) -> String {
+    let Some(r) = group.find(|r| r.ref_energy.is_some()) else { return String::new() };
+    let e = r.ref_energy.map(|e| crate::run_folder::timed::significant(e, 8)).unwrap_or_default();
+    if r.ref_certified == Some(false) {
+        format!("{e}†")
+    } else {
+        e
+    }
+}
+
 /// A solver's three cells of a row of the per-mesh table: iterations (with marks), time and
-/// final energy; a failed or skipped run says so.
+/// final energy; a failed or skipped run says so, a run whose method broke down names its stop.
 fn solver_cells(r: Option<&SummaryRow>) -> [String; 3] {
     match r {
         Some(r) if failed(r) || skipped(r) => [r.status.as_str().to_string(), String::new(), String::new()],
+        Some(r) if broke_down(r) => [r.stop_column().to_string(), String::new(), String::new()],
         Some(r) => {
             let mark = if converged(r) { "" } else { "*" };
             let shifted = match r.shifted_iters {
@@ -256,7 +280,7 @@ fn solver_cells(r: Option<&SummaryRow>) -> [String; 3] {
             };
             [
                 r.iterations.map(|i| format!("{i}{mark}{shifted}")).unwrap_or_default(),
-                Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default(),
+                Timed::time_s(r).map(|t| t.text()).unwrap_or_default(),
                 r.final_energy.map(|x| format!("{x:.5}")).unwrap_or_default(),
             ]
         }
@@ -268,7 +292,7 @@ fn solver_cells(r: Option<&SummaryRow>) -> [String; 3] {
 mod tests {
     use super::*;
     use crate::report::tables::tests::row;
-    use crate::run_folder::Status;
+    use crate::run_folder::{RunStop, Status};
 
     #[test]
     fn deform_table_averages_over_shapes() {
@@ -293,7 +317,7 @@ mod tests {
         assert_eq!(t.columns, ["it/t", "sd", "bconf"]);
         // Single samples: the bold time says so.
         assert_eq!(t.rows[0], ["kp-newton", "25.0/0.600†", "10.0/0.100"]);
-        assert_eq!(t.rows[1], ["akvf", "100.0/2.000*", ""]);
+        assert_eq!(t.rows[1], ["akvf", "100.0/2.00*", ""]);
         assert!(t.caption.contains("2 datasets (a, b)") && t.caption.contains("1 failed"), "{}", t.caption);
         assert!(t.caption.contains("† single sample"), "{}", t.caption);
         // sd: kp-newton converged on both shapes. bconf: no solver converged on both (akvf
@@ -375,10 +399,16 @@ mod tests {
         assert_eq!(solvers, ["newton", "cm", "kp-newton", "slim", "akvf"]);
         // cm [0.9, 1.1] and kp-newton [1.05, 1.25] overlap: both bold; slim does not.
         assert_eq!(t.bold, [(1, 1), (2, 1)]);
-        assert_eq!(t.rows[1][1], "10.0/1.000 (0.900–1.100)§", "spread, shifted mark, no single-sample mark");
-        assert_eq!(t.rows[0][1], "0.0/0.010 (0.009–0.011)*");
+        assert_eq!(t.rows[1][1], "10.0/1.00 (0.900–1.10)§", "spread, shifted mark, no single-sample mark");
+        assert_eq!(t.rows[0][1], "0.0/0.0100 (0.00900–0.0110)*");
         assert_eq!(t.rows[4][1], "skipped");
-        assert!(t.caption.contains("0 failed and 1 skipped runs") && !t.caption.contains('†'), "{}", t.caption);
+        assert!(
+            t.caption.contains("0 failed runs, 0 whose")
+                && t.caption.contains("and 1 skipped runs")
+                && !t.caption.contains('†'),
+            "{}",
+            t.caption
+        );
         // Disjoint spreads: only the fastest.
         for r in rows.iter_mut().filter(|r| r.solver == "kp-newton") {
             (r.time_s_min, r.time_s_max) = (Some(1.11), Some(1.2));
@@ -387,6 +417,14 @@ mod tests {
         // A solver that converged on one dataset only does not compete with its mean of one.
         rows[3].status = Status::NotConverged;
         assert_eq!(param_table(&rows).unwrap().bold, [(2, 1)]);
+        // newton's factorization failed in both runs: no mean of its few iterations, the stop.
+        for r in rows.iter_mut().filter(|r| r.solver == "newton") {
+            r.stop_reason =
+                Some(RunStop::Solver(solvers::solver::StopReason::LinearSolveFailed("not positive definite".into())));
+        }
+        let t = param_table(&rows).unwrap();
+        assert_eq!(t.rows[0][1], "linear_solve_failed");
+        assert!(t.caption.contains("0 failed runs, 2 whose method broke down"), "{}", t.caption);
     }
 
     #[test]
@@ -404,12 +442,18 @@ mod tests {
         rows[1].shifted_iters = Some(2);
         rows[2].final_energy = Some(2.000001);
         let t = per_mesh_table(&rows).unwrap();
-        assert_eq!(t.rows[0][5..8], ["0*", "0.01 (0.01–0.01)", "1.00000"]);
-        assert_eq!(t.rows[0][8..11], ["30 (2 shifted)", "1.00 (0.90–1.10)", "2.00000"]);
-        assert_eq!(t.rows[0][14..], ["skipped", "", ""]);
+        assert_eq!(t.rows[0][6..9], ["0*", "0.0100 (0.0100–0.0100)", "1.00000"]);
+        assert_eq!(t.rows[0][9..12], ["30 (2 shifted)", "1.00 (0.900–1.10)", "2.00000"]);
+        assert_eq!(t.rows[0][15..], ["skipped", "", ""]);
         // newton: fewest iterations, shortest time and lowest energy, and never bold; cm and
         // kp tie on iterations, on time (overlap) and on energy (5 decimals).
-        assert_eq!(t.bold, [(0, 8), (0, 9), (0, 10), (0, 11), (0, 12), (0, 13)]);
+        assert_eq!(t.bold, [(0, 9), (0, 10), (0, 11), (0, 12), (0, 13), (0, 14)]);
+        // A failed factorization: the stop instead of numbers that would look best.
+        rows[0].stop_reason =
+            Some(RunStop::Solver(solvers::solver::StopReason::LinearSolveFailed("not positive definite".into())));
+        let t = per_mesh_table(&rows).unwrap();
+        assert_eq!(t.rows[0][6..9], ["linear_solve_failed", "", ""]);
+        assert!(t.caption.contains("the method broke down"), "{}", t.caption);
         assert!(t.caption.contains("never best") && t.caption.contains("(k shifted)"), "{}", t.caption);
     }
 
@@ -427,6 +471,8 @@ mod tests {
             final_energy: Some(e),
             status: status.parse().unwrap(),
             analysis_s: Some(0.0312),
+            ref_energy: Some(2.08412876),
+            ref_certified: Some(false),
             ..Default::default()
         };
         let mut failed = p("akvf", 0, 0.0, 0.0, "failed");
@@ -439,18 +485,39 @@ mod tests {
         ];
         let t = per_mesh_table(&rows).unwrap();
         assert_eq!(
-            t.columns[..8],
-            ["dataset", "energy", "# vert", "# elem", "analysis [s]", "cm iter", "cm time [s]", "cm energy"]
+            t.columns[..9],
+            ["dataset", "energy", "# vert", "# elem", "analysis [s]", "E*", "cm iter", "cm time [s]", "cm energy"]
         );
         assert_eq!(
             t.rows[0],
             [
-                "cow", "sd", "4540", "8626", "0.031", "33", "0.60†", "2.08413", "41", "0.98", "2.08413", "394*",
-                "0.50", "2.08417", "failed", "", ""
+                "cow",
+                "sd",
+                "4540",
+                "8626",
+                "0.0312",
+                "2.0841288†",
+                "33",
+                "0.600†",
+                "2.08413",
+                "41",
+                "0.980",
+                "2.08413",
+                "394*",
+                "0.500",
+                "2.08417",
+                "failed",
+                "",
+                ""
             ]
         );
         // fewest iterations and shortest time of the converged runs (cm: slim is faster but did
         // not converge), lowest energy at 5 decimals (cm and kp tie)
-        assert_eq!(t.bold, [(0, 5), (0, 6), (0, 7), (0, 10)]);
+        assert_eq!(t.bold, [(0, 6), (0, 7), (0, 8), (0, 11)]);
+        assert_eq!(t.layout, Layout { keys: 6, group: 3 });
+        // A certified reference has no mark.
+        let certified: Vec<SummaryRow> =
+            rows.iter().cloned().map(|r| SummaryRow { ref_certified: Some(true), ..r }).collect();
+        assert_eq!(per_mesh_table(&certified).unwrap().rows[0][5], "2.0841288");
     }
 }

@@ -1,9 +1,11 @@
-//! Paper-style tables computed from `summary.csv` rows, written as `.csv`, `.md` and `.html`:
-//! the [`Table`] type and its writers in `table.rs`, the builders grouped by what they compare.
+//! Paper-style tables computed from `summary.csv` rows, written as `.csv`, `.md`, `.html` and
+//! `.tex`: the [`Table`] type and its writers in `table.rs` and `latex.rs`, the builders grouped
+//! by what they compare.
 
 mod aggregates;
 mod authalic;
 mod comparison;
+mod latex;
 mod projection;
 pub mod ranking;
 mod scaling;
@@ -13,9 +15,10 @@ mod verdicts;
 pub use aggregates::{aggregates_table, AGGREGATES};
 pub use authalic::authalic_table;
 pub use comparison::{deform_table, param_table, per_mesh_table};
+pub use latex::to_latex;
 pub use projection::{projection_table, smoothness_table};
 pub use scaling::scaling_table;
-pub use table::Table;
+pub use table::{Layout, Table};
 pub use verdicts::{verdict_table, VERDICTS};
 
 #[cfg(test)]

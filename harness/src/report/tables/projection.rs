@@ -1,7 +1,7 @@
 //! Per-iteration cost tables: the Hessian projection against the linear solve, without and
 //! with the smoothness term.
 
-use super::table::Table;
+use super::table::{Layout, Table};
 use crate::report::select::{finished, unique};
 use crate::run_folder::SummaryRow;
 use solvers::tasks::catalogue;
@@ -63,6 +63,7 @@ pub fn projection_table(rows: &[SummaryRow]) -> Option<Table> {
                   project/solve uses the same run's solve time."
             .into(),
         bold: Vec::new(),
+        layout: Layout { keys: 4, group: 2 },
     })
 }
 
@@ -121,6 +122,7 @@ pub fn smoothness_table(rows: &[SummaryRow]) -> Option<Table> {
                   kp-newton-eig8 (eigen-decomposition of every 8x8 edge block)."
             .into(),
         bold: Vec::new(),
+        layout: Layout::default(),
     })
 }
 

@@ -1,7 +1,7 @@
 //! Iterations and time against the mesh size.
 
 use super::comparison::with_space;
-use super::table::Table;
+use super::table::{Layout, Table};
 use crate::report::select::{converged, finished, is_param_or_deform, unique};
 use crate::report::target::target_rule;
 use crate::run_folder::timed::Timed;
@@ -47,7 +47,7 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
                         let mark = if converged(r) { "" } else { "*" };
                         row.push(r.iterations.map(|i| format!("{i}{mark}")).unwrap_or_default());
                         row.push(r.iter_ms_median.map(|t| format!("{t:.1}")).unwrap_or_default());
-                        row.push(Timed::time_s(r).map(|t| t.format(2)).unwrap_or_default());
+                        row.push(Timed::time_s(r).map(|t| t.text()).unwrap_or_default());
                         // The growth during the run; the process's peak (marked ~) when runs shared it.
                         let memory = match (r.peak_growth_mb, r.peak_rss_mb) {
                             (Some(own), _) => format!("{own:.0}"),
@@ -77,6 +77,7 @@ pub fn scaling_table(rows: &[SummaryRow]) -> Option<Table> {
             with_space(target_rule(runs.iter().copied()))
         ),
         bold: Vec::new(),
+        layout: Layout { keys: 3, group: 4 },
     })
 }
 

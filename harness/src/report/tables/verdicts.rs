@@ -2,7 +2,7 @@
 //! each target, and why the rest were not solved.
 
 use super::ranking::{self, lowest};
-use super::table::Table;
+use super::table::{Layout, Table};
 use crate::judge::verdict::Verdict;
 use crate::report::select::{failed, skipped, unique};
 use crate::report::target::{tau_text, verdict_text};
@@ -85,6 +85,7 @@ pub fn verdict_table(rows: &[SummaryRow]) -> Option<Table> {
              the most datasets solved at each target."
         ),
         bold,
+        layout: Layout { keys: 3, group: 1 },
     })
 }
 
