@@ -1,8 +1,10 @@
 //! The report page in a real browser: a small batch's `index.html` opened by headless
-//! Chromium, every image must load and the tables must be there; the next night's page, with
-//! 18 solvers and a made regression, opens on what changed and its status matrix fits a
-//! 1400-pixel window. Screenshots go to `target/ci-artifacts/report.png` and
-//! `first-screen.png` for people to look at.
+//! Chromium, every image must load, every in-page link must resolve and the tables must be
+//! there; the next night's page, with 18 solvers and a made regression, opens on what changed
+//! and nothing on it scrolls sideways in a 1400-pixel window; its explorer draws a problem's
+//! curves, hides a solver when its legend entry is clicked and shows values on hover.
+//! Screenshots go to `target/ci-artifacts/report.png`, `first-screen.png` and `explorer.png`
+//! for people to look at.
 //!
 //! Needs Debian's `chromium` (`.ci/run` installs it and sets `MAPBENCH_REQUIRE_CHROMIUM=1`,
 //! which turns a missing browser into a failure instead of a skip).
@@ -13,7 +15,7 @@ use std::process::Command;
 
 /// Appended to a copy of the page: once loaded, force lazy images to load, wait for all,
 /// and write what it found into the DOM for `--dump-dom`.
-const CHECK_SCRIPT: &str = r#"<script>
+const CHECK_SCRIPT: &str = r##"<script>
 window.addEventListener('load', async () => {
   const imgs = [...document.images];
   imgs.forEach(i => i.loading = 'eager');
@@ -23,6 +25,10 @@ window.addEventListener('load', async () => {
   const changes = document.getElementById('changes');
   const status = document.querySelector('table.status');
   const box = status ? status.parentElement : null;
+  const unresolved = [...document.querySelectorAll('a[href^="#"]')].map(a => a.getAttribute('href').slice(1))
+    .filter(id => id && !document.getElementById(decodeURIComponent(id)));
+  const wide = [...document.querySelectorAll('.scroll')].filter(b => b.scrollWidth > b.clientWidth + 1)
+    .map(b => (b.querySelector('table') || b).className || b.innerText.slice(0, 40));
   const pre = document.createElement('pre');
   pre.id = 'mapbench-check';
   pre.textContent = JSON.stringify({
@@ -32,10 +38,12 @@ window.addEventListener('load', async () => {
     changes_top: changes ? changes.getBoundingClientRect().top : null,
     status_width: status ? status.getBoundingClientRect().width : null,
     status_box: box ? [box.clientWidth, box.scrollWidth] : null,
+    unresolved, wide,
+    explorer_links: document.querySelectorAll('a[href^="explorer.html#p="]').length,
   });
   document.body.appendChild(pre);
 });
-</script>"#;
+</script>"##;
 
 fn chromium() -> Option<PathBuf> {
     ["chromium", "chromium-browser", "google-chrome"].iter().find_map(|name| {
@@ -92,6 +100,7 @@ fn the_report_page_loads_every_image_and_shows_the_tables() {
     let titles = report["titles"].to_string();
     assert!(titles.contains("Table 4") && titles.contains("Table 1"), "{titles}");
     assert!(page.contains("quad.obj"), "the failed run names its file");
+    assert_eq!(report["unresolved"], serde_json::json!([]), "in-page links without their anchor: {report}");
     // A screenshot for people (CI keeps target/ci-artifacts/).
     let artifacts = root.join("target/ci-artifacts");
     std::fs::create_dir_all(&artifacts).unwrap();
@@ -113,14 +122,27 @@ fn screenshot(browser: &Path, dir: &Path, (width, height): (u32, u32), shot: &Pa
 }
 
 /// What the check script found in the page `dir/index.html` in a `width` x `height` window.
-fn check(browser: &Path, dir: &Path, (width, height): (u32, u32)) -> serde_json::Value {
-    let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
-    let check = dir.join("check.html");
-    std::fs::write(&check, page.replace("</body>", &format!("{CHECK_SCRIPT}</body>"))).unwrap();
+fn check(browser: &Path, dir: &Path, size: (u32, u32)) -> serde_json::Value {
+    check_page(browser, dir, "index.html", "", CHECK_SCRIPT, size)
+}
+
+/// What `script` (which writes its findings into `<pre id="mapbench-check">`) found in the
+/// page `dir/<page><fragment>`, run from a copy beside it so its relative links hold.
+fn check_page(
+    browser: &Path,
+    dir: &Path,
+    page: &str,
+    fragment: &str,
+    script: &str,
+    (width, height): (u32, u32),
+) -> serde_json::Value {
+    let html = std::fs::read_to_string(dir.join(page)).unwrap();
+    let check = dir.join(format!("check-{page}"));
+    std::fs::write(&check, html.replace("</body>", &format!("{script}</body>"))).unwrap();
     let dom = headless(browser)
         .arg(format!("--window-size={width},{height}"))
         .args(["--virtual-time-budget=20000", "--dump-dom"])
-        .arg(format!("file://{}", check.display()))
+        .arg(format!("file://{}{fragment}", check.display()))
         .output()
         .unwrap();
     let dom = String::from_utf8_lossy(&dom.stdout);
@@ -190,5 +212,85 @@ fn first_screen(browser: &Path, tmp: &Path, artifacts: &Path) {
     assert!(report["page_width"].as_f64().unwrap() <= width, "the page scrolls sideways: {report}");
     let [inside, content] = [0, 1].map(|i| report["status_box"][i].as_f64().unwrap());
     assert!(content <= inside, "the status matrix of 18 solvers scrolls sideways: {report}");
+    assert_eq!(report["wide"], serde_json::json!([]), "a box that scrolls sideways: {report}");
+    assert_eq!(report["unresolved"], serde_json::json!([]), "in-page links without their anchor: {report}");
+    assert_eq!(report["explorer_links"].as_u64(), Some(3 * 2 * 18), "every status cell opens the explorer: {report}");
     screenshot(browser, &out, (1400, 900), &artifacts.join("first-screen.png"));
+    explorer(browser, &out, artifacts);
+}
+
+/// Run in the explorer once its chart is drawn: the curves drawn, then a click on the first
+/// solver's legend entry and a mouse move over the plot, with what each did.
+const EXPLORER_SCRIPT: &str = r#"<script>
+window.addEventListener('load', () => setTimeout(() => {
+  const u = window.mapbenchChart, out = {};
+  out.chart = !!u && !!document.querySelector('#chart canvas');
+  if (u) {
+    const title = u.root.querySelector('.u-title');
+    out.title = title ? title.textContent : null;
+    out.curves = u.series.length - 1;
+    out.points = u.data.slice(1).map(s => s.filter(v => v != null).length);
+    out.log_y = u.scales.y.distr;
+    const rows = [...u.root.querySelectorAll('.u-legend tr.u-series')];
+    out.legend = rows.length;
+    rows[1].querySelector('th').click();
+    out.hidden_after_click = u.series[1].show === false && rows[1].classList.contains('u-off');
+    out.others_shown = u.series.slice(2).every(s => s.show);
+    const r = u.over.getBoundingClientRect();
+    const at = {clientX: r.left + r.width * 0.05, clientY: r.top + r.height / 2, bubbles: true};
+    u.over.dispatchEvent(new MouseEvent('mouseenter', at));
+    u.over.dispatchEvent(new MouseEvent('mousemove', at));
+  }
+  setTimeout(() => {
+    if (u) {
+      out.cursor_idx = u.cursor.idx;
+      out.hover_values = [...u.root.querySelectorAll('.u-legend tr.u-series td.u-value')].map(td => td.textContent);
+    }
+    out.table_rows = document.querySelectorAll('#runs tr').length - 1;
+    const pre = document.createElement('pre');
+    pre.id = 'mapbench-check';
+    pre.textContent = JSON.stringify(out);
+    document.body.appendChild(pre);
+  }, 300);
+}, 300));
+</script>"#;
+
+/// The explorer of the 18-solver night on bumpy_1k / sd: every solver's curve on a log gap
+/// axis, a legend click hides that one alone, a mouse move shows numbers in the legend.
+fn explorer(browser: &Path, out: &Path, artifacts: &Path) {
+    let report = check_page(browser, out, "explorer.html", "#p=bumpy_1k__sd", EXPLORER_SCRIPT, (1400, 900));
+    assert_eq!(report["chart"], true, "no chart drawn: {report}");
+    assert!(report["title"].as_str().is_some_and(|t| t.starts_with("bumpy_1k / sd")), "{report}");
+    // One curve per run of the problem that ran to a stop.
+    let mut summary = csv::Reader::from_path(out.join("summary.csv")).unwrap();
+    let head = summary.headers().unwrap().clone();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    let (d, e, s) = (col("dataset"), col("energy"), col("status"));
+    let ran = summary
+        .records()
+        .map(|r| r.unwrap())
+        .filter(|r| &r[d] == "bumpy_1k" && &r[e] == "sd" && ["ok", "not_converged", "budget"].contains(&&r[s]))
+        .count() as u64;
+    assert!(ran >= 15, "{ran}");
+    assert_eq!(report["curves"].as_u64(), Some(ran), "one curve per run: {report}");
+    let points: Vec<u64> = report["points"].as_array().unwrap().iter().map(|n| n.as_u64().unwrap()).collect();
+    assert!(points.iter().all(|n| *n >= 1) && points.iter().filter(|n| **n > 2).count() >= 10, "{report}");
+    assert_eq!(report["log_y"].as_u64(), Some(3), "a log gap axis: {report}");
+    assert_eq!(report["legend"].as_u64(), Some(ran + 1), "the x series and the runs: {report}");
+    assert_eq!(report["hidden_after_click"], true, "{report}");
+    assert_eq!(report["others_shown"], true, "{report}");
+    assert!(report["cursor_idx"].as_u64().is_some(), "the cursor moved onto a point: {report}");
+    let values = report["hover_values"].as_array().unwrap();
+    let numbers = values.iter().filter(|v| v.as_str().is_some_and(|s| s.chars().any(|c| c.is_ascii_digit()))).count();
+    assert!(numbers >= 2, "values under the cursor in the legend: {report}");
+    assert_eq!(report["table_rows"].as_u64(), Some(ran), "{report}");
+    let shot = artifacts.join("explorer.png");
+    let _ = std::fs::remove_file(&shot);
+    let o = headless(browser)
+        .args(["--window-size=1400,900", "--virtual-time-budget=20000"])
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("file://{}#p=bumpy_1k__sd", out.join("explorer.html").display()))
+        .output()
+        .unwrap();
+    assert!(shot.is_file(), "no screenshot: {}", String::from_utf8_lossy(&o.stderr));
 }

@@ -94,8 +94,19 @@ pub fn write_run(dir: &Path, run: &RunFiles) -> Result<()> {
 
 /// The files and folders of a run folder that mapbench writes (a verb's output named by the
 /// user must not be one of them: see [`owner`]).
-pub const OWN_ENTRIES: [&str; 9] =
-    ["summary.csv", "meta.json", "index.html", "runs", "uv", "meshes", "plots", "tables", "external"];
+pub const OWN_ENTRIES: [&str; 11] = [
+    "summary.csv",
+    "meta.json",
+    "index.html",
+    "explorer.html",
+    "runs",
+    "uv",
+    "meshes",
+    "plots",
+    "tables",
+    "explorer",
+    "external",
+];
 
 /// The folder `mapbench submit` keeps its scripts, shard plan and shard folders in, inside the
 /// folder the shards are merged into. Not one of [`OWN_ENTRIES`]: a merge or `--force` leaves it.

@@ -86,10 +86,15 @@ pub fn write_index(
          <title>mapbench: {n}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n\
          <h1>mapbench report: {n}</h1>\n<p class=\"caption\">task <b>{t}</b></p>\n\
          <nav><a href=\"#changes\">changes</a><a href=\"#status\">status</a><a href=\"#tables\">tables</a><a href=\"#plots\">plots</a>\
-         {x}<a href=\"#files\">files</a><a href=\"#provenance\">provenance</a></nav>\n",
+         {x}{e}<a href=\"#files\">files</a><a href=\"#provenance\">provenance</a></nav>\n",
         n = esc(name),
         t = esc(&task),
         x = if external.is_empty() { "" } else { "<a href=\"#external\">external solvers</a>" },
+        e = if run_dir.join(crate::report::plots::explorer::EXPLORER).exists() {
+            "<a href=\"explorer.html\">explorer</a>"
+        } else {
+            ""
+        },
     );
     changes_section(&mut h, run_dir, meta.as_ref(), summaries, plots, batch);
     history_link(&mut h, run_dir, meta.as_ref(), name);

@@ -1,5 +1,5 @@
-//! The run status matrix: one short cell per run (linking to its problem's plots, or its CSV
-//! when the problem has none), the fastest solved run of each row framed, the full story in
+//! The run status matrix: one short cell per run (linking to its problem in the explorer, or
+//! its plots or CSV in a folder without one), the fastest solved run of each row framed, the full story in
 //! the cell's tooltip, and the reasons of failed and skipped runs once each in numbered notes
 //! under the table, so that 20 solvers fit one screen; its column heads stay in view.
 
@@ -76,8 +76,8 @@ fn head(name: &str) -> String {
 }
 
 /// Rows: dataset (and energy, when the run has several), those with a problem first;
-/// columns: solver. Each cell links to its problem's section of plots, or to the run's
-/// per-iteration CSV when the problem has no plots.
+/// columns: solver. Each cell links to its problem in the explorer; in a folder without one
+/// (an older report), to its problem's section of plots, or to the run's per-iteration CSV.
 pub(super) fn status_matrix(
     h: &mut String,
     run_dir: &Path,
@@ -92,7 +92,8 @@ pub(super) fn status_matrix(
     // A stable sort: problem rows first, each part in the summary's order.
     datasets.sort_by_key(|d| !troubled(d));
     let several_energies = unique(summaries.iter().map(|s| s.energy.as_str())).len() > 1;
-    status_caption(h, summaries);
+    let explorer = run_dir.join(crate::report::plots::explorer::EXPLORER).exists();
+    status_caption(h, summaries, explorer);
     *h += "</p>\n";
     reference_note(h, summaries, references);
     *h += "<div class=\"scroll status\"><table class=\"status\">\n<tr><th class=\"k ds\">dataset</th>";
@@ -120,8 +121,12 @@ pub(super) fn status_matrix(
                 .map(|solver| summaries.iter().find(|s| s.dataset == d && s.energy == *e && s.solver == *solver))
                 .collect();
             let fast = fastest_solved(&runs);
-            let section = super::figures::has_section(run_dir, plots, d, e)
-                .then(|| format!("#{}", super::figures::problem_anchor(d, e)));
+            let section = if explorer {
+                Some(crate::report::plots::explorer::problem_link(d, e))
+            } else {
+                super::figures::has_section(run_dir, plots, d, e)
+                    .then(|| format!("#{}", super::figures::problem_anchor(d, e)))
+            };
             for (j, run) in runs.iter().enumerate() {
                 let link = section.clone().or_else(|| {
                     let csv = run.map(|s| format!("runs/{}.csv", run_stem(&s.dataset, &s.energy, &s.solver)))?;
@@ -137,14 +142,19 @@ pub(super) fn status_matrix(
 }
 
 /// The table's legend: what a cell says, and how the harness judges.
-fn status_caption(h: &mut String, summaries: &[SummaryRow]) {
+fn status_caption(h: &mut String, summaries: &[SummaryRow], explorer: bool) {
     *h += "<h2 id=\"status\">Run status</h2>\n<p class=\"caption\">Rows with a failed or unsolved run come first. \
            Each cell: iterations over the time in seconds (the median over the repeats); hover it for the \
            whole story (“it” = iteration; the min–max of the repeats; the run's own stop; peak RSS = the \
            process's peak resident memory, with other runs in flight unless its growth is given) and click it \
-           for its problem's plots (or the run's per-iteration CSV). A framed cell is the fastest solved run of \
-           its row by time to the target (those whose repeat spreads overlap it framed too). \
-           <span class=\"ok\">green</span> converged; \
+           for ";
+    *h += if explorer {
+        "its problem in the <a href=\"explorer.html\">explorer</a> (its curves, interactive)."
+    } else {
+        "its problem's plots (or the run's per-iteration CSV)."
+    };
+    *h += " A framed cell is the fastest solved run of its row by time to the target (those whose repeat \
+           spreads overlap it framed too). <span class=\"ok\">green</span> converged; \
            <span class=\"nc\">yellow</span> stopped by another rule (the verdict in the cell, the rule in its \
            tooltip); \
            <span class=\"failed\">failed</span> and <span class=\"skipped\">skip</span> (not run: the solver is \

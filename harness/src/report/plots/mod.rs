@@ -5,11 +5,13 @@
 //! scaling plots, the Dolan–Moré performance profiles and the Moré–Wild data profiles over the
 //! corpus. The curves and maps read each run's files by its own summary row; the scaling plots
 //! and the profiles draw the rows as the report ranks them ([`crate::report::target::at_target`]).
+//! Beside them, the interactive explorer of the same curves (`explorer`).
 
 mod canvas;
 mod chart;
 mod colors;
 mod curves;
+pub mod explorer;
 mod maps;
 mod plot;
 mod profiles;

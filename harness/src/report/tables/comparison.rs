@@ -88,9 +88,8 @@ fn mean_table(rows: &[SummaryRow], spec: &MeanSpec) -> Option<Table> {
     bold.sort_unstable();
     let out = solvers.iter().zip(texts).map(|(s, t)| std::iter::once(s.to_string()).chain(t).collect()).collect();
     let sets: std::collections::BTreeSet<&str> = done.iter().map(|r| r.dataset.as_str()).collect();
-    let failed = all.iter().filter(|r| failed(r)).count();
-    let broken = all.iter().filter(|r| broke_down(r)).count();
-    let skipped = all.iter().filter(|r| skipped(r)).count();
+    let count = |f: fn(&SummaryRow) -> bool| all.iter().filter(|r| f(r)).count();
+    let (failed, broken, skipped) = (count(failed), count(broke_down), count(skipped));
     Some(Table {
         title: spec.title.into(),
         columns,

@@ -5,8 +5,14 @@
 
 use super::table::Table;
 
-/// The `.tex` twin of a table.
-pub fn to_latex(t: &Table, stem: &str) -> String {
+impl Table {
+    /// The `.tex` twin of the table, labelled `tab:<stem>`.
+    pub fn to_latex(&self, stem: &str) -> String {
+        latex(self, stem)
+    }
+}
+
+fn latex(t: &Table, stem: &str) -> String {
     let mut s = format!(
         "% {} (mapbench report; needs \\usepackage{{booktabs}})\n\\begin{{table}}[htbp]\n\\centering\n\\small\n",
         ascii_comment(&t.title)
@@ -143,7 +149,7 @@ mod tests {
             bold: vec![(0, 1)],
             layout: Layout::default(),
         };
-        let tex = to_latex(&t, "per_mesh");
+        let tex = t.to_latex("per_mesh");
         assert!(
             tex.contains("\\begin{tabular}{lrl}\n\\toprule\ndataset & time [s] & gap\\_\\% \\\\\n\\midrule\n"),
             "{tex}"

@@ -15,7 +15,6 @@ mod verdicts;
 pub use aggregates::{aggregates_table, AGGREGATES};
 pub use authalic::authalic_table;
 pub use comparison::{deform_table, param_table, per_mesh_table};
-pub use latex::to_latex;
 pub use projection::{projection_table, smoothness_table};
 pub use scaling::scaling_table;
 pub use table::{Layout, Table};

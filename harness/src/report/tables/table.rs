@@ -159,7 +159,7 @@ impl Table {
         write_atomic(&dir.join(format!("{stem}.csv")), &self.to_csv()?)?;
         write_atomic(&dir.join(format!("{stem}.md")), self.to_markdown().as_bytes())?;
         write_atomic(&dir.join(format!("{stem}.html")), self.to_html().as_bytes())?;
-        write_atomic(&dir.join(format!("{stem}.tex")), super::latex::to_latex(self, stem).as_bytes())
+        write_atomic(&dir.join(format!("{stem}.tex")), self.to_latex(stem).as_bytes())
     }
 }
 
