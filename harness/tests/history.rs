@@ -34,12 +34,12 @@ fn head(dir: &Path) -> String {
 }
 
 #[test]
-fn two_batches_of_one_config_make_two_nights_on_the_trend_page() {
+fn three_batches_of_one_config_make_three_nights_on_the_trend_page() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(tmp.path(), CONFIG);
     git(tmp.path(), &["init", "-q"]);
     let mut revisions = Vec::new();
-    for night in 1..=2 {
+    for night in 1..=3 {
         std::fs::write(tmp.path().join("notes.txt"), format!("night {night}\n")).unwrap();
         git(tmp.path(), &["add", "."]);
         git(tmp.path(), &["commit", "-q", "-m", &format!("night {night}")]);
@@ -53,18 +53,20 @@ fn two_batches_of_one_config_make_two_nights_on_the_trend_page() {
         // The run's report links to the trend page `run` rendered next to the database.
         let index = std::fs::read_to_string(out.join("index.html")).unwrap();
         assert!(index.contains("href=\"../reports/history-trend/h/index.html\""), "{index}");
-        assert!(tmp.path().join("reports/history-trend/h/index.html").is_file());
+        let trend = std::fs::read_to_string(tmp.path().join("reports/history-trend/h/index.html")).unwrap();
+        // A trend is drawn from the third night on; before, the page says why there is none.
+        assert_eq!(trend.contains("so far: a trend is drawn from 3 on"), night < 3, "{trend}");
     }
     let db = tmp.path().join("reports/history.sqlite");
     let h = HistoryDb::open_existing(&db).unwrap();
     let batches = h.batches(Some("h"), None).unwrap();
-    assert_eq!(batches.len(), 2);
+    assert_eq!(batches.len(), 3);
     // The revision is the code's, set when the binary was built (this checkout's), whatever
     // repository holds the config; the config folder's is in meta.json apart.
     let code = head(&common::repo_root())[..7].to_string();
     // (a `+` marks a build whose code differed from its revision)
     let shown: Vec<String> = batches.iter().map(|b| b.short_revision().trim_end_matches('+').to_string()).collect();
-    assert_eq!(shown, [code.clone(), code]);
+    assert_eq!(shown, [code.clone(), code.clone(), code]);
     for (night, rev) in revisions.iter().enumerate() {
         let meta = std::fs::read_to_string(tmp.path().join(format!("night{}/meta.json", night + 1))).unwrap();
         let meta: serde_json::Value = serde_json::from_str(&meta).unwrap();
@@ -75,9 +77,9 @@ fn two_batches_of_one_config_make_two_nights_on_the_trend_page() {
 
     let o = mapbench(&["history", "--out", "trend", "--last", "5"], tmp.path());
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    assert!(text(&o).contains("trend page of 2 batches (3 plots)"), "{}", text(&o));
+    assert!(text(&o).contains("trend page of 3 batches (3 plots)"), "{}", text(&o));
     let page = std::fs::read_to_string(tmp.path().join("trend/index.html")).unwrap();
-    for needle in [code_rev().as_str(), "h: 2 batches", "What changed: batch 2", "../night1/index.html"] {
+    for needle in [code_rev().as_str(), "h: 3 batches", "What changed: batch 3", "../night1/index.html"] {
         assert!(page.contains(needle), "{needle} not in the trend page:\n{page}");
     }
     for png in ["h__sd__solved.png", "h__sd__iterations.png", "h__sd__time.png"] {
@@ -100,7 +102,7 @@ fn two_batches_of_one_config_make_two_nights_on_the_trend_page() {
             assert!(o.status.success(), "{}", text(&o));
             let out = String::from_utf8_lossy(&o.stdout);
             let lines: Vec<&str> = out.lines().collect();
-            assert_eq!(lines.len(), 2, "{out}");
+            assert_eq!(lines.len(), 3, "{out}");
             assert!(lines[0].starts_with(&code_rev()) && lines[0].contains("|2|"), "{out}");
             let v = Command::new("sqlite3").arg(&db).arg("PRAGMA user_version").output().unwrap();
             assert_eq!(String::from_utf8_lossy(&v.stdout).trim(), mapbench::history::SCHEMA_VERSION.to_string());

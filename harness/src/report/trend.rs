@@ -253,9 +253,17 @@ impl Measure {
     }
 }
 
+/// The fewest batches a trend chart is drawn for: with one or two, a chart is one or two
+/// points and says nothing the table under it does not.
+pub const MIN_TREND_BATCHES: usize = 3;
+
 /// The three charts of each energy of a config, per batch: solved runs, and the shifted
-/// geometric means of iterations and time to the target (unsolved at the caps).
+/// geometric means of iterations and time to the target (unsolved at the caps); none before
+/// [`MIN_TREND_BATCHES`].
 fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
+    if c.batches.len() < MIN_TREND_BATCHES {
+        return Vec::new();
+    }
     let (energies, solvers) = names(c);
     let labels: Vec<String> = c.batches.iter().map(|(b, _)| b.short_revision()).collect();
     let mut out = Vec::new();
@@ -343,6 +351,15 @@ fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
         batches_table(&mut h, c, out);
         changes_section(&mut h, c);
         let (energies, solvers) = names(c);
+        if c.batches.len() < MIN_TREND_BATCHES {
+            let _ = writeln!(
+                h,
+                "<p>{} batch{} so far: a trend is drawn from {MIN_TREND_BATCHES} on; the numbers are in the \
+                 tables below.</p>",
+                c.batches.len(),
+                if c.batches.len() == 1 { "" } else { "es" }
+            );
+        }
         for energy in &energies {
             let _ = writeln!(h, "<h3>{}</h3>\n<div class=\"grid\">", esc(energy));
             for chart in charts.iter().filter(|x| x.config == c.name && &x.energy == energy) {
@@ -469,7 +486,7 @@ mod tests {
     /// renders from the database it leaves open; the second batch's page names both revisions
     /// and lists the run whose iterations changed, and the totals use `time_norm`.
     #[test]
-    fn recording_two_folders_makes_two_nights_on_the_trend_page() {
+    fn recording_folders_makes_nights_on_the_trend_page_drawn_from_the_third() {
         let dir = tempfile::tempdir().unwrap();
         let db = dir.path().join("reports/history.sqlite");
         let folder = |name: &str, rev: &str, started: u64, kp_iters: usize| {
@@ -510,15 +527,26 @@ mod tests {
             "2222222",
             "What changed: batch 2 (2222222) since batch 1 (1111111)",
             "a param sd kp-newton",
-            "time_norm (time_s / calibration median)",
             "\"../../../night2/index.html\"",
+            "2 batches so far: a trend is drawn from 3 on",
+        ] {
+            assert!(html.contains(needle), "{needle} not in the page:\n{html}");
+        }
+        assert!(page.plots.is_empty() && !html.contains("<img"), "no chart of two points: {html}");
+        // cm did not change: only kp-newton's iterations are listed
+        assert!(!html.contains("a param sd cm"), "{html}");
+        // A third night draws the trend.
+        let third = record(&db, &folder("night3", "3333333cccc", 180_000, 11)).unwrap();
+        let page = render(&third.history, Some(&third.config), None, &trend_dir(&db, &third.config)).unwrap();
+        let html = std::fs::read_to_string(&page.index).unwrap();
+        for needle in [
+            "time_norm (time_s / calibration median)",
             "plots/nightly__sd__iterations.png",
             "plots/nightly__sd__time.png",
         ] {
             assert!(html.contains(needle), "{needle} not in the page:\n{html}");
         }
-        // cm did not change: only kp-newton's iterations are listed
-        assert!(!html.contains("a param sd cm"), "{html}");
+        assert!(!html.contains("so far: a trend"), "{html}");
         let trend = page.index.parent().unwrap();
         assert_eq!(
             page.plots,
@@ -529,6 +557,7 @@ mod tests {
         }
         let h = HistoryDb::open_existing(&db).unwrap();
         assert_eq!(h.last_batch_of(&absolute(&dir.path().join("night2")).display().to_string()).unwrap(), Some(2));
+        assert_eq!(h.last_batch_of(&absolute(&dir.path().join("night3")).display().to_string()).unwrap(), Some(3));
     }
 
     fn judged(solver: &str, dataset: &str, status: Status, iterations: i64, to: Option<(i64, f64)>) -> RunRow {

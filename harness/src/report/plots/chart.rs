@@ -149,6 +149,26 @@ where
     Ok(())
 }
 
+/// Each curve's points as markers alone, no line between them: the points of different meshes
+/// (the scaling plots) make no curve, and a line would draw a trend across unrelated shapes.
+pub(super) fn draw_points<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    curves: &[Series],
+    points: &[Vec<(f64, f64)>],
+) -> Result<()>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    CT: CoordTranslate<From = (f64, f64)>,
+{
+    for (s, pts) in curves.iter().zip(points) {
+        for p in pts {
+            draw_marker(chart.plotting_area(), s.style.marker, *p, s.color())?;
+        }
+    }
+    Ok(())
+}
+
 /// The x axis of a curve chart: linear from 0, or logarithmic from `lo` (where x = 0 is
 /// drawn) when the curves' lengths span decades.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -168,17 +168,28 @@ impl ColorScale {
         }
     }
 
-    /// Color bar ticks (value, label) at 5 evenly spaced positions, the ends open-ended.
+    /// Color bar ticks (value, label) at 5 evenly spaced positions, the ends open-ended, with
+    /// as many significant digits (3 to 7) as it takes for no two labels to read alike: a
+    /// narrow scale (max 1.01) reads 1, 1.002, 1.005, 1.007, ≥1.01, not 1, 1, 1, 1.01, ≥1.01.
     pub(super) fn ticks(&self) -> Vec<(f64, String)> {
         let (lo, hi) = match self.measure {
             Measure::Distortion => (0.0, 1.0),
             Measure::AreaRatio => (-1.0, 1.0),
         };
-        (0..5)
-            .map(|i| {
-                let e = lo + (hi - lo) * i as f64 / 4.0;
-                let v = self.max.powf(e);
-                let text = if (v - 1.0).abs() < 1e-12 { "1".to_string() } else { format_tick(v) };
+        let values: Vec<f64> = (0..5).map(|i| self.max.powf(lo + (hi - lo) * i as f64 / 4.0)).collect();
+        let texts = |digits: usize| -> Vec<String> {
+            values
+                .iter()
+                .map(|&v| if (v - 1.0).abs() < 1e-12 { "1".to_string() } else { format_tick(v, digits) })
+                .collect()
+        };
+        let distinct = |t: &[String]| (1..t.len()).all(|i| !t[..i].contains(&t[i]));
+        let texts = (3..=7).map(texts).find(|t| distinct(t)).unwrap_or_else(|| texts(7));
+        values
+            .into_iter()
+            .zip(texts)
+            .enumerate()
+            .map(|(i, (v, text))| {
                 let text = match i {
                     0 if lo < 0.0 => format!("≤{text}"),
                     4 => format!("≥{text}"),
@@ -198,10 +209,10 @@ impl ColorScale {
     }
 }
 
-/// Three significant digits without trailing zeros (1.05, 0.952, 16).
-fn format_tick(v: f64) -> String {
-    let digits = (2 - v.abs().log10().floor() as i64).clamp(0, 6) as usize;
-    let s = format!("{v:.digits$}");
+/// `digits` significant digits without trailing zeros (1.05, 0.952, 16 for 3).
+fn format_tick(v: f64, digits: usize) -> String {
+    let decimals = (digits as i64 - 1 - v.abs().log10().floor() as i64).clamp(0, 9) as usize;
+    let s = format!("{v:.decimals$}");
     if s.contains('.') {
         s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
@@ -267,5 +278,9 @@ mod tests {
         let ticks: Vec<String> = area.ticks().into_iter().map(|t| t.1).collect();
         assert_eq!(ticks, ["≤0.833", "0.913", "1", "1.1", "≥1.2"]);
         assert_eq!(area.t(1.0), 0.5);
+        // A narrow scale takes the digits that keep its ticks apart.
+        let narrow = ColorScale { measure: Measure::Distortion, max: 1.01 };
+        let ticks: Vec<String> = narrow.ticks().into_iter().map(|t| t.1).collect();
+        assert_eq!(ticks, ["1", "1.002", "1.005", "1.007", "≥1.01"]);
     }
 }

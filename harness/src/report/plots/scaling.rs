@@ -1,10 +1,11 @@
 //! Scaling plots over every dataset of an energy: time per iteration and iterations against
-//! the vertex count (the composite-majorization paper's Figure 6 shape).
+//! the vertex count (the composite-majorization paper's Figure 6 shape), as points: the
+//! datasets are different shapes, so no line suggests a trend between them.
 
+use super::chart::Curve;
 use super::chart::{
-    self, draw_series, format_count, format_linear, house_style, iter_gap_points, render_framed, Series,
+    self, draw_points, format_count, format_linear, house_style, iter_gap_points, render_framed, Series,
 };
-use super::chart::{Curve, XAxis};
 use super::plot::{Plot, PlotKind, ALL_DATASETS};
 use crate::report::select::{converged, finished, is_authalic, unique};
 use crate::run_folder::{write_atomic, SummaryRow};
@@ -74,7 +75,7 @@ pub(super) fn render_scaling(run_dir: &Path, summaries: &[SummaryRow], solvers: 
 }
 
 /// A plot of `curve.iter` (x, log axis: vertices) against `curve.gap` (y, log axis when
-/// `log_y`) with a marker at every point.
+/// `log_y`): a marker at every point and no line, the meshes being unrelated shapes.
 fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> Result<Vec<u8>> {
     let points = iter_gap_points(curves);
     render_framed(curves, &points, |chart_area| {
@@ -84,8 +85,6 @@ fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> R
         let xr = (x_min / 1.3)..(x_max * 1.3);
         let mut builder = ChartBuilder::on(chart_area);
         builder.caption(title, ("sans-serif", 20)).margin(12).x_label_area_size(42).y_label_area_size(70);
-        // Markers at every point: a marker slot far smaller than any gap between sizes.
-        let every_point = x_min * 1e-9;
         if log_y {
             let mut chart = builder.build_cartesian_2d(xr.log_scale(), ((y_min / 1.5)..(y_max * 1.5)).log_scale())?;
             let mut mesh = chart.configure_mesh();
@@ -94,7 +93,7 @@ fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> R
                 .x_label_formatter(&|v| format_linear(*v))
                 .y_label_formatter(&|v| format_linear(*v));
             house_style(&mut mesh).draw()?;
-            draw_series(&mut chart, curves, &points, XAxis::Linear { max: every_point })?;
+            draw_points(&mut chart, curves, &points)?;
         } else {
             let mut chart = builder.build_cartesian_2d(xr.log_scale(), 0.0..(y_max * 1.1))?;
             let mut mesh = chart.configure_mesh();
@@ -103,7 +102,7 @@ fn render_xy_log(title: &str, y_desc: &str, log_y: bool, curves: &[Series]) -> R
                 .x_label_formatter(&|v| format_linear(*v))
                 .y_label_formatter(&|v| format_count(*v));
             house_style(&mut mesh).draw()?;
-            draw_series(&mut chart, curves, &points, XAxis::Linear { max: every_point })?;
+            draw_points(&mut chart, curves, &points)?;
         }
         Ok(())
     })
