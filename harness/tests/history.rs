@@ -88,6 +88,7 @@ fn three_batches_of_one_config_make_three_nights_on_the_trend_page() {
     }
     // the same iterations twice: nothing changed but (maybe) the times, which are not listed
     assert!(page.contains("No change in iterations, status or final energy"), "{page}");
+    the_trend_of_a_batch_is_its_report(&page, &tmp.path().join("night3"), 3);
     let o = mapbench(&["history", "--config", "nope", "--out", "t2"], tmp.path());
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).contains("no batch of config \"nope\""), "{}", text(&o));
@@ -108,6 +109,30 @@ fn three_batches_of_one_config_make_three_nights_on_the_trend_page() {
             assert_eq!(String::from_utf8_lossy(&v.stdout).trim(), mapbench::history::SCHEMA_VERSION.to_string());
         }
         _ => eprintln!("skipped the sqlite3 check: no sqlite3 binary on PATH"),
+    }
+}
+
+/// The trend page's numbers of batch `id` are those of its report's aggregates table
+/// (`folder/tables/aggregates.csv`): solved / runs and both shifted geometric means per solver.
+fn the_trend_of_a_batch_is_its_report(page: &str, folder: &Path, id: usize) {
+    let (head, rows) = read_csv(&folder.join("tables/aggregates.csv"));
+    let col = |prefix: &str| head.iter().position(|h| h.starts_with(prefix)).unwrap();
+    let (solver, runs, solved, iterations, time) =
+        (col("solver"), col("runs"), col("solved"), col("sgm iterations"), col("sgm time"));
+    // The totals table of the energy: its head names the solvers, batch `id`'s row their cells.
+    let table = &page[page.find("per batch: solved / runs").expect("a totals table")..];
+    let table = &table[..table.find("</table>").unwrap()];
+    let heads: Vec<&str> = table.split("<th>").skip(1).map(|c| &c[..c.find("</th>").unwrap()]).collect();
+    let start = table.find(&format!("<tr><td class=\"k\">{id} <code>")).expect("the batch's row");
+    let row = &table[start..start + table[start..].find("</tr>").unwrap()];
+    let cells: Vec<&str> = row.split("<td>").skip(1).map(|c| &c[..c.find("</td>").unwrap()]).collect();
+    assert_eq!(heads.len(), cells.len(), "{row}");
+    assert_eq!(rows.len(), heads.len(), "one aggregate per solver");
+    for r in &rows {
+        let k = heads.iter().position(|h| *h == r[solver]).unwrap_or_else(|| panic!("{} not on the page", r[solver]));
+        let report_time = r[time].trim_end_matches('†');
+        let want = format!("{}/{}<br><small>{} it, {}</small>", r[solved], r[runs], r[iterations], report_time);
+        assert_eq!(cells[k], want, "{}: the trend says {}, the report {want}", r[solver], cells[k]);
     }
 }
 

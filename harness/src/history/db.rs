@@ -6,9 +6,10 @@
 //! ([`HistoryError::Newer`]), since this build would not know what its columns mean.
 
 use super::error::HistoryError;
+use super::run_row::RunRow;
 use crate::plan::Task;
-use crate::run_folder::{parse_stop, stop_text, RunStop};
-use crate::run_folder::{Status, SummaryRow};
+use crate::run_folder::Status;
+use crate::run_folder::{parse_stop, stop_text};
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
 use std::path::{Path, PathBuf};
 
@@ -161,94 +162,6 @@ impl BatchRow {
     pub fn short_revision(&self) -> String {
         let rev = self.git_revision.as_deref().map_or("?", |r| &r[..r.len().min(7)]);
         format!("{rev}{}", if self.git_dirty == Some(true) { "+" } else { "" })
-    }
-}
-
-/// One row of `runs` (the summary row's columns the history keeps).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct RunRow {
-    pub batch_id: i64,
-    pub dataset: String,
-    pub task: Task,
-    pub energy: String,
-    pub solver: String,
-    pub vertices: Option<i64>,
-    pub iterations: Option<i64>,
-    pub status: Status,
-    /// `None` for a failed run (the column says `error`, as in `summary.csv`).
-    pub stop_reason: Option<RunStop>,
-    pub final_energy: Option<f64>,
-    pub grad_norm: Option<f64>,
-    pub flips: Option<i64>,
-    pub time_s: Option<f64>,
-    pub time_s_min: Option<f64>,
-    pub time_s_max: Option<f64>,
-    pub time_norm: Option<f64>,
-    pub repeats: Option<i64>,
-    pub shifted_iters: Option<i64>,
-    pub clamped_iters: Option<i64>,
-    pub peak_rss_mb: Option<f64>,
-    /// `summary.csv`'s `start`, `ref_source` and `verdict` as written there.
-    pub start: Option<String>,
-    pub ref_energy: Option<f64>,
-    pub ref_source: Option<String>,
-    pub final_gap: Option<f64>,
-    pub verdict: Option<String>,
-    pub cg_capped_iters: Option<i64>,
-    /// The tightest target of a judged run, and the iterations and time to it when reached.
-    pub target_tau: Option<f64>,
-    pub iters_to_target: Option<i64>,
-    pub time_s_to_target: Option<f64>,
-    pub peak_growth_mb: Option<f64>,
-    /// `summary.csv`'s yardstick columns, the polish's energy and a differing repeat.
-    pub start_energy: Option<f64>,
-    pub ideal_energy: Option<f64>,
-    pub ref_certified: Option<bool>,
-    pub polished_energy: Option<f64>,
-    pub repeats_differ: Option<String>,
-}
-
-impl RunRow {
-    /// The history's row of a summary row.
-    pub fn from_summary(s: &SummaryRow) -> RunRow {
-        let int = |v: Option<usize>| v.and_then(|x| i64::try_from(x).ok());
-        RunRow {
-            batch_id: 0,
-            dataset: s.dataset.clone(),
-            task: s.task,
-            energy: s.energy.clone(),
-            solver: s.solver.clone(),
-            vertices: int(s.vertices),
-            iterations: int(s.iterations),
-            status: s.status,
-            stop_reason: s.stop_reason.clone(),
-            final_energy: s.final_energy,
-            grad_norm: s.grad_norm,
-            flips: int(s.flips),
-            time_s: s.time_s,
-            time_s_min: s.time_s_min,
-            time_s_max: s.time_s_max,
-            time_norm: s.time_norm,
-            repeats: int(s.repeats),
-            shifted_iters: int(s.shifted_iters),
-            clamped_iters: int(s.clamped_iters),
-            peak_rss_mb: s.peak_rss_mb,
-            start: s.start.map(|x| x.as_str().to_string()),
-            ref_energy: s.ref_energy,
-            ref_source: s.ref_source.map(|x| x.as_str().to_string()),
-            final_gap: s.final_gap,
-            verdict: s.verdict.map(|x| x.as_str().to_string()),
-            cg_capped_iters: int(s.cg_capped_iters),
-            target_tau: s.to_targets.last().map(|t| t.tau),
-            iters_to_target: s.to_targets.last().and_then(|t| int(t.iters)),
-            time_s_to_target: s.to_targets.last().and_then(|t| t.time_s),
-            peak_growth_mb: s.peak_growth_mb,
-            start_energy: s.start_energy,
-            ideal_energy: s.ideal_energy,
-            ref_certified: s.ref_certified,
-            polished_energy: s.polished_energy,
-            repeats_differ: s.repeats_differ.clone(),
-        }
     }
 }
 

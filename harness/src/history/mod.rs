@@ -6,12 +6,14 @@
 
 pub mod db;
 mod error;
+mod run_row;
 
 use crate::paths::absolute;
 #[cfg(test)]
 use crate::plan::paths::resolve_path;
-pub use db::{BatchRow, HistoryDb, RunRow, Source, SCHEMA_VERSION};
+pub use db::{BatchRow, HistoryDb, Source, SCHEMA_VERSION};
 pub use error::HistoryError;
+pub use run_row::RunRow;
 
 use crate::run_folder::meta::Meta;
 use crate::run_folder::{meta_json, read_summary};

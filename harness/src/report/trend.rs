@@ -4,15 +4,17 @@
 //! revision) with the totals in tables; and what changed in the latest batch since the
 //! previous one of the same config, by the rules of `check`.
 
+use super::batch::Batch;
 use super::changes::Changes;
-use super::corpus::{ITERATION_SHIFT, TIME_NORM_SHIFT, TIME_SHIFT_S};
+use super::corpus::{self, EnergyAggregate, SolverAggregate, TimeUnit, ITERATION_SHIFT};
 use super::html::{changes_body, esc, href, utc, STYLE};
+use super::label::labelled;
 use super::plots::trend::{render_trend, TrendLine};
 use super::select::unique;
+use super::target::at_target;
 use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
 use crate::paths::relative_link;
-use crate::run_folder::{write_atomic, Status};
-use crate::stats::shifted_geometric_mean;
+use crate::run_folder::{write_atomic, Status, SummaryRow};
 use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -32,116 +34,51 @@ struct ConfigHistory {
     batches: Vec<(BatchRow, Vec<RunRow>)>,
 }
 
-/// The runs a trend counts: those that ran to a stop (converged or not), as the report's means.
-fn counted(r: &RunRow) -> bool {
-    r.status.ran() && r.iterations.is_some()
+/// A batch's runs as its report ranks them ([`at_target`], clamped SLIM runs labelled) and the
+/// caps its unsolved runs enter the means at: the batch's `max_iters` and `timeout` from its
+/// run folder's meta.json, or (`caps_known` false: the folder is gone) the most iterations and
+/// the longest time of the batch, as a report without meta.json would.
+struct Ranked {
+    rows: Vec<SummaryRow>,
+    batch: Batch,
+    caps_known: bool,
 }
 
-/// Which time a trend shows: `time_norm` when every counted run of the plot has one (it
-/// compares nights and machines), else the raw `time_s`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum TimeColumn {
-    Norm,
-    Raw,
-}
-
-impl TimeColumn {
-    fn pick(runs: &[&RunRow]) -> TimeColumn {
-        if !runs.is_empty() && runs.iter().all(|r| r.time_norm.is_some()) {
-            TimeColumn::Norm
-        } else {
-            TimeColumn::Raw
-        }
+impl Ranked {
+    fn of(b: &BatchRow, runs: &[RunRow]) -> Ranked {
+        let rows: Vec<SummaryRow> = runs.iter().map(RunRow::to_summary).collect();
+        let folder = Path::new(&b.run_dir);
+        let caps_known = !b.run_dir.is_empty() && crate::run_folder::meta_json(folder).exists();
+        let batch = if caps_known { Batch::read(folder) } else { Batch::default() };
+        Ranked { rows: labelled(&at_target(&rows)), batch, caps_known }
     }
 
-    fn of(self, r: &RunRow) -> Option<f64> {
-        match self {
-            TimeColumn::Norm => r.time_norm,
-            TimeColumn::Raw => r.time_s,
-        }
-    }
-
-    fn label(self) -> &'static str {
-        match self {
-            TimeColumn::Norm => "time_norm (time_s / calibration median)",
-            TimeColumn::Raw => "time_s (seconds, not normalized)",
-        }
-    }
-
-    /// The shift of its geometric mean (the report's aggregates use the same).
-    fn shift(self) -> f64 {
-        match self {
-            TimeColumn::Norm => TIME_NORM_SHIFT,
-            TimeColumn::Raw => TIME_SHIFT_S,
-        }
+    /// The report's aggregate of one energy of the batch ([`corpus::aggregate`], the function
+    /// of its aggregates table), in `unit`.
+    fn aggregate(&self, energy: &str, unit: TimeUnit) -> Option<EnergyAggregate> {
+        let rows: Vec<SummaryRow> = self.rows.iter().filter(|r| r.energy == energy).cloned().collect();
+        corpus::aggregate(&rows, &self.batch, unit).into_iter().next()
     }
 }
 
-/// The cost of a run to the target as the trend counts it: a solved run's iterations and
-/// time to its tightest target (to its own stop when it was not judged), `None` for an
-/// unsolved one (it enters at the cap).
-fn cost(r: &RunRow, time: TimeColumn) -> Option<(f64, Option<f64>)> {
-    if r.status != Status::Ok {
-        return None;
+/// One (batch, energy, solver) of the trend: the report's aggregate of the solver (`None`
+/// when every run of it was skipped).
+fn cell(agg: Option<&EnergyAggregate>, solver: &str) -> Option<SolverAggregate> {
+    agg?.solvers.iter().find(|s| s.solver == solver && s.runs > 0).cloned()
+}
+
+/// The time of an energy's trend: calibrated (`time_norm`) when every finished run of every
+/// batch shown has it, so that one axis compares nights and machines, else seconds; a batch's
+/// numbers equal its report's when its report chose the same.
+fn unit_of(ranked: &[Ranked], energy: &str) -> TimeUnit {
+    TimeUnit::choose(ranked.iter().flat_map(|r| r.rows.iter()).filter(|r| r.energy == energy))
+}
+
+fn time_label(unit: TimeUnit) -> &'static str {
+    match unit {
+        TimeUnit::Calibrated => "time_norm (time_s / calibration median)",
+        TimeUnit::Seconds => "time_s (seconds, not normalized)",
     }
-    // A judged run recorded before the history kept the target (schema 6) counts to its own
-    // stop: the page says so.
-    let iterations = r.iters_to_target.or(r.iterations)? as f64;
-    // The time to the target scales the run's time by time_to / time_s (as the report's tables).
-    let k = match (r.time_s_to_target, r.time_s) {
-        (Some(to), Some(t)) if t > 0.0 => to / t,
-        (Some(_), Some(_)) => 0.0,
-        _ => 1.0,
-    };
-    Some((iterations, time.of(r).map(|t| t * k)))
-}
-
-/// The caps an unsolved run enters the means at, per energy over the whole history shown: the
-/// most iterations and the longest time any run of the energy took to its own stop (the
-/// history does not keep `max_iters` or the timeout).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Caps {
-    iterations: f64,
-    time: Option<f64>,
-}
-
-impl Caps {
-    fn of(c: &ConfigHistory, energy: &str, time: TimeColumn) -> Caps {
-        let runs = || c.batches.iter().flat_map(|(_, r)| r.iter()).filter(|r| r.energy == energy && counted(r));
-        let iterations = runs().filter_map(|r| r.iterations).max().unwrap_or(0) as f64;
-        let time = runs().filter_map(|r| time.of(r)).filter(|t| t.is_finite()).reduce(f64::max);
-        Caps { iterations, time }
-    }
-}
-
-/// One (batch, energy, solver) of the trend: solved at the target out of the runs that were
-/// not skipped, and the shifted geometric means to the target with unsolved runs at the caps
-/// (the report's aggregates rule).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Cell {
-    runs: usize,
-    solved: usize,
-    sgm_iterations: Option<f64>,
-    sgm_time: Option<f64>,
-}
-
-fn cell(runs: &[RunRow], energy: &str, solver: &str, time: TimeColumn, caps: Caps) -> Option<Cell> {
-    let mine: Vec<&RunRow> =
-        runs.iter().filter(|r| r.energy == energy && r.solver == solver && r.status != Status::Skipped).collect();
-    if mine.is_empty() {
-        return None;
-    }
-    let costs: Vec<Option<(f64, Option<f64>)>> = mine.iter().map(|r| cost(r, time)).collect();
-    // An unsolved run at the cap, which is at least its own iterations (the most any run
-    // took); a failed run has none of its own.
-    let iterations: Vec<f64> = costs.iter().map(|c| c.map_or(caps.iterations, |c| c.0)).collect();
-    let times: Option<Vec<f64>> = costs.iter().map(|c| c.map_or(caps.time, |c| c.1)).collect();
-    Some(Cell {
-        runs: mine.len(),
-        solved: costs.iter().filter(|c| c.is_some()).count(),
-        sgm_iterations: shifted_geometric_mean(&iterations, ITERATION_SHIFT),
-        sgm_time: times.and_then(|t| shifted_geometric_mean(&t, time.shift())),
-    })
 }
 
 /// Render the trend page of `config` (every config when `None`) from the last `last`
@@ -221,18 +158,17 @@ impl Chart {
     }
 }
 
-/// The energies of a config, in first-appearance order, and its solvers.
-fn names(c: &ConfigHistory) -> (Vec<String>, Vec<String>) {
-    let runs = || c.batches.iter().flat_map(|(_, r)| r.iter());
+/// The energies of a config's ranked batches, in first-appearance order, and its solvers as
+/// the report names them.
+fn names(ranked: &[Ranked]) -> (Vec<String>, Vec<String>) {
+    let runs = || ranked.iter().flat_map(|r| r.rows.iter());
     let energies = unique(runs().map(|r| r.energy.as_str())).into_iter().map(String::from).collect();
     let solvers = unique(runs().map(|r| r.solver.as_str())).into_iter().map(String::from).collect();
     (energies, solvers)
 }
 
-fn time_column(c: &ConfigHistory, energy: &str) -> TimeColumn {
-    let runs: Vec<&RunRow> =
-        c.batches.iter().flat_map(|(_, r)| r.iter()).filter(|r| r.energy == energy && counted(r)).collect();
-    TimeColumn::pick(&runs)
+fn ranked(c: &ConfigHistory) -> Vec<Ranked> {
+    c.batches.iter().map(|(b, runs)| Ranked::of(b, runs)).collect()
 }
 
 /// What a trend chart plots of a cell.
@@ -244,11 +180,11 @@ enum Measure {
 }
 
 impl Measure {
-    fn of(self, c: &Cell) -> Option<f64> {
+    fn of(self, c: &SolverAggregate) -> Option<f64> {
         match self {
             Measure::Solved => Some(c.solved as f64),
             Measure::Iterations => c.sgm_iterations,
-            Measure::Time => c.sgm_time,
+            Measure::Time => c.sgm_time.map(|t| t.value),
         }
     }
 }
@@ -264,17 +200,16 @@ fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
     if c.batches.len() < MIN_TREND_BATCHES {
         return Vec::new();
     }
-    let (energies, solvers) = names(c);
+    let ranked = ranked(c);
+    let (energies, solvers) = names(&ranked);
     let labels: Vec<String> = c.batches.iter().map(|(b, _)| b.short_revision()).collect();
     let mut out = Vec::new();
     for energy in &energies {
-        let time = time_column(c, energy);
-        let caps = Caps::of(c, energy, time);
+        let time = unit_of(&ranked, energy);
+        let aggregates: Vec<Option<EnergyAggregate>> = ranked.iter().map(|r| r.aggregate(energy, time)).collect();
         // Per solver, its cell in each batch: the three charts plot three measures of them.
-        let cells: Vec<Vec<Option<Cell>>> = solvers
-            .iter()
-            .map(|s| c.batches.iter().map(|(_, runs)| cell(runs, energy, s, time, caps)).collect())
-            .collect();
+        let cells: Vec<Vec<Option<SolverAggregate>>> =
+            solvers.iter().map(|s| aggregates.iter().map(|a| cell(a.as_ref(), s)).collect()).collect();
         for measure in [Measure::Solved, Measure::Iterations, Measure::Time] {
             let values: Vec<(String, Vec<(usize, f64)>)> = solvers
                 .iter()
@@ -299,7 +234,7 @@ fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
                 Measure::Time => (
                     "time",
                     "shifted geometric mean of time to the target",
-                    format!("{}, sgm (shift {})", time.label(), time.shift()),
+                    format!("{}, sgm (shift {})", time_label(time), time.shift()),
                 ),
             };
             out.push(Chart {
@@ -334,9 +269,11 @@ fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
     h += "<p class=\"caption\">Each point is one batch (night), labelled with its short git revision (+: the tree \
           was dirty). Per energy and solver: the runs solved at the target (the harness's verdict; ok for runs it \
           does not judge), and the shifted geometric means of iterations and time to the target over the runs \
-          that were not skipped, an unsolved run (not converged or failed) entering at the cap: the most \
-          iterations and the longest time any run of the energy took in the batches shown. A solver that starts \
-          failing earlier therefore moves up, not down. Batches recorded before the history kept the target \
+          that were not skipped, an unsolved run (not converged or failed) entering at the cap: each batch's \
+          numbers are its report's aggregates, computed by the same function from the same runs, at that \
+          batch's caps (its max_iters and timeout, read from its run folder; where the folder is gone, marked \
+          *, the most iterations and the longest time of the batch). A solver that starts failing earlier \
+          therefore moves up, not down. Batches recorded before the history kept the target \
           (schema 6) count their solved runs to their own stop. Changes use the rules of \
           <code>mapbench check</code>.</p>\n";
     if configs.len() > 1 {
@@ -350,7 +287,8 @@ fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
         let _ = writeln!(h, "<h2 id=\"{}\">{}: {} batches</h2>", esc(&c.name), esc(&c.name), c.batches.len());
         batches_table(&mut h, c, out);
         changes_section(&mut h, c);
-        let (energies, solvers) = names(c);
+        let ranked = ranked(c);
+        let (energies, solvers) = names(&ranked);
         if c.batches.len() < MIN_TREND_BATCHES {
             let _ = writeln!(
                 h,
@@ -371,7 +309,7 @@ fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
                 );
             }
             h += "</div>\n";
-            totals_table(&mut h, c, energy, &solvers);
+            totals_table(&mut h, c, &ranked, energy, &solvers);
         }
     }
     h += "</body>\n</html>\n";
@@ -431,37 +369,36 @@ fn changes_section(h: &mut String, c: &ConfigHistory) {
     changes_body(h, &Changes::between((prev, prev_runs), (last, last_runs)));
 }
 
-/// Per batch and solver: solved / runs and the two means to the target.
-fn totals_table(h: &mut String, c: &ConfigHistory, energy: &str, solvers: &[String]) {
-    let time = time_column(c, energy);
-    let caps = Caps::of(c, energy, time);
+/// Per batch and solver: solved / runs and the two means to the target, printed as the
+/// report's aggregates table prints them.
+fn totals_table(h: &mut String, c: &ConfigHistory, ranked: &[Ranked], energy: &str, solvers: &[String]) {
+    let time = unit_of(ranked, energy);
     let _ = write!(
         h,
         "<details><summary>{} per batch: solved / runs, and the shifted geometric means of iterations and of {} \
-         to the target (unsolved runs at the caps: {} iterations, {})</summary><div class=\"scroll\"><table>\n\
-         <tr><th class=\"k\">batch</th>",
+         to the target (unsolved runs at the batch's caps; * = caps seen in the batch, its run folder gone)\
+         </summary><div class=\"scroll\"><table>\n<tr><th class=\"k\">batch</th>",
         esc(energy),
-        time.label(),
-        caps.iterations,
-        caps.time.map_or("no time".to_string(), |t| format!("{t:.3}"))
+        time_label(time),
     );
     for s in solvers {
         let _ = write!(h, "<th>{}</th>", esc(s));
     }
     *h += "</tr>\n";
-    for (b, runs) in c.batches.iter().rev() {
-        let _ = write!(h, "<tr><td class=\"k\">{} <code>{}</code></td>", b.id, esc(&b.short_revision()));
+    for ((b, _), r) in c.batches.iter().zip(ranked).rev() {
+        let mark = if r.caps_known { "" } else { "*" };
+        let _ = write!(h, "<tr><td class=\"k\">{} <code>{}</code>{mark}</td>", b.id, esc(&b.short_revision()));
+        let agg = r.aggregate(energy, time);
         for s in solvers {
-            match cell(runs, energy, s, time, caps) {
+            match cell(agg.as_ref(), s) {
                 Some(x) => {
-                    let mean = |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |v| format!("{v:.digits$}"));
                     let _ = write!(
                         h,
                         "<td>{}/{}<br><small>{} it, {}</small></td>",
                         x.solved,
                         x.runs,
-                        mean(x.sgm_iterations, 1),
-                        mean(x.sgm_time, 3)
+                        x.sgm_iterations.map_or("-".to_string(), |v| format!("{v:.1}")),
+                        x.sgm_time.map_or("-".to_string(), |t| t.text())
                     );
                 }
                 None => *h += "<td class=\"none\"></td>",
@@ -577,45 +514,70 @@ mod tests {
         }
     }
 
-    /// A solver that starts failing earlier: its solved count drops and its means rise (the
-    /// failed run enters at the cap), where the old mean over the runs that stopped fell.
-    /// Solved runs count to the target, not to their own stop; skipped runs are left out.
+    /// Each batch of the trend is its report's aggregates: the same numbers from the same runs
+    /// at the batch's caps. A solver that starts failing earlier: its solved count drops and
+    /// its means rise (the failed run enters at the cap); solved runs count to the target, not
+    /// to their own stop; skipped runs are left out.
     #[test]
-    fn trend_cells_count_solved_runs_and_means_to_the_target_with_unsolved_at_the_cap() {
-        let night = |runs: Vec<RunRow>| (BatchRow::default(), runs);
+    fn a_batch_of_the_trend_is_its_reports_aggregates() {
+        let dir = tempfile::tempdir().unwrap();
+        let meta = serde_json::json!({ "config": { "name": "n" }, "stop_per_energy": { "sd": { "max_iters": 100 } } });
+        std::fs::write(dir.path().join("meta.json"), meta.to_string()).unwrap();
+        let folder = BatchRow { run_dir: dir.path().display().to_string(), ..Default::default() };
         let c = ConfigHistory {
             name: "n".into(),
             batches: vec![
-                night(vec![
-                    judged("cm", "a", Status::Ok, 30, Some((20, 2.0))),
-                    judged("cm", "b", Status::Ok, 30, Some((20, 2.0))),
-                    judged("slim", "a", Status::NotConverged, 100, None),
-                ]),
-                night(vec![
-                    judged("cm", "a", Status::Ok, 30, Some((20, 2.0))),
-                    judged("cm", "b", Status::NotConverged, 3, None),
-                    judged("slim", "a", Status::Skipped, 0, None),
-                ]),
+                (
+                    BatchRow::default(),
+                    vec![
+                        judged("cm", "a", Status::Ok, 30, Some((20, 2.0))),
+                        judged("cm", "b", Status::Ok, 30, Some((20, 2.0))),
+                        judged("slim", "a", Status::NotConverged, 100, None),
+                    ],
+                ),
+                (
+                    folder,
+                    vec![
+                        judged("cm", "a", Status::Ok, 30, Some((20, 2.0))),
+                        judged("cm", "b", Status::NotConverged, 3, None),
+                        judged("slim", "a", Status::Skipped, 0, None),
+                    ],
+                ),
             ],
         };
-        let time = time_column(&c, "sd");
-        assert_eq!(time, TimeColumn::Norm);
-        let caps = Caps::of(&c, "sd", time);
-        assert_eq!(caps, Caps { iterations: 100.0, time: Some(20.0) });
-        let first = cell(&c.batches[0].1, "sd", "cm", time, caps).unwrap();
-        let second = cell(&c.batches[1].1, "sd", "cm", time, caps).unwrap();
+        let ranked = ranked(&c);
+        assert_eq!((ranked[0].caps_known, ranked[1].caps_known), (false, true));
+        let unit = unit_of(&ranked, "sd");
+        assert_eq!(unit, TimeUnit::Calibrated);
+        for ((_, runs), r) in c.batches.iter().zip(&ranked) {
+            // The batch's report: its tables rank the summary rows to the target, labelled.
+            let rows: Vec<SummaryRow> = runs.iter().map(RunRow::to_summary).collect();
+            let table = crate::report::tables::aggregates_table(&labelled(&at_target(&rows)), &r.batch).unwrap();
+            let agg = r.aggregate("sd", unit);
+            for row in &table.rows {
+                // A solver skipped on every run has a row there and no cell here.
+                if row[2] == "0" {
+                    assert!(cell(agg.as_ref(), &row[1]).is_none(), "{row:?}");
+                    continue;
+                }
+                let s = cell(agg.as_ref(), &row[1]).unwrap();
+                assert_eq!(row[8], format!("{:.1}", s.sgm_iterations.unwrap()), "{row:?}");
+                assert!(row[9].starts_with(&s.sgm_time.unwrap().text()), "{row:?}");
+            }
+        }
+        let first = cell(ranked[0].aggregate("sd", unit).as_ref(), "cm").unwrap();
+        let second = cell(ranked[1].aggregate("sd", unit).as_ref(), "cm").unwrap();
         assert_eq!((first.runs, first.solved, second.runs, second.solved), (2, 2, 2, 1));
         // 20 iterations to the target (not the 30 of its own stop); time_norm 6.0 x 2.0 / 3.0.
         let close = |a: Option<f64>, b: f64| a.is_some_and(|a| (a - b).abs() < 1e-9);
         assert!(close(first.sgm_iterations, 20.0), "{first:?}");
-        assert!(close(first.sgm_time, 4.0), "{first:?}");
-        // The unsolved run at the cap: sqrt((20 + 10)(100 + 10)) - 10.
+        assert!(close(first.sgm_time.map(|t| t.value), 4.0), "{first:?}");
+        // The unsolved run at the batch's max_iters: sqrt((20 + 10)(100 + 10)) - 10.
         assert!(close(second.sgm_iterations, (30.0f64 * 110.0).sqrt() - 10.0), "{second:?}");
         assert!(second.sgm_iterations > first.sgm_iterations);
-        assert!(close(second.sgm_time, ((4.0 + TIME_NORM_SHIFT) * (20.0 + TIME_NORM_SHIFT)).sqrt() - TIME_NORM_SHIFT));
-        // Skipped: no cell; unsolved only: at the cap, 0 solved.
-        assert_eq!(cell(&c.batches[1].1, "sd", "slim", time, caps), None);
-        let slim = cell(&c.batches[0].1, "sd", "slim", time, caps).unwrap();
+        // Skipped: no cell; unsolved only: at the cap (the batch's most, its folder unknown).
+        assert!(cell(ranked[1].aggregate("sd", unit).as_ref(), "slim").is_none());
+        let slim = cell(ranked[0].aggregate("sd", unit).as_ref(), "slim").unwrap();
         assert_eq!((slim.solved, slim.sgm_iterations.map(f64::round)), (0, Some(100.0)));
     }
 }
