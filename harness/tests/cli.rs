@@ -372,11 +372,14 @@ fn jobs_shards_merge_and_report_do_not_change_results() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert_eq!(tables(&merged), before);
     assert_eq!(results(&merged), one);
-    // the report page links every run's CSV and shows its plots
+    // the report page links every run's problem in the explorer and shows its plots
     let html = std::fs::read_to_string(merged.join("index.html")).unwrap();
     for (name, _) in &one.1 {
-        assert!(html.contains(&format!("runs/{name}")), "{name}");
+        let mut parts = name.trim_end_matches(".csv").split("__");
+        let (d, e) = (parts.next().unwrap(), parts.next().unwrap());
+        assert!(html.contains(&format!("explorer.html#p={d}__{e}")), "{name}");
     }
+    assert!(html.contains(&format!("{} <code>.csv</code> files in <a href=\"runs/\">", one.1.len())));
     assert!(html.contains("plots/cap_2k__sd__energy_iter.png"));
     assert!(merged.join("plots/cap_2k__sd__energy_iter.png").is_file());
 }

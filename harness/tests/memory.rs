@@ -34,5 +34,5 @@ fn one_run_at_a_time_each_run_has_its_memory_growth_and_it_grows_with_the_mesh()
     let (small, large) = (mb(of("bumpy_1k"), own), mb(of("bumpy_10k"), own));
     assert!(large > 2.0 * small, "bumpy_1k {small} MB, bumpy_10k {large} MB");
     let page = std::fs::read_to_string(out.join("index.html")).unwrap();
-    assert!(page.contains("MB above its start"), "the tooltip names it");
+    assert!(page.contains("MB its own"), "the tooltip names it");
 }

@@ -281,7 +281,6 @@ where
     let height = row * entries.len() as i32 + 10;
     let width = LEGEND_WIDTH as i32 - 2 * left - 4;
     area.draw(&Rectangle::new([(left, top), (left + width, top + height)], BLACK.mix(0.6).stroke_width(1)))?;
-    let font = TextStyle::from(("sans-serif", 14).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
     let twin = |k: usize| twins.get(k).copied().flatten();
     for (k, s) in entries.iter().enumerate() {
         let y = top + 5 + row * k as i32 + row / 2;
@@ -301,7 +300,7 @@ where
             Some(j) => format!("{} = {}", s.solver, entries[j].solver),
             None => s.solver.to_string(),
         };
-        area.draw(&Text::new(label, (left + 42, y), font.clone()))?;
+        area.draw(&Text::new(label.clone(), (left + 42, y), legend_font(&label)))?;
     }
     if twins.iter().any(Option::is_some) {
         let note = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Left, VPos::Top));
@@ -313,6 +312,17 @@ where
         area.draw(&Text::new("dashed: not converged", (left + 2, top + height + 6), note))?;
     }
     Ok(())
+}
+
+/// The characters a legend label shows at 14 px in the column right of its marker.
+const LEGEND_CHARS: usize = 22;
+
+/// A legend label's font: 14 px, smaller for a longer label (down to 9 px, about 34
+/// characters) so that `fp-trust-region-6x6 = fp-abs-6x6` is not cut at the column's edge.
+fn legend_font(label: &str) -> TextStyle<'static> {
+    let n = label.chars().count().max(1);
+    let size = if n <= LEGEND_CHARS { 14.0 } else { (14.0 * LEGEND_CHARS as f64 / n as f64).round().max(9.0) };
+    TextStyle::from(("sans-serif", size).into_font()).pos(Pos::new(HPos::Left, VPos::Center))
 }
 
 /// A curve chart's PNG: `draw` fills the chart area on the left, the legend of `curves` takes
@@ -338,4 +348,17 @@ pub(super) fn render_framed(
 /// Each series' `(iter, gap)` points: the x and y of the charts that are not per-run curves.
 pub(super) fn iter_gap_points(curves: &[Series]) -> Vec<Vec<(f64, f64)>> {
     curves.iter().map(|s| s.curve.iter.iter().copied().zip(s.curve.gap.iter().copied()).collect()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_legend_label_takes_a_smaller_font_instead_of_being_cut() {
+        let size = |label: &str| legend_font(label).font.get_size();
+        assert_eq!(size("fp-trust-region-6x6"), 14.0);
+        assert_eq!(size("fp-trust-region-6x6 = fp-abs-6x6"), 10.0);
+        assert_eq!(size(&"x".repeat(80)), 9.0, "never below 9 px");
+    }
 }

@@ -29,7 +29,7 @@ const UPLOT_JS_SHA256: &str = "19c8d4c6ad88929a79f4ae49d6f7161566dfd0ba3d15cc495
 #[cfg(test)]
 const UPLOT_CSS_SHA256: &str = "df630c6a8d6f8eeaff264b50f73ce5b114f646ffd9a0bb74f049b0a00135fa04";
 
-/// The most points a curve keeps: every one of its first [`DENSE`] iterations, then
+/// The most points a curve keeps: every one of its first `DENSE` iterations, then
 /// geometrically spaced ones and its last, so a 5000-iteration run stays a few KB.
 pub const MAX_POINTS: usize = 400;
 const DENSE: usize = 50;
@@ -157,7 +157,7 @@ fn problem(run_dir: &Path, (dataset, energy): (&str, &str), runs: &[&SummaryRow]
 }
 
 /// The indices a curve of `n` points keeps: all when `n <= MAX_POINTS`, else the first
-/// [`DENSE`], geometrically spaced ones after them and the last.
+/// `DENSE`, geometrically spaced ones after them and the last.
 fn thin(n: usize) -> Vec<usize> {
     if n <= MAX_POINTS {
         return (0..n).collect();

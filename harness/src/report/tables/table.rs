@@ -38,7 +38,7 @@ impl Default for Layout {
 
 /// The characters a block may span: 1400 px of page at about 7 px per character of the
 /// tables' font, less the cells' padding.
-pub const BLOCK_CHARS: usize = 170;
+const BLOCK_CHARS: usize = 170;
 
 impl Table {
     pub fn to_csv(&self) -> Result<Vec<u8>> {
@@ -104,7 +104,7 @@ impl Table {
         s
     }
 
-    /// The table cut into blocks no wider than [`BLOCK_CHARS`]: each repeats the key columns
+    /// The table cut into blocks no wider than `BLOCK_CHARS`: each repeats the key columns
     /// and takes whole groups of the rest, as many as fit (at least one). A table that fits is
     /// its one block.
     pub fn blocks(&self) -> Vec<Table> {
