@@ -234,6 +234,7 @@ window.addEventListener('load', () => setTimeout(() => {
     const rows = [...u.root.querySelectorAll('.u-legend tr.u-series')];
     out.legend = rows.length;
     rows[1].querySelector('th').click();
+    out.markers_before = window.mapbenchMarkers;
     out.hidden_after_click = u.series[1].show === false && rows[1].classList.contains('u-off');
     out.others_shown = u.series.slice(2).every(s => s.show);
     const r = u.over.getBoundingClientRect();
@@ -277,6 +278,7 @@ fn explorer(browser: &Path, out: &Path, artifacts: &Path) {
     assert!(points.iter().all(|n| *n >= 1) && points.iter().filter(|n| **n > 2).count() >= 10, "{report}");
     assert_eq!(report["log_y"].as_u64(), Some(3), "a log gap axis: {report}");
     assert_eq!(report["legend"].as_u64(), Some(ran + 1), "the x series and the runs: {report}");
+    assert!(report["markers_before"].as_u64().is_some_and(|n| n >= ran), "a marker per curve at least: {report}");
     assert_eq!(report["hidden_after_click"], true, "{report}");
     assert_eq!(report["others_shown"], true, "{report}");
     assert!(report["cursor_idx"].as_u64().is_some(), "the cursor moved onto a point: {report}");

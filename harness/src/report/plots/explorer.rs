@@ -1,7 +1,7 @@
 //! The report's explorer, `explorer.html`: one page that draws a problem's convergence curves
 //! (the judge's gap against iterations or time, log axes, the targets drawn) or one solver's
 //! curves over the problems of an energy, chosen from menus, with uPlot (vendored in
-//! `harness/assets/uplot/`): a solver is hidden by a click on its legend entry, the values under
+//! `harness/assets/uplot/`), each solver in the colour and marker of the PNGs: a solver is hidden by a click on its legend entry, the values under
 //! the cursor show in the legend, and a table under the chart gives each run's iterations and
 //! time to the target with its repeats' spread. It works offline from the folder alone: the
 //! page, `explorer/uPlot.*` and `explorer/data.js` (the curves, thinned to [`MAX_POINTS`]).
@@ -53,6 +53,8 @@ struct Problem {
 struct Run {
     solver: String,
     color: String,
+    /// The solver's marker, the PNGs' (`chart::draw_marker`'s shapes, in the same order).
+    marker: usize,
     /// The harness's verdict (or the status when not judged).
     verdict: String,
     /// Drawn solid: it converged (solved when judged).
@@ -127,6 +129,7 @@ fn problem(run_dir: &Path, (dataset, energy): (&str, &str), runs: &[&SummaryRow]
         out.push(Run {
             solver: r.solver.clone(),
             color: hex(style(solvers, &r.solver).color),
+            marker: style(solvers, &r.solver).marker,
             verdict: r.verdict.map_or_else(|| r.status.as_str().to_string(), |v| verdict_text(v).to_string()),
             solved: converged(r),
             iter: pick(&curve.iter),
