@@ -12,6 +12,10 @@ use std::fmt::Write as _;
 /// The stops named per solver and energy; the rest are counted as "other".
 const REASONS_SHOWN: usize = 3;
 
+/// The pairs listed on the first screen, the most unsolved first; the rest fold away (a
+/// nightly with 61 unsolved pairs filled the screen with them).
+const PAIRS_SHOWN: usize = 8;
+
 /// Why a run is a problem, in a word: its `stop_reason` column (`error` for a failed run).
 fn why(s: &SummaryRow) -> &'static str {
     match s.status {
@@ -86,11 +90,22 @@ pub(super) fn rollup_section(h: &mut String, summaries: &[SummaryRow], expected:
     if news.is_empty() {
         *h += "<p>None but those the config expects.</p>\n";
     } else {
+        let item = |l: &&Line| format!("<li class=\"nc\">{}</li>\n", esc(&l.text()));
+        let (first, rest) = news.split_at(news.len().min(PAIRS_SHOWN));
         *h += "<ul class=\"problems\">\n";
-        for l in &news {
-            let _ = writeln!(h, "<li class=\"nc\">{}</li>", esc(&l.text()));
-        }
+        h.extend(first.iter().map(item));
         *h += "</ul>\n";
+        if !rest.is_empty() {
+            let _ = writeln!(
+                h,
+                "<details><summary>{} more pair{}, {} runs</summary><ul class=\"problems\">",
+                rest.len(),
+                if rest.len() == 1 { "" } else { "s" },
+                runs(rest)
+            );
+            h.extend(rest.iter().map(item));
+            *h += "</ul></details>\n";
+        }
     }
     if !known.is_empty() {
         let texts: Vec<String> = known.iter().map(|l| l.text()).collect();
@@ -171,5 +186,22 @@ mod tests {
         let mut none = String::new();
         rollup_section(&mut none, &batch()[..3], &[]);
         assert!(none.is_empty(), "nothing unsolved, no section");
+    }
+
+    /// Past the first pairs the list folds away, counted.
+    #[test]
+    fn many_unsolved_pairs_fold_past_the_first_ones() {
+        let rows: Vec<SummaryRow> = (0..PAIRS_SHOWN + 4)
+            .map(|k| SummaryRow {
+                solver: format!("s{k}"),
+                ..row("x", Status::NotConverged, Some(StopReason::MaxIterations))
+            })
+            .collect();
+        let mut h = String::new();
+        rollup_section(&mut h, &rows, &[]);
+        let (shown, folded) = h.split_once("<details>").expect("the rest folded");
+        assert_eq!(shown.matches("<li").count(), PAIRS_SHOWN);
+        assert_eq!(folded.matches("<li").count(), 4);
+        assert!(folded.starts_with("<summary>4 more pairs, 4 runs</summary>"), "{folded}");
     }
 }
