@@ -117,7 +117,9 @@ pub fn render(
         move |err: anyhow::Error| HistoryError::Render { path: path.clone(), err }
     };
     let index = out.join("index.html");
-    let charts: Vec<Chart> = configs.iter().flat_map(charts_of).collect();
+    // Each batch turned back into summary rows and its caps read once, for charts and tables.
+    let ranked: Vec<Vec<Ranked>> = configs.iter().map(ranked).collect();
+    let charts: Vec<Chart> = configs.iter().zip(&ranked).flat_map(|(c, r)| charts_of(c, r)).collect();
     charts
         .par_iter()
         .map(|c| {
@@ -126,7 +128,7 @@ pub fn render(
         })
         .collect::<anyhow::Result<Vec<()>>>()
         .map_err(render_err(&index))?;
-    let html = page(&configs, &charts, out);
+    let html = page(&configs, &ranked, &charts, out);
     write_atomic(&index, html.as_bytes()).map_err(render_err(&index))?;
     let batches = configs.iter().map(|c| c.batches.len()).sum();
     Ok(TrendPage { index, plots: charts.into_iter().map(|c| c.file).collect(), batches })
@@ -196,16 +198,15 @@ pub const MIN_TREND_BATCHES: usize = 3;
 /// The three charts of each energy of a config, per batch: solved runs, and the shifted
 /// geometric means of iterations and time to the target (unsolved at the caps); none before
 /// [`MIN_TREND_BATCHES`].
-fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
+fn charts_of(c: &ConfigHistory, ranked: &[Ranked]) -> Vec<Chart> {
     if c.batches.len() < MIN_TREND_BATCHES {
         return Vec::new();
     }
-    let ranked = ranked(c);
-    let (energies, solvers) = names(&ranked);
+    let (energies, solvers) = names(ranked);
     let labels: Vec<String> = c.batches.iter().map(|(b, _)| b.short_revision()).collect();
     let mut out = Vec::new();
     for energy in &energies {
-        let time = unit_of(&ranked, energy);
+        let time = unit_of(ranked, energy);
         let aggregates: Vec<Option<EnergyAggregate>> = ranked.iter().map(|r| r.aggregate(energy, time)).collect();
         // Per solver, its cell in each batch: the three charts plot three measures of them.
         let cells: Vec<Vec<Option<SolverAggregate>>> =
@@ -252,7 +253,7 @@ fn charts_of(c: &ConfigHistory) -> Vec<Chart> {
     out
 }
 
-fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
+fn page(configs: &[ConfigHistory], ranked: &[Vec<Ranked>], charts: &[Chart], out: &Path) -> String {
     let mut h = String::new();
     let title = match configs {
         [one] => format!("mapbench history: {}", one.name),
@@ -283,12 +284,11 @@ fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
         }
         h += "</nav>\n";
     }
-    for c in configs {
+    for (c, ranked) in configs.iter().zip(ranked) {
         let _ = writeln!(h, "<h2 id=\"{}\">{}: {} batches</h2>", esc(&c.name), esc(&c.name), c.batches.len());
         batches_table(&mut h, c, out);
         changes_section(&mut h, c);
-        let ranked = ranked(c);
-        let (energies, solvers) = names(&ranked);
+        let (energies, solvers) = names(ranked);
         if c.batches.len() < MIN_TREND_BATCHES {
             let _ = writeln!(
                 h,
@@ -309,7 +309,7 @@ fn page(configs: &[ConfigHistory], charts: &[Chart], out: &Path) -> String {
                 );
             }
             h += "</div>\n";
-            totals_table(&mut h, c, &ranked, energy, &solvers);
+            totals_table(&mut h, c, ranked, energy, &solvers);
         }
     }
     h += "</body>\n</html>\n";

@@ -126,10 +126,11 @@ fn problem(run_dir: &Path, (dataset, energy): (&str, &str), runs: &[&SummaryRow]
         let pick = |v: &[f64]| keep.iter().map(|&i| short(v[i])).collect::<Vec<_>>();
         let shown = to_target(r);
         let reached = reached_target(r).is_some();
+        let look = style(solvers, &r.solver);
         out.push(Run {
             solver: r.solver.clone(),
-            color: hex(style(solvers, &r.solver).color),
-            marker: style(solvers, &r.solver).marker,
+            color: hex(look.color),
+            marker: look.marker,
             verdict: r.verdict.map_or_else(|| r.status.as_str().to_string(), |v| verdict_text(v).to_string()),
             solved: converged(r),
             iter: pick(&curve.iter),

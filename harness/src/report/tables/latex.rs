@@ -8,48 +8,45 @@ use super::table::Table;
 impl Table {
     /// The `.tex` twin of the table, labelled `tab:<stem>`.
     pub fn to_latex(&self, stem: &str) -> String {
-        latex(self, stem)
-    }
-}
-
-fn latex(t: &Table, stem: &str) -> String {
-    let mut s = format!(
-        "% {} (mapbench report; needs \\usepackage{{booktabs}})\n\\begin{{table}}[htbp]\n\\centering\n\\small\n",
-        ascii_comment(&t.title)
-    );
-    for (k, b) in t.blocks().iter().enumerate() {
-        if k > 0 {
-            s += "\\medskip\n\n";
+        let t = self;
+        let mut s = format!(
+            "% {} (mapbench report; needs \\usepackage{{booktabs}})\n\\begin{{table}}[htbp]\n\\centering\n\\small\n",
+            ascii_comment(&t.title)
+        );
+        for (k, b) in t.blocks().iter().enumerate() {
+            if k > 0 {
+                s += "\\medskip\n\n";
+            }
+            let align: String = (0..b.columns.len()).map(|j| if numeric_column(b, j) { 'r' } else { 'l' }).collect();
+            s += &format!("\\begin{{tabular}}{{{align}}}\n\\toprule\n");
+            s += &b.columns.iter().map(|c| escape(c)).collect::<Vec<_>>().join(" & ");
+            s += " \\\\\n\\midrule\n";
+            for (i, r) in b.rows.iter().enumerate() {
+                let cells: Vec<String> = r
+                    .iter()
+                    .enumerate()
+                    .map(|(j, c)| {
+                        let c = escape(c);
+                        if b.bold.contains(&(i, j)) && !c.is_empty() {
+                            format!("\\textbf{{{c}}}")
+                        } else {
+                            c
+                        }
+                    })
+                    .collect();
+                s += &cells.join(" & ");
+                s += " \\\\\n";
+            }
+            s += "\\bottomrule\n\\end{tabular}\n";
         }
-        let align: String = (0..b.columns.len()).map(|j| if numeric_column(b, j) { 'r' } else { 'l' }).collect();
-        s += &format!("\\begin{{tabular}}{{{align}}}\n\\toprule\n");
-        s += &b.columns.iter().map(|c| escape(c)).collect::<Vec<_>>().join(" & ");
-        s += " \\\\\n\\midrule\n";
-        for (i, r) in b.rows.iter().enumerate() {
-            let cells: Vec<String> = r
-                .iter()
-                .enumerate()
-                .map(|(j, c)| {
-                    let c = escape(c);
-                    if b.bold.contains(&(i, j)) && !c.is_empty() {
-                        format!("\\textbf{{{c}}}")
-                    } else {
-                        c
-                    }
-                })
-                .collect();
-            s += &cells.join(" & ");
-            s += " \\\\\n";
-        }
-        s += "\\bottomrule\n\\end{tabular}\n";
+        s += &format!(
+            "\\caption{{{}. {}}}\n\\label{{tab:{}}}\n\\end{{table}}\n",
+            escape(&t.title),
+            escape(&t.caption),
+            label(stem)
+        );
+        s
     }
-    s += &format!(
-        "\\caption{{{}. {}}}\n\\label{{tab:{}}}\n\\end{{table}}\n",
-        escape(&t.title),
-        escape(&t.caption),
-        label(stem)
-    );
-    s
 }
 
 /// A column of numbers (every filled cell starts with a digit, a sign or a point) is set
