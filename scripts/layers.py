@@ -4,7 +4,8 @@ solvers/src has a layer rank, and a file may name (by a `crate::`, `super::` or 
 path, or a child module named without a prefix; the parsing of scripts/import_cycles.py)
 only modules of its own rank or below. The harness:
 
-    0  leaves        hash, paths, stats, names, escape, convergence, signals, calibration, utc
+    0  leaves        hash, paths, stats, names, escape, convergence, signals, calibration, utc,
+                     family
     1  run_folder    every file of a run folder, meta.json typed and versioned
     2  the batch     plan, run, judge, history, gate, export, output, evaluate, external, slurm,
                      corpus
@@ -58,6 +59,7 @@ HARNESS_RANKS = {
     "hardware": 0,
     "column_names": 0,
     "utc": 0,
+    "family": 0,
     "run_folder": 1,
     "plan": 2,
     "run": 2,

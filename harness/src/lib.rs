@@ -24,6 +24,7 @@ pub mod escape;
 pub mod evaluate;
 pub mod export;
 pub mod external;
+pub mod family;
 pub mod fuzzing;
 pub mod gate;
 pub mod hardware;

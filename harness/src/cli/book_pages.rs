@@ -119,23 +119,16 @@ fn angles(text: &str) -> String {
 
 /// `docs/src/reference/solvers.md` (and `mapbench list solvers --markdown`): the catalogue.
 pub fn solvers_markdown() -> String {
-    use solvers::tasks::catalogue::{Family, SOLVERS};
+    use solvers::tasks::catalogue::SOLVERS;
     let mut s = String::from(
         "# Solvers\n\n<!-- Generated from the solver catalogue: `mapbench list solvers --markdown`; a test fails \
          when it differs. -->\n\nThe catalogue (`solvers/src/tasks/catalogue/`), one row per solver: the tasks it \
-         runs, the energies it is defined for, its family (the reports draw a family in related hues) and the \
+         runs, the energies it is defined for, its family (`harness/src/family.rs`: the reports draw a family in related hues) and the \
          columns it adds to the per-iteration CSVs ([Columns](columns.md)).\n\n\
          | solver | tasks | energies | family | extra iteration columns | what it is |\n|---|---|---|---|---|---|\n",
     );
     for e in SOLVERS {
-        let family = match e.family {
-            Family::AnalyticNewton => "analytic Newton",
-            Family::NumericNewton => "numeric projection",
-            Family::FilteredNewton => "filtered Newton",
-            Family::Proxy => "proxy",
-            Family::QuasiNewton => "quasi-Newton",
-            Family::Authalic => "authalic",
-        };
+        let family = mapbench::family::family(e.name).map_or("", |f| f.label());
         let tasks: Vec<&str> = e.tasks.iter().map(|t| t.as_str()).collect();
         let columns: Vec<String> = e.extra_columns.iter().map(|c| format!("`{c}`")).collect();
         s += &format!(

@@ -5,6 +5,7 @@
 //! in `time_norm` units (multiples of the calibration workload) and turned into seconds by
 //! one calibration time, so one slow night in the history does not skew a plan.
 
+use crate::family::Family;
 use crate::history::db::PastTime;
 use crate::history::HistoryDb;
 use crate::plan::registry::{Dataset, MeshSource};
@@ -12,7 +13,6 @@ use crate::plan::shard_plan::CostSource;
 use crate::plan::{Plan, PlannedRun};
 use crate::stats::median;
 use anyhow::Result;
-use solvers::tasks::catalogue::Family;
 use std::collections::HashMap;
 use std::io::BufRead;
 
@@ -123,7 +123,7 @@ fn family_of(plan: &Plan, run: &PlannedRun) -> Option<Family> {
     if plan.external(run).is_some() {
         return None;
     }
-    solvers::tasks::catalogue::find(&run.solver).map(|e| e.family)
+    crate::family::family(&run.solver)
 }
 
 /// The stated estimate of a run's `time_norm` when the history has none: proportional to the

@@ -24,7 +24,7 @@ const FAMILY_SHADES: [&[RGBColor]; 7] = [
     &[RGBColor(127, 127, 127), RGBColor(30, 30, 30), RGBColor(185, 185, 185)],
     // Authalic: teals.
     &[RGBColor(0, 128, 128), RGBColor(102, 194, 165), RGBColor(64, 224, 208)],
-    // External solvers and names the catalogue does not know: pinks.
+    // External solvers and names without a family: pinks.
     &[RGBColor(227, 119, 194), RGBColor(231, 41, 138), RGBColor(174, 1, 126), RGBColor(250, 159, 181)],
 ];
 
@@ -38,13 +38,13 @@ pub(super) struct Look {
     pub(super) marker: usize,
 }
 
-/// The family index of a solver (a row of [`FAMILY_SHADES`]): the catalogue's family, the
+/// The family index of a solver (a row of [`FAMILY_SHADES`]): its [`crate::family`], the
 /// last row for anything else (external solvers). Tables call SLIM with clamped weights
 /// `slim (clamped)`: the same family as `slim`.
 fn family(solver: &str) -> usize {
-    use solvers::tasks::catalogue::{find, Family};
+    use crate::family::Family;
     let name = solver.strip_suffix(" (clamped)").unwrap_or(solver);
-    match find(name).map(|e| e.family) {
+    match crate::family::family(name) {
         Some(Family::AnalyticNewton) => 0,
         Some(Family::NumericNewton) => 1,
         Some(Family::FilteredNewton) => 2,

@@ -36,24 +36,6 @@ pub enum Start {
     TutteUnscaled,
 }
 
-/// The class of method a solver is: how it treats the Hessian (the book's methods page groups
-/// them so; the harness's report gives each class a hue).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Family {
-    /// Newton with the element Hessians projected analytically (the complex-view paper).
-    AnalyticNewton,
-    /// Newton with the element Hessians projected or filtered numerically, per element.
-    NumericNewton,
-    /// Newton on filtered or unmodified Hessians (eigenvalue filtering, plain Newton).
-    FilteredNewton,
-    /// A proxy or majorizer as the system matrix (CM, SLIM, AKVF, AQP).
-    Proxy,
-    /// Quasi-Newton (L-BFGS).
-    QuasiNewton,
-    /// The authalic solvers.
-    Authalic,
-}
-
 /// How an entry builds a `param`/`deform` solver for an energy with its options (checked
 /// already), or why the combination is not defined.
 pub type BuildPlanar = fn(&EnergyKind, &RawOptions) -> Result<Box<dyn PlanarSolver>, String>;
@@ -135,8 +117,6 @@ pub struct SolverEntry {
     pub build: Build,
     /// Where its runs start: the task's common start, unless its method defines its own.
     pub start: Start,
-    /// Its family, which sets its hue in the reports.
-    pub family: Family,
 }
 
 const PLANAR_TASKS: &[Task] = &[Task::Param, Task::Deform];
@@ -145,7 +125,6 @@ const AUTHALIC_TASKS: &[Task] = &[Task::Authalic];
 /// A `param`/`deform` solver for every energy, without options.
 const fn planar(
     name: &'static str,
-    family: Family,
     label: &'static str,
     description: &'static str,
     extra_columns: &'static [&'static str],
@@ -163,19 +142,12 @@ const fn planar(
         description,
         build: Build::Planar(build),
         start: Start::Common,
-        family,
     }
 }
 
 /// A Newton-type strategy of the shared driver (its columns: the strategy's counters).
-const fn newton(
-    name: &'static str,
-    family: Family,
-    label: &'static str,
-    description: &'static str,
-    build: BuildPlanar,
-) -> SolverEntry {
-    planar(name, family, label, description, &[], build)
+const fn newton(name: &'static str, label: &'static str, description: &'static str, build: BuildPlanar) -> SolverEntry {
+    planar(name, label, description, &[], build)
 }
 
 /// No option runs the solver outside its energies.
@@ -217,7 +189,6 @@ const fn authalic(
         description,
         build: Build::Authalic(solve),
         start: Start::Common,
-        family: Family::Authalic,
     }
 }
 
@@ -236,7 +207,6 @@ fn truncated(preconditioner: Preconditioner, options: NewtonCgOptions) -> Result
 pub static SOLVERS: &[SolverEntry] = &[
     newton(
         "kp-newton",
-        Family::AnalyticNewton,
         "KP",
         "Newton, K of each element Hessian projected analytically (complex view, Eq. 4)",
         |_, _| spec(Kp),
@@ -245,7 +215,6 @@ pub static SOLVERS: &[SolverEntry] = &[
         options: check::<NewtonCgOptions>,
         ..planar(
             "kp-newton-cg",
-            Family::AnalyticNewton,
             "KP-CG",
             "kp-newton with truncated steps: CG to an Eisenstat-Walker forcing term, preconditioned by the \
              Laplacian weighted by each block's stiffness",
@@ -255,7 +224,6 @@ pub static SOLVERS: &[SolverEntry] = &[
     },
     planar(
         "kp-newton-cg-laplacian",
-        Family::AnalyticNewton,
         "KP-CG-Lap",
         "kp-newton-cg preconditioned by the constant Dirichlet Laplacian, factored once",
         &CG_COLUMNS,
@@ -265,50 +233,28 @@ pub static SOLVERS: &[SolverEntry] = &[
         start: Start::TutteUnscaled,
         ..newton(
             "kp-newton-noscale",
-            Family::AnalyticNewton,
             "KP-noscale",
             "kp-newton from the Tutte map without the global scaling",
             |_, _| spec(Kp),
         )
     },
     // Table 7's numeric column; the same as kp-newton without a smoothness term.
-    newton(
-        "kp-newton-eig8",
-        Family::AnalyticNewton,
-        "KP-eig8",
-        "kp-newton with the smoothness term's 8x8 blocks eigen-projected",
-        |_, _| {
-            Ok(Box::new(SolverSpec { smoothness_projection: Some(Projection::Numeric), ..SolverSpec::factorized(Kp) }))
-        },
-    ),
+    newton("kp-newton-eig8", "KP-eig8", "kp-newton with the smoothness term's 8x8 blocks eigen-projected", |_, _| {
+        Ok(Box::new(SolverSpec { smoothness_projection: Some(Projection::Numeric), ..SolverSpec::factorized(Kp) }))
+    }),
     newton(
         "fp-newton-4x4",
-        Family::NumericNewton,
         "FP4",
         "Newton, element Hessians projected numerically via the reduced 4x4 matrix",
         |_, _| spec(Fp4),
     ),
-    newton(
-        "fp-newton-6x6",
-        Family::NumericNewton,
-        "FP6",
-        "Newton, 6x6 element Hessians eigen-projected numerically",
-        |_, _| spec(Fp6),
-    ),
-    newton(
-        "cm",
-        Family::Proxy,
-        "CM",
-        "composite majorization (Shtengel et al. 2017), a convex-concave split",
-        |e, _| spec(Cm::for_energy(e)?),
-    ),
-    newton(
-        "newton",
-        Family::FilteredNewton,
-        "Newton",
-        "Newton on the unmodified Hessians (may stop on an indefinite system)",
-        |_, _| spec(Unprojected),
-    ),
+    newton("fp-newton-6x6", "FP6", "Newton, 6x6 element Hessians eigen-projected numerically", |_, _| spec(Fp6)),
+    newton("cm", "CM", "composite majorization (Shtengel et al. 2017), a convex-concave split", |e, _| {
+        spec(Cm::for_energy(e)?)
+    }),
+    newton("newton", "Newton", "Newton on the unmodified Hessians (may stop on an indefinite system)", |_, _| {
+        spec(Unprojected)
+    }),
     SolverEntry {
         energies: &SLIM_ENERGIES,
         outside_reason: "its reweighting assumes the per-triangle minimum is a rotation, and many of its \
@@ -318,30 +264,21 @@ pub static SOLVERS: &[SolverEntry] = &[
         options: check::<SlimOptions>,
         ..planar(
             "slim",
-            Family::Proxy,
             "SLIM",
             "SLIM (Rabinovich et al. 2017): the local-global proxy as system matrix",
             &crate::hessian::slim::CLAMPED_COLUMN,
             |_, _| spec(Slim),
         )
     },
-    newton(
-        "akvf",
-        Family::Proxy,
-        "AKVF",
-        "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient",
-        |_, _| spec(Akvf),
-    ),
+    newton("akvf", "AKVF", "AKVF (Claici et al. 2017): Killing-energy preconditioned gradient", |_, _| spec(Akvf)),
     newton(
         "pn-abs",
-        Family::FilteredNewton,
         "PN-abs",
         "projected Newton with K's eigenvalues made absolute (Chen et al. 2024), otherwise kp-newton",
         |_, _| spec(Filtered(Filter::Abs)),
     ),
     newton(
         "fp-abs-6x6",
-        Family::NumericNewton,
         "FP6-abs",
         "6x6 element Hessians with their eigenvalues made absolute numerically (Chen et al. 2024)",
         |_, _| spec(Fp6Abs),
@@ -350,7 +287,6 @@ pub static SOLVERS: &[SolverEntry] = &[
         options: check::<TrustRegionOptions>,
         ..planar(
             "pn-trust-region",
-            Family::FilteredNewton,
             "PN-TR",
             "trust-region eigenvalue filtering (Chen et al. 2024): abs or clamp per iteration from the model fit",
             &TRUST_REGION_COLUMNS,
@@ -361,7 +297,6 @@ pub static SOLVERS: &[SolverEntry] = &[
         options: check::<TrustRegionOptions>,
         ..planar(
             "fp-trust-region-6x6",
-            Family::NumericNewton,
             "FP6-TR",
             "trust-region eigenvalue filtering as the authors' code: abs or clamp of the 6x6 element Hessians \
              per iteration from the model fit",
@@ -369,17 +304,11 @@ pub static SOLVERS: &[SolverEntry] = &[
             |_, o| spec(TrustRegion { tau: read::<TrustRegionOptions>(o)?.tau, space: Space::Element }),
         )
     },
-    planar(
-        "lbfgs",
-        Family::QuasiNewton,
-        "L-BFGS",
-        "L-BFGS (Liu and Nocedal 1989), 10 pairs, H0 = s^T y / y^T y",
-        &LBFGS_COLUMNS,
-        |_, _| Ok(Box::new(Variant::new(false))),
-    ),
+    planar("lbfgs", "L-BFGS", "L-BFGS (Liu and Nocedal 1989), 10 pairs, H0 = s^T y / y^T y", &LBFGS_COLUMNS, |_, _| {
+        Ok(Box::new(Variant::new(false)))
+    }),
     planar(
         "lbfgs-laplacian",
-        Family::QuasiNewton,
         "L-BFGS-Lap",
         "L-BFGS, 5 pairs, H0 = the constant Laplacian proxy factored once (as in BCQN's code)",
         &LBFGS_COLUMNS,
@@ -393,7 +322,6 @@ pub static SOLVERS: &[SolverEntry] = &[
                          sigma1 only), nh (no |J|^2 term) and bconf (conformal, |f_zbar|^2) have no such part",
         ..planar(
             "aqp",
-            Family::Proxy,
             "AQP",
             "Accelerated Quadratic Proxy (Kovalsky et al. 2016): the Dirichlet proxy factored once, kappa = 1000",
             &AQP_COLUMNS,
