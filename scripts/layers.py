@@ -8,7 +8,7 @@ only modules of its own rank or below. The harness:
                      family
     1  run_folder    every file of a run folder, meta.json typed and versioned
     2  the batch     plan, run, judge, history, gate, export, output, evaluate, external, slurm,
-                     corpus
+                     corpus, claims
     3  report        tables, plots, the report and trend pages, the comparison page
     4  edges         cli (the binary) and fuzzing (what the fuzz targets call)
 
@@ -72,6 +72,7 @@ HARNESS_RANKS = {
     "external": 2,
     "slurm": 2,
     "corpus": 2,
+    "claims": 2,
     "report": 3,
     "cli": 4,
     "fuzzing": 4,

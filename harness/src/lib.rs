@@ -17,6 +17,7 @@
 //! handed a `run::Pages` rather than naming the report.
 
 pub mod calibration;
+pub mod claims;
 pub mod column_names;
 pub mod convergence;
 pub mod corpus;

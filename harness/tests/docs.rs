@@ -147,7 +147,7 @@ fn every_page_is_in_the_books_summary() {
 }
 
 /// A TOML example is a config (keys it lacks that a config needs are added), a dataset
-/// registry, or the corpus manifest; each must parse as what it is.
+/// registry, the corpus manifest or a paper's claims; each must parse as what it is.
 #[test]
 fn every_toml_example_parses_as_the_config_or_registry_it_shows() {
     let mut checked = 0;
@@ -159,7 +159,10 @@ fn every_toml_example_parses_as_the_config_or_registry_it_shows() {
             }
             checked += 1;
             let starts = |key: &str| body.lines().any(|l| l.trim_start().starts_with(key));
-            let result = if body.contains("[[mesh]]") {
+            let result = if body.contains("[[claim]]") {
+                let file = format!("paper = \"example\"\ntitle = \"Example\"\n{body}");
+                mapbench::claims::Paper::parse("example.toml", &file).map(|_| ()).map_err(|e| e.to_string())
+            } else if body.contains("[[mesh]]") {
                 toml::from_str::<toml::Value>(&body).map(|_| ()).map_err(|e| e.to_string())
             } else if body.contains("[[dataset]]") && (starts("generator") || starts("file")) {
                 mapbench::plan::registry::Registry::parse(&body, Path::new("example.toml"))

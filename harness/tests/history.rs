@@ -221,7 +221,7 @@ fn thirty_simulated_batches() {
         let mut b = batch_row(run, &meta).unwrap();
         b.git_revision = Some(format!("{:07x}{}", 0x1000000 + night * 7919, "0".repeat(33)));
         b.started_unix = b.started_unix.map(|s| s + night * 86_400);
-        h.insert_batch(&b, &rows).unwrap();
+        h.insert_batch(&b, &rows, &[]).unwrap();
     }
     let insert = t0.elapsed().as_secs_f64();
     let size = std::fs::metadata(db).unwrap().len();

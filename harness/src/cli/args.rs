@@ -69,6 +69,10 @@ pub(crate) enum Command {
     /// revision, the config and its options, runs and wall time, machine, calibration (all
     /// from its meta.json).
     Provenance(ProvenanceArgs),
+    /// Decide the papers' claims (claims/*.toml, built in) over run folders: held, not held
+    /// or not measurable, by the paper's own stop rule and by the harness's verdict, with the
+    /// paper's numbers beside ours.
+    Claims(ClaimsArgs),
     /// List the registered datasets, solvers or energies.
     List(ListArgs),
     /// The process between `run` and an external solver (peers/PROTOCOL.md): reads its spec
@@ -378,6 +382,20 @@ pub(crate) struct ProvenanceArgs {
     /// Run folders (each with a meta.json).
     #[arg(required = true)]
     pub(crate) run_dirs: Vec<PathBuf>,
+}
+
+#[derive(Args)]
+pub(crate) struct ClaimsArgs {
+    /// Run folders (each with a meta.json naming its config): a claim is answered by the first
+    /// folder of a config it names (`configs/papers*.toml` measure them all).
+    #[arg(required = true)]
+    pub(crate) run_dirs: Vec<PathBuf>,
+    /// Print JSON (every claim with its numbers, outcomes and runs) instead of text.
+    #[arg(long, conflicts_with = "markdown")]
+    pub(crate) json: bool,
+    /// Print a Markdown table (the book's Results page).
+    #[arg(long)]
+    pub(crate) markdown: bool,
 }
 
 #[derive(Args)]

@@ -44,6 +44,10 @@ fn latest_changes(h: &history::HistoryDb, config: &str) -> Result<ExitCode> {
                 ch.before.short_revision(),
                 check::render(&ch.comparison)
             ))?;
+            // The papers' claims are findings, not regressions: said, not failed on.
+            for c in &ch.claims_lost {
+                out(format_args!("claim stopped holding: {} ({}): {}\n", c.claim, c.rule.as_str(), c.why))?;
+            }
             // As `check`: 2 when runs of the previous batch are missing, 1 on a regression.
             Ok(ExitCode::from(ch.comparison.exit_code()))
         }

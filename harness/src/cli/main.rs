@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 mod args;
 mod book_pages;
+mod claims;
 mod corpus;
 mod gate;
 mod history;
@@ -56,6 +57,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Evaluate(a) => inspect::evaluate(a),
         Command::Corpus(a) => corpus::corpus(a),
         Command::Provenance(a) => provenance::print(&a.run_dirs),
+        Command::Claims(a) => claims::claims(a),
         Command::List(a) => inspect::list(a),
         Command::Sandbox => Ok(ExitCode::from(mapbench::external::sandbox::supervise())),
     }

@@ -5,6 +5,7 @@
 //! version runs the missing [`MIGRATIONS`] in one transaction; a newer one is refused
 //! ([`HistoryError::Newer`]), since this build would not know what its columns mean.
 
+use super::claim_rows::ClaimRow;
 use super::error::HistoryError;
 use super::run_row::RunRow;
 use crate::plan::Task;
@@ -14,7 +15,7 @@ use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
 use std::path::{Path, PathBuf};
 
 /// The schema this build writes. docs/src/reference/history-schema.md documents it.
-pub const SCHEMA_VERSION: i64 = 7;
+pub const SCHEMA_VERSION: i64 = 8;
 
 /// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).
 pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
@@ -91,6 +92,15 @@ pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
     ALTER TABLE runs ADD COLUMN ref_certified INTEGER;
     ALTER TABLE runs ADD COLUMN polished_energy REAL;
     ALTER TABLE runs ADD COLUMN repeats_differ TEXT;",
+    // v8: the papers' claims each batch answered, by rule, with their outcomes (`claims`).
+    "CREATE TABLE claims (
+        batch_id INTEGER NOT NULL REFERENCES batches(id) ON DELETE CASCADE,
+        claim TEXT NOT NULL,
+        rule TEXT NOT NULL,
+        outcome TEXT NOT NULL,
+        why TEXT NOT NULL,
+        PRIMARY KEY (batch_id, claim, rule)
+    );",
 ];
 
 /// Where a batch came from (`batches.source`).
@@ -167,8 +177,8 @@ impl BatchRow {
 
 /// An open history database at the current schema version.
 pub struct HistoryDb {
-    conn: Connection,
-    path: PathBuf,
+    pub(super) conn: Connection,
+    pub(super) path: PathBuf,
 }
 
 impl HistoryDb {
@@ -254,9 +264,14 @@ impl HistoryDb {
         self.conn.execute("DELETE FROM batches WHERE id = ?1", params![id]).map(|_| ()).map_err(sql_error(&self.path))
     }
 
-    /// Append one batch and its runs in one transaction; returns the batch's id. On any
-    /// error nothing of the batch is left.
-    pub fn insert_batch(&mut self, batch: &BatchRow, runs: &[RunRow]) -> Result<i64, HistoryError> {
+    /// Append one batch, its runs and the outcomes of the papers' claims it answered in one
+    /// transaction; returns the batch's id. On any error nothing of the batch is left.
+    pub fn insert_batch(
+        &mut self,
+        batch: &BatchRow,
+        runs: &[RunRow],
+        claims: &[ClaimRow],
+    ) -> Result<i64, HistoryError> {
         let path = self.path.clone();
         let sql = sql_error(&path);
         let tx = self.conn.transaction().map_err(&sql)?;
@@ -264,6 +279,7 @@ impl HistoryDb {
             InsertError::Sql(e) => sql(e),
             InsertError::Run { run, source } => HistoryError::Run { path: path.clone(), run, err: source },
         })?;
+        super::claim_rows::insert(&tx, id, claims).map_err(&sql)?;
         tx.commit().map_err(&sql)?;
         Ok(id)
     }
@@ -532,6 +548,6 @@ fn user_version(conn: &Connection) -> rusqlite::Result<i64> {
     conn.pragma_query_value(None, "user_version", |r| r.get(0))
 }
 
-fn sql_error(path: &Path) -> impl Fn(rusqlite::Error) -> HistoryError + '_ {
+pub(super) fn sql_error(path: &Path) -> impl Fn(rusqlite::Error) -> HistoryError + '_ {
     move |err| HistoryError::Sql { path: path.to_path_buf(), err }
 }

@@ -39,6 +39,8 @@ pub enum HistoryError {
     Folder(#[from] FolderError),
     #[error(transparent)]
     MetaFile(#[from] MetaError),
+    #[error("the papers' claims: {0}")]
+    Claims(String),
     #[error("trend page {}: {err:#}", path.display())]
     Render { path: PathBuf, err: anyhow::Error },
 }

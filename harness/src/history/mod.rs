@@ -4,6 +4,7 @@
 //! the report's (`report::trend`): whoever appends renders it into [`trend_dir`] from the
 //! database the append leaves open ([`Recorded`]), and `mapbench history` anywhere.
 
+mod claim_rows;
 pub mod db;
 mod error;
 mod run_row;
@@ -11,6 +12,7 @@ mod run_row;
 use crate::paths::absolute;
 #[cfg(test)]
 use crate::plan::paths::resolve_path;
+pub use claim_rows::{started_holding, stopped_holding, ClaimRow};
 pub use db::{BatchRow, HistoryDb, Source, SCHEMA_VERSION};
 pub use error::HistoryError;
 pub use run_row::RunRow;
@@ -139,9 +141,13 @@ fn insert(db: &Path, folder: &Path, recorded_as: &Path) -> Result<Recorded, Hist
     let meta = read_meta(folder)?;
     let mut batch = batch_row(folder, &meta)?;
     batch.run_dir = absolute(recorded_as).display().to_string();
-    let runs: Vec<RunRow> = read_summary(folder)?.iter().map(RunRow::from_summary).collect();
+    let summary = read_summary(folder)?;
+    let runs: Vec<RunRow> = summary.iter().map(RunRow::from_summary).collect();
+    // The papers' claims this config answers, decided over the folder as it will be recorded.
+    let claims = crate::claims::Folder { config: batch.config_name.clone(), dir: absolute(recorded_as), rows: summary };
+    let claims = crate::claims::for_folder(&claims).map_err(|e| HistoryError::Claims(e.to_string()))?;
     let mut history = HistoryDb::open_or_create(db)?;
-    let batch_id = history.insert_batch(&batch, &runs)?;
+    let batch_id = history.insert_batch(&batch, &runs, &ClaimRow::of(&claims))?;
     Ok(Recorded { history, batch_id, runs: runs.len(), config: batch.config_name })
 }
 

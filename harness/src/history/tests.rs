@@ -73,7 +73,7 @@ fn a_new_database_gets_the_current_schema_and_round_trips_a_batch() {
         (runs[1].target_tau, runs[1].iters_to_target, runs[1].time_s_to_target),
         (Some(1e-6), Some(8), Some(0.4))
     );
-    let id = db.insert_batch(&batch("param", "abcdef0123", 100), &runs).unwrap();
+    let id = db.insert_batch(&batch("param", "abcdef0123", 100), &runs, &[]).unwrap();
     let back = db.runs(id).unwrap();
     let expect: Vec<RunRow> = runs.iter().map(|r| RunRow { batch_id: id, ..r.clone() }).collect();
     assert_eq!(back, expect);
@@ -94,9 +94,9 @@ fn a_failed_insert_mid_batch_leaves_no_partial_batch() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("h.sqlite");
     let mut db = HistoryDb::open_or_create(&path).unwrap();
-    db.insert_batch(&batch("param", "aaaaaaa", 1), &[run("a", "cm", 3, 2.0)]).unwrap();
+    db.insert_batch(&batch("param", "aaaaaaa", 1), &[run("a", "cm", 3, 2.0)], &[]).unwrap();
     let runs = [run("a", "kp-newton", 7, 2.0), run("b", "kp-newton", 5, 2.0), run("a", "kp-newton", 7, 2.0)];
-    let e = db.insert_batch(&batch("param", "bbbbbbb", 2), &runs).unwrap_err();
+    let e = db.insert_batch(&batch("param", "bbbbbbb", 2), &runs, &[]).unwrap_err();
     assert!(matches!(&e, HistoryError::Run { run, .. } if run == "a__sd__kp-newton"), "{e}");
     assert!(e.to_string().contains("h.sqlite: run a__sd__kp-newton: UNIQUE constraint failed"), "{e}");
     drop(db);
@@ -195,7 +195,7 @@ fn last_n_keeps_the_latest_batches_of_each_config_in_time_order() {
     let mut db = HistoryDb::open_or_create(&dir.path().join("h.sqlite")).unwrap();
     // inserted out of time order: the query orders by start time
     for (config, t) in [("p", 30), ("p", 10), ("q", 5), ("p", 20), ("q", 6)] {
-        db.insert_batch(&batch(config, &format!("rev{t}"), t), &[run("a", "cm", 1, 1.0)]).unwrap();
+        db.insert_batch(&batch(config, &format!("rev{t}"), t), &[run("a", "cm", 1, 1.0)], &[]).unwrap();
     }
     let got: Vec<(String, Option<i64>)> =
         db.batches(None, Some(2)).unwrap().into_iter().map(|b| (b.config_name, b.started_unix)).collect();

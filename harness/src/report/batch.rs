@@ -17,6 +17,8 @@ pub struct Batch {
     pub timeout_s: Option<f64>,
     /// `calibration`: the reference workload's samples.
     pub calibration: Option<Calibration>,
+    /// The config's `name` (the explorer's title; the papers' claims it answers).
+    pub config: Option<String>,
 }
 
 impl Batch {
@@ -31,7 +33,8 @@ impl Batch {
         let max_iters =
             meta.stop_per_energy.iter().flatten().filter_map(|(e, s)| Some((e.clone(), s.max_iters?))).collect();
         let timeout_s = meta.config_str("timeout").and_then(timeout_secs);
-        Batch { max_iters, timeout_s, calibration: meta.calibration.clone() }
+        let config = meta.config_name().map(str::to_string);
+        Batch { max_iters, timeout_s, calibration: meta.calibration.clone(), config }
     }
 
     /// The batch's median calibration time, when it has a positive one.

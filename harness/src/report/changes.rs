@@ -5,7 +5,7 @@
 
 use crate::gate::check::{self, Baseline, Comparison, DEFAULT_ENERGY_RTOL};
 use crate::gate::rules::GatedRun;
-use crate::history::{BatchRow, HistoryDb, HistoryError, RunRow};
+use crate::history::{started_holding, stopped_holding, BatchRow, ClaimRow, HistoryDb, HistoryError, RunRow};
 use crate::run_folder::Status;
 
 /// One solver's solved runs out of its runs that were not skipped, in each batch (`None`:
@@ -32,6 +32,10 @@ pub struct Changes {
     /// Runs of `after` that `before` does not have (`dataset task energy solver`).
     pub added: Vec<String>,
     pub solved: Vec<Solved>,
+    /// The papers' claims that held before and do not now, and those that hold now and did
+    /// not (by the same rule); empty where the history has no claims of a batch.
+    pub claims_lost: Vec<ClaimRow>,
+    pub claims_won: Vec<ClaimRow>,
 }
 
 impl Changes {
@@ -47,7 +51,15 @@ impl Changes {
             .into_iter()
             .map(|s| Solved { solver: s.to_string(), before: solved_count(b_runs, s), after: solved_count(a_runs, s) })
             .collect();
-        Changes { before: b.clone(), after: a.clone(), comparison, added, solved }
+        Changes {
+            before: b.clone(),
+            after: a.clone(),
+            comparison,
+            added,
+            solved,
+            claims_lost: Vec::new(),
+            claims_won: Vec::new(),
+        }
     }
 
     /// The two batches ran different configs or plans: changes may come from the settings.
@@ -118,7 +130,11 @@ pub fn since_previous(db: &HistoryDb, config: &str, batch_id: i64) -> Result<Opt
     }
     let (before, after) = (&batches[at - 1], &batches[at]);
     let (b_runs, a_runs) = (db.runs(before.id)?, db.runs(after.id)?);
-    Ok(Some(Since::Previous(Box::new(Changes::between((before, &b_runs), (after, &a_runs))))))
+    let mut changes = Changes::between((before, &b_runs), (after, &a_runs));
+    let (b_claims, a_claims) = (db.claims(before.id)?, db.claims(after.id)?);
+    changes.claims_lost = stopped_holding(&b_claims, &a_claims).into_iter().cloned().collect();
+    changes.claims_won = started_holding(&b_claims, &a_claims).into_iter().cloned().collect();
+    Ok(Some(Since::Previous(Box::new(changes))))
 }
 
 #[cfg(test)]

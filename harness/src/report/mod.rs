@@ -49,9 +49,7 @@ pub fn refresh(run_dir: &Path, summary: &[SummaryRow]) -> Result<()> {
         table.write(&run_dir.join("tables"), stem)?;
     }
     let plots = plots::render_all(run_dir, summary)?;
-    let meta = crate::run_folder::meta_json(run_dir).exists().then(|| crate::run_folder::meta::Meta::read(run_dir));
-    let name = meta.and_then(Result::ok).and_then(|m| m.config_name().map(str::to_string));
-    plots::explorer::write(run_dir, name.as_deref().unwrap_or("run"), summary)?;
+    plots::explorer::write(run_dir, batch.config.as_deref().unwrap_or("run"), summary)?;
     html::write_index(run_dir, summary, &tables, &plots, &batch)
 }
 

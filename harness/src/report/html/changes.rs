@@ -32,6 +32,7 @@ pub(super) fn changes_section(
     summaries: &[SummaryRow],
     plots: &[Plot],
     batch: &Batch,
+    claims: &[crate::claims::Evaluated],
 ) {
     *h += "<section id=\"changes\">\n";
     let _ = writeln!(h, "<p class=\"verdict\"><b>{}</b></p>", esc(&verdict_line(summaries)));
@@ -43,6 +44,7 @@ pub(super) fn changes_section(
     since_section(h, run_dir, meta);
     let expected = meta.and_then(|m| m.expected_to_fail.as_deref()).unwrap_or_default();
     super::rollup::rollup_section(h, summaries, expected);
+    super::claims::glance(h, claims);
     problems(h, run_dir, summaries, plots);
     *h += "</section>\n";
 }
@@ -170,7 +172,40 @@ fn previous(h: &mut String, run_dir: &Path, ch: &Changes) {
         );
     }
     *h += "</table></div></details>\n";
+    claims_since(h, ch);
     changes_body(h, ch);
+}
+
+/// The papers' claims that stopped holding since the previous batch (a warning), and those
+/// that started to.
+fn claims_since(h: &mut String, ch: &Changes) {
+    let list = |rows: &[crate::history::ClaimRow]| {
+        rows.iter()
+            .map(|c| {
+                format!(
+                    "<a href=\"#claim-{}\">{}</a> ({}: {})",
+                    c.claim.replace('/', "-"),
+                    esc(&c.claim),
+                    c.rule.as_str(),
+                    esc(&c.why)
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    if !ch.claims_lost.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p class=\"warn\"><b>{} of the papers' claims stopped holding</b> since batch {}: {}</p>",
+            ch.claims_lost.len(),
+            ch.before.id,
+            list(&ch.claims_lost)
+        );
+    }
+    if !ch.claims_won.is_empty() {
+        let _ =
+            writeln!(h, "<p>Claims that hold now and did not in batch {}: {}</p>", ch.before.id, list(&ch.claims_won));
+    }
 }
 
 fn count(c: Option<(usize, usize)>) -> String {

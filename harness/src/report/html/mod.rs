@@ -16,6 +16,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 mod changes;
+mod claims;
 mod external;
 mod figures;
 mod files;
@@ -43,6 +44,7 @@ nav a{margin-right:1em}\
 .scroll{overflow-x:auto;-webkit-overflow-scrolling:touch;margin:.4em 0}\
 table{border-collapse:collapse;font-size:.9em}td,th{border:1px solid #bbb;padding:3px 7px;text-align:right;vertical-align:top}td{white-space:nowrap}\
 th{background:#eee}td.k,th.k{text-align:left;white-space:nowrap}\
+table.claims td{white-space:normal;max-width:34em}table.claims span{padding:0 3px}\
 table.status{font-size:.75em}table.status td,table.status th{text-align:center;white-space:nowrap;padding:1px 3px}table.status th{white-space:normal;vertical-align:bottom}table.status td.k{text-align:left;background:#fff}\
 .ds{position:sticky;left:0;z-index:1}table.status th.ds{background:#eee}\
 .scroll.status{max-height:85vh;overflow:auto}table.status th{position:sticky;top:0;z-index:2}table.status th.ds{z-index:3}\
@@ -78,6 +80,7 @@ pub fn write_index(
         .or_else(|| summaries.first().map(|s| s.task.as_str().to_string()))
         .unwrap_or_default();
     let external = probes(meta.as_ref());
+    let claims_result = papers_claims(run_dir, summaries, batch);
     let mut h = String::new();
     let _ = write!(
         h,
@@ -86,9 +89,10 @@ pub fn write_index(
          <title>mapbench: {n}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n\
          <h1>mapbench report: {n}</h1>\n<p class=\"caption\">task <b>{t}</b></p>\n\
          <nav><a href=\"#changes\">changes</a><a href=\"#status\">status</a><a href=\"#tables\">tables</a><a href=\"#plots\">plots</a>\
-         {x}{e}<a href=\"#files\">files</a><a href=\"#provenance\">provenance</a></nav>\n",
+         {c}{x}{e}<a href=\"#files\">files</a><a href=\"#provenance\">provenance</a></nav>\n",
         n = esc(name),
         t = esc(&task),
+        c = if claims_result.as_ref().is_ok_and(|c| !c.is_empty()) { "<a href=\"#claims\">claims</a>" } else { "" },
         x = if external.is_empty() { "" } else { "<a href=\"#external\">external solvers</a>" },
         e = if run_dir.join(crate::report::plots::explorer::EXPLORER).exists() {
             "<a href=\"explorer.html\">explorer</a>"
@@ -96,7 +100,14 @@ pub fn write_index(
             ""
         },
     );
-    changes_section(&mut h, run_dir, meta.as_ref(), summaries, plots, batch);
+    let (claims, claims_error) = match claims_result {
+        Ok(c) => (c, None),
+        Err(e) => (Vec::new(), Some(e)),
+    };
+    if let Some(e) = claims_error {
+        let _ = writeln!(h, "<p class=\"warn\">The papers' claims could not be read: {}</p>", esc(&e.to_string()));
+    }
+    changes_section(&mut h, run_dir, meta.as_ref(), summaries, plots, batch, &claims);
     history_link(&mut h, run_dir, meta.as_ref(), name);
     timing_section(&mut h, summaries, batch);
     provenance::hardware_note(&mut h, meta.as_ref());
@@ -108,6 +119,7 @@ pub fn write_index(
     status_matrix(&mut h, run_dir, summaries, plots, &external, &references);
     external_section(&mut h, &external, summaries);
     tables_section(&mut h, run_dir, tables, plots, summaries);
+    claims::claims_section(&mut h, &claims);
     plots_section(&mut h, run_dir, plots);
     files_section(&mut h, run_dir, summaries, tables)?;
     provenance_section(&mut h, meta.as_ref());
@@ -131,6 +143,17 @@ fn history_link(h: &mut String, run_dir: &Path, meta: Option<&Meta>, name: &str)
         esc(name),
         esc(&db.display().to_string())
     );
+}
+
+/// The papers' claims this batch's config answers (none without a config name).
+fn papers_claims(
+    run_dir: &Path,
+    summaries: &[SummaryRow],
+    batch: &Batch,
+) -> Result<Vec<crate::claims::Evaluated>, crate::claims::ClaimsError> {
+    let Some(config) = batch.config.clone() else { return Ok(Vec::new()) };
+    let folder = crate::claims::Folder { config, dir: run_dir.to_path_buf(), rows: summaries.to_vec() };
+    crate::claims::for_folder(&folder)
 }
 
 /// `meta.json`, or `None` when the folder has none (e.g. written by an older version).
