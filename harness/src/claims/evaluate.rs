@@ -1,6 +1,6 @@
 //! A claim decided over one run folder's rows, by the paper's rule and by the verdict's.
 
-use super::spec::{Check, Claim, Metric};
+use super::spec::{Check, Claim, Quantity};
 use crate::names::run_stem;
 use crate::run_folder::SummaryRow;
 use serde::Serialize;
@@ -42,33 +42,33 @@ impl Rule {
 /// What a claim came to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Outcome {
+pub enum ClaimOutcome {
     Held,
     NotHeld,
     /// The folder cannot answer it (`why` says what is missing).
     NotMeasurable,
 }
 
-impl Outcome {
+impl ClaimOutcome {
     pub fn as_str(self) -> &'static str {
         match self {
-            Outcome::Held => "held",
-            Outcome::NotHeld => "not held",
-            Outcome::NotMeasurable => "not measurable",
+            ClaimOutcome::Held => "held",
+            ClaimOutcome::NotHeld => "not held",
+            ClaimOutcome::NotMeasurable => "not measurable",
         }
     }
 
     /// As JSON and the history write it.
     pub fn key(self) -> &'static str {
         match self {
-            Outcome::Held => "held",
-            Outcome::NotHeld => "not_held",
-            Outcome::NotMeasurable => "not_measurable",
+            ClaimOutcome::Held => "held",
+            ClaimOutcome::NotHeld => "not_held",
+            ClaimOutcome::NotMeasurable => "not_measurable",
         }
     }
 
-    pub fn from_key(key: &str) -> Option<Outcome> {
-        [Outcome::Held, Outcome::NotHeld, Outcome::NotMeasurable].into_iter().find(|o| o.key() == key)
+    pub fn from_key(key: &str) -> Option<ClaimOutcome> {
+        [ClaimOutcome::Held, ClaimOutcome::NotHeld, ClaimOutcome::NotMeasurable].into_iter().find(|o| o.key() == key)
     }
 }
 
@@ -76,7 +76,7 @@ impl Outcome {
 #[derive(Clone, Debug, Serialize)]
 pub struct Judged {
     pub rule: Rule,
-    pub outcome: Outcome,
+    pub outcome: ClaimOutcome,
     /// The comparison in words, or what is missing.
     pub why: String,
     /// Our number per solver: the mean over `datasets` (the one mesh's for `value`).
@@ -90,7 +90,7 @@ pub struct Judged {
 /// `solver`'s number on one mesh under `rule`; `None` when the run has none (failed, skipped,
 /// not judged, or a metric it does not measure). Infinite when, by the verdict, it never
 /// reached the target.
-pub fn run_value(metric: Metric, rule: Rule, r: &SummaryRow) -> Option<f64> {
+pub fn run_value(metric: Quantity, rule: Rule, r: &SummaryRow) -> Option<f64> {
     if !r.status.ran() {
         return None;
     }
@@ -98,8 +98,8 @@ pub fn run_value(metric: Metric, rule: Rule, r: &SummaryRow) -> Option<f64> {
         let t = r.to_targets.last()?;
         let (Some(iters), Some(to)) = (t.iters, t.time_s) else { return Some(f64::INFINITY) };
         return match metric {
-            Metric::Iterations => Some(iters as f64),
-            Metric::TimeS => Some(to),
+            Quantity::Iterations => Some(iters as f64),
+            Quantity::TimeS => Some(to),
             _ => {
                 let k = r.time_s.filter(|t| *t > 0.0).map_or(0.0, |t| to / t);
                 r.ms_per_vertex.map(|v| v * k)
@@ -107,17 +107,17 @@ pub fn run_value(metric: Metric, rule: Rule, r: &SummaryRow) -> Option<f64> {
         };
     }
     match metric {
-        Metric::Iterations => r.iterations.map(|i| i as f64),
-        Metric::MsPerVertex => r.ms_per_vertex,
-        Metric::TimeS => r.time_s,
-        Metric::FinalEnergy => r.final_energy,
-        Metric::ProjectMs => r.project_ms_median,
-        Metric::ProjectSolveRatio => {
+        Quantity::Iterations => r.iterations.map(|i| i as f64),
+        Quantity::MsPerVertex => r.ms_per_vertex,
+        Quantity::TimeS => r.time_s,
+        Quantity::FinalEnergy => r.final_energy,
+        Quantity::ProjectMs => r.project_ms_median,
+        Quantity::ProjectSolveRatio => {
             r.project_ms_median.zip(r.solve_ms_median.filter(|s| *s > 0.0)).map(|(p, s)| p / s)
         }
-        Metric::AuthalicEnergy => r.authalic_energy,
-        Metric::AreaRatioSd => r.area_ratio_sd,
-        Metric::Folded => r.folded.map(|f| f as f64),
+        Quantity::AuthalicEnergy => r.authalic_energy,
+        Quantity::AreaRatioSd => r.area_ratio_sd,
+        Quantity::Folded => r.folded.map(|f| f as f64),
     }
     .filter(|v| !v.is_nan())
 }
@@ -175,7 +175,7 @@ pub fn judge(claim: &Claim, rule: Rule, rows: &[SummaryRow]) -> Judged {
     };
     let mut judged = Judged {
         rule,
-        outcome: Outcome::NotMeasurable,
+        outcome: ClaimOutcome::NotMeasurable,
         why: String::new(),
         ours,
         datasets: t.meshes.iter().map(|m| m.0.clone()).collect(),
@@ -218,147 +218,154 @@ pub fn fmt(v: f64) -> String {
     }
 }
 
-fn decide(claim: &Claim, t: &Table, agg: &BTreeMap<String, f64>) -> (Outcome, String) {
-    let solvers = claim.solvers();
-    let a = |s: &str| agg[s];
-    let s = claim.solver.as_str();
-    let unreached = |x: &str, y: &str| {
-        (
-            Outcome::NotMeasurable,
-            format!("{x} and {y} both never reached the target on some mesh: they cannot be ordered"),
-        )
-    };
-    let verdict = |held: bool, text: String| (if held { Outcome::Held } else { Outcome::NotHeld }, text);
-    let listing = || solvers.iter().map(|o| format!("{o} {}", fmt(a(o)))).collect::<Vec<_>>().join(", ");
+type Decided = (ClaimOutcome, String);
+
+fn decided(held: bool, text: String) -> Decided {
+    (if held { ClaimOutcome::Held } else { ClaimOutcome::NotHeld }, text)
+}
+
+fn unreached(x: &str, y: &str) -> Decided {
+    (
+        ClaimOutcome::NotMeasurable,
+        format!("{x} and {y} both never reached the target on some mesh: they cannot be ordered"),
+    )
+}
+
+fn decide(claim: &Claim, t: &Table, agg: &BTreeMap<String, f64>) -> Decided {
     match claim.check {
-        Check::Fewest | Check::Less | Check::Most => {
-            let mut held = true;
-            for o in &claim.others {
-                let pair = if claim.check == Check::Most { below(a(o), a(s)) } else { below(a(s), a(o)) };
-                match pair {
-                    Some(h) => held &= h,
-                    None => return unreached(s, o),
-                }
-            }
-            verdict(held, format!("mean {}: {}", claim.metric.as_str(), listing()))
-        }
-        Check::Within => {
-            let tol = claim.tolerance.unwrap_or(0.0);
-            let mut worst: f64 = 0.0;
-            for o in &claim.others {
-                if a(s).is_infinite() || a(o).is_infinite() {
-                    return if a(s).is_infinite() && a(o).is_infinite() {
-                        unreached(s, o)
-                    } else {
-                        verdict(false, format!("one of {s} and {o} never reached the target: {}", listing()))
-                    };
-                }
-                worst = worst.max((a(s) / a(o) - 1.0).abs());
-            }
-            let text = format!(
-                "mean {}: {}; largest difference {:.1}% (at most {:.0}%)",
-                claim.metric.as_str(),
-                listing(),
-                100.0 * worst,
-                100.0 * tol
-            );
-            verdict(worst <= tol, text)
-        }
-        Check::Order => {
-            let mut held = true;
-            for w in solvers.windows(2) {
-                match below(a(w[0]), a(w[1])) {
-                    Some(h) => held &= h,
-                    None => return unreached(w[0], w[1]),
-                }
-            }
-            verdict(held, format!("mean {} in the order claimed? {}", claim.metric.as_str(), listing()))
-        }
-        Check::EachLess | Check::EachEqual => {
-            let equal = claim.check == Check::EachEqual;
-            let mut ok = 0;
-            let mut misses = Vec::new();
-            for (d, _, v) in &t.meshes {
-                let here = v[1..].iter().all(|o| if equal { v[0] == *o } else { below(v[0], *o).unwrap_or(false) });
-                if here {
-                    ok += 1;
-                } else {
-                    misses.push(d.as_str());
-                }
-            }
-            let n = t.meshes.len();
-            let need = if equal { 1.0 } else { claim.at_least.unwrap_or(1.0) };
-            let op = if equal { "equal to" } else { "below" };
-            let text = format!(
-                "{s}'s {} {op} {}'s on {ok} of {n} meshes (needed: {:.0}%){}",
-                claim.metric.as_str(),
-                claim.others.join(" and "),
-                100.0 * need,
-                if misses.is_empty() { String::new() } else { format!("; not on {}", misses.join(", ")) }
-            );
-            verdict(ok as f64 >= need * n as f64 - 1e-9, text)
-        }
-        Check::EachAtMost => {
-            let bound = claim.value.unwrap_or(0.0);
-            let over: Vec<String> =
-                t.meshes.iter().filter(|m| m.2[0] > bound).map(|m| format!("{} {}", m.0, fmt(m.2[0]))).collect();
-            let text = format!(
-                "{s}'s {} at most {} on {} of {} meshes{}",
-                claim.metric.as_str(),
-                fmt(bound),
-                t.meshes.len() - over.len(),
-                t.meshes.len(),
-                if over.is_empty() { String::new() } else { format!("; above on {}", over.join(", ")) }
-            );
-            verdict(over.is_empty(), text)
-        }
-        Check::Value => {
-            let want = claim.published[s];
-            let got = a(s);
-            let rel = ((got - want) / want).abs();
-            let tol = claim.tolerance.unwrap_or(0.0);
-            verdict(
-                rel <= tol,
-                format!(
-                    "{s}: ours {} vs published {} (relative difference {rel:.1e}, at most {tol:.0e})",
-                    fmt(got),
-                    fmt(want)
-                ),
-            )
-        }
-        Check::FallsWithSize => {
-            let mut m: Vec<(usize, f64)> = t.meshes.iter().map(|m| (m.1, m.2[0])).collect();
-            m.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
-            let sizes = {
-                let mut v: Vec<usize> = m.iter().map(|x| x.0).collect();
-                v.dedup();
-                v.len()
-            };
-            if sizes < 3 {
-                return (Outcome::NotMeasurable, format!("{sizes} mesh size(s): 3 or more are needed"));
-            }
-            let (mut fall, mut rise) = (0, 0);
-            for i in 0..m.len() {
-                for j in i + 1..m.len() {
-                    if m[i].0 < m[j].0 {
-                        if m[j].1 < m[i].1 {
-                            fall += 1;
-                        } else if m[j].1 > m[i].1 {
-                            rise += 1;
-                        }
-                    }
-                }
-            }
-            let (first, last) = (m[0], m[m.len() - 1]);
-            let text = format!(
-                "{s}'s {}: {} at {} vertices, {} at {}; {fall} pairs of meshes fall with size, {rise} rise",
-                claim.metric.as_str(),
-                fmt(first.1),
-                first.0,
-                fmt(last.1),
-                last.0
-            );
-            verdict(fall > rise && last.1 < first.1, text)
+        Check::Fewest | Check::Less | Check::Most => compared(claim, agg),
+        Check::Within => within(claim, agg),
+        Check::Order => order(claim, agg),
+        Check::EachLess | Check::EachEqual => each(claim, t),
+        Check::EachAtMost => each_at_most(claim, t),
+        Check::Value => value(claim, agg),
+        Check::FallsWithSize => falls_with_size(claim, t),
+    }
+}
+
+/// `mean iterations: kp-newton 7.5, cm 8`.
+fn means(claim: &Claim, agg: &BTreeMap<String, f64>) -> String {
+    let listing: Vec<String> = claim.solvers().iter().map(|o| format!("{o} {}", fmt(agg[*o]))).collect();
+    format!("mean {}: {}", claim.metric.as_str(), listing.join(", "))
+}
+
+/// `fewest`, `less` (below each other) and `most` (above each other).
+fn compared(claim: &Claim, agg: &BTreeMap<String, f64>) -> Decided {
+    let s = claim.solver.as_str();
+    let mut held = true;
+    for o in &claim.others {
+        let pair = if claim.check == Check::Most { below(agg[o], agg[s]) } else { below(agg[s], agg[o]) };
+        match pair {
+            Some(h) => held &= h,
+            None => return unreached(s, o),
         }
     }
+    decided(held, means(claim, agg))
+}
+
+fn within(claim: &Claim, agg: &BTreeMap<String, f64>) -> Decided {
+    let s = claim.solver.as_str();
+    let tol = claim.tolerance.unwrap_or(0.0);
+    let mut worst: f64 = 0.0;
+    for o in &claim.others {
+        match (agg[s].is_infinite(), agg[o].is_infinite()) {
+            (true, true) => return unreached(s, o),
+            (false, false) => worst = worst.max((agg[s] / agg[o] - 1.0).abs()),
+            _ => return decided(false, format!("one of {s} and {o} never reached the target: {}", means(claim, agg))),
+        }
+    }
+    let text = format!("{}; largest difference {:.1}% (at most {:.0}%)", means(claim, agg), 100.0 * worst, 100.0 * tol);
+    decided(worst <= tol, text)
+}
+
+fn order(claim: &Claim, agg: &BTreeMap<String, f64>) -> Decided {
+    let mut held = true;
+    for w in claim.solvers().windows(2) {
+        match below(agg[w[0]], agg[w[1]]) {
+            Some(h) => held &= h,
+            None => return unreached(w[0], w[1]),
+        }
+    }
+    decided(held, format!("{}, claimed ascending", means(claim, agg)))
+}
+
+/// `each_less` and `each_equal`: per mesh, on enough meshes.
+fn each(claim: &Claim, t: &Table) -> Decided {
+    let equal = claim.check == Check::EachEqual;
+    let misses: Vec<&str> = t
+        .meshes
+        .iter()
+        .filter(|(_, _, v)| !v[1..].iter().all(|o| if equal { v[0] == *o } else { below(v[0], *o).unwrap_or(false) }))
+        .map(|m| m.0.as_str())
+        .collect();
+    let n = t.meshes.len();
+    let ok = n - misses.len();
+    let need = if equal { 1.0 } else { claim.at_least.unwrap_or(1.0) };
+    let text = format!(
+        "{}'s {} {} {}'s on {ok} of {n} meshes (needed: {:.0}%){}",
+        claim.solver,
+        claim.metric.as_str(),
+        if equal { "equal to" } else { "below" },
+        claim.others.join(" and "),
+        100.0 * need,
+        if misses.is_empty() { String::new() } else { format!("; not on {}", misses.join(", ")) }
+    );
+    decided(ok as f64 >= need * n as f64 - 1e-9, text)
+}
+
+fn each_at_most(claim: &Claim, t: &Table) -> Decided {
+    let bound = claim.value.unwrap_or(0.0);
+    let over: Vec<String> =
+        t.meshes.iter().filter(|m| m.2[0] > bound).map(|m| format!("{} {}", m.0, fmt(m.2[0]))).collect();
+    let text = format!(
+        "{}'s {} at most {} on {} of {} meshes{}",
+        claim.solver,
+        claim.metric.as_str(),
+        fmt(bound),
+        t.meshes.len() - over.len(),
+        t.meshes.len(),
+        if over.is_empty() { String::new() } else { format!("; above on {}", over.join(", ")) }
+    );
+    decided(over.is_empty(), text)
+}
+
+fn value(claim: &Claim, agg: &BTreeMap<String, f64>) -> Decided {
+    let s = claim.solver.as_str();
+    let (want, got) = (claim.published[s], agg[s]);
+    let rel = ((got - want) / want).abs();
+    let tol = claim.tolerance.unwrap_or(0.0);
+    let text =
+        format!("{s}: ours {} vs published {} (relative difference {rel:.1e}, at most {tol:.0e})", fmt(got), fmt(want));
+    decided(rel <= tol, text)
+}
+
+fn falls_with_size(claim: &Claim, t: &Table) -> Decided {
+    let mut m: Vec<(usize, f64)> = t.meshes.iter().map(|m| (m.1, m.2[0])).collect();
+    m.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    let mut sizes: Vec<usize> = m.iter().map(|x| x.0).collect();
+    sizes.dedup();
+    if sizes.len() < 3 {
+        return (ClaimOutcome::NotMeasurable, format!("{} mesh size(s): 3 or more are needed", sizes.len()));
+    }
+    let (mut fall, mut rise) = (0, 0);
+    for (i, x) in m.iter().enumerate() {
+        for y in m[i + 1..].iter().filter(|y| y.0 > x.0) {
+            if y.1 < x.1 {
+                fall += 1;
+            } else if y.1 > x.1 {
+                rise += 1;
+            }
+        }
+    }
+    let (first, last) = (m[0], m[m.len() - 1]);
+    let text = format!(
+        "{}'s {}: {} at {} vertices, {} at {}; {fall} pairs of meshes fall with size, {rise} rise",
+        claim.solver,
+        claim.metric.as_str(),
+        fmt(first.1),
+        first.0,
+        fmt(last.1),
+        last.0
+    );
+    decided(fall > rise && last.1 < first.1, text)
 }

@@ -8,8 +8,8 @@ pub mod evaluate;
 pub mod render;
 pub mod spec;
 
-pub use evaluate::{Judged, Outcome, Rule};
-pub use spec::{Check, Claim, ClaimsError, Metric, Paper};
+pub use evaluate::{ClaimOutcome, Judged, Rule};
+pub use spec::{Check, Claim, ClaimsError, Paper, Quantity};
 
 use crate::run_folder::SummaryRow;
 use serde::Serialize;
@@ -97,7 +97,7 @@ pub fn evaluate(papers: &[Paper], folders: &[Folder]) -> Vec<Evaluated> {
                     Some(f) => evaluate::judge(c, rule, &f.rows),
                     None => Judged {
                         rule,
-                        outcome: Outcome::NotMeasurable,
+                        outcome: ClaimOutcome::NotMeasurable,
                         why: format!("no run folder of config {}", c.configs.join(" or ")),
                         ours: BTreeMap::new(),
                         datasets: Vec::new(),
@@ -129,9 +129,9 @@ pub fn counts(claims: &[Evaluated]) -> [usize; 3] {
     let mut n = [0; 3];
     for j in claims.iter().flat_map(|c| &c.rules) {
         n[match j.outcome {
-            Outcome::Held => 0,
-            Outcome::NotHeld => 1,
-            Outcome::NotMeasurable => 2,
+            ClaimOutcome::Held => 0,
+            ClaimOutcome::NotHeld => 1,
+            ClaimOutcome::NotMeasurable => 2,
         }] += 1;
     }
     n

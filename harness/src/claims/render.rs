@@ -1,7 +1,7 @@
 //! Claims in words: the lines `mapbench claims` prints and the Markdown table of the book's
 //! Results page (the report draws its own HTML section from the same [`Evaluated`]).
 
-use super::evaluate::{fmt, Judged, Outcome, Rule};
+use super::evaluate::{fmt, ClaimOutcome, Judged, Rule};
 use super::Evaluated;
 use std::fmt::Write;
 
@@ -48,9 +48,9 @@ pub fn markdown(claims: &[Evaluated]) -> String {
         None => "– (one rule: a final value)".to_string(),
         Some(j) => {
             let word = match j.outcome {
-                Outcome::Held => "**held**",
-                Outcome::NotHeld => "**not held**",
-                Outcome::NotMeasurable => "not measurable",
+                ClaimOutcome::Held => "**held**",
+                ClaimOutcome::NotHeld => "**not held**",
+                ClaimOutcome::NotMeasurable => "not measurable",
             };
             format!("{word}: {}", j.why.replace('|', "\\|"))
         }

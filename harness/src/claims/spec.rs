@@ -1,6 +1,6 @@
 //! A paper's claims as the committed `claims/<paper>.toml` files write them: what a claim
 //! says, where it is measured and the check over the judged results that decides it (the
-//! vocabulary: [`Metric`] and [`Check`], documented in the book's Claims page).
+//! vocabulary: [`Quantity`] and [`Check`], documented in the book's Claims page).
 
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -33,7 +33,7 @@ pub struct Claim {
     /// The names of the configs whose run folders answer it (`name` in the config).
     pub configs: Vec<String>,
     pub energy: String,
-    pub metric: Metric,
+    pub metric: Quantity,
     pub check: Check,
     /// The solver the claim is about.
     pub solver: String,
@@ -58,7 +58,7 @@ pub struct Claim {
 /// The per-run number a claim aggregates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Metric {
+pub enum Quantity {
     /// Iterations: to the run's own stop (the paper's rule, unconverged runs at their cap as the
     /// paper's tables count them), or to the tightest target (the verdict's).
     Iterations,
@@ -80,25 +80,25 @@ pub enum Metric {
     Folded,
 }
 
-impl Metric {
+impl Quantity {
     pub fn as_str(self) -> &'static str {
         match self {
-            Metric::Iterations => "iterations",
-            Metric::MsPerVertex => "ms per vertex",
-            Metric::TimeS => "time [s]",
-            Metric::FinalEnergy => "final energy",
-            Metric::ProjectMs => "projection [ms]",
-            Metric::ProjectSolveRatio => "projection / solve",
-            Metric::AuthalicEnergy => "authalic energy",
-            Metric::AreaRatioSd => "SD of area ratios",
-            Metric::Folded => "folded triangles",
+            Quantity::Iterations => "iterations",
+            Quantity::MsPerVertex => "ms per vertex",
+            Quantity::TimeS => "time [s]",
+            Quantity::FinalEnergy => "final energy",
+            Quantity::ProjectMs => "projection [ms]",
+            Quantity::ProjectSolveRatio => "projection / solve",
+            Quantity::AuthalicEnergy => "authalic energy",
+            Quantity::AreaRatioSd => "SD of area ratios",
+            Quantity::Folded => "folded triangles",
         }
     }
 
     /// Whether the verdict's rule changes it: a cost counted to the target instead of to the
     /// run's own stop. A property of the final map or of one iteration is the same under both.
     pub fn has_target_variant(self) -> bool {
-        matches!(self, Metric::Iterations | Metric::MsPerVertex | Metric::TimeS)
+        matches!(self, Quantity::Iterations | Quantity::MsPerVertex | Quantity::TimeS)
     }
 }
 

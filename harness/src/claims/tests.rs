@@ -60,7 +60,7 @@ fn fewest_holds_by_the_mean_over_the_meshes_all_solvers_ran_and_turns_with_ten_t
         run("a", 100, "nh", "kp-newton", 900, Some(900)),
     ];
     let j = evaluate::judge(&c, Rule::Paper, &rows);
-    assert_eq!(j.outcome, Outcome::Held, "{j:?}");
+    assert_eq!(j.outcome, ClaimOutcome::Held, "{j:?}");
     assert_eq!(j.datasets, ["a", "b"]);
     assert_eq!(j.ours["kp-newton"], 15.0);
     assert_eq!(j.ours["cm"], 16.0);
@@ -69,7 +69,7 @@ fn fewest_holds_by_the_mean_over_the_meshes_all_solvers_ran_and_turns_with_ten_t
     // by the verdict: akvf never reached the target on a, so its mean is infinite, and kp
     // still has the fewest
     let v = evaluate::judge(&c, Rule::Verdict, &rows);
-    assert_eq!(v.outcome, Outcome::Held, "{v:?}");
+    assert_eq!(v.outcome, ClaimOutcome::Held, "{v:?}");
     assert_eq!(v.ours["kp-newton"], 11.5);
     assert!(v.ours["akvf"].is_infinite());
     // ten times kp-newton's iterations: not held by either rule
@@ -77,8 +77,8 @@ fn fewest_holds_by_the_mean_over_the_meshes_all_solvers_ran_and_turns_with_ten_t
         r.iterations = r.iterations.map(|i| i * 10);
         r.to_targets[0].iters = r.to_targets[0].iters.map(|i| i * 10);
     }
-    assert_eq!(evaluate::judge(&c, Rule::Paper, &rows).outcome, Outcome::NotHeld);
-    assert_eq!(evaluate::judge(&c, Rule::Verdict, &rows).outcome, Outcome::NotHeld);
+    assert_eq!(evaluate::judge(&c, Rule::Paper, &rows).outcome, ClaimOutcome::NotHeld);
+    assert_eq!(evaluate::judge(&c, Rule::Verdict, &rows).outcome, ClaimOutcome::NotHeld);
 }
 
 #[test]
@@ -90,11 +90,11 @@ fn two_solvers_that_never_reach_the_target_cannot_be_ordered() {
         run("a", 100, "sd", "akvf", 90, Some(80)),
     ];
     let v = evaluate::judge(&c, Rule::Verdict, &rows);
-    assert_eq!(v.outcome, Outcome::NotMeasurable, "{v:?}");
+    assert_eq!(v.outcome, ClaimOutcome::NotMeasurable, "{v:?}");
     // a run that was not judged has no number by the verdict
     let unjudged: Vec<SummaryRow> = rows.iter().map(|r| SummaryRow { to_targets: vec![], ..r.clone() }).collect();
     let v = evaluate::judge(&c, Rule::Verdict, &unjudged);
-    assert_eq!(v.outcome, Outcome::NotMeasurable);
+    assert_eq!(v.outcome, ClaimOutcome::NotMeasurable);
     assert!(v.why.starts_with("no mesh of sd"), "{}", v.why);
 }
 
@@ -115,47 +115,47 @@ fn each_vocabulary_check_decides_as_documented() {
     let base = "energy = \"sd\"\nmetric = \"iterations\"\nsolver = \"kp-newton\"\n";
     let with = |rest: &str| format!("{base}{rest}");
     // means: kp 20, cm 20.33, fp 15.33
-    assert_eq!(decide(&with("check = \"less\"\nothers = [\"cm\"]")).outcome, Outcome::Held);
-    assert_eq!(decide(&with("check = \"less\"\nothers = [\"fp-newton-4x4\"]")).outcome, Outcome::NotHeld);
-    assert_eq!(decide(&with("check = \"most\"\nothers = [\"fp-newton-4x4\"]")).outcome, Outcome::Held);
-    assert_eq!(decide(&with("check = \"within\"\ntolerance = 0.02\nothers = [\"cm\"]")).outcome, Outcome::Held);
-    assert_eq!(decide(&with("check = \"within\"\ntolerance = 0.01\nothers = [\"cm\"]")).outcome, Outcome::NotHeld);
-    assert_eq!(decide(&with("check = \"order\"\nothers = [\"cm\"]")).outcome, Outcome::Held);
-    assert_eq!(decide(&with("check = \"order\"\nothers = [\"fp-newton-4x4\", \"cm\"]")).outcome, Outcome::NotHeld);
+    assert_eq!(decide(&with("check = \"less\"\nothers = [\"cm\"]")).outcome, ClaimOutcome::Held);
+    assert_eq!(decide(&with("check = \"less\"\nothers = [\"fp-newton-4x4\"]")).outcome, ClaimOutcome::NotHeld);
+    assert_eq!(decide(&with("check = \"most\"\nothers = [\"fp-newton-4x4\"]")).outcome, ClaimOutcome::Held);
+    assert_eq!(decide(&with("check = \"within\"\ntolerance = 0.02\nothers = [\"cm\"]")).outcome, ClaimOutcome::Held);
+    assert_eq!(decide(&with("check = \"within\"\ntolerance = 0.01\nothers = [\"cm\"]")).outcome, ClaimOutcome::NotHeld);
+    assert_eq!(decide(&with("check = \"order\"\nothers = [\"cm\"]")).outcome, ClaimOutcome::Held);
+    assert_eq!(decide(&with("check = \"order\"\nothers = [\"fp-newton-4x4\", \"cm\"]")).outcome, ClaimOutcome::NotHeld);
     // per mesh: kp below fp on a and b only; equal to cm on a and b only
     let each = decide(&with("check = \"each_less\"\nothers = [\"fp-newton-4x4\"]"));
-    assert_eq!(each.outcome, Outcome::NotHeld);
+    assert_eq!(each.outcome, ClaimOutcome::NotHeld);
     assert!(each.why.contains("on 2 of 3 meshes") && each.why.contains("not on c"), "{}", each.why);
     assert_eq!(
         decide(&with("check = \"each_less\"\nat_least = 0.6\nothers = [\"fp-newton-4x4\"]")).outcome,
-        Outcome::Held
+        ClaimOutcome::Held
     );
-    assert_eq!(decide(&with("check = \"each_equal\"\nothers = [\"cm\"]")).outcome, Outcome::NotHeld);
-    assert_eq!(decide(&with("check = \"each_at_most\"\nvalue = 30")).outcome, Outcome::Held);
-    assert_eq!(decide(&with("check = \"each_at_most\"\nvalue = 29")).outcome, Outcome::NotHeld);
+    assert_eq!(decide(&with("check = \"each_equal\"\nothers = [\"cm\"]")).outcome, ClaimOutcome::NotHeld);
+    assert_eq!(decide(&with("check = \"each_at_most\"\nvalue = 30")).outcome, ClaimOutcome::Held);
+    assert_eq!(decide(&with("check = \"each_at_most\"\nvalue = 29")).outcome, ClaimOutcome::NotHeld);
     assert_eq!(
         decide(&with("check = \"each_at_most\"\nvalue = 25\nmin_vertices = 5000")).outcome,
-        Outcome::NotHeld,
+        ClaimOutcome::NotHeld,
         "c alone counts"
     );
     assert_eq!(decide(&with("check = \"each_at_most\"\nvalue = 25\nmin_vertices = 500")).datasets, ["b", "c"]);
     // fp falls with size from b on, but rises from a to b: 2 pairs fall, 1 rises
     let falls = "energy = \"sd\"\nmetric = \"iterations\"\nsolver = \"fp-newton-4x4\"\ncheck = \"falls_with_size\"";
-    assert_eq!(decide(falls).outcome, Outcome::Held, "{:?}", decide(falls));
-    assert_eq!(decide(&with("check = \"falls_with_size\"")).outcome, Outcome::NotHeld);
+    assert_eq!(decide(falls).outcome, ClaimOutcome::Held, "{:?}", decide(falls));
+    assert_eq!(decide(&with("check = \"falls_with_size\"")).outcome, ClaimOutcome::NotHeld);
     // a published value on one mesh: kp's final energy on b is 2.00005
     let value =
         "energy = \"sd\"\nmetric = \"final_energy\"\nsolver = \"kp-newton\"\ncheck = \"value\"\ndataset = \"b\"\n";
     assert_eq!(
         decide(&format!("{value}tolerance = 1e-4\npublished = {{ kp-newton = 2.0001 }}")).outcome,
-        Outcome::Held
+        ClaimOutcome::Held
     );
     assert_eq!(
         decide(&format!("{value}tolerance = 1e-6\npublished = {{ kp-newton = 2.0001 }}")).outcome,
-        Outcome::NotHeld
+        ClaimOutcome::NotHeld
     );
     let absent = "energy = \"sd\"\nmetric = \"final_energy\"\nsolver = \"kp-newton\"\ncheck = \"value\"\ndataset = \"hilbert\"\ntolerance = 1e-4\npublished = { kp-newton = 2.0 }";
-    assert_eq!(decide(absent).outcome, Outcome::NotMeasurable);
+    assert_eq!(decide(absent).outcome, ClaimOutcome::NotMeasurable);
 }
 
 #[test]
@@ -186,7 +186,7 @@ fn a_claim_no_folder_answers_names_the_configs_that_would() {
     let all = evaluate(&papers, &folders);
     let t6 = all.iter().find(|c| c.id == "golla2018/t6-akvf-most-iterations-deform").unwrap();
     assert_eq!(t6.rules.len(), 2);
-    assert!(t6.rules.iter().all(|j| j.outcome == Outcome::NotMeasurable && j.why.contains("papers_deform")));
+    assert!(t6.rules.iter().all(|j| j.outcome == ClaimOutcome::NotMeasurable && j.why.contains("papers_deform")));
     let energy = all.iter().find(|c| c.id == "shtengel2017/t1-hilbert-cm-energy").unwrap();
     assert_eq!(energy.rules.len(), 1, "a final energy has one rule");
     assert_eq!(energy.folder.as_deref(), Some(Path::new("/tmp/x")));

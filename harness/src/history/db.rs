@@ -8,6 +8,7 @@
 use super::claim_rows::ClaimRow;
 use super::error::HistoryError;
 use super::run_row::RunRow;
+use crate::claims::{ClaimOutcome, Rule};
 use crate::plan::Task;
 use crate::run_folder::Status;
 use crate::run_folder::{parse_stop, stop_text};
@@ -177,8 +178,8 @@ impl BatchRow {
 
 /// An open history database at the current schema version.
 pub struct HistoryDb {
-    pub(super) conn: Connection,
-    pub(super) path: PathBuf,
+    conn: Connection,
+    path: PathBuf,
 }
 
 impl HistoryDb {
@@ -279,7 +280,7 @@ impl HistoryDb {
             InsertError::Sql(e) => sql(e),
             InsertError::Run { run, source } => HistoryError::Run { path: path.clone(), run, err: source },
         })?;
-        super::claim_rows::insert(&tx, id, claims).map_err(&sql)?;
+        insert_claims(&tx, id, claims).map_err(&sql)?;
         tx.commit().map_err(&sql)?;
         Ok(id)
     }
@@ -433,6 +434,26 @@ impl HistoryDb {
     }
 
     /// The id of the batch recorded from `run_dir` most recently, if any.
+    /// The papers' claims batch `batch_id` answered (none for a batch recorded before schema 8).
+    pub fn claims(&self, batch_id: i64) -> Result<Vec<ClaimRow>, HistoryError> {
+        let sql = sql_error(&self.path);
+        let mut stmt = self
+            .conn
+            .prepare("SELECT claim, rule, outcome, why FROM claims WHERE batch_id = ?1 ORDER BY rowid")
+            .map_err(&sql)?;
+        let rows = stmt
+            .query_map([batch_id], |r| {
+                Ok(ClaimRow {
+                    claim: r.get(0)?,
+                    rule: parse_text(r, 1, |t| Rule::from_key(t).ok_or(format!("unknown rule '{t}'")))?,
+                    outcome: parse_text(r, 2, |t| ClaimOutcome::from_key(t).ok_or(format!("unknown outcome '{t}'")))?,
+                    why: r.get(3)?,
+                })
+            })
+            .map_err(&sql)?;
+        rows.collect::<Result<Vec<_>, _>>().map_err(&sql)
+    }
+
     pub fn last_batch_of(&self, run_dir: &str) -> Result<Option<i64>, HistoryError> {
         self.conn
             .query_row("SELECT max(id) FROM batches WHERE run_dir = ?1", [run_dir], |r| r.get(0))
@@ -532,6 +553,15 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
     Ok(id)
 }
 
+fn insert_claims(tx: &Transaction, batch_id: i64, rows: &[ClaimRow]) -> rusqlite::Result<()> {
+    let mut stmt =
+        tx.prepare("INSERT INTO claims (batch_id, claim, rule, outcome, why) VALUES (?1, ?2, ?3, ?4, ?5)")?;
+    for r in rows {
+        stmt.execute(params![batch_id, r.claim, r.rule.key(), r.outcome.key(), r.why])?;
+    }
+    Ok(())
+}
+
 /// Column `i` of `row` as text, parsed into its type (an unknown value is a conversion error
 /// naming the column).
 fn parse_text<T, E: std::fmt::Display>(
@@ -548,6 +578,6 @@ fn user_version(conn: &Connection) -> rusqlite::Result<i64> {
     conn.pragma_query_value(None, "user_version", |r| r.get(0))
 }
 
-pub(super) fn sql_error(path: &Path) -> impl Fn(rusqlite::Error) -> HistoryError + '_ {
+fn sql_error(path: &Path) -> impl Fn(rusqlite::Error) -> HistoryError + '_ {
     move |err| HistoryError::Sql { path: path.to_path_buf(), err }
 }

@@ -2,9 +2,9 @@
 //! paper's numbers, ours and the outcome by the paper's rule and by the verdict, with links
 //! to the runs it read; and its one-line count on the first screen.
 
-use super::{esc, href};
 use crate::claims::render::published;
-use crate::claims::{counts, Evaluated, Judged, Outcome, Rule};
+use crate::claims::{counts, ClaimOutcome, Evaluated, Judged, Rule};
+use crate::escape::{esc, href};
 use std::fmt::Write as _;
 
 /// `Papers' claims (12 answered by this config): 15 held, 3 not held, 2 not measurable`, with
@@ -16,7 +16,7 @@ pub(super) fn glance(h: &mut String, claims: &[Evaluated]) {
     let [held, not, unknown] = counts(claims);
     let broken: Vec<String> = claims
         .iter()
-        .flat_map(|c| c.rules.iter().filter(|j| j.outcome == Outcome::NotHeld).map(move |j| (c, j)))
+        .flat_map(|c| c.rules.iter().filter(|j| j.outcome == ClaimOutcome::NotHeld).map(move |j| (c, j)))
         .map(|(c, j)| format!("<a href=\"#claim-{}\">{}</a> ({})", anchor(&c.id), esc(&c.id), j.rule.as_str()))
         .collect();
     let _ = writeln!(
@@ -73,9 +73,9 @@ fn anchor(id: &str) -> String {
 fn cell(j: Option<&Judged>) -> String {
     let Some(j) = j else { return String::new() };
     let class = match j.outcome {
-        Outcome::Held => "ok",
-        Outcome::NotHeld => "failed",
-        Outcome::NotMeasurable => "skipped",
+        ClaimOutcome::Held => "ok",
+        ClaimOutcome::NotHeld => "failed",
+        ClaimOutcome::NotMeasurable => "skipped",
     };
     let runs: Vec<String> =
         j.runs.iter().map(|stem| format!("<a href=\"runs/{}.csv\">{}</a>", href(stem), esc(stem))).collect();
