@@ -177,7 +177,7 @@ fn first_screen(browser: &Path, tmp: &Path, artifacts: &Path) {
         "lbfgs-laplacian",
         "aqp",
     ];
-    let night = |max_iters: usize, out: &str| {
+    let night = |max_iters: usize, out: &str, repeat: &str| {
         let cfg = tmp.join("night.toml");
         std::fs::write(
             &cfg,
@@ -190,7 +190,7 @@ fn first_screen(browser: &Path, tmp: &Path, artifacts: &Path) {
         )
         .unwrap();
         let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
-            .args(["run", cfg.to_str().unwrap(), "--out", out])
+            .args(["run", cfg.to_str().unwrap(), "--out", out, "--repeat", repeat])
             .current_dir(tmp)
             .env_remove("MAPBENCH_MESHES")
             .output()
@@ -198,8 +198,9 @@ fn first_screen(browser: &Path, tmp: &Path, artifacts: &Path) {
         assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
         tmp.join(out)
     };
-    night(100, "night-1");
-    let out = night(8, "night-2");
+    night(100, "night-1", "1");
+    // Timed twice: the explorer draws the repeats' spread.
+    let out = night(8, "night-2", "2");
     let page = std::fs::read_to_string(out.join("index.html")).unwrap();
     // The history in tmp/reports has the first test batch as 1: the nights are 2 and 3.
     assert!(page.contains("since batch 2"), "the changes since the first night");
@@ -248,16 +249,24 @@ window.addEventListener('load', () => setTimeout(() => {
       out.hover_values = [...u.root.querySelectorAll('.u-legend tr.u-series td.u-value')].map(td => td.textContent);
     }
     out.table_rows = document.querySelectorAll('#runs tr').length - 1;
-    const pre = document.createElement('pre');
-    pre.id = 'mapbench-check';
-    pre.textContent = JSON.stringify(out);
-    document.body.appendChild(pre);
+    const x = document.getElementById('x');
+    x.value = 'time';
+    x.dispatchEvent(new Event('change'));
+    setTimeout(() => {
+      out.spreads = window.mapbenchSpreads;
+      out.log_x_time = window.mapbenchChart.scales.x.distr;
+      const pre = document.createElement('pre');
+      pre.id = 'mapbench-check';
+      pre.textContent = JSON.stringify(out);
+      document.body.appendChild(pre);
+    }, 300);
   }, 300);
 }, 300));
 </script>"#;
 
 /// The explorer of the 18-solver night on bumpy_1k / sd: every solver's curve on a log gap
-/// axis, a legend click hides that one alone, a mouse move shows numbers in the legend.
+/// axis, a legend click hides that one alone, a mouse move shows numbers in the legend, and
+/// against time each run's repeats' spread.
 fn explorer(browser: &Path, out: &Path, artifacts: &Path) {
     let report = check_page(browser, out, "explorer.html", "#p=bumpy_1k__sd", EXPLORER_SCRIPT, (1400, 900));
     assert_eq!(report["chart"], true, "no chart drawn: {report}");
@@ -286,6 +295,9 @@ fn explorer(browser: &Path, out: &Path, artifacts: &Path) {
     let numbers = values.iter().filter(|v| v.as_str().is_some_and(|s| s.chars().any(|c| c.is_ascii_digit()))).count();
     assert!(numbers >= 2, "values under the cursor in the legend: {report}");
     assert_eq!(report["table_rows"].as_u64(), Some(ran), "{report}");
+    // Against time (log x), every run's two repeats drawn as a whisker.
+    assert_eq!(report["log_x_time"].as_u64(), Some(3), "{report}");
+    assert_eq!(report["spreads"].as_u64(), Some(ran), "a whisker per repeated run: {report}");
     let shot = artifacts.join("explorer.png");
     let _ = std::fs::remove_file(&shot);
     let o = headless(browser)

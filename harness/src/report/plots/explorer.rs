@@ -1,10 +1,12 @@
 //! The report's explorer, `explorer.html`: one page that draws a problem's convergence curves
 //! (the judge's gap against iterations or time, log axes, the targets drawn) or one solver's
 //! curves over the problems of an energy, chosen from menus, with uPlot (vendored in
-//! `harness/assets/uplot/`), each solver in the colour and marker of the PNGs: a solver is hidden by a click on its legend entry, the values under
-//! the cursor show in the legend, and a table under the chart gives each run's iterations and
-//! time to the target with its repeats' spread. It works offline from the folder alone: the
-//! page, `explorer/uPlot.*` and `explorer/data.js` (the curves, thinned to [`MAX_POINTS`]).
+//! `harness/assets/uplot/`), each solver in the colour and marker of the PNGs: a solver is
+//! hidden by a click on its legend entry, the values under the cursor show in the legend, and
+//! a table under the chart gives each run's iterations and time to the target with its
+//! repeats' spread (drawn against time as a whisker from the fastest to the slowest repeat).
+//! It works offline from the folder alone: the page, `explorer/uPlot.*` and
+//! `explorer/data.js` (the curves, thinned to [`MAX_POINTS`]).
 
 use super::chart::{style, Curve};
 use crate::escape::esc;
