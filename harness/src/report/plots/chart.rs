@@ -52,6 +52,19 @@ impl Curve {
     }
 }
 
+/// Where a gap at or below 0 (at or below `E*`) is drawn on a log axis: two decades under
+/// the least positive gap or target of the plot, and not under round-off (`roundoff`: the
+/// first curve's positive one). The PNG plots and the explorer share it.
+pub(super) fn gap_floor(gaps: impl IntoIterator<Item = f64>, roundoff: impl IntoIterator<Item = f64>) -> f64 {
+    let roundoff = roundoff.into_iter().find(|b| b.is_finite() && *b > 0.0).unwrap_or(0.0).max(1e-300);
+    let least = gaps.into_iter().filter(|g| g.is_finite() && *g > 0.0).fold(f64::INFINITY, f64::min);
+    if least.is_finite() {
+        (least / 100.0).max(roundoff)
+    } else {
+        roundoff
+    }
+}
+
 /// One solver's curve in a plot.
 pub(super) struct Series<'a> {
     pub(super) solver: &'a str,

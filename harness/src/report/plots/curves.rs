@@ -70,19 +70,8 @@ struct Gap<'a> {
 /// decades below the smallest positive gap and the tightest target, so they read as "reached
 /// it", but never below round-off.
 fn gap_floor(curves: &[Series], targets: &[f64]) -> f64 {
-    let roundoff = curves.iter().map(|c| c.curve.roundoff).find(|b| b.is_finite() && *b > 0.0).unwrap_or(0.0);
-    let min_pos = curves
-        .iter()
-        .flat_map(|c| c.curve.gap.iter().copied())
-        .chain(targets.iter().copied())
-        .filter(|g| g.is_finite() && *g > 0.0)
-        .fold(f64::INFINITY, f64::min);
-    let roundoff = roundoff.max(1e-300);
-    if min_pos.is_finite() {
-        (min_pos / 100.0).max(roundoff)
-    } else {
-        roundoff
-    }
+    let gaps = curves.iter().flat_map(|c| c.curve.gap.iter().copied()).chain(targets.iter().copied());
+    super::chart::gap_floor(gaps, curves.iter().map(|c| c.curve.roundoff))
 }
 
 /// The x axis of a plot of `curves` and each curve's points on it (gaps at or below `floor`

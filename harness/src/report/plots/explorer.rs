@@ -122,8 +122,10 @@ fn problem(run_dir: &Path, (dataset, energy): (&str, &str), runs: &[&SummaryRow]
         None => Vec::new(),
     };
     let mut out = Vec::new();
+    let mut roundoff = Vec::new();
     for r in runs {
         let curve = Curve::new(crate::run_folder::read_run(run_dir, r)?, yardstick);
+        roundoff.push(curve.roundoff);
         let keep = thin(curve.iter.len());
         let pick = |v: &[f64]| keep.iter().map(|&i| short(v[i])).collect::<Vec<_>>();
         let shown = to_target(r);
@@ -144,13 +146,8 @@ fn problem(run_dir: &Path, (dataset, energy): (&str, &str), runs: &[&SummaryRow]
             final_gap: r.final_gap.map(short),
         });
     }
-    let least = out
-        .iter()
-        .flat_map(|r| r.gap.iter().copied())
-        .chain(targets.iter().copied())
-        .filter(|g| g.is_finite() && *g > 0.0)
-        .fold(f64::INFINITY, f64::min);
-    let floor = if least.is_finite() { short(least / 100.0) } else { 1e-16 };
+    let gaps = out.iter().flat_map(|r| r.gap.iter().copied()).chain(targets.iter().copied());
+    let floor = short(super::chart::gap_floor(gaps, roundoff));
     Ok(Problem {
         dataset: dataset.into(),
         energy: energy.into(),
