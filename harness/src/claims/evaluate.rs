@@ -183,7 +183,9 @@ pub fn judge(claim: &Claim, rule: Rule, rows: &[SummaryRow]) -> Judged {
     };
     let left = if t.left_out.is_empty() { String::new() } else { format!("; left out: {}", t.left_out.join(", ")) };
     if n == 0 {
-        judged.why = format!("no mesh of {} where {} each have a number{left}", claim.energy, solvers.join(", "));
+        let which = claim.dataset.as_ref().map_or(String::new(), |d| format!(" ({d})"));
+        judged.why =
+            format!("no mesh of {}{which} where {} each have a number{left}", claim.energy, solvers.join(", "));
         return judged;
     }
     let (outcome, why) = decide(claim, &t, &judged.ours);
