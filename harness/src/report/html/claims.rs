@@ -21,7 +21,7 @@ pub(super) fn glance(h: &mut String, claims: &[Evaluated]) {
         .collect();
     let _ = writeln!(
         h,
-        "<p><a href=\"#claims\">Papers' claims</a> ({} answered by this config, each rule counted): {held} held, \
+        "<p><a href=\"#claims\">Papers' claims</a> ({} claims name this config; each rule counted): {held} held, \
          {not} not held, {unknown} not measurable{}</p>",
         claims.len(),
         if broken.is_empty() { ".".to_string() } else { format!(": not held {}.", broken.join(", ")) }
