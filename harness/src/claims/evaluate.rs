@@ -79,8 +79,11 @@ pub struct Judged {
     pub outcome: ClaimOutcome,
     /// The comparison in words, or what is missing.
     pub why: String,
-    /// Our number per solver: the mean over `datasets` (the one mesh's for `value`).
+    /// Our number per solver: the mean over `datasets` (the one mesh's for `value`), by the
+    /// verdict over the meshes where it reached the target (infinite when it reached it on none).
     pub ours: BTreeMap<String, f64>,
+    /// By the verdict, per solver, the meshes where it never reached the target.
+    pub unreached: BTreeMap<String, usize>,
     /// The meshes it was decided on.
     pub datasets: Vec<String>,
     /// The runs it read (`runs/<stem>.csv`).
@@ -167,17 +170,18 @@ pub fn judge(claim: &Claim, rule: Rule, rows: &[SummaryRow]) -> Judged {
     let t = table(claim, rule, rows);
     let solvers = claim.solvers();
     let n = t.meshes.len();
-    let mean = |k: usize| t.meshes.iter().map(|m| m.2[k]).sum::<f64>() / n.max(1) as f64;
     let ours: BTreeMap<String, f64> = if n == 0 {
         BTreeMap::new()
     } else {
-        solvers.iter().enumerate().map(|(k, s)| (s.to_string(), mean(k))).collect()
+        solvers.iter().enumerate().map(|(k, s)| (s.to_string(), t.mean(k))).collect()
     };
+    let unreached = solvers.iter().enumerate().map(|(k, s)| (s.to_string(), t.unreached(k))).collect();
     let mut judged = Judged {
         rule,
         outcome: ClaimOutcome::NotMeasurable,
         why: String::new(),
         ours,
+        unreached,
         datasets: t.meshes.iter().map(|m| m.0.clone()).collect(),
         runs: t.runs.clone(),
     };
@@ -188,13 +192,54 @@ pub fn judge(claim: &Claim, rule: Rule, rows: &[SummaryRow]) -> Judged {
             format!("no mesh of {}{which} where {} each have a number{left}", claim.energy, solvers.join(", "));
         return judged;
     }
-    let (outcome, why) = decide(claim, &t, &judged.ours);
+    let (outcome, why) = decide(claim, &t);
     judged.outcome = outcome;
     judged.why = format!("{why} (over {n} mesh{}{left})", if n == 1 { "" } else { "es" });
     judged
 }
 
-/// Whether `a < b` can be said: not when both are infinite (neither reached the target).
+impl Table {
+    /// Solver `k`'s mean over the meshes where it has a finite number (infinite: none).
+    fn mean(&self, k: usize) -> f64 {
+        let v: Vec<f64> = self.meshes.iter().map(|m| m.2[k]).filter(|v| v.is_finite()).collect();
+        if v.is_empty() {
+            f64::INFINITY
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    }
+
+    /// The meshes where solver `k` never reached the target (by the verdict).
+    fn unreached(&self, k: usize) -> usize {
+        self.meshes.iter().filter(|m| m.2[k].is_infinite()).count()
+    }
+
+    /// Whether solver `i` costs less than `j`: fewer meshes where it never reached the target,
+    /// else the lower mean over the meshes both reached it on; `None` when they never reached
+    /// it on the same meshes and share no mesh where both did. By the paper's rule (no
+    /// infinite cost) this is the lower mean.
+    fn below(&self, i: usize, j: usize) -> Option<bool> {
+        let (ui, uj) = (self.unreached(i), self.unreached(j));
+        if ui != uj {
+            return Some(ui < uj);
+        }
+        let (a, b) = self.common_means(i, j)?;
+        Some(a < b)
+    }
+
+    /// The means of solvers `i` and `j` over the meshes where both have finite numbers.
+    fn common_means(&self, i: usize, j: usize) -> Option<(f64, f64)> {
+        let both: Vec<(f64, f64)> =
+            self.meshes.iter().map(|m| (m.2[i], m.2[j])).filter(|(a, b)| a.is_finite() && b.is_finite()).collect();
+        if both.is_empty() {
+            return None;
+        }
+        let n = both.len() as f64;
+        Some((both.iter().map(|x| x.0).sum::<f64>() / n, both.iter().map(|x| x.1).sum::<f64>() / n))
+    }
+}
+
+/// Whether `a < b` can be said of one mesh: not when both are infinite (neither reached the target).
 fn below(a: f64, b: f64) -> Option<bool> {
     if a.is_infinite() && b.is_infinite() {
         None
@@ -233,84 +278,117 @@ fn unreached(x: &str, y: &str) -> Decided {
     )
 }
 
-fn decide(claim: &Claim, t: &Table, agg: &BTreeMap<String, f64>) -> Decided {
+fn decide(claim: &Claim, t: &Table) -> Decided {
     match claim.check {
-        Check::Fewest | Check::Less | Check::Most => compared(claim, agg),
-        Check::Within => within(claim, agg),
-        Check::Order => order(claim, agg),
+        Check::Fewest | Check::Less | Check::Most => compared(claim, t),
+        Check::Within => within(claim, t),
+        Check::Order => order(claim, t),
         Check::EachLess | Check::EachEqual => each(claim, t),
         Check::EachAtMost => each_at_most(claim, t),
-        Check::Value => value(claim, agg),
+        Check::Value => value(claim, t),
         Check::FallsWithSize => falls_with_size(claim, t),
     }
 }
 
-/// `mean iterations: kp-newton 7.5, cm 8`.
-fn means(claim: &Claim, agg: &BTreeMap<String, f64>) -> String {
-    let listing: Vec<String> = claim.solvers().iter().map(|o| format!("{o} {}", fmt(agg[*o]))).collect();
+/// `mean iterations: kp-newton 7.5, cm 8 (never at the target on 2 meshes)`.
+fn means(claim: &Claim, t: &Table) -> String {
+    let listing: Vec<String> = claim
+        .solvers()
+        .iter()
+        .enumerate()
+        .map(|(k, o)| match t.unreached(k) {
+            0 => format!("{o} {}", fmt(t.mean(k))),
+            u if u == t.meshes.len() => format!("{o} never at the target"),
+            u => format!("{o} {} (never at the target on {u})", fmt(t.mean(k))),
+        })
+        .collect();
     format!("mean {}: {}", claim.metric.as_str(), listing.join(", "))
 }
 
 /// `fewest`, `less` (below each other) and `most` (above each other).
-fn compared(claim: &Claim, agg: &BTreeMap<String, f64>) -> Decided {
-    let s = claim.solver.as_str();
+fn compared(claim: &Claim, t: &Table) -> Decided {
     let mut held = true;
-    for o in &claim.others {
-        let pair = if claim.check == Check::Most { below(agg[o], agg[s]) } else { below(agg[s], agg[o]) };
+    for (i, o) in claim.others.iter().enumerate() {
+        let pair = if claim.check == Check::Most { t.below(i + 1, 0) } else { t.below(0, i + 1) };
         match pair {
             Some(h) => held &= h,
-            None => return unreached(s, o),
+            None => return unreached(&claim.solver, o),
         }
     }
-    decided(held, means(claim, agg))
+    decided(held, means(claim, t))
 }
 
-fn within(claim: &Claim, agg: &BTreeMap<String, f64>) -> Decided {
+fn within(claim: &Claim, t: &Table) -> Decided {
     let s = claim.solver.as_str();
     let tol = claim.tolerance.unwrap_or(0.0);
     let mut worst: f64 = 0.0;
-    for o in &claim.others {
-        match (agg[s].is_infinite(), agg[o].is_infinite()) {
-            (true, true) => return unreached(s, o),
-            (false, false) => worst = worst.max((agg[s] / agg[o] - 1.0).abs()),
-            _ => return decided(false, format!("one of {s} and {o} never reached the target: {}", means(claim, agg))),
+    for (i, o) in claim.others.iter().enumerate() {
+        if t.unreached(0) != t.unreached(i + 1) {
+            return decided(
+                false,
+                format!("{s} and {o} never reached the target on different meshes: {}", means(claim, t)),
+            );
+        }
+        match t.common_means(0, i + 1) {
+            Some((a, b)) => worst = worst.max((a / b - 1.0).abs()),
+            None => return unreached(s, o),
         }
     }
-    let text = format!("{}; largest difference {:.1}% (at most {:.0}%)", means(claim, agg), 100.0 * worst, 100.0 * tol);
+    let text = format!("{}; largest difference {:.1}% (at most {:.0}%)", means(claim, t), 100.0 * worst, 100.0 * tol);
     decided(worst <= tol, text)
 }
 
-fn order(claim: &Claim, agg: &BTreeMap<String, f64>) -> Decided {
+fn order(claim: &Claim, t: &Table) -> Decided {
+    let solvers = claim.solvers();
     let mut held = true;
-    for w in claim.solvers().windows(2) {
-        match below(agg[w[0]], agg[w[1]]) {
+    for k in 1..solvers.len() {
+        match t.below(k - 1, k) {
             Some(h) => held &= h,
-            None => return unreached(w[0], w[1]),
+            None => return unreached(solvers[k - 1], solvers[k]),
         }
     }
-    decided(held, format!("{}, claimed ascending", means(claim, agg)))
+    decided(held, format!("{}, claimed ascending", means(claim, t)))
 }
 
-/// `each_less` and `each_equal`: per mesh, on enough meshes.
+/// `each_less` and `each_equal`: per mesh, on enough of the meshes where they can be ordered
+/// (not where both never reached the target).
 fn each(claim: &Claim, t: &Table) -> Decided {
     let equal = claim.check == Check::EachEqual;
-    let misses: Vec<&str> = t
-        .meshes
-        .iter()
-        .filter(|(_, _, v)| !v[1..].iter().all(|o| if equal { v[0] == *o } else { below(v[0], *o).unwrap_or(false) }))
-        .map(|m| m.0.as_str())
-        .collect();
-    let n = t.meshes.len();
+    let mut misses: Vec<&str> = Vec::new();
+    let mut unordered = 0;
+    for (d, _, v) in &t.meshes {
+        let here: Option<bool> = v[1..]
+            .iter()
+            .map(|o| if equal { (v[0].is_finite() || o.is_finite()).then_some(v[0] == *o) } else { below(v[0], *o) })
+            .try_fold(true, |all, h| h.map(|h| all && h));
+        match here {
+            Some(true) => {}
+            Some(false) => misses.push(d),
+            None => unordered += 1,
+        }
+    }
+    let n = t.meshes.len() - unordered;
+    if n == 0 {
+        return (
+            ClaimOutcome::NotMeasurable,
+            format!("on no mesh did {} reach the target", claim.solvers().join(" or ")),
+        );
+    }
     let ok = n - misses.len();
     let need = if equal { 1.0 } else { claim.at_least.unwrap_or(1.0) };
     let text = format!(
-        "{}'s {} {} {}'s on {ok} of {n} meshes (needed: {:.0}%){}",
+        "{}'s {} {} {}'s on {ok} of {n} meshes (needed: {:.0}%){}{}",
         claim.solver,
         claim.metric.as_str(),
         if equal { "equal to" } else { "below" },
         claim.others.join(" and "),
         100.0 * need,
-        if misses.is_empty() { String::new() } else { format!("; not on {}", misses.join(", ")) }
+        if misses.is_empty() { String::new() } else { format!("; not on {}", misses.join(", ")) },
+        if unordered == 0 {
+            String::new()
+        } else {
+            format!("; {unordered} mesh(es) where none reached the target left out")
+        }
     );
     decided(ok as f64 >= need * n as f64 - 1e-9, text)
 }
@@ -331,16 +409,15 @@ fn each_at_most(claim: &Claim, t: &Table) -> Decided {
     decided(over.is_empty(), text)
 }
 
-fn value(claim: &Claim, agg: &BTreeMap<String, f64>) -> Decided {
+fn value(claim: &Claim, t: &Table) -> Decided {
     let s = claim.solver.as_str();
-    let (want, got) = (claim.published[s], agg[s]);
+    let (want, got) = (claim.published[s], t.mean(0));
     let rel = ((got - want) / want).abs();
     let tol = claim.tolerance.unwrap_or(0.0);
     let text =
         format!("{s}: ours {} vs published {} (relative difference {rel:.1e}, at most {tol:.0e})", fmt(got), fmt(want));
     decided(rel <= tol, text)
 }
-
 fn falls_with_size(claim: &Claim, t: &Table) -> Decided {
     let mut m: Vec<(usize, f64)> = t.meshes.iter().map(|m| (m.1, m.2[0])).collect();
     m.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));

@@ -100,6 +100,7 @@ pub fn evaluate(papers: &[Paper], folders: &[Folder]) -> Vec<Evaluated> {
                         outcome: ClaimOutcome::NotMeasurable,
                         why: format!("no run folder of config {}", c.configs.join(" or ")),
                         ours: BTreeMap::new(),
+                        unreached: BTreeMap::new(),
                         datasets: Vec::new(),
                         runs: Vec::new(),
                     },

@@ -71,7 +71,8 @@ fn fewest_holds_by_the_mean_over_the_meshes_all_solvers_ran_and_turns_with_ten_t
     let v = evaluate::judge(&c, Rule::Verdict, &rows);
     assert_eq!(v.outcome, ClaimOutcome::Held, "{v:?}");
     assert_eq!(v.ours["kp-newton"], 11.5);
-    assert!(v.ours["akvf"].is_infinite());
+    assert_eq!((v.ours["akvf"], v.unreached["akvf"]), (250.0, 1), "its mean where it reached it, and where not");
+    assert!(v.why.contains("akvf 250 (never at the target on 1)"), "{}", v.why);
     // ten times kp-newton's iterations: not held by either rule
     for r in rows.iter_mut().filter(|r| r.solver == "kp-newton") {
         r.iterations = r.iterations.map(|i| i * 10);
@@ -79,6 +80,26 @@ fn fewest_holds_by_the_mean_over_the_meshes_all_solvers_ran_and_turns_with_ten_t
     }
     assert_eq!(evaluate::judge(&c, Rule::Paper, &rows).outcome, ClaimOutcome::NotHeld);
     assert_eq!(evaluate::judge(&c, Rule::Verdict, &rows).outcome, ClaimOutcome::NotHeld);
+}
+
+#[test]
+fn by_the_verdict_fewer_meshes_never_at_the_target_first_then_the_mean_where_both_reached_it() {
+    let c = claim(
+        "energy = \"sd\"\nmetric = \"iterations\"\ncheck = \"less\"\nsolver = \"kp-newton\"\nothers = [\"cm\"]\n",
+    );
+    // both never reached it on a; on b kp took 30 and cm 20: cm is cheaper
+    let mut rows = vec![
+        run("a", 100, "sd", "kp-newton", 10, None),
+        run("a", 100, "sd", "cm", 12, None),
+        run("b", 200, "sd", "kp-newton", 40, Some(30)),
+        run("b", 200, "sd", "cm", 40, Some(20)),
+    ];
+    assert_eq!(evaluate::judge(&c, Rule::Verdict, &rows).outcome, ClaimOutcome::NotHeld);
+    // kp reaching it on a as well beats any mean
+    rows[0].to_targets[0] = ToTarget { tau: 1e-6, iters: Some(900), time_s: Some(9.0) };
+    let v = evaluate::judge(&c, Rule::Verdict, &rows);
+    assert_eq!(v.outcome, ClaimOutcome::Held, "{v:?}");
+    assert_eq!((v.unreached["kp-newton"], v.unreached["cm"]), (0, 1));
 }
 
 #[test]
