@@ -187,7 +187,11 @@ pub fn judge(claim: &Claim, rule: Rule, rows: &[SummaryRow]) -> Judged {
     };
     let left = if t.left_out.is_empty() { String::new() } else { format!("; left out: {}", t.left_out.join(", ")) };
     if n == 0 {
-        let which = claim.dataset.as_ref().map_or(String::new(), |d| format!(" ({d})"));
+        let which = match (&claim.dataset, claim.min_vertices) {
+            (Some(d), _) => format!(" ({d})"),
+            (None, Some(v)) => format!(" of at least {v} vertices"),
+            (None, None) => String::new(),
+        };
         judged.why =
             format!("no mesh of {}{which} where {} each have a number{left}", claim.energy, solvers.join(", "));
         return judged;
