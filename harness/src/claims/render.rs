@@ -10,11 +10,6 @@ pub fn published(c: &Evaluated) -> String {
     c.published.iter().map(|(s, v)| format!("{s} {}", fmt(*v))).collect::<Vec<_>>().join(", ")
 }
 
-/// `held: <why>`, or `–` when the claim has no outcome by `rule`.
-pub fn cell(c: &Evaluated, rule: Rule) -> String {
-    c.by(rule).map_or_else(|| "–".to_string(), |j| format!("{}: {}", j.outcome.as_str(), j.why))
-}
-
 /// One block per claim: its id and sentence, the paper's numbers, then each rule's outcome.
 pub fn text(claims: &[Evaluated]) -> String {
     let mut s = String::new();

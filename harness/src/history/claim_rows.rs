@@ -34,18 +34,20 @@ impl ClaimRow {
 /// The claims that held in `before` and do not now (by the same rule): not held, or no
 /// longer measurable.
 pub fn stopped_holding<'a>(before: &[ClaimRow], after: &'a [ClaimRow]) -> Vec<&'a ClaimRow> {
-    after
-        .iter()
-        .filter(|a| a.outcome != ClaimOutcome::Held)
-        .filter(|a| before.iter().any(|b| b.claim == a.claim && b.rule == a.rule && b.outcome == ClaimOutcome::Held))
-        .collect()
+    moved(before, after, true)
 }
 
 /// The claims that did not hold in `before` and hold now.
 pub fn started_holding<'a>(before: &[ClaimRow], after: &'a [ClaimRow]) -> Vec<&'a ClaimRow> {
+    moved(before, after, false)
+}
+
+/// The claims of `after` whose holding went from `held_before` to its opposite.
+fn moved<'a>(before: &[ClaimRow], after: &'a [ClaimRow], held_before: bool) -> Vec<&'a ClaimRow> {
+    let held = |r: &ClaimRow| r.outcome == ClaimOutcome::Held;
     after
         .iter()
-        .filter(|a| a.outcome == ClaimOutcome::Held)
-        .filter(|a| before.iter().any(|b| b.claim == a.claim && b.rule == a.rule && b.outcome != ClaimOutcome::Held))
+        .filter(|a| held(a) != held_before)
+        .filter(|a| before.iter().any(|b| b.claim == a.claim && b.rule == a.rule && held(b) == held_before))
         .collect()
 }

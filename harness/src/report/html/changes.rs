@@ -184,7 +184,7 @@ fn claims_since(h: &mut String, ch: &Changes) {
             .map(|c| {
                 format!(
                     "<a href=\"#claim-{}\">{}</a> ({}: {})",
-                    c.claim.replace('/', "-"),
+                    super::claims::anchor(&c.claim),
                     esc(&c.claim),
                     c.rule.as_str(),
                     esc(&c.why)

@@ -66,7 +66,7 @@ pub(super) fn claims_section(h: &mut String, claims: &[Evaluated]) {
 }
 
 /// The anchor of a claim: its id with `/` as `-`.
-fn anchor(id: &str) -> String {
+pub(super) fn anchor(id: &str) -> String {
     id.replace('/', "-")
 }
 
