@@ -67,8 +67,14 @@ def main(folder):
     max_iters, tol = int(p.stop["max_iters"]), float(p.stop["grad_tol"])
     grad = sd_gradient(p, uv) + p.penalty_gradient(uv)
     norm, k = float(np.linalg.norm(grad)), 0
-    p.record(0, energy, uv, final=norm <= tol or max_iters == 0, own_grad_norm=norm)
-    while norm > tol and k < max_iters:
+
+    # With a target, go on to it (the gradient rule is mapbench's event to record); without
+    # one, stop at the rule.
+    def done():
+        return p.at_target(energy) if p.target_energy is not None else norm <= tol
+
+    p.record(0, energy, uv, final=done() or max_iters == 0, own_grad_norm=norm)
+    while not done() and k < max_iters:
         moved = step(p, uv, energy, grad)
         if moved is None:
             p.snapshot(k, uv)
@@ -77,8 +83,11 @@ def main(folder):
         (uv, energy), k = moved, k + 1
         grad = sd_gradient(p, uv) + p.penalty_gradient(uv)
         norm = float(np.linalg.norm(grad))
-        p.record(k, energy, uv, final=norm <= tol or k == max_iters, own_grad_norm=norm)
-    p.finish("converged" if norm <= tol else "max_iters")
+        p.record(k, energy, uv, final=done() or k == max_iters, own_grad_norm=norm)
+    if p.at_target(energy):
+        p.finish("target")
+    else:
+        p.finish("converged" if norm <= tol else "max_iters")
     return 0
 
 

@@ -9,8 +9,9 @@ The energy recorded is mapbench's (`Problem.sd`: the area-weighted mean of
 area-1 mesh, and the Python binding does not expose it. SLIM has no gradient to report; it
 stops when an iteration lowers the energy by less than the problem's `energy_decrease_tol`
 (absolute, `E_old - E_new < tol`, as the protocol says), or by less than 1e-10 of the energy
-(its own relative rule) when that is 0, at `max_iters`, or when an iteration does not decrease
-the energy. The `decrease` it records is the relative one.
+(its own relative rule) when that is 0, at `max_iters`, when an iteration does not decrease
+the energy, or at the problem's tightest target (`targets`), as mapbench's own runs end there.
+The `decrease` it records is the relative one.
 
     python3 peers/igl_slim.py PROBLEM_FOLDER
 """
@@ -53,8 +54,11 @@ def main(folder):
         decrease = (energy - new) / abs(energy)
         stalled = energy - new < absolute if absolute > 0 else decrease < 1e-10
         energy = new
-        done = k == max_iters or decrease <= 0 or stalled
-        if decrease <= 0:
+        reached = p.at_target(energy)
+        done = k == max_iters or decrease <= 0 or stalled or reached
+        if reached:
+            reason = "target"
+        elif decrease <= 0:
             reason = "line_search_failed"
         elif stalled:
             reason = "converged"

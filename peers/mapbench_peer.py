@@ -23,6 +23,10 @@ class Problem:
         self.start = read_uv(os.path.join(folder, self.spec["start"]))
         self.energy = self.spec["energy"]
         self.stop = self.spec["stop"]
+        # The verdict's targets as energies, loosest first; a solver may stop at the last
+        # (`finish("target")`), as mapbench's own runs do. None without a reference minimum.
+        targets = self.spec.get("targets") or []
+        self.target_energy = float(targets[-1]["energy"]) if targets else None
         self.snapshot_every = int(self.spec.get("snapshot_every", 0))
         self.rest = rest_frames(self.V, self.F)
         # deform: soft handles, lambda * sum |x_v - target|^2 added to the energy
@@ -86,8 +90,12 @@ class Problem:
         solver learns only afterwards that it was the last)."""
         write_uv(os.path.join(self.folder, "maps", f"{int(iteration)}.uv"), uv)
 
+    def at_target(self, energy):
+        """Whether `energy` is at or below the tightest target (never without one)."""
+        return self.target_energy is not None and energy <= self.target_energy
+
     def finish(self, stop_reason, message=""):
-        """`result.json`: why the solver stopped (converged, max_iters, line_search_failed,
+        """`result.json`: why the solver stopped (converged, target, max_iters, line_search_failed,
         timeout, error)."""
         self._records.close()
         with open(os.path.join(self.folder, "result.json"), "w") as f:

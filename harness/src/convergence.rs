@@ -69,10 +69,87 @@ pub fn passes(e: f64, e_star: f64, span: f64, tau: f64) -> bool {
     e.is_finite() && e - e_star <= (tau * span).max(ROUNDOFF * e_star.abs().max(1.0))
 }
 
+/// Whether a start of energy `e0` is at the minimum `e_star` up to round-off ([`ROUNDOFF`]):
+/// every run of such a problem is solved at row 0, which says nothing of a solver.
+pub fn trivial(e0: f64, e_star: f64) -> bool {
+    e0 - e_star <= ROUNDOFF * e_star.abs().max(1.0)
+}
+
 /// The first row of `energies` (row 0 = the start) that passes the test at `tau`; `None`
 /// when no row does.
 pub fn first_reached(energies: &[f64], e_star: f64, span: f64, tau: f64) -> Option<usize> {
     energies.iter().position(|&e| passes(e, e_star, span, tau))
+}
+
+/// The tolerances a batch judges its runs at, loosest first: the config's `targets`, and per
+/// energy `[energy.<name>] targets` where an energy sets its own (SARAP, nonsmooth, is
+/// compared at 1e-3 in the committed configs). The tightest decides a run's verdict and is
+/// where a run going to its target ends.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Targets {
+    /// Every energy's, unless it sets its own.
+    pub default: Vec<f64>,
+    /// The energies that set their own.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub by_energy: std::collections::BTreeMap<String, Vec<f64>>,
+}
+
+impl Targets {
+    /// `default` for every energy; both sorted loosest first.
+    pub fn new(default: Vec<f64>, by_energy: std::collections::BTreeMap<String, Vec<f64>>) -> Targets {
+        let sorted = |mut v: Vec<f64>| {
+            v.sort_by(|a, b| b.total_cmp(a));
+            v
+        };
+        Targets { default: sorted(default), by_energy: by_energy.into_iter().map(|(e, v)| (e, sorted(v))).collect() }
+    }
+
+    /// The same targets for every energy.
+    pub fn uniform(default: Vec<f64>) -> Targets {
+        Targets::new(default, Default::default())
+    }
+
+    /// The targets of `energy`'s runs, loosest first.
+    pub fn of(&self, energy: &str) -> &[f64] {
+        self.by_energy.get(energy).unwrap_or(&self.default)
+    }
+
+    /// The tightest target of `energy`'s runs (the one that decides).
+    pub fn tightest(&self, energy: &str) -> Option<f64> {
+        self.of(energy).last().copied()
+    }
+
+    /// The loosest target of `energy`'s runs (far from `E*` beyond it).
+    pub fn loosest(&self, energy: &str) -> Option<f64> {
+        self.of(energy).first().copied()
+    }
+
+    /// The tightest targets in words: `1e-6`, or `1e-6 (sarap 1e-3)` where energies set their own.
+    pub fn tightest_text(&self) -> String {
+        let own: Vec<String> = self
+            .by_energy
+            .iter()
+            .filter_map(|(e, t)| t.last().filter(|t| Some(*t) != self.default.last()).map(|t| format!("{e} {t:e}")))
+            .collect();
+        let default = self.default.last().map_or(String::from("-"), |t| format!("{t:e}"));
+        if own.is_empty() {
+            default
+        } else {
+            format!("{default} ({})", own.join(", "))
+        }
+    }
+
+    /// Every target of any energy, loosest first, once each.
+    pub fn all(&self) -> Vec<f64> {
+        let mut all: Vec<f64> = self.default.clone();
+        for t in self.by_energy.values().flatten() {
+            if !all.contains(t) {
+                all.push(*t);
+            }
+        }
+        all.sort_by(|a, b| b.total_cmp(a));
+        all
+    }
 }
 
 /// The time a run took to reach row `k`: its whole time `time_s` (setup included) less what
@@ -145,6 +222,19 @@ mod tests {
         // below the reference: no negative span
         assert_eq!(span(1.5, 2.0, 0.0), 0.0);
         assert_eq!(span(f64::NAN, 2.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn targets_per_energy_fall_back_to_the_default_loosest_first() {
+        let t = Targets::new(vec![1e-6, 1e-3], [("sarap".to_string(), vec![1e-3])].into());
+        assert_eq!((t.of("sd"), t.of("sarap")), (&[1e-3, 1e-6][..], &[1e-3][..]));
+        assert_eq!((t.tightest("sd"), t.tightest("sarap"), t.loosest("sd")), (Some(1e-6), Some(1e-3), Some(1e-3)));
+        assert_eq!(t.all(), [1e-3, 1e-6]);
+        assert_eq!(t.tightest_text(), "1e-6 (sarap 1e-3)");
+        assert_eq!(Targets::uniform(vec![1e-3, 1e-6]).tightest_text(), "1e-6");
+        let json = serde_json::to_string(&Targets::uniform(vec![1e-3])).unwrap();
+        assert_eq!(json, r#"{"default":[0.001]}"#);
+        assert_eq!(serde_json::from_str::<Targets>(&json).unwrap(), Targets::uniform(vec![1e-3]));
     }
 
     #[test]

@@ -11,7 +11,8 @@ use std::collections::BTreeMap;
 #[serde(rename_all = "snake_case")]
 pub enum Rule {
     /// The paper's: each run to its own stop (the config's `[stop]`, the papers' gradient or
-    /// energy-decrease rule and iteration cap), an unconverged run at its cap.
+    /// energy-decrease rule and iteration cap), an unconverged run at its cap: a run that went
+    /// on to its target read at its rule's event.
     Paper,
     /// The harness's: iterations and time to the tightest target of the convergence test
     /// against the certified `E*`; a run that never reached it costs infinitely much.
@@ -109,11 +110,18 @@ pub fn run_value(metric: Quantity, rule: Rule, r: &SummaryRow) -> Option<f64> {
             }
         };
     }
+    // By the paper's rule, a run that went on past its rule reads at the rule's event: the
+    // rows there are those of the run the rule ends (a run no rule held in ended as it would).
+    let stop = r.rule_stop();
+    let k = match (stop.and_then(|e| e.time_s), r.time_s.filter(|t| *t > 0.0)) {
+        (Some(at), Some(t)) => at / t,
+        _ => 1.0,
+    };
     match metric {
-        Quantity::Iterations => r.iterations.map(|i| i as f64),
-        Quantity::MsPerVertex => r.ms_per_vertex,
-        Quantity::TimeS => r.time_s,
-        Quantity::FinalEnergy => r.final_energy,
+        Quantity::Iterations => stop.map_or(r.iterations, |e| Some(e.iters)).map(|i| i as f64),
+        Quantity::MsPerVertex => r.ms_per_vertex.map(|v| v * k),
+        Quantity::TimeS => stop.map_or(r.time_s, |e| e.time_s),
+        Quantity::FinalEnergy => stop.map_or(r.final_energy, |e| e.energy),
         Quantity::ProjectMs => r.project_ms_median,
         Quantity::ProjectSolveRatio => {
             r.project_ms_median.zip(r.solve_ms_median.filter(|s| *s > 0.0)).map(|(p, s)| p / s)

@@ -1,3 +1,4 @@
+use super::evaluate::run_value;
 use super::*;
 use crate::plan::Task;
 use crate::run_folder::summary::ToTarget;
@@ -221,4 +222,26 @@ fn numbers_show_six_significant_digits_without_trailing_zeros() {
     assert_eq!(evaluate::fmt(67.3), "67.3");
     assert_eq!(evaluate::fmt(12.0), "12");
     assert_eq!(evaluate::fmt(f64::INFINITY), "never at the target");
+}
+
+/// By the paper's rule a run that went on to its target reads at its rule's first event (the
+/// run that rule ends has those rows), the earlier of two rules; a run no rule held in reads
+/// at its own end. By the verdict it reads at the target.
+#[test]
+fn the_paper_s_rule_reads_a_run_at_its_rule_s_event() {
+    let mut r = run("a", 100, "sd", "kp-newton", 40, Some(40));
+    (r.rule_grad_tol_iters, r.rule_grad_tol_time_s, r.rule_grad_tol_energy) = (Some(12), Some(0.1), Some(2.5));
+    (r.rule_energy_decrease_iters, r.rule_energy_decrease_time_s, r.rule_energy_decrease_energy) =
+        (Some(30), Some(0.3), Some(2.1));
+    assert_eq!(run_value(Quantity::Iterations, Rule::Paper, &r), Some(12.0));
+    assert_eq!(run_value(Quantity::TimeS, Rule::Paper, &r), Some(0.1));
+    assert_eq!(run_value(Quantity::FinalEnergy, Rule::Paper, &r), Some(2.5));
+    // 4 ms per vertex over the run's 0.4 s: a quarter of it to the event
+    assert_eq!(run_value(Quantity::MsPerVertex, Rule::Paper, &r), Some(1.0));
+    assert_eq!(run_value(Quantity::Iterations, Rule::Verdict, &r), Some(40.0));
+    r.rule_grad_tol_iters = None;
+    assert_eq!(run_value(Quantity::Iterations, Rule::Paper, &r), Some(30.0));
+    let own = run("a", 100, "sd", "cm", 25, None);
+    assert_eq!(run_value(Quantity::Iterations, Rule::Paper, &own), Some(25.0));
+    assert_eq!(run_value(Quantity::Iterations, Rule::Verdict, &own), Some(f64::INFINITY));
 }

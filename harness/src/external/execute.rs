@@ -3,7 +3,7 @@
 
 use super::child::{self, ChildRun, Exit};
 use super::probe::ended;
-use super::protocol::{self, quoted, ExternalStop, HandlesSpec, ProblemSpec, Record, StopSpec};
+use super::protocol::{self, quoted, ExternalStop, HandlesSpec, ProblemSpec, Record, StopSpec, TargetSpec};
 use super::records::{check_clock, record_cost, rows_and_outcome, Read};
 use super::sandbox::{self, Limits, Spec};
 use crate::plan::external::Declared;
@@ -66,6 +66,8 @@ pub struct Job<'a> {
     pub stop_at: Option<usize>,
     pub threads: usize,
     pub interrupt: &'a AtomicBool,
+    /// The verdict's targets as energies, loosest first (`problem.json`'s `targets`).
+    pub targets: Vec<TargetSpec>,
 }
 
 /// The task's side of a job: what makes its problem and start.
@@ -165,6 +167,7 @@ pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
         job.declared.snapshot_every,
     );
     spec.handles = problem.penalty.as_ref().map(HandlesSpec::of);
+    spec.targets = job.targets.clone();
     let _ = std::fs::remove_dir_all(&job.dir);
     std::fs::create_dir_all(&job.dir)
         .map_err(|e| failed(format!("{}: cannot create the problem folder: {e}", job.dir.display())))?;
@@ -253,7 +256,8 @@ fn run_and_read(
             x0[i]
         )));
     }
-    let read = rows_and_outcome(&records, snapshots, stop, &cost).map_err(|e| failed(format!("{}: {e}", job.name)))?;
+    let rules = job.setup.task().2;
+    let read = rows_and_outcome(&records, snapshots, stop, &rules, &cost).map_err(|e| failed(format!("{}: {e}", job.name)))?;
     Ok((read, child))
 }
 
@@ -338,6 +342,7 @@ fn stop_reason(s: ExternalStop, replay: bool) -> StopReason {
     match s {
         _ if replay => StopReason::Timeout,
         ExternalStop::Converged => StopReason::SolverRule,
+        ExternalStop::Target => StopReason::Target,
         ExternalStop::MaxIters => StopReason::MaxIterations,
         ExternalStop::LineSearchFailed => StopReason::LineSearchFailed,
         ExternalStop::Timeout => StopReason::Timeout,

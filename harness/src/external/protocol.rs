@@ -34,6 +34,18 @@ pub struct ProblemSpec {
     /// `deform`: the soft handles whose penalty is part of the energy.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub handles: Option<HandlesSpec>,
+    /// The verdict's targets as energies, loosest first: the solver may stop at the last
+    /// (`result.json`'s `target`), as ours end there. Empty without a reference minimum.
+    #[serde(default)]
+    pub targets: Vec<TargetSpec>,
+}
+
+/// A target of the verdict as the problem's energy: a map with no flipped face and an energy
+/// at or below `energy` passes the convergence test at `tau`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TargetSpec {
+    pub tau: f64,
+    pub energy: f64,
 }
 
 /// The handles of a `deform` problem: the energy adds `lambda * sum |x_v - target|^2` over
@@ -85,6 +97,7 @@ impl ProblemSpec {
             threads,
             snapshot_every,
             handles: None,
+            targets: Vec::new(),
         }
     }
 }
@@ -252,6 +265,8 @@ pub struct ResultFile {
 #[serde(rename_all = "snake_case")]
 pub enum ExternalStop {
     Converged,
+    /// At or below the tightest of `problem.json`'s `targets`.
+    Target,
     MaxIters,
     LineSearchFailed,
     Timeout,

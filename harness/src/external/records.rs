@@ -4,7 +4,7 @@
 use super::protocol::{self, quoted, Record, Snapshot};
 use crate::column_names::{intern, is_column_name};
 use crate::run_folder::ITERATION_COLUMNS;
-use solvers::solver::{IterationRecord, Outcome, StopReason};
+use solvers::solver::{Events, IterationRecord, Outcome, RowState, StopReason, StopSettings};
 use std::path::Path;
 
 /// The extra column that says which rows the harness recomputed (1) and which it took from the
@@ -109,6 +109,7 @@ pub(super) fn rows_and_outcome(
     records: &[Record],
     snapshots: Vec<Snapshot>,
     stop: StopReason,
+    rules: &StopSettings,
     cost: &RecordCost,
 ) -> Result<Read, String> {
     let names = extra_names(records)?;
@@ -162,8 +163,21 @@ pub(super) fn rows_and_outcome(
         flips: last.flips,
         analysis: None,
         start: None,
+        events: events(records, &rows, rules),
     };
     Ok(Read { outcome, rows, verified: snapshots.len() })
+}
+
+/// Where the problem's rules first held in an external run, as ours mark them: the gradient's
+/// on the norms we computed (verified rows only), the decrease's on the energies it recorded.
+fn events(records: &[Record], rows: &[IterationRecord], rules: &StopSettings) -> Events {
+    let mut events = Events::default();
+    for (k, row) in rows.iter().enumerate() {
+        let decrease = if k == 0 { f64::INFINITY } else { records[k - 1].energy - records[k].energy };
+        let at = RowState { grad_norm: row.grad_norm, last_decrease: decrease, iter: k, at_target: false, stalled: false };
+        rules.mark(&at, &mut events);
+    }
+    events
 }
 
 /// Our columns of an external run's rows, before its own.
@@ -227,6 +241,8 @@ mod tests {
     const COST: RecordCost = RecordCost { line_s: 0.0125 / RECORD_FACTOR, map_s: 0.2375 / RECORD_FACTOR };
     /// Writing that costs nothing here: the floor alone.
     const FREE: RecordCost = RecordCost { line_s: 0.0, map_s: 0.0 };
+    /// The papers' gradient rule (our verified norms are 0.5) and a decrease rule.
+    const RULES: StopSettings = StopSettings::rules_only(0.6, 0.3, 100);
 
     #[test]
     fn rows_take_our_numbers_where_verified_and_the_solvers_extras_as_columns() {
@@ -236,7 +252,7 @@ mod tests {
             record(2, 2.25, 1.75, serde_json::json!({"accepted": true, "record_s": 0.125})),
         ];
         let snaps = vec![snapshot(0, 3.0 + 1e-12), snapshot(2, 2.25)];
-        let read = rows_and_outcome(&records, snaps.clone(), StopReason::SolverRule, &COST).unwrap();
+        let read = rows_and_outcome(&records, snaps.clone(), StopReason::SolverRule, &RULES, &COST).unwrap();
         let r = &read.rows;
         // the energy of a row without its map is not ours: left out of every judgement
         assert_eq!(r[0].energy, 3.0 + 1e-12);
@@ -253,13 +269,13 @@ mod tests {
         let kept: Vec<f64> = r.iter().map(|r| r.t_record_s).collect();
         assert!(near(&kept, [0.0, 0.75 * 0.3, 0.125 * 0.3]), "{kept:?}");
         // writing that costs nothing here still leaves 5 ms a row
-        let free = rows_and_outcome(&records, snaps, StopReason::SolverRule, &FREE).unwrap();
+        let free = rows_and_outcome(&records, snaps, StopReason::SolverRule, &RULES, &FREE).unwrap();
         let kept: Vec<f64> = free.rows.iter().map(|r| r.t_record_s).collect();
         assert!(near(&kept, [0.0, 0.75 * 0.01 / 0.875, 0.125 * 0.01 / 0.875]), "{kept:?}");
         // within the bound, as reported
         let cheap =
             [record(0, 3.0, 0.5, serde_json::json!({})), record(1, 2.5, 1.5, serde_json::json!({"record_s": 0.2}))];
-        let within = rows_and_outcome(&cheap, vec![snapshot(0, 3.0), snapshot(1, 2.5)], StopReason::SolverRule, &COST);
+        let within = rows_and_outcome(&cheap, vec![snapshot(0, 3.0), snapshot(1, 2.5)], StopReason::SolverRule, &RULES, &COST);
         assert_eq!(within.unwrap().rows[1].t_record_s, 0.2);
         let names: Vec<&str> = r[1].extra.iter().map(|e| e.0).collect();
         assert_eq!(names, [VERIFIED_COLUMN, REPORTED_ENERGY_COLUMN, "decrease", "accepted"]);
@@ -269,6 +285,9 @@ mod tests {
         let o = &read.outcome;
         assert_eq!((o.iterations, o.init_energy, o.final_energy, o.flips, read.verified), (2, 3.0 + 1e-12, 2.25, 1, 2));
         assert_eq!((o.x.clone(), o.stop_reason.clone()), (vec![2.0; 4], StopReason::SolverRule));
+        // the gradient rule on our norms (row 1 has none: unverified), the decrease on the
+        // energies it recorded (0.5, then 0.25 < 0.3)
+        assert_eq!((o.events.grad_tol, o.events.energy_decrease), (Some(0), Some(2)));
 
         // a name of ours, a name that is no column, a value that is no number
         for (extras, says) in [
@@ -278,14 +297,14 @@ mod tests {
             (serde_json::json!({"note": "x"}), "extra `note` = \"x\" is not a number"),
         ] {
             let bad = [record(0, 3.0, 0.0, extras)];
-            let err = rows_and_outcome(&bad, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &COST).err().unwrap();
+            let err = rows_and_outcome(&bad, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &RULES, &COST).err().unwrap();
             assert!(err.contains(says), "{err}");
         }
         // more names than a record may have, over the records
         let wide: Vec<Record> = (0..=protocol::EXTRA_COLUMNS_MAX)
             .map(|k| record(k, 3.0, k as f64, serde_json::json!({ format!("c{k}"): 1 })))
             .collect();
-        let err = rows_and_outcome(&wide, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &COST).err().unwrap();
+        let err = rows_and_outcome(&wide, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &RULES, &COST).err().unwrap();
         assert_eq!(err, "more than 32 extra columns (at iteration 32: `c32`)");
     }
 

@@ -2,7 +2,9 @@
 //! (two run folders): what counts as a regression of one run, and when a time moved.
 //!
 //! - Iteration counts are deterministic: more iterations than before plus the tolerance is a
-//!   regression, fewer an improvement.
+//!   regression, fewer an improvement. Three counts: to the run's end, to its own rule's first
+//!   event (`rule_iters`: where the papers' protocol stops it) and to the tightest target
+//!   (`target_iters`: the verdict's; not compared when `E*` moved).
 //! - Status orders `skipped < failed < not_converged < budget < ok` ([`Status`]'s `Ord`): a worse status
 //!   is a regression, and so is any run that becomes `failed`.
 //! - The final energy may move by `energy_rtol` (relative); higher beyond it is a regression.
@@ -73,6 +75,12 @@ pub struct GatedRun {
     pub ideal_energy: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<f64>,
+    /// Iterations to the first of its own rules' events (`SummaryRow::rule_stop`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rule_iters: Option<usize>,
+    /// Iterations to the tightest target, when it reached it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_iters: Option<usize>,
 }
 
 impl GatedRun {
@@ -104,6 +112,8 @@ impl From<&SummaryRow> for GatedRun {
             start_energy: row.start_energy,
             ideal_energy: row.ideal_energy,
             target: row.to_targets.last().map(|t| t.tau),
+            rule_iters: row.rule_stop().map(|e| e.iters),
+            target_iters: row.to_targets.last().and_then(|t| t.iters),
         }
     }
 }
@@ -198,21 +208,15 @@ pub fn changes(before: &GatedRun, after: &GatedRun, energy_rtol: f64) -> Vec<Cha
         let metric = if judged_only && !gated { "status (E* moved)" } else { "status" };
         push(metric, b.status.to_string(), a.status.to_string(), String::new(), regression && (gated || !judged_only));
     }
-    match (b.iterations, a.iterations) {
-        (Some(bi), Some(ai)) if ai != bi => {
-            let tol = b.iterations_tolerance.unwrap_or(0);
-            // Counts and tolerances come from the files: no overflow on huge ones.
-            let delta = format!("{:+}", ai as i128 - bi as i128);
-            if ai > bi.saturating_add(tol) {
-                push("iterations", bi.to_string(), ai.to_string(), delta, true);
-            } else if ai < bi {
-                push("iterations", bi.to_string(), ai.to_string(), delta, false);
-            }
+    let tol = b.iterations_tolerance.unwrap_or(0);
+    let mut counts = vec![("iterations", b.iterations, a.iterations), ("rule_iters", b.rule_iters, a.rule_iters)];
+    if rejudged.is_none() && gated {
+        counts.push(("target_iters", b.target_iters, a.target_iters));
+    }
+    for (metric, bi, ai) in counts {
+        if let Some((before, after, delta, regression)) = count_change(bi, ai, tol) {
+            push(metric, before, after, delta, regression);
         }
-        (bi, ai) if bi.is_some() != ai.is_some() => {
-            push("iterations", fmt_opt(bi), fmt_opt(ai), String::new(), ai.is_none());
-        }
-        _ => {}
     }
     if let (Some(be), Some(ae)) = (b.final_energy, a.final_energy) {
         if let Some((delta, regression)) = energy_change(be, ae, energy_rtol) {
@@ -231,6 +235,28 @@ pub fn changes(before: &GatedRun, after: &GatedRun, energy_rtol: f64) -> Vec<Cha
         push("flips", "0".into(), fmt_opt(a.flips), String::new(), true);
     }
     out
+}
+
+/// Whether an iteration count moved from `before` to `after`: more than `tol` up is a
+/// regression, down an improvement; a count that disappears is a regression, one that
+/// appears an improvement (a run that reaches its target, or whose rule now holds).
+fn count_change(before: Option<usize>, after: Option<usize>, tol: usize) -> Option<(String, String, String, bool)> {
+    let text = |v: Option<usize>| v.map_or("-".to_string(), |x| x.to_string());
+    match (before, after) {
+        (Some(bi), Some(ai)) if ai != bi => {
+            // Counts and tolerances come from the files: no overflow on huge ones.
+            let delta = format!("{:+}", ai as i128 - bi as i128);
+            if ai > bi.saturating_add(tol) {
+                Some((bi.to_string(), ai.to_string(), delta, true))
+            } else if ai < bi {
+                Some((bi.to_string(), ai.to_string(), delta, false))
+            } else {
+                None
+            }
+        }
+        (bi, ai) if bi.is_some() != ai.is_some() => Some((text(bi), text(ai), String::new(), ai.is_none())),
+        _ => None,
+    }
 }
 
 /// Whether a final energy moved from `before` to `after`: `None` when not, else the delta's
@@ -351,6 +377,8 @@ pub(crate) mod tests {
             start_energy: None,
             ideal_energy: None,
             target: None,
+            rule_iters: None,
+            target_iters: None,
         }
     }
 
@@ -370,6 +398,29 @@ pub(crate) mod tests {
         // Improvements are changes, not regressions.
         let c = changes(&rec(10, 2.0), &rec(8, 1.9), 1e-6);
         assert_eq!(metrics(&c), [("iterations", false), ("final_energy", false)]);
+    }
+
+    /// The iterations to the run's own rule's event and to the target are gated like those to
+    /// its end: a run whose rule now holds later, or that needs more to reach the target, is a
+    /// regression even when it ends where it did; one that no longer reaches it too.
+    #[test]
+    fn the_rule_s_event_and_the_target_are_gated_as_iterations() {
+        let at = |rule: Option<usize>, target: Option<usize>| GatedRun {
+            rule_iters: rule,
+            target_iters: target,
+            ..rec(40, 2.0)
+        };
+        assert!(changes(&at(Some(8), Some(30)), &at(Some(8), Some(30)), 1e-6).is_empty());
+        let c = changes(&at(Some(8), Some(30)), &at(Some(12), Some(25)), 1e-6);
+        assert_eq!(metrics(&c), [("rule_iters", true), ("target_iters", false)]);
+        assert_eq!((c[0].before.as_str(), c[0].after.as_str(), c[0].delta.as_str()), ("8", "12", "+4"));
+        let c = changes(&at(Some(8), Some(30)), &at(Some(8), None), 1e-6);
+        assert_eq!(metrics(&c), [("target_iters", true)]);
+        let c = changes(&at(None, None), &at(Some(8), Some(30)), 1e-6);
+        assert_eq!(metrics(&c), [("rule_iters", false), ("target_iters", false)]);
+        // within the tolerance
+        let tolerant = GatedRun { iterations_tolerance: Some(5), ..at(Some(8), Some(30)) };
+        assert!(changes(&tolerant, &at(Some(12), Some(34)), 1e-6).is_empty());
     }
 
     #[test]

@@ -16,7 +16,7 @@ use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
 use std::path::{Path, PathBuf};
 
 /// The schema this build writes. docs/src/reference/history-schema.md documents it.
-pub const SCHEMA_VERSION: i64 = 8;
+pub const SCHEMA_VERSION: i64 = 9;
 
 /// `MIGRATIONS[k]` takes a database from version `k` to `k + 1` (version 0: empty).
 pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
@@ -102,6 +102,14 @@ pub const MIGRATIONS: [&str; SCHEMA_VERSION as usize] = [
         why TEXT NOT NULL,
         PRIMARY KEY (batch_id, claim, rule)
     );",
+    // v9: where each tolerance rule first held in a run (`summary.csv`'s `rule_*` columns):
+    // runs go on to their target, and the papers' rule reads them at these events.
+    "ALTER TABLE runs ADD COLUMN rule_grad_tol_iters INTEGER;
+    ALTER TABLE runs ADD COLUMN rule_grad_tol_time_s REAL;
+    ALTER TABLE runs ADD COLUMN rule_grad_tol_energy REAL;
+    ALTER TABLE runs ADD COLUMN rule_energy_decrease_iters INTEGER;
+    ALTER TABLE runs ADD COLUMN rule_energy_decrease_time_s REAL;
+    ALTER TABLE runs ADD COLUMN rule_energy_decrease_energy REAL;",
 ];
 
 /// Where a batch came from (`batches.source`).
@@ -346,7 +354,9 @@ impl HistoryDb {
                  final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, \
                  shifted_iters, clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, \
                  cg_capped_iters, target_tau, iters_to_target, time_s_to_target, peak_growth_mb, start_energy, \
-                 ideal_energy, ref_certified, polished_energy, repeats_differ FROM runs WHERE batch_id = ?1 \
+                 ideal_energy, ref_certified, polished_energy, repeats_differ, rule_grad_tol_iters, \
+                 rule_grad_tol_time_s, rule_grad_tol_energy, rule_energy_decrease_iters, \
+                 rule_energy_decrease_time_s, rule_energy_decrease_energy FROM runs WHERE batch_id = ?1 \
                  ORDER BY rowid",
             )
             .map_err(&sql)?;
@@ -390,6 +400,12 @@ impl HistoryDb {
                     ref_certified: r.get(32)?,
                     polished_energy: r.get(33)?,
                     repeats_differ: r.get(34)?,
+                    rule_grad_tol_iters: r.get(35)?,
+                    rule_grad_tol_time_s: r.get(36)?,
+                    rule_grad_tol_energy: r.get(37)?,
+                    rule_energy_decrease_iters: r.get(38)?,
+                    rule_energy_decrease_time_s: r.get(39)?,
+                    rule_energy_decrease_energy: r.get(40)?,
                 })
             })
             .map_err(&sql)?
@@ -504,8 +520,10 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
          final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
          clamped_iters, peak_rss_mb, start, ref_energy, ref_source, final_gap, verdict, cg_capped_iters, target_tau, \
          iters_to_target, time_s_to_target, peak_growth_mb, start_energy, ideal_energy, ref_certified, \
-         polished_energy, repeats_differ) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, \
-         ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, ?26, ?27, ?28, ?29, ?30, ?31, ?32, ?33, ?34, ?35)",
+         polished_energy, repeats_differ, rule_grad_tol_iters, rule_grad_tol_time_s, rule_grad_tol_energy, \
+         rule_energy_decrease_iters, rule_energy_decrease_time_s, rule_energy_decrease_energy) VALUES (?1, ?2, ?3, \
+         ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20, ?21, ?22, ?23, ?24, ?25, \
+         ?26, ?27, ?28, ?29, ?30, ?31, ?32, ?33, ?34, ?35, ?36, ?37, ?38, ?39, ?40, ?41)",
     )?;
     for r in runs {
         stmt.execute(params![
@@ -544,6 +562,12 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             r.ref_certified,
             r.polished_energy,
             r.repeats_differ,
+            r.rule_grad_tol_iters,
+            r.rule_grad_tol_time_s,
+            r.rule_grad_tol_energy,
+            r.rule_energy_decrease_iters,
+            r.rule_energy_decrease_time_s,
+            r.rule_energy_decrease_energy,
         ])
         .map_err(|source| InsertError::Run {
             run: crate::run_folder::run_stem(&r.dataset, &r.energy, &r.solver),

@@ -48,6 +48,13 @@ pub struct RunRow {
     pub ref_certified: Option<bool>,
     pub polished_energy: Option<f64>,
     pub repeats_differ: Option<String>,
+    /// Where each tolerance rule first held (`summary.csv`'s `rule_*` columns).
+    pub rule_grad_tol_iters: Option<i64>,
+    pub rule_grad_tol_time_s: Option<f64>,
+    pub rule_grad_tol_energy: Option<f64>,
+    pub rule_energy_decrease_iters: Option<i64>,
+    pub rule_energy_decrease_time_s: Option<f64>,
+    pub rule_energy_decrease_energy: Option<f64>,
 }
 
 impl RunRow {
@@ -90,6 +97,12 @@ impl RunRow {
             ref_certified: s.ref_certified,
             polished_energy: s.polished_energy,
             repeats_differ: s.repeats_differ.clone(),
+            rule_grad_tol_iters: int(s.rule_grad_tol_iters),
+            rule_grad_tol_time_s: s.rule_grad_tol_time_s,
+            rule_grad_tol_energy: s.rule_grad_tol_energy,
+            rule_energy_decrease_iters: int(s.rule_energy_decrease_iters),
+            rule_energy_decrease_time_s: s.rule_energy_decrease_time_s,
+            rule_energy_decrease_energy: s.rule_energy_decrease_energy,
         }
     }
 
@@ -133,9 +146,16 @@ impl RunRow {
             ref_certified: self.ref_certified,
             polished_energy: self.polished_energy,
             repeats_differ: self.repeats_differ.clone(),
+            rule_grad_tol_iters: count(self.rule_grad_tol_iters),
+            rule_grad_tol_time_s: self.rule_grad_tol_time_s,
+            rule_grad_tol_energy: self.rule_grad_tol_energy,
+            rule_energy_decrease_iters: count(self.rule_energy_decrease_iters),
+            rule_energy_decrease_time_s: self.rule_energy_decrease_time_s,
+            rule_energy_decrease_energy: self.rule_energy_decrease_energy,
             status: self.status,
             ..Default::default()
         }
+        .with_rules_of_its_stop()
     }
 }
 
@@ -171,7 +191,17 @@ mod tests {
             ..Default::default()
         };
         let back = RunRow::from_summary(&s).to_summary();
-        // ref_source and start stay text in the history (no number of the report reads them).
-        assert_eq!(back, SummaryRow { ref_source: None, ..s });
+        // ref_source and start stay text in the history (no number of the report reads them);
+        // a row without the rules' events (from before schema 9) has its stop's.
+        let rules = SummaryRow {
+            rule_grad_tol_iters: Some(41),
+            rule_grad_tol_time_s: Some(0.98),
+            rule_grad_tol_energy: Some(2.08),
+            ..s.clone()
+        };
+        assert_eq!(back, SummaryRow { ref_source: None, ..rules.clone() });
+        // one with them keeps them
+        let event = SummaryRow { rule_grad_tol_iters: Some(12), stop_reason: rules.stop_reason.clone(), ..rules };
+        assert_eq!(RunRow::from_summary(&event).to_summary().rule_grad_tol_iters, Some(12));
     }
 }

@@ -1,6 +1,6 @@
-//! After a run: what its final map says beyond its rows. A run that stopped with a small
-//! gradient far above `E*` may be at another local minimum, or merely slow in a flat valley;
-//! a tight KP-Newton polish from its final map tells them apart (`polished_energy`: the
+//! After a run: what its final map says beyond its rows. A run that ended stationary, or with
+//! a small gradient, far above `E*` may be at another local minimum, or merely slow in a flat
+//! valley; a tight KP-Newton polish from its final map tells them apart (`polished_energy`: the
 //! verdict claims `other_minimum` only when the polish stays far too). A run, or its polish,
 //! that ends below `E*` is a candidate to lower the reference (`improve`).
 
@@ -80,12 +80,13 @@ pub fn after_run(
     let far = convergence::gap_on(last, stick.e_star, span) > loosest;
     let grad_tol = run.settings.stop().grad_tol;
     let small = grad_tol > 0.0 && summary.grad_norm.is_some_and(|g| g <= grad_tol);
-    if !(far && small) {
+    let stationary = summary.stop_reason.as_ref().and_then(|s| s.solver()).is_some_and(|s| s.is_stationary());
+    if !(far && (small || stationary)) {
         return (None, None);
     }
     let Ok(problem) = Problem::with_mesh(plan, run, mesh.clone()) else { return (None, None) };
     let mut until = Until { limit: stick.e_star + loosest * span, interrupt };
-    let stop = StopSettings { grad_tol: 1e-12, energy_decrease_tol: 0.0, max_iters: WINDOW };
+    let stop = StopSettings::rules_only(1e-12, 0.0, WINDOW);
     let polisher = super::reference::computation::polisher(&problem);
     let Ok(out) = problem.solve_from(polisher, x, stop, &mut until) else { return (None, None) };
     let m = problem.measure(&out.x);

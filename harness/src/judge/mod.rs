@@ -8,18 +8,19 @@
 //! (docs/src/reference/statuses.md).
 
 pub mod confirm;
+pub mod end;
 pub mod improve;
 pub mod problem;
 pub mod reference;
 pub mod verdict;
 
-use crate::convergence;
+use crate::convergence::{self, Targets};
 use crate::run_folder::summary::{RefSource, ToTarget};
 use crate::run_folder::{read_run, Status, SummaryRow};
 use anyhow::Result;
 use reference::GroupReference;
 use std::path::Path;
-use verdict::{Facts, Verdict};
+use verdict::{End, Facts, Verdict};
 
 /// What a group's runs are measured against.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +46,17 @@ impl Yardstick {
         }
     }
 
+    /// Whether energy `e` of a run whose own start's energy is `run_e0` passes the test at `tau`.
+    pub fn passes(&self, e: f64, run_e0: f64, tau: f64) -> bool {
+        convergence::passes(e, self.e_star, self.span(run_e0), tau)
+    }
+
+    /// Whether the problem is solved at its start: the common start within round-off of `E*`
+    /// (exp-SD from the SD minimum of a developable mesh), so every run is solved at row 0.
+    pub fn trivial(&self) -> bool {
+        self.e0.is_some_and(|e0| convergence::trivial(e0, self.e_star))
+    }
+
     /// The yardstick of a group with reference `g`, or `None` without an `E*`.
     pub fn of(g: &GroupReference) -> Option<Yardstick> {
         Some(Yardstick {
@@ -58,29 +70,28 @@ impl Yardstick {
 }
 
 /// Judge the runs of `rows` (a whole batch) whose files are in `dir`, each group (dataset,
-/// energy) against its reference in `references` at `targets` (loosest first); a group
-/// without one (none could be computed) against the batch's best final energy without flips,
-/// marked `ref_source = batch` and uncertified. `grad_tol` gives each energy's gradient
+/// energy) against its reference in `references` at its energy's `targets` (loosest first);
+/// a group without one (none could be computed) against the batch's best final energy without
+/// flips, marked `ref_source = batch` and uncertified. `grad_tol` gives each energy's gradient
 /// tolerance (the "small gradient" of [`Verdict::OtherMinimum`]). Sets `ref_energy`,
 /// `ref_source`, `ref_certified`, `start_energy`, `ideal_energy`, `gap_scale`, `final_gap`,
-/// `verdict`, the targets' iterations and times, and `status` (ok = solved).
+/// `verdict`, the targets' iterations and times, the rules' times, and `status` (ok = solved).
 pub fn judge_batch(
     dir: &Path,
     rows: &mut [SummaryRow],
     references: &[GroupReference],
-    targets: &[f64],
+    targets: &Targets,
     grad_tol: impl Fn(&str) -> Option<f64>,
 ) -> Result<()> {
-    if targets.is_empty() {
-        return Ok(());
-    }
     // Each run's energies and cumulative iteration times, for the runs that ran.
     let mut series: Vec<Option<(Vec<f64>, Vec<f64>)>> = Vec::with_capacity(rows.len());
-    for r in rows.iter() {
+    for r in rows.iter_mut() {
         let ran = r.status.ran();
         series.push(if ran {
             let file = read_run(dir, r)?;
-            Some((file.rows.iter().map(|x| x.energy).collect(), file.rows.iter().map(|x| x.t_cum_s).collect()))
+            let t_cum: Vec<f64> = file.rows.iter().map(|x| x.t_cum_s).collect();
+            rule_times(r, &t_cum);
+            Some((file.rows.iter().map(|x| x.energy).collect(), t_cum))
         } else {
             None
         });
@@ -92,6 +103,10 @@ pub fn judge_batch(
         }
     }
     for (dataset, energy) in groups {
+        let targets = targets.of(&energy);
+        if targets.is_empty() {
+            continue;
+        }
         let members: Vec<usize> =
             (0..rows.len()).filter(|&i| rows[i].dataset == dataset && rows[i].energy == energy).collect();
         let group = references.iter().find(|g| g.dataset == dataset && g.energy == energy);
@@ -161,10 +176,11 @@ fn judge_run(
         })
         .collect();
     let small_gradient = grad_tol.zip(r.grad_norm).is_some_and(|(tol, g)| tol > 0.0 && g <= tol);
+    let end = r.stop_reason.as_ref().and_then(|s| s.solver()).map_or(End::Budget, End::of);
     let v = verdict::judge(Facts {
         within: convergence::passes(last, e_star, span, tightest),
         flips,
-        own_converged: r.converged,
+        end,
         final_gap,
         small_gradient,
         polished_gap: r.polished_energy.map(|e| convergence::gap_on(e, e_star, span)),
@@ -178,27 +194,38 @@ fn judge_run(
     };
 }
 
+/// The time each rule's event came at: `time_s` less the iterations after it.
+fn rule_times(r: &mut SummaryRow, t_cum: &[f64]) {
+    let at = |k: Option<usize>| k.zip(r.time_s).and_then(|(k, t)| convergence::time_to(t, t_cum, k));
+    r.rule_grad_tol_time_s = at(r.rule_grad_tol_iters);
+    r.rule_energy_decrease_time_s = at(r.rule_energy_decrease_iters);
+}
+
 #[cfg(test)]
 mod tests {
     use super::reference::Origin;
     use super::*;
-    use crate::run_folder::{iteration_csv, iterations_csv, run_stem};
-    use solvers::solver::IterationRecord;
+    use crate::run_folder::{iteration_csv, iterations_csv, run_stem, RunStop};
+    use solvers::solver::{IterationRecord, StopReason};
 
     /// A finished run of solver `s` through `energies`, its own rule saying `converged`, its
     /// per-iteration file written into `dir`.
     fn ran(dir: &Path, s: &str, energies: &[f64], converged: bool, grad_norm: f64) -> SummaryRow {
+        ran_on(dir, "sd", s, energies, converged, grad_norm)
+    }
+
+    fn ran_on(dir: &Path, energy: &str, s: &str, energies: &[f64], converged: bool, grad_norm: f64) -> SummaryRow {
         let rows: Vec<IterationRecord> = energies
             .iter()
             .enumerate()
             .map(|(i, &e)| IterationRecord { iter: i, energy: e, t_cum_s: i as f64, ..Default::default() })
             .collect();
-        let path = iterations_csv(dir, &run_stem("d", "sd", s));
+        let path = iterations_csv(dir, &run_stem("d", energy, s));
         std::fs::write(path, iteration_csv(&rows, 0.0, None, None).unwrap()).unwrap();
         SummaryRow {
             dataset: "d".into(),
             task: crate::plan::Task::Param,
-            energy: "sd".into(),
+            energy: energy.into(),
             solver: s.into(),
             iterations: Some(energies.len() - 1),
             converged,
@@ -206,6 +233,10 @@ mod tests {
             grad_norm: Some(grad_norm),
             time_s: Some(0.5 + (energies.len() - 1) as f64),
             flips: Some(0),
+            stop_reason: Some(RunStop::Solver(match converged {
+                true => StopReason::GradientTolerance,
+                false => StopReason::MaxIterations,
+            })),
             status: if converged { Status::Ok } else { Status::NotConverged },
             ..Default::default()
         }
@@ -234,6 +265,10 @@ mod tests {
         }]
     }
 
+    fn targets() -> Targets {
+        Targets::uniform(vec![1e-3, 1e-6])
+    }
+
     fn verdicts(rows: &[SummaryRow]) -> Vec<(Status, Verdict)> {
         rows.iter().map(|r| (r.status, r.verdict.unwrap())).collect()
     }
@@ -254,7 +289,7 @@ mod tests {
             ran(dir, "c", &[10.0, 4.0, 2.0000001], false, 1e-2),
             ran(dir, "e", &[10.0, 9.0], false, 1.0),
         ];
-        judge_batch(dir, &mut rows, &group(2.0, 10.0, -98.0), &[1e-3, 1e-6], tol).unwrap();
+        judge_batch(dir, &mut rows, &group(2.0, 10.0, -98.0), &targets(), tol).unwrap();
         assert_eq!(
             verdicts(&rows),
             [
@@ -290,7 +325,7 @@ mod tests {
             let mut kp = ran(dir, "kp", &[1.26e7, 5.0, 4.2020], true, 9e-4);
             kp.polished_energy = polished;
             let mut rows = vec![kp, ran(dir, "aqp", &[1.26e7, 5.0, 4.188 + 2e-6], true, 9e-4)];
-            judge_batch(dir, &mut rows, &group(4.188, 1.26e7, 2.0), &[1e-3, 1e-6], tol).unwrap();
+            judge_batch(dir, &mut rows, &group(4.188, 1.26e7, 2.0), &targets(), tol).unwrap();
             rows
         };
         let rows = judge(None);
@@ -318,9 +353,9 @@ mod tests {
         let low = ran(dir, "low", &[10.0, 4.0, 1.999], false, 1e-2);
         let own = ran(dir, "own", &[50.0, 4.0, 2.05], true, 1e-4);
         let mut alone = vec![a.clone()];
-        judge_batch(dir, &mut alone, &group(2.0, 10.0, 1.0), &[1e-3, 1e-6], tol).unwrap();
+        judge_batch(dir, &mut alone, &group(2.0, 10.0, 1.0), &targets(), tol).unwrap();
         let mut all = vec![a, low, own];
-        judge_batch(dir, &mut all, &group(2.0, 10.0, 1.0), &[1e-3, 1e-6], tol).unwrap();
+        judge_batch(dir, &mut all, &group(2.0, 10.0, 1.0), &targets(), tol).unwrap();
         assert_eq!(alone[0].verdict, all[0].verdict);
         assert_eq!(alone[0].final_gap, all[0].final_gap);
         assert!(all.iter().all(|r| r.ref_energy == Some(2.0) && r.gap_scale == Some(1.0)));
@@ -341,7 +376,7 @@ mod tests {
         let mut flipped = ran(dir, "f", &[10.0, 2.0], true, 1e-4);
         flipped.flips = Some(3);
         let mut rows = vec![ran(dir, "up", &[10.0, 2.0, 2.5], false, 1.0), flipped];
-        judge_batch(dir, &mut rows, &group(2.0, 10.0, 1.0), &[1e-3, 1e-6], tol).unwrap();
+        judge_batch(dir, &mut rows, &group(2.0, 10.0, 1.0), &targets(), tol).unwrap();
         assert_eq!(
             verdicts(&rows),
             [(Status::NotConverged, Verdict::Unfinished), (Status::NotConverged, Verdict::Flipped)]
@@ -359,10 +394,49 @@ mod tests {
         let mut rows = vec![ran(dir, "a", &[10.0, 3.0, 2.5], true, 1e-4), ran(dir, "b", &[10.0, 2.5, 2.0], true, 1e-4)];
         let mut none = group(f64::NAN, 10.0, 1.0);
         (none[0].e_star, none[0].origin, none[0].certified) = (None, Origin::Unavailable, false);
-        judge_batch(dir, &mut rows, &none, &[1e-3, 1e-6], tol).unwrap();
+        judge_batch(dir, &mut rows, &none, &targets(), tol).unwrap();
         assert!(rows.iter().all(|r| r.ref_energy == Some(2.0)
             && r.ref_source == Some(RefSource::Batch)
             && r.ref_certified == Some(false)));
         assert_eq!(verdicts(&rows)[1], (Status::Ok, Verdict::Solved));
+    }
+
+    /// Each energy is judged at its own targets (SARAP at 1e-3 alone); each end above the
+    /// target reads as its verdict; each rule's event is timed as a target is.
+    #[test]
+    fn each_energy_at_its_own_targets_each_end_its_verdict() {
+        let tmp = run_folder();
+        let dir = tmp.path();
+        let tol = |_: &str| Some(1e-3);
+        let mut sarap = group(2.0, 10.0, -98.0);
+        sarap[0].energy = "sarap".into();
+        let references: Vec<GroupReference> = group(2.0, 10.0, -98.0).into_iter().chain(sarap).collect();
+        let targets = Targets::new(vec![1e-3, 1e-6], [("sarap".to_string(), vec![1e-3])].into());
+        // 2.005: within 1e-3 (2.008), not 1e-6
+        let end = |r: SummaryRow, reason: StopReason| SummaryRow {
+            stop_reason: Some(RunStop::Solver(reason)),
+            converged: false,
+            ..r
+        };
+        let mut rows = vec![
+            ran_on(dir, "sarap", "a", &[10.0, 3.0, 2.005], false, 1.0),
+            end(ran(dir, "stall", &[10.0, 3.0, 2.005], false, 1.0), StopReason::NoDecrease),
+            end(ran(dir, "floor", &[10.0, 3.0, 2.005], false, 1.0), StopReason::GradientFloor),
+            end(ran(dir, "broke", &[10.0, 3.0, 2.005], false, 1.0), StopReason::LineSearchFailed),
+            end(ran(dir, "cap", &[10.0, 3.0, 2.005], false, 1.0), StopReason::MaxIterations),
+            end(ran(dir, "time", &[10.0, 3.0, 2.005], false, 1.0), StopReason::Timeout),
+            end(ran(dir, "rule", &[10.0, 3.0, 2.005], false, 1e-4), StopReason::SolverRule),
+            end(ran(dir, "lowered", &[10.0, 3.0, 2.005], false, 1.0), StopReason::Target),
+        ];
+        rows[0].rule_grad_tol_iters = Some(1);
+        judge_batch(dir, &mut rows, &references, &targets, tol).unwrap();
+        let v: Vec<Verdict> = rows.iter().map(|r| r.verdict.unwrap()).collect();
+        use Verdict::*;
+        let ends = [Solved, Stalled, Stalled, BrokeDown, Unfinished, Unfinished, StoppedAboveTarget, StoppedAboveTarget];
+        assert_eq!(v, ends);
+        assert_eq!(rows[0].to_targets.iter().map(|t| t.tau).collect::<Vec<_>>(), [1e-3]);
+        assert_eq!(rows[1].to_targets.iter().map(|t| t.tau).collect::<Vec<_>>(), [1e-3, 1e-6]);
+        // the event at row 1: 0.5 s of setup and one iteration of 1 s
+        assert_eq!((rows[0].rule_grad_tol_time_s, rows[1].rule_grad_tol_time_s), (Some(1.5), None));
     }
 }

@@ -1,9 +1,39 @@
 //! The harness's verdict on a finished run: solved when its final map is valid (no flipped
 //! triangle) and within the tightest target, whatever its own stop rule said; otherwise why
-//! not, in words a reader can act on.
+//! not, in words a reader can act on, from how the run ended ([`End`]).
 
 // The verdict column's type is the summary's own, beside `Status`: `run_folder` types every file.
 pub use crate::run_folder::summary::Verdict;
+use solvers::solver::StopReason;
+
+/// How a run ended, as the verdict reads its stop reason.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum End {
+    /// A stop rule ended it: a tolerance rule where rules end runs (a group without a
+    /// reference), an external solver's own rule.
+    Rule,
+    /// At the target of the reference the run started with.
+    Target,
+    /// The gradient floor, or no decrease beyond round-off over the stall window.
+    Stationary,
+    /// The method broke down (`StopReason::is_breakdown`).
+    Breakdown,
+    /// The iteration cap or the time limit (or an interrupt, which is no result).
+    Budget,
+}
+
+impl End {
+    /// The end of a run that stopped for `reason`.
+    pub fn of(reason: &StopReason) -> End {
+        match reason {
+            StopReason::Target => End::Target,
+            r if r.is_converged() => End::Rule,
+            r if r.is_stationary() => End::Stationary,
+            r if r.is_breakdown() => End::Breakdown,
+            _ => End::Budget,
+        }
+    }
+}
 
 /// What the verdict is made of.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -12,8 +42,8 @@ pub struct Facts {
     pub within: bool,
     /// Flipped triangles of the final map (a non-finite coordinate flips its faces).
     pub flips: usize,
-    /// Its own stop rule said converged (gradient or energy-decrease tolerance).
-    pub own_converged: bool,
+    /// How the run ended.
+    pub end: End,
     /// The final iterate's relative gap.
     pub final_gap: f64,
     /// The final gradient norm is within the run's `grad_tol`.
@@ -35,12 +65,15 @@ pub fn judge(f: Facts) -> Verdict {
     // A NaN gap is far too.
     let far = |g: f64| g.partial_cmp(&f.loosest).is_none_or(|o| o.is_gt());
     // Another minimum is claimed only when a polish from the final map stays far too.
-    if f.small_gradient && far(f.final_gap) && f.polished_gap.is_some_and(far) {
-        Verdict::OtherMinimum
-    } else if f.own_converged {
-        Verdict::StoppedAboveTarget
-    } else {
-        Verdict::Unfinished
+    let settled = f.small_gradient || f.end == End::Stationary;
+    if settled && far(f.final_gap) && f.polished_gap.is_some_and(far) {
+        return Verdict::OtherMinimum;
+    }
+    match f.end {
+        End::Rule | End::Target => Verdict::StoppedAboveTarget,
+        End::Stationary => Verdict::Stalled,
+        End::Breakdown => Verdict::BrokeDown,
+        End::Budget => Verdict::Unfinished,
     }
 }
 
@@ -52,7 +85,7 @@ mod tests {
         Facts {
             within: true,
             flips: 0,
-            own_converged: true,
+            end: End::Target,
             final_gap: 1e-9,
             small_gradient: true,
             polished_gap: None,
@@ -61,28 +94,55 @@ mod tests {
     }
 
     #[test]
+    fn each_end_reads_as_its_stop_reasons() {
+        let ends = StopReason::ALL.map(|r| (r.as_str(), End::of(&r)));
+        let of = |name: &str| ends.iter().find(|(n, _)| *n == name).map(|e| e.1);
+        for (name, end) in [
+            ("grad_tol", End::Rule),
+            ("energy_decrease", End::Rule),
+            ("solver_rule", End::Rule),
+            ("target", End::Target),
+            ("grad_floor", End::Stationary),
+            ("no_decrease", End::Stationary),
+            ("line_search_failed", End::Breakdown),
+            ("linear_solve_failed", End::Breakdown),
+            ("not_descent", End::Breakdown),
+            ("non_finite", End::Breakdown),
+            ("energy_increased", End::Breakdown),
+            ("max_iters", End::Budget),
+            ("timeout", End::Budget),
+        ] {
+            assert_eq!(of(name), Some(end), "{name}");
+        }
+    }
+
+    #[test]
     fn each_verdict_from_its_facts() {
         assert_eq!(judge(facts()), Verdict::Solved);
-        // whatever the solver's own rule said
-        assert_eq!(judge(Facts { own_converged: false, small_gradient: false, ..facts() }), Verdict::Solved);
+        // whatever the run's end
+        assert_eq!(judge(Facts { end: End::Budget, small_gradient: false, ..facts() }), Verdict::Solved);
         // a flipped final map is never solved, within the target or not
         assert_eq!(judge(Facts { flips: 3, ..facts() }), Verdict::Flipped);
         assert_eq!(judge(Facts { flips: 1, within: false, final_gap: f64::INFINITY, ..facts() }), Verdict::Flipped);
-        // |grad| <= 1e-3 but 1e-5 of the span above: stopped short
-        let short = Facts { within: false, final_gap: 1e-5, ..facts() };
-        assert_eq!(judge(short), Verdict::StoppedAboveTarget);
-        // a small gradient 20% of the span above: another minimum only once a polish stays there
-        let far = Facts { final_gap: 0.2, ..short };
-        assert_eq!(judge(far), Verdict::StoppedAboveTarget);
+        // each end above the target, 1e-5 of the span above
+        let short = Facts { within: false, final_gap: 1e-5, small_gradient: false, ..facts() };
+        assert_eq!(judge(Facts { end: End::Rule, ..short }), Verdict::StoppedAboveTarget);
+        assert_eq!(judge(Facts { end: End::Target, ..short }), Verdict::StoppedAboveTarget);
+        assert_eq!(judge(Facts { end: End::Stationary, ..short }), Verdict::Stalled);
+        assert_eq!(judge(Facts { end: End::Breakdown, ..short }), Verdict::BrokeDown);
+        assert_eq!(judge(Facts { end: End::Budget, ..short }), Verdict::Unfinished);
+        // 20% of the span above: another minimum only once a polish stays there, and only for
+        // a run that settled (stationary, or a small gradient)
+        let far = Facts { final_gap: 0.2, end: End::Stationary, ..short };
+        assert_eq!(judge(far), Verdict::Stalled);
         assert_eq!(judge(Facts { polished_gap: Some(0.19), ..far }), Verdict::OtherMinimum);
         assert_eq!(judge(Facts { polished_gap: Some(f64::INFINITY), ..far }), Verdict::OtherMinimum);
-        // the polish went on down to the reference: not another minimum
-        assert_eq!(judge(Facts { polished_gap: Some(1e-7), ..far }), Verdict::StoppedAboveTarget);
-        assert_eq!(judge(Facts { polished_gap: Some(1e-7), own_converged: false, ..far }), Verdict::Unfinished);
-        // the cap, a line search that gave up
-        let capped = Facts { own_converged: false, small_gradient: false, ..short };
+        let capped = Facts { end: End::Budget, polished_gap: Some(0.19), ..far };
         assert_eq!(judge(capped), Verdict::Unfinished);
-        // an energy-decrease stop with a large gradient above the target
-        assert_eq!(judge(Facts { small_gradient: false, ..short }), Verdict::StoppedAboveTarget);
+        assert_eq!(judge(Facts { small_gradient: true, ..capped }), Verdict::OtherMinimum);
+        // the polish went on down to the reference: not another minimum
+        assert_eq!(judge(Facts { polished_gap: Some(1e-7), ..far }), Verdict::Stalled);
+        // near the target, however flat: never another minimum
+        assert_eq!(judge(Facts { polished_gap: Some(1e-4), final_gap: 1e-4, ..far }), Verdict::Stalled);
     }
 }

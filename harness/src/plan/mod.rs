@@ -80,8 +80,9 @@ pub struct Plan {
     /// The solvers the report shows apart when they leave problems unsolved
     /// (`expected_to_fail`).
     pub expected_to_fail: Vec<String>,
-    /// The tolerances of the convergence test, loosest first (`targets`), for every task.
-    pub targets: Vec<f64>,
+    /// The tolerances of the convergence test, loosest first (`targets`, and an energy's own
+    /// `[energy.<name>] targets`), for every task.
+    pub targets: crate::convergence::Targets,
     /// Where reference minima are looked up and added (every task).
     pub references: Option<paths::Stores>,
     /// The chained starts resolved so far (`judge::reference::chained`).
@@ -142,8 +143,7 @@ impl Plan {
         let repeat = c.repeat.unwrap_or(1);
         config::check_repeat(repeat).with_context(invalid)?;
         let history = Some(paths::resolve_path(c.history.as_deref(), &cfg.dir));
-        let mut targets = c.targets.clone().unwrap_or(config::DEFAULT_TARGETS.to_vec());
-        targets.sort_by(|a, b| b.total_cmp(a));
+        let targets = c.targets().with_context(invalid)?;
         let references = Some(paths::Stores::of(&cfg));
         Ok(Plan {
             targets,

@@ -167,8 +167,14 @@ pub fn plan_hash(plan: &Plan) -> String {
     }
     h.word(plan.repeat as u64);
     h.word(plan.timeout.map_or(u64::MAX, |t| t.as_nanos() as u64));
-    for t in &plan.targets {
+    for t in &plan.targets.default {
         h.word(t.to_bits());
+    }
+    for (energy, targets) in &plan.targets.by_energy {
+        h.bytes(energy.as_bytes());
+        for t in targets {
+            h.word(t.to_bits());
+        }
     }
     format!("{:016x}", h.0)
 }

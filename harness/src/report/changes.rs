@@ -109,6 +109,8 @@ pub fn record(r: &RunRow) -> GatedRun {
         start_energy: r.start_energy,
         ideal_energy: r.ideal_energy,
         target: r.target_tau,
+        rule_iters: r.to_summary().rule_stop().map(|e| e.iters),
+        target_iters: r.iters_to_target.and_then(|i| usize::try_from(i).ok()),
     }
 }
 

@@ -69,6 +69,8 @@ pub fn verdict_text(v: Verdict) -> &'static str {
         Verdict::Flipped => "flipped",
         Verdict::StoppedAboveTarget => "stopped above target",
         Verdict::OtherMinimum => "other minimum",
-        Verdict::Unfinished => "unfinished",
+        Verdict::Stalled => "stalled",
+        Verdict::BrokeDown => "broke down",
+        Verdict::Unfinished => "out of budget",
     }
 }

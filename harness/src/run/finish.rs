@@ -241,15 +241,15 @@ pub(super) fn judge_and_write(
 }
 
 /// How the judged runs of a batch fared, by verdict, in one line (`None` without any).
-fn verdict_line(rows: &[SummaryRow], targets: &[f64]) -> Option<String> {
-    let tightest = targets.last()?;
+fn verdict_line(rows: &[SummaryRow], targets: &crate::convergence::Targets) -> Option<String> {
     let counts: Vec<String> = crate::judge::verdict::Verdict::ALL
         .iter()
         .map(|v| (v, rows.iter().filter(|r| r.verdict == Some(*v)).count()))
         .filter(|(_, n)| *n > 0)
         .map(|(v, n)| format!("{n} {v}"))
         .collect();
-    (!counts.is_empty()).then(|| format!("judged at {tightest:e} against the reference minima: {}", counts.join(", ")))
+    let at = targets.tightest_text();
+    (!counts.is_empty()).then(|| format!("judged at {at} against the reference minima: {}", counts.join(", ")))
 }
 
 /// The line a finished run prints.

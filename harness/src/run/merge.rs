@@ -241,7 +241,7 @@ fn stage(
     }
     *rows = runs.iter().map(|r| r.row.clone()).collect();
     let references = lowest_references(metas);
-    let targets: Vec<f64> = metas[0].targets.clone().unwrap_or_default();
+    let targets = metas[0].targets();
     let grad_tol = |energy: &str| metas[0].stop_per_energy.as_ref()?.get(energy)?.grad_tol;
     crate::judge::judge_batch(staging, rows, &references, &targets, grad_tol)?;
     write_summary(&summary_csv(staging), rows)?;

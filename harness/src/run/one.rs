@@ -3,6 +3,7 @@
 
 use super::progress::Progress;
 use crate::external::execute::{execute, Executed, ExternalError, Job, Setup};
+use crate::external::protocol::TargetSpec;
 use crate::external::probe::Probe;
 use crate::plan::external::Declared;
 use crate::plan::{Plan, PlannedRun, RunSettings};
@@ -11,7 +12,8 @@ use crate::stats::median;
 use anyhow::Result;
 use solvers::linear::AnalysisCache;
 use solvers::mesh::Mesh;
-use solvers::solver::{Flow, IterationRecord, Observer, Outcome, StopReason};
+use crate::judge::end::TargetEnd;
+use solvers::solver::{Flow, IterationRecord, Observer, Outcome, Rule, RuleUse, StopReason};
 use solvers::tasks::authalic::{solve_authalic, AreaMetrics};
 use solvers::tasks::deform::solve_deform;
 use solvers::tasks::param::solve_param_with;
@@ -21,9 +23,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Keeps every row of a run (a run has at most `max_iters + 1` rows), shows progress, and
-/// stops the solver after the row that passes the run's deadline (`timeout` in the config)
-/// or when the batch is interrupted.
+/// Keeps every row of a run (a run has at most `max_iters + 1` rows), shows progress, says
+/// when a row is at the run's target, and stops the solver after the row that passes the
+/// run's deadline (`timeout` in the config) or when the batch is interrupted.
 struct Rows<'a> {
     rows: Vec<IterationRecord>,
     deadline: Option<Instant>,
@@ -33,6 +35,8 @@ struct Rows<'a> {
     /// Stop as a timeout after this iteration: a repeat of a run that timed out replays the
     /// same iterations (a deadline would cut it elsewhere).
     stop_at: Option<usize>,
+    /// The run's target (`None`: its rules end it).
+    target: Option<TargetEnd>,
 }
 
 impl Observer for Rows<'_> {
@@ -45,7 +49,11 @@ impl Observer for Rows<'_> {
         if self.deadline.is_some_and(|d| Instant::now() >= d) || self.stop_at.is_some_and(|n| record.iter >= n) {
             return Flow::Timeout;
         }
-        Flow::Continue
+        let run_e0 = self.rows[0].energy;
+        match self.target {
+            Some(t) if t.reached(record.energy, record.flips, run_e0) => Flow::AtTarget,
+            _ => Flow::Continue,
+        }
     }
 }
 
@@ -114,6 +122,7 @@ pub(super) fn run_one(
         progress: ctx.progress,
         worker: ctx.worker,
         stop_at: ctx.stop_at,
+        target: ctx.target,
     };
     let t0 = Instant::now();
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| solve(plan, run, mesh, &ctx.analyses, &mut rows)));
@@ -236,6 +245,7 @@ fn run_external(
         stop_at: ctx.stop_at,
         threads: ctx.threads,
         interrupt: ctx.interrupt,
+        targets: target_specs(plan, run, ctx.target),
     };
     ctx.progress.iteration(ctx.worker, 0, f64::NAN);
     let executed = match execute(&job, mesh) {
@@ -249,6 +259,14 @@ fn run_external(
         }
     };
     external_result(summary, executed, run, mesh, ctx)
+}
+
+/// The verdict's targets of `run`'s energy as energies, for an external solver's problem
+/// folder (none without a target).
+fn target_specs(plan: &Plan, run: &PlannedRun, target: Option<TargetEnd>) -> Vec<TargetSpec> {
+    let Some(t) = target else { return Vec::new() };
+    let taus = plan.targets.of(&run.energy);
+    taus.iter().filter_map(|&tau| t.energy_at(tau).map(|energy| TargetSpec { tau, energy })).collect()
 }
 
 /// What an external solver's run that ended comes to: a result like ours, with the child's
@@ -293,7 +311,12 @@ fn record_outcome(
         summary.folded = Some(m.folded);
     }
     summary.iterations = Some(outcome.iterations);
-    summary.converged = outcome.stop_reason.is_converged();
+    // Converged: its own rule held (whether it ended the run or was an event on its way).
+    summary.converged = outcome.stop_reason.is_converged() || outcome.events.first().is_some();
+    for rule in Rule::ALL {
+        let k = outcome.events.of(rule);
+        summary.set_rule_event(rule, k, k.and_then(|k| rows.get(k)).map(|r| r.energy).filter(|e| !e.is_nan()));
+    }
     summary.stop_reason = Some(outcome.stop_reason.clone().into());
     summary.init_energy = Some(outcome.init_energy);
     summary.final_energy = Some(outcome.final_energy);
@@ -314,8 +337,9 @@ fn record_outcome(
     summary.shifted_iters = run.settings.base_shift().map(|base| shifted_iters(base, rows));
     summary.clamped_iters = marked_iters(rows, solvers::hessian::slim::CLAMPED_COLUMN[0]);
     summary.cg_capped_iters = marked_iters(rows, solvers::solver::truncated::CG_CAPPED_COLUMN);
+    // The judge's verdict sets `ok`; until then a run is ok by its own word.
     summary.status = match &outcome.stop_reason {
-        _ if summary.converged => Status::Ok,
+        _ if summary.converged || outcome.stop_reason == StopReason::Target => Status::Ok,
         StopReason::MaxIterations if run.settings.stop().is_fixed_budget() => Status::Budget,
         _ => Status::NotConverged,
     };
@@ -378,6 +402,8 @@ pub(super) struct RunContext<'a> {
     /// Encode the final map (the folder keeps maps, and this is the run's first repeat, whose
     /// files are written).
     pub keep_map: bool,
+    /// The run's target: it goes there, its tolerance rules are events (`None`: they end it).
+    pub target: Option<TargetEnd>,
 }
 
 /// One solve with the run's settings; `authalic` runs also return their area metrics.
@@ -388,9 +414,12 @@ fn solve(
     analyses: &Arc<AnalysisCache>,
     rows: &mut Rows<'_>,
 ) -> Result<(Outcome, Option<AreaMetrics>)> {
+    let rules = if rows.target.is_some() { RuleUse::Event } else { RuleUse::End };
     match &run.settings {
         RunSettings::Authalic(settings) => {
-            let out = solve_authalic(mesh, &run.solver, settings, rows)?;
+            let mut settings = *settings;
+            settings.stop.rules = rules;
+            let out = solve_authalic(mesh, &run.solver, &settings, rows)?;
             Ok((out.outcome, Some(out.metrics)))
         }
         RunSettings::Param { energy, settings } => {
@@ -398,6 +427,7 @@ fn solve(
                 plan.starts.of(plan, run).transpose().map_err(|e| anyhow::anyhow!("the sd-minimum start: {e}"))?;
             let mut settings = settings.clone();
             settings.solver.analyses = Some(analyses.clone());
+            settings.solver.stop.rules = rules;
             let out = solve_param_with(mesh, *energy, &run.solver, &settings, sd_min.as_ref().map(|x| &x[..]), rows)?;
             Ok((out, None))
         }
@@ -408,6 +438,7 @@ fn solve(
             let handles = plan.dataset(run).handles.load(mesh)?;
             let mut settings = settings.clone();
             settings.solver.analyses = Some(analyses.clone());
+            settings.solver.stop.rules = rules;
             // A generated shape may bring its own start (the released bar), as it brings its handles.
             let init = plan.dataset(run).initial_map();
             Ok((solve_deform(mesh, &handles, init.as_deref(), *energy, &run.solver, &settings, rows)?, None))

@@ -117,7 +117,8 @@ impl<'a> BatchRecord<'a> {
             shard: self.shard.map(|s| s.to_string()),
             started_unix: Some(secs(self.started)),
             stop_per_energy: Some(stop_per_energy),
-            targets: Some(plan.targets.clone()),
+            targets: Some(plan.targets.default.clone()),
+            targets_per_energy: (!plan.targets.by_energy.is_empty()).then(|| plan.targets.by_energy.clone()),
             threads_per_run: Some(self.threads),
         })
     }

@@ -10,6 +10,7 @@ use super::progress::Progress;
 use super::repeats::Repeats;
 use super::resume;
 use crate::external::probe::Probe;
+use crate::judge::end::TargetEnd;
 use crate::plan::{Plan, PlannedRun};
 use crate::run_folder::{sidecar, Status};
 use anyhow::Result;
@@ -133,6 +134,12 @@ impl Workers<'_> {
             Some(x) => format!("{code} {} {:?} threads={threads}", p.solver, x.version),
             None => code.to_string(),
         };
+        // Where the run ends is part of what it computes: its group's reference and target.
+        let target = TargetEnd::of(plan, p, self.references);
+        let code = match &target {
+            Some(t) => format!("{code} {}", t.key_text()),
+            None => code,
+        };
         let key = resume::run_key(plan, p, &code).ok();
         let earlier = |summary, rows| RunResult { summary, rows, ..Default::default() };
         let previous = match (&key, opts.resume && round == 0) {
@@ -146,7 +153,7 @@ impl Workers<'_> {
         };
         let (result, origin) = match previous {
             Some(earlier) => earlier,
-            None => (self.run_new(item, round, worker, meshes, monitor), RoundSource::Ran),
+            None => (self.run_new(item, round, worker, meshes, monitor, target), RoundSource::Ran),
         };
         meshes.done(p.dataset);
         let key = key.filter(|_| !result.unkeyed);
@@ -155,7 +162,15 @@ impl Workers<'_> {
 
     /// A new run of work item `item`, its memory measured, its final map looked at once
     /// against its group's reference (untimed).
-    fn run_new(&self, item: Todo, round: usize, worker: usize, meshes: &MeshCache, monitor: &Monitor) -> RunResult {
+    fn run_new(
+        &self,
+        item: Todo,
+        round: usize,
+        worker: usize,
+        meshes: &MeshCache,
+        monitor: &Monitor,
+        target: Option<TargetEnd>,
+    ) -> RunResult {
         let Workers { plan, out_dir, mine, opts, progress, threads, probes, references, .. } = *self;
         let p = mine[item.index];
         let ds = plan.dataset(p);
@@ -170,6 +185,7 @@ impl Workers<'_> {
             analyses: loaded.analyses.clone(),
             stop_at: item.stop_at,
             keep_map: item.keep_map,
+            target,
         };
         monitor.start(worker);
         let mut result = run_one(plan, p, loaded.mesh.as_ref(), &ctx);
@@ -186,7 +202,7 @@ impl Workers<'_> {
         if let (Some(x), Ok(mesh)) = (result.final_x.take(), loaded.mesh.as_ref()) {
             if round == 0 && result.summary.status.ran() {
                 let group = references.iter().find(|g| g.dataset == ds.name && g.energy == p.energy);
-                let loosest = plan.targets.first().copied().unwrap_or(0.0);
+                let loosest = plan.targets.loosest(&p.energy).unwrap_or(0.0);
                 let s = &result.summary;
                 let (polished, candidate) =
                     crate::judge::confirm::after_run(plan, p, mesh, s, x, group, loosest, &opts.interrupt);

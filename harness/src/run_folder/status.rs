@@ -101,20 +101,34 @@ pub enum Verdict {
     Solved,
     /// Its final map flips triangles (inverts or collapses a face): never solved.
     Flipped,
-    /// Its own stop rule called it converged above the tightest target.
+    /// A stop rule ended it above the tightest target: an external solver's own, a run of a
+    /// group without a reference (nothing to go to), or the target of a reference this batch
+    /// then lowered.
     StoppedAboveTarget,
-    /// Stopped with a small gradient far above the reference (past the loosest target), and
-    /// a tight polish from its final map stayed far: at another local minimum, not short of
-    /// this one.
+    /// Ended stationary (or with a small gradient) far above the reference (past the loosest
+    /// target), and a tight polish from its final map stayed far: at another local minimum,
+    /// not short of this one.
     OtherMinimum,
-    /// Stopped for another reason above the target (the iteration cap, the time limit, a
-    /// failed line search or linear solve; `stop_reason` says which).
+    /// Ended stationary above the target without another minimum to show for it: the
+    /// gradient floor, or no decrease beyond round-off over the stall window.
+    Stalled,
+    /// The method broke down above the target: a failed factorization, a line search that
+    /// found no decrease, a direction that does not descend, a non-finite value.
+    BrokeDown,
+    /// Its budget ended it above the target: the iteration cap or the time limit.
     Unfinished,
 }
 
 impl Verdict {
-    pub const ALL: [Verdict; 5] =
-        [Verdict::Solved, Verdict::Flipped, Verdict::StoppedAboveTarget, Verdict::OtherMinimum, Verdict::Unfinished];
+    pub const ALL: [Verdict; 7] = [
+        Verdict::Solved,
+        Verdict::Flipped,
+        Verdict::StoppedAboveTarget,
+        Verdict::OtherMinimum,
+        Verdict::Stalled,
+        Verdict::BrokeDown,
+        Verdict::Unfinished,
+    ];
 
     pub fn as_str(self) -> &'static str {
         match self {
@@ -122,6 +136,8 @@ impl Verdict {
             Verdict::Flipped => "flipped",
             Verdict::StoppedAboveTarget => "stopped_above_target",
             Verdict::OtherMinimum => "other_minimum",
+            Verdict::Stalled => "stalled",
+            Verdict::BrokeDown => "broke_down",
             Verdict::Unfinished => "unfinished",
         }
     }

@@ -7,7 +7,7 @@ use super::run_stop::{stop_text, RunStop};
 pub use super::status::{RefSource, Status, ToTarget, Verdict};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
-use solvers::solver::StartMap;
+use solvers::solver::{Rule, StartMap};
 use solvers::tasks::Task;
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -24,10 +24,12 @@ use std::path::{Path, PathBuf};
 /// harness verified, the peak memory growth; then the yardstick's common start energy, the
 /// energy's isometry value and whether `E*` is certified, the energy a polish from the final
 /// map reached, and why a repeat differed; then an external solver's CPU time and whether the
-/// sandbox confined it (appended: a file written before them reads them as empty). After them,
-/// for each target `tau`
-/// of the batch, `iters_to_<tau>` and `time_to_<tau>` ([`target_columns`]).
-pub const SUMMARY_COLUMNS: [&str; 49] = [
+/// sandbox confined it; then the iteration, time and energy at which each tolerance rule of
+/// `[stop]` first held, whether it ended the run or was an event on its way to the target
+/// (appended: a file written before them reads them as the run's own stop where a rule ended
+/// it, [`SummaryRow::with_rules_of_its_stop`]). After them, for each target `tau` of the batch, `iters_to_<tau>`
+/// and `time_to_<tau>` ([`target_columns`]).
+pub const SUMMARY_COLUMNS: [&str; 55] = [
     "dataset",
     "task",
     "energy",
@@ -77,6 +79,12 @@ pub const SUMMARY_COLUMNS: [&str; 49] = [
     "repeats_differ",
     "cpu_s",
     "confined",
+    "rule_grad_tol_iters",
+    "rule_grad_tol_time_s",
+    "rule_grad_tol_energy",
+    "rule_energy_decrease_iters",
+    "rule_energy_decrease_time_s",
+    "rule_energy_decrease_energy",
 ];
 
 /// `iters_to_<tau>` and `time_to_<tau>` for a target `tau` (`1e-3` for 0.001).
@@ -212,15 +220,97 @@ pub struct SummaryRow {
     /// problem folder; `false`: the kernel could not, and it was not). Empty for ours.
     #[serde(default)]
     pub confined: Option<bool>,
+    /// The row at which `|grad| <= grad_tol` first held (empty: never, or the rule is off): a
+    /// run that rule ends stops there, with the same rows.
+    #[serde(default)]
+    pub rule_grad_tol_iters: Option<usize>,
+    /// `time_s` less the iterations after that row.
+    #[serde(default)]
+    pub rule_grad_tol_time_s: Option<f64>,
+    /// The energy at that row.
+    #[serde(default)]
+    pub rule_grad_tol_energy: Option<f64>,
+    /// The row at which a step first lowered the energy by less than `energy_decrease_tol`.
+    #[serde(default)]
+    pub rule_energy_decrease_iters: Option<usize>,
+    #[serde(default)]
+    pub rule_energy_decrease_time_s: Option<f64>,
+    #[serde(default)]
+    pub rule_energy_decrease_energy: Option<f64>,
     /// Iterations and time to each target, the loosest first.
     #[serde(skip)]
     pub to_targets: Vec<ToTarget>,
+}
+
+/// Where a tolerance rule first held in a run: what a run that rule ended would report.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RuleEvent {
+    pub rule: Rule,
+    pub iters: usize,
+    /// Empty before the batch is judged (times are the repeats' median's).
+    pub time_s: Option<f64>,
+    /// Empty where the row's energy is unknown (an external solver's unverified row).
+    pub energy: Option<f64>,
 }
 
 impl SummaryRow {
     /// The `stop_reason` column's text.
     pub fn stop_column(&self) -> &'static str {
         stop_text(self.stop_reason.as_ref())
+    }
+
+    /// Where `rule` first held, `None` where it never did.
+    pub fn rule_event(&self, rule: Rule) -> Option<RuleEvent> {
+        let (iters, time_s, energy) = match rule {
+            Rule::GradientTolerance => (self.rule_grad_tol_iters, self.rule_grad_tol_time_s, self.rule_grad_tol_energy),
+            Rule::EnergyDecrease => {
+                (self.rule_energy_decrease_iters, self.rule_energy_decrease_time_s, self.rule_energy_decrease_energy)
+            }
+        };
+        iters.map(|iters| RuleEvent { rule, iters, time_s, energy })
+    }
+
+    /// Set where `rule` first held (the time is the judge's).
+    pub fn set_rule_event(&mut self, rule: Rule, iters: Option<usize>, energy: Option<f64>) {
+        match rule {
+            Rule::GradientTolerance => (self.rule_grad_tol_iters, self.rule_grad_tol_energy) = (iters, energy),
+            Rule::EnergyDecrease => (self.rule_energy_decrease_iters, self.rule_energy_decrease_energy) = (iters, energy),
+        }
+    }
+
+    /// Where the run's own rules would have ended it: the first rule to hold (the gradient's
+    /// on a tie), `None` where none did (the run then ended as a run its rules end would:
+    /// the same breakdown, stationary point or budget, or it went to its target first).
+    pub fn rule_stop(&self) -> Option<RuleEvent> {
+        Rule::ALL.into_iter().filter_map(|r| self.rule_event(r)).min_by_key(|e| e.iters)
+    }
+
+    /// The problem is solved at its start (the common start within round-off of `E*`): its
+    /// runs say nothing of a solver, and the report counts them apart.
+    pub fn trivial(&self) -> bool {
+        self.start_energy.zip(self.ref_energy).is_some_and(|(e0, e_star)| crate::convergence::trivial(e0, e_star))
+    }
+}
+
+impl SummaryRow {
+    /// A row without the rules' events (a folder or history written before them): a run its
+    /// own rule ended has that rule's event at its last row, the stop being the event. A row
+    /// with them, or of a run no rule ended, is unchanged.
+    pub fn with_rules_of_its_stop(mut self) -> SummaryRow {
+        if self.rule_stop().is_some() {
+            return self;
+        }
+        let Some(RunStop::Solver(reason)) = &self.stop_reason else { return self };
+        let rule = Rule::ALL.into_iter().find(|r| r.stop_reason() == *reason);
+        if let (Some(rule), Some(iters)) = (rule, self.iterations) {
+            self.set_rule_event(rule, Some(iters), self.final_energy);
+            let time = self.time_s;
+            match rule {
+                Rule::GradientTolerance => self.rule_grad_tol_time_s = time,
+                Rule::EnergyDecrease => self.rule_energy_decrease_time_s = time,
+            }
+        }
+        self
     }
 }
 
@@ -355,11 +445,17 @@ pub fn read_summary(run_dir: &Path) -> Result<Vec<SummaryRow>, FolderError> {
                 source,
             })?;
         }
-        let mut row = row;
+        let mut row = row.with_rules_of_its_stop();
         row.to_targets =
             read_targets(&header, &rec).map_err(|what| FolderError::Line { path: path.clone(), line, what })?;
         // Ratios and medians of times would be nonsense (`compare` showed a -35x "ratio").
-        let times = [("time_s", row.time_s), ("time_s_min", row.time_s_min), ("time_s_max", row.time_s_max)];
+        let times = [
+            ("time_s", row.time_s),
+            ("time_s_min", row.time_s_min),
+            ("time_s_max", row.time_s_max),
+            ("rule_grad_tol_time_s", row.rule_grad_tol_time_s),
+            ("rule_energy_decrease_time_s", row.rule_energy_decrease_time_s),
+        ];
         for (column, value) in times.into_iter().chain([("time_norm", row.time_norm)]) {
             if let Some(t) = value.filter(|t| !(t.is_finite() && *t >= 0.0)) {
                 let at = header.iter().position(|h| h == column).map_or(0, |i| i + 1);
@@ -481,12 +577,13 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(text.lines().next().unwrap().ends_with(
             ",cg_capped_iters,gap_scale,verified_snapshots,peak_growth_mb,start_energy,ideal_energy,ref_certified,\
-             polished_energy,repeats_differ,cpu_s,confined"
+             polished_energy,repeats_differ,cpu_s,confined,rule_grad_tol_iters,rule_grad_tol_time_s,\
+             rule_grad_tol_energy,rule_energy_decrease_iters,rule_energy_decrease_time_s,rule_energy_decrease_energy"
         ));
         assert_eq!(read_summary(dir.path()).unwrap(), rows);
-        // A file written before the last columns (the yardstick's 5, the sandbox's 2) reads them
-        // as empty.
-        for (cut_columns, left) in [(8, (Some(0.2103), Some(12))), (10, (None, None))] {
+        // A file written before the last columns (the rules' 6, the yardstick's 5, the sandbox's
+        // 2) reads them as empty.
+        for (cut_columns, left) in [(14, (Some(0.2103), Some(12))), (16, (None, None))] {
             let cut = |l: &str| l.rsplitn(cut_columns + 1, ',').nth(cut_columns).unwrap().to_string() + "\n";
             let older: String = text.lines().map(cut).collect();
             std::fs::write(&path, older).unwrap();
@@ -494,6 +591,44 @@ mod tests {
             assert_eq!((back[0].gap_scale, back[0].verified_snapshots), left);
             assert_eq!((back[0].peak_growth_mb, back[1].peak_growth_mb), (None, None));
         }
+    }
+
+    /// The rules' events: written and read back; a folder written before their columns reads a
+    /// run its own rule ended as that rule's event at its last row, and nothing for the others.
+    #[test]
+    fn the_rules_events_round_trip_and_an_older_folder_reads_its_stop_as_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let run = |solver: &str, stop: StopReason| SummaryRow {
+            dataset: "d".into(),
+            task: Task::Param,
+            energy: "sd".into(),
+            solver: solver.into(),
+            status: Status::Ok,
+            iterations: Some(40),
+            time_s: Some(2.0),
+            final_energy: Some(2.5),
+            stop_reason: Some(RunStop::Solver(stop)),
+            ..Default::default()
+        };
+        let mut went_on = run("kp-newton", StopReason::Target);
+        (went_on.rule_grad_tol_iters, went_on.rule_grad_tol_time_s, went_on.rule_grad_tol_energy) =
+            (Some(12), Some(0.5), Some(2.6));
+        let rows = vec![went_on.clone(), run("slim", StopReason::EnergyDecrease), run("aqp", StopReason::NoDecrease)];
+        let path = dir.path().join("summary.csv");
+        write_summary(&path, &rows).unwrap();
+        let back = read_summary(dir.path()).unwrap();
+        assert_eq!(back[0], went_on);
+        let stop = |r: &SummaryRow| r.rule_stop().map(|e| (e.rule, e.iters, e.time_s, e.energy));
+        assert_eq!(stop(&back[0]), Some((Rule::GradientTolerance, 12, Some(0.5), Some(2.6))));
+        assert_eq!(stop(&back[1]), Some((Rule::EnergyDecrease, 40, Some(2.0), Some(2.5))));
+        assert_eq!(stop(&back[2]), None);
+        // without the six columns: the stop of the run its rule ended is the event
+        let text = std::fs::read_to_string(&path).unwrap();
+        let cut = |l: &str| l.rsplitn(7, ',').nth(6).unwrap().to_string() + "\n";
+        std::fs::write(&path, text.lines().map(cut).collect::<String>()).unwrap();
+        let old = read_summary(dir.path()).unwrap();
+        assert_eq!(stop(&old[0]), None, "a target end has no rule's event to read");
+        assert_eq!(stop(&old[1]), Some((Rule::EnergyDecrease, 40, Some(2.0), Some(2.5))));
     }
 
     #[test]

@@ -17,7 +17,7 @@ const AFTER_THE_PAPERS: [&str; 7] =
 
 fn param(mesh: &Mesh, solver: &str, max_iters: usize) -> (Outcome, Vec<IterationRecord>) {
     let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
-    settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters };
+    settings.solver.stop = StopSettings::rules_only(1e-5, 0.0, max_iters);
     let mut rec = Recorder::default();
     let out =
         solve_param(mesh, EnergyKind::Sd(Sd), solver, &settings, &mut rec).unwrap_or_else(|e| panic!("{solver}: {e}"));
@@ -112,7 +112,7 @@ fn the_solvers_after_the_papers_bend_the_bar_to_kp_s_minimum() {
         };
         // The deform rule (decrease below 1e-6) stops NH, whose energy here is 4e-4, while
         // the minima still differ in the fourth digit: compare minima on the gradient.
-        let stop = Some(StopSettings { grad_tol: 1e-7, energy_decrease_tol: 0.0, max_iters: 2000 });
+        let stop = Some(StopSettings::rules_only(1e-7, 0.0, 2000));
         let (kp, _) = run("kp-newton", stop);
         for solver in ["pn-abs", "fp-abs-6x6", "pn-trust-region", "fp-trust-region-6x6"] {
             let (out, rows) = run(solver, stop);
@@ -140,7 +140,7 @@ fn lbfgs_with_the_laplacian_bends_the_bar_to_a_stationary_point_above_kp_s() {
     let mesh = generate(name).unwrap();
     let handles = generated_handles(name).unwrap();
     let mut settings = DeformSettings::default();
-    settings.solver.stop = StopSettings { grad_tol: 1e-7, energy_decrease_tol: 0.0, max_iters: 20_000 };
+    settings.solver.stop = StopSettings::rules_only(1e-7, 0.0, 20_000);
     let run = |solver: &str| {
         let mut rec = Recorder::default();
         let out = solve_deform(&mesh, &handles, None, EnergyKind::Sd(Sd), solver, &settings, &mut rec).unwrap();

@@ -293,7 +293,7 @@ mod tests {
     /// 1e-6): AQP reaches KP's final energy within 1e-6 relative without flips.
     fn reaches_kp_on(mesh: &Mesh, max_iters: usize) -> (usize, usize, usize) {
         let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
-        settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters };
+        settings.solver.stop = StopSettings::rules_only(1e-5, 0.0, max_iters);
         let kp = solve_param(mesh, EnergyKind::Sd(Sd), "kp-newton", &settings, &mut Recorder::default()).unwrap();
         let mut rec = Recorder::default();
         let out = solve_param(mesh, EnergyKind::Sd(Sd), "aqp", &settings, &mut rec).unwrap();

@@ -1,12 +1,14 @@
 //! The one loop every solver runs under. A method only says how it takes one step
-//! ([`Method::step`]); the executor owns what every run shares: row 0, the stop rules in
-//! their order (the observer's answer, then [`StopSettings::reached`]), the iteration's
-//! time with the setup charged to iteration 1 and the record-only work kept apart, the rows
-//! handed to the observer, and the outcome.
+//! ([`Method::step`]); the executor owns what every run shares: row 0, the ends in their
+//! order (the observer's answer, then [`StopSettings::end`]), the tolerance rules' events,
+//! the iteration's time with the setup charged to iteration 1 and the record-only work kept
+//! apart, the rows handed to the observer, and the outcome. A rule is checked at a row
+//! whether it ends the run or marks an event, and nothing a method does depends on which:
+//! the rows up to a rule's event are those of the run that rule ends.
 
-use super::observer::{IterationRecord, Metric, Observer};
+use super::observer::{Flow, IterationRecord, Metric, Observer};
 use super::outcome::{AnalysisReport, Outcome};
-use super::stop::{StopReason, StopSettings};
+use super::stop::{Events, RowState, Stall, StopReason, StopSettings};
 use std::time::Instant;
 
 /// The state a method advances and the rows describe (a planar map with its evaluation,
@@ -111,19 +113,29 @@ pub fn execute<M: Method>(
     let ReadyMethod { method, columns, analysis, mut charged } = start;
     let mut record = IterationRecord { extra: by_column(&columns, at.initial_extra()), ..at.row(0, 0.0) };
     let init_energy = record.energy;
-    let mut halt = observer.observe(&record).stop_reason();
+    let mut flow = observer.observe(&record);
+    let mut events = Events::default();
+    let mut stall = Stall::new(stop.stall_window);
     let mut method = match method {
         Ok(m) => m,
-        Err(reason) => return finish(at, &record, init_energy, halt.unwrap_or(reason), analysis),
+        Err(reason) => return finish(at, &record, init_energy, flow.stop_reason().unwrap_or(reason), events, analysis),
     };
     let mut last_decrease = f64::INFINITY;
     let mut t_cum = 0.0;
     let mut iter = 0usize;
     let reason = loop {
-        if let Some(reason) = halt.take() {
+        if let Some(reason) = flow.stop_reason() {
             break reason;
         }
-        if let Some(reason) = stop.reached(record.grad_norm, last_decrease, iter) {
+        let row = RowState {
+            grad_norm: record.grad_norm,
+            last_decrease,
+            iter,
+            at_target: flow == Flow::AtTarget,
+            stalled: stall.push(record.energy),
+        };
+        stop.mark(&row, &mut events);
+        if let Some(reason) = stop.end(&row, &events) {
             break reason;
         }
         let t_start = Instant::now();
@@ -154,9 +166,9 @@ pub fn execute<M: Method>(
             extra: by_column(&columns, step.extra),
             ..row
         };
-        halt = observer.observe(&record).stop_reason();
+        flow = observer.observe(&record);
     };
-    finish(at, &record, init_energy, reason, analysis)
+    finish(at, &record, init_energy, reason, events, analysis)
 }
 
 fn finish<I: Iterate>(
@@ -164,9 +176,11 @@ fn finish<I: Iterate>(
     last: &IterationRecord,
     init_energy: f64,
     reason: StopReason,
+    events: Events,
     analysis: Option<AnalysisReport>,
 ) -> Finished<I> {
-    Finished { outcome: Outcome::at(at.take_map(), last, init_energy, reason, analysis), last: at }
+    let outcome = Outcome { events, ..Outcome::at(at.take_map(), last, init_energy, reason, analysis) };
+    Finished { outcome, last: at }
 }
 
 #[cfg(test)]
@@ -220,7 +234,7 @@ mod tests {
     }
 
     fn stop(grad_tol: f64, energy_decrease_tol: f64, max_iters: usize) -> StopSettings {
-        StopSettings { grad_tol, energy_decrease_tol, max_iters }
+        StopSettings::rules_only(grad_tol, energy_decrease_tol, max_iters)
     }
 
     #[test]

@@ -407,7 +407,7 @@ mod tests {
         use crate::tasks::param::{solve_param, ParamSettings};
         let mesh = crate::generate::generate("bumpy_1k").unwrap();
         let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
-        settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters: 5000 };
+        settings.solver.stop = StopSettings::rules_only(1e-5, 0.0, 5000);
         let kp = solve_param(&mesh, EnergyKind::Sd(Sd), "kp-newton", &settings, &mut Recorder::default()).unwrap();
         for (solver, max_iters) in [("lbfgs", 1000), ("lbfgs-laplacian", 200)] {
             let mut rec = Recorder::default();

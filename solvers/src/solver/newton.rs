@@ -220,7 +220,7 @@ mod tests {
 
     fn settings() -> Settings {
         Settings {
-            stop: StopSettings { grad_tol: 1e-9, energy_decrease_tol: 0.0, max_iters: 100 },
+            stop: StopSettings::rules_only(1e-9, 0.0, 100),
             ..Settings::default()
         }
     }

@@ -88,13 +88,16 @@ pub enum Flow {
     Stop,
     /// Stop after this row because the run's deadline passed; recorded as [`StopReason::Timeout`].
     Timeout,
+    /// This row is at the run's target: stop once a tolerance rule of the run has held
+    /// (recorded as [`StopReason::Target`]); go on while none has.
+    AtTarget,
 }
 
 impl Flow {
     /// The reason a solver records when it stops on this answer (`None`: go on).
     pub fn stop_reason(self) -> Option<StopReason> {
         match self {
-            Flow::Continue => None,
+            Flow::Continue | Flow::AtTarget => None,
             Flow::Stop => Some(StopReason::Interrupted),
             Flow::Timeout => Some(StopReason::Timeout),
         }

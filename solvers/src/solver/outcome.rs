@@ -1,7 +1,7 @@
 //! What a solver run returns: the final map and how it ended, or why it never started.
 
 use super::observer::IterationRecord;
-use super::stop::StopReason;
+use super::stop::{Events, StopReason};
 
 /// Errors that prevent a run from starting; once iterating, problems become a
 /// [`StopReason`] and the run returns the last accepted iterate.
@@ -100,6 +100,8 @@ pub struct Outcome {
     pub iterations: usize,
     /// Why the run stopped.
     pub stop_reason: StopReason,
+    /// The first iteration at which each tolerance rule held.
+    pub events: Events,
     /// Energy of the start map (row 0).
     pub init_energy: f64,
     /// Energy of the final map.
@@ -127,6 +129,7 @@ impl Outcome {
             x,
             iterations: last.iter,
             stop_reason,
+            events: Events::default(),
             init_energy,
             final_energy: last.energy,
             grad_norm: last.grad_norm,

@@ -13,7 +13,9 @@
 //! ("Solving Nonlinear Equations with Newton's Method", SIAM 2003, Section 3.2.3):
 //! `eta_k = gamma |g_k|^2 / |g_{k-1}|^2`, raised to `gamma eta_{k-1}^2` when that exceeds 0.1
 //! (no sudden tightening), capped by `eta_max`, and at least `0.5 grad_tol / |g_k|` (no
-//! oversolving on the last step); `gamma = 0.9`, `eta_0 = eta_max = 0.9`.
+//! oversolving on the last step); `gamma = 0.9`, `eta_0 = eta_max = 0.9`. Once `|g_k| <=
+//! grad_tol` (the rule's event: a run that rule ends takes no such step) the last step is
+//! the one to the gradient floor, `0.5 grad_floor / |g_k|`.
 
 use super::newton_system::{Direction, SystemBuilder};
 use super::observer::Metric;
@@ -102,14 +104,17 @@ pub struct Forcing {
     eta_max: f64,
     /// The gradient norm target of the run (the last step need not solve below it).
     grad_tol: f64,
+    /// The tightest gradient norm the run stops at (the target once `grad_tol` has held).
+    grad_floor: f64,
     /// The previous forcing term and gradient norm (`None` before the first step).
     last: Option<(f64, f64)>,
 }
 
 impl Forcing {
-    /// The forcing terms of a run: at most `eta_max`, at least `0.5 grad_tol / |g|`.
-    pub fn new(eta_max: f64, grad_tol: f64) -> Forcing {
-        Forcing { eta_max, grad_tol, last: None }
+    /// The forcing terms of a run: at most `eta_max`, at least `0.5 grad_tol / |g|` while
+    /// `|g| > grad_tol`, `0.5 grad_floor / |g|` after.
+    pub fn new(eta_max: f64, grad_tol: f64, grad_floor: f64) -> Forcing {
+        Forcing { eta_max, grad_tol, grad_floor, last: None }
     }
 
     /// The forcing term of the step at gradient norm `g_norm`.
@@ -126,7 +131,8 @@ impl Forcing {
                 eta.min(self.eta_max)
             }
         };
-        let eta = eta.max(0.5 * self.grad_tol / g_norm).min(self.eta_max);
+        let aim = if g_norm > self.grad_tol { self.grad_tol } else { self.grad_floor };
+        let eta = eta.max(0.5 * aim / g_norm).min(self.eta_max);
         self.last = Some((eta, g_norm));
         eta
     }
@@ -288,7 +294,7 @@ impl<'a> Truncated<'a> {
                 let analysis = proxy.analysis;
                 let charged = (t_setup.elapsed().as_secs_f64() - analysis.setup_seconds).max(0.0);
                 let steps = TruncatedSolve::new(proxy, SymmetricRows::new(pattern), options);
-                let forcing = Forcing::new(options.eta_max, settings.stop.grad_tol);
+                let forcing = Forcing::new(options.eta_max, settings.stop.grad_tol, settings.stop.grad_floor);
                 let truncated = Truncated { problem, steps, forcing, preconditioner, linear: settings.linear };
                 Ok((Ok(truncated), Some(analysis), charged))
             }
@@ -350,26 +356,31 @@ mod tests {
     /// `0.5 grad_tol / g_k`.
     #[test]
     fn the_forcing_terms_follow_eisenstat_walker_choice_2_with_kelley_s_safeguards() {
-        let mut f = Forcing::new(0.9, 1e-6);
+        let mut f = Forcing::new(0.9, 1e-6, 0.0);
         assert_eq!(f.next(1.0), 0.9);
         // 0.9 * 0.25 = 0.225 < floor 0.9 * 0.81 = 0.729 (> 0.1): the floor
         assert!((f.next(0.5) - 0.729).abs() < 1e-15);
         // ratio 1: 0.9, capped at 0.9
         assert!((f.next(0.5) - 0.9).abs() < 1e-15);
-        let mut f = Forcing::new(0.9, 1e-6);
+        let mut f = Forcing::new(0.9, 1e-6, 0.0);
         f.next(1.0);
         f.next(0.5);
         f.next(0.05); // 0.9 * 0.01 = 0.009, floor 0.9 * 0.729^2 = 0.478
         assert!((f.next(0.05) - 0.9f64.min(0.9)).abs() < 1e-15);
         // a fast fall once the floor is below 0.1: eta = 0.9 (g_k / g_{k-1})^2
-        let mut f = Forcing::new(0.3, 1e-12);
+        let mut f = Forcing::new(0.3, 1e-12, 0.0);
         assert_eq!(f.next(1.0), 0.3); // floor 0.081 < 0.1 from here on
         assert!((f.next(0.1) - 0.009).abs() < 1e-15);
         assert!((f.next(0.01) - 0.009).abs() < 1e-15);
         // near the run's target the step need not solve below it: 0.5 * 1e-3 / 2e-3
-        let mut f = Forcing::new(0.3, 1e-3);
+        let mut f = Forcing::new(0.3, 1e-3, 1e-10);
         f.next(1.0);
         assert!((f.next(2e-3) - 0.25).abs() < 1e-15);
+        // past the rule (its event) the floor is the gradient floor's: 0.9 (0.5e-3 / 2e-3)^2
+        assert!((f.next(0.5e-3) - 0.9 * 0.0625).abs() < 1e-15);
+        let mut f = Forcing::new(0.3, 1e-3, 1e-10);
+        f.next(1.0);
+        assert!((f.next(1e-9) - 0.05).abs() < 1e-15, "0.5 * 1e-10 / 1e-9");
     }
 
     /// KP's system at the Tutte map of `mesh` (param SD): the problem, the pattern and the
@@ -475,7 +486,7 @@ mod tests {
         let meshes = [Some(generate("bumpy_1k").unwrap()), shared_mesh("cow"), shared_mesh("bunnyhead")];
         for mesh in meshes.iter().flatten() {
             let mut settings = ParamSettings::for_energy(&EnergyKind::Sd(Sd));
-            settings.solver.stop = StopSettings { grad_tol: 1e-5, energy_decrease_tol: 0.0, max_iters: 1000 };
+            settings.solver.stop = StopSettings::rules_only(1e-5, 0.0, 1000);
             let kp = solve_param(mesh, EnergyKind::Sd(Sd), "kp-newton", &settings, &mut Recorder::default()).unwrap();
             for solver in ["kp-newton-cg", "kp-newton-cg-laplacian"] {
                 let mut rec = Recorder::default();
@@ -496,7 +507,7 @@ mod tests {
         let mesh = generate("planar_bar_2k").unwrap();
         let handles = generated_handles("planar_bar_2k").unwrap();
         let mut settings = DeformSettings::default();
-        settings.solver.stop = StopSettings { grad_tol: 1e-6, energy_decrease_tol: 0.0, max_iters: 500 };
+        settings.solver.stop = StopSettings::rules_only(1e-6, 0.0, 500);
         for energy in [EnergyKind::Sd(Sd), EnergyKind::default_for("nh").unwrap()] {
             let solve = |solver: &str, rec: &mut Recorder| {
                 solve_deform(&mesh, &handles, None, energy, solver, &settings, rec).unwrap()

@@ -40,7 +40,7 @@ pub const DEFAULT_LAMBDA: f64 = 1e5;
 /// less than that and "converged" at gap 0.99999, and KP-Newton stopped with the free end
 /// still short of the rest pose. `[stop] energy_decrease_tol = 1e-6` in a config restores it.
 pub fn default_stop() -> StopSettings {
-    StopSettings { grad_tol: 1e-6, energy_decrease_tol: 0.0, max_iters: 1000 }
+    StopSettings { grad_tol: 1e-6, ..StopSettings::default() }
 }
 
 impl Default for DeformSettings {

@@ -30,7 +30,7 @@ pub enum ParamStart {
 
 /// The stop rule of [`sd_minimum`]: a tight gradient tolerance and a long budget, so the
 /// chained start does not depend on how a batch stops its SD runs.
-pub const SD_MINIMUM_STOP: StopSettings = StopSettings { grad_tol: 1e-8, energy_decrease_tol: 0.0, max_iters: 5000 };
+pub const SD_MINIMUM_STOP: StopSettings = StopSettings::rules_only(1e-8, 0.0, 5000);
 
 /// Settings of a `param` run.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -81,7 +81,7 @@ pub const ROUNDS: usize = 3;
 
 /// A tight rule: no energy-decrease rule, the gradient to the floating-point floor.
 fn tight(max_iters: usize) -> StopSettings {
-    StopSettings { grad_tol: 1e-12, energy_decrease_tol: 0.0, max_iters }
+    StopSettings::rules_only(1e-12, 0.0, max_iters)
 }
 
 /// Iterations over which a portfolio solve or a polish must lower the energy by more than the

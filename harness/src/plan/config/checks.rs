@@ -17,9 +17,7 @@ impl Config {
         if let Some(r) = self.repeat {
             check_repeat(r)?;
         }
-        if let Some(t) = &self.targets {
-            super::check_targets(t)?;
-        }
+        self.targets()?;
         self.check_names()?;
         self.check_solver_options()?;
         self.check_maps_keep()?;

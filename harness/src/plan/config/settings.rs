@@ -2,6 +2,7 @@
 //! solvers' own `Default`s), the config's overrides, the energy's parameters.
 
 use super::{Config, ProblemKeys, Task};
+use crate::convergence::Targets;
 use crate::plan::settings::RunSettings;
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
@@ -12,6 +13,9 @@ use solvers::tasks::authalic::AuthalicSettings;
 use solvers::tasks::authalic::AUTHALIC_ENERGY;
 use solvers::tasks::deform::DeformSettings;
 use solvers::tasks::param::{ParamSettings, ParamStart};
+
+/// The key of `[energy.<name>]` that sets the energy's own targets.
+pub const TARGETS_KEY: &str = "targets";
 
 impl Config {
     /// The energies of the runs: the configured ones, or the authalic task's one energy.
@@ -54,13 +58,33 @@ impl Config {
         Ok(kind)
     }
 
-    /// `[energy.<name>]` split into the energy's parameters and the keys every energy has.
+    /// `[energy.<name>]` split into the energy's parameters and the keys every energy has
+    /// (`targets` is read by [`Config::targets`]).
     fn energy_table(&self, name: &str) -> Result<(toml::Table, ProblemKeys)> {
         let mut parameters = self.energy.get(name).cloned().unwrap_or_default();
+        parameters.remove(TARGETS_KEY);
         let smoothness: toml::Table = ProblemKeys::KEYS.iter().filter_map(|k| parameters.remove_entry(*k)).collect();
         let keys = ProblemKeys::deserialize(toml::Value::Table(smoothness))
             .map_err(|e| anyhow::anyhow!("[energy.{name}] {}", e.to_string().trim()))?;
         Ok((parameters, keys))
+    }
+
+    /// The tolerances of the convergence test: `targets` (default `[1e-3, 1e-6]`) for every
+    /// energy, `[energy.<name>] targets` for one that sets its own, each checked.
+    pub fn targets(&self) -> Result<Targets> {
+        let default = self.targets.clone().unwrap_or(super::DEFAULT_TARGETS.to_vec());
+        super::check_targets(&default)?;
+        let mut by_energy = std::collections::BTreeMap::new();
+        for (name, table) in &self.energy {
+            let Some(value) = table.get(TARGETS_KEY) else { continue };
+            let given: Vec<f64> = value
+                .clone()
+                .try_into()
+                .map_err(|e: toml::de::Error| anyhow::anyhow!("[energy.{name}] targets: {}", e.to_string().trim()))?;
+            super::check_targets(&given).with_context(|| format!("[energy.{name}]"))?;
+            by_energy.insert(name.clone(), given);
+        }
+        Ok(Targets::new(default, by_energy))
     }
 
     /// The resolved settings of the runs of energy `name` (the one place where config sections

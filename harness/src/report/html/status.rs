@@ -26,7 +26,9 @@ fn verdict_short(v: Verdict) -> &'static str {
         Verdict::Flipped => "flipped",
         Verdict::StoppedAboveTarget => "above",
         Verdict::OtherMinimum => "other",
-        Verdict::Unfinished => "unfin.",
+        Verdict::Stalled => "stalled",
+        Verdict::BrokeDown => "broke",
+        Verdict::Unfinished => "budget",
     }
 }
 

@@ -12,8 +12,14 @@ use crate::run_folder::SummaryRow;
 pub const VERDICTS: &str = "verdicts";
 
 /// The verdicts a run that ran can get without being solved, in the table's column order.
-const UNSOLVED: [Verdict; 4] =
-    [Verdict::Flipped, Verdict::StoppedAboveTarget, Verdict::OtherMinimum, Verdict::Unfinished];
+const UNSOLVED: [Verdict; 6] = [
+    Verdict::Flipped,
+    Verdict::StoppedAboveTarget,
+    Verdict::OtherMinimum,
+    Verdict::Stalled,
+    Verdict::BrokeDown,
+    Verdict::Unfinished,
+];
 
 /// The run solved its problem at `tau`: it passed the convergence test there and its final
 /// map flips no triangle (at the tightest target: the verdict `solved`).
@@ -50,6 +56,13 @@ pub fn verdict_table(rows: &[SummaryRow]) -> Option<Table> {
             }
             let mut row = vec![energy.to_string(), s.to_string(), mine.len().to_string()];
             for (k, tau) in taus.iter().enumerate() {
+                // An energy with its own targets is not judged at the others: no count there.
+                let judged_at = rows.iter().any(|r| r.energy == energy && r.to_targets.iter().any(|t| t.tau == *tau));
+                if !judged_at {
+                    row.push("–".into());
+                    solved[k].push(None);
+                    continue;
+                }
                 let n = mine.iter().filter(|r| solved_at(r, *tau)).count();
                 row.push(n.to_string());
                 // The most solved is best: rank the negated counts.
@@ -62,7 +75,7 @@ pub fn verdict_table(rows: &[SummaryRow]) -> Option<Table> {
         }
         for (k, counts) in solved.iter().enumerate() {
             let most = lowest(counts, ranking::equal);
-            bold.extend(most.into_iter().filter(|i| counts[*i] != Some(0.0)).map(|i| (first + i, 3 + k)));
+            bold.extend(most.into_iter().filter(|i| counts[*i].is_some_and(|c| c != 0.0)).map(|i| (first + i, 3 + k)));
         }
     }
     bold.sort_unstable();
@@ -76,11 +89,15 @@ pub fn verdict_table(rows: &[SummaryRow]) -> Option<Table> {
              no triangle and its energy is within τ of the reference minimum E* of its dataset and energy on the \
              span min(E0 − E*, A) (E0 the common start's energy, A = max(E* − E_iso, 10⁻⁴ max(1, |E_iso|)) the \
              minimum's own distortion: the same accuracy on every problem); solved at {tightest} is status ok. \
-             The others, by the harness's verdict: flipped = the final map flips triangles; stopped above target \
-             = the solver's own rule called it converged above {tightest}; other minimum = it stopped with a small \
-             gradient farther than the loosest target from E*, and a tight Newton polish from its final map \
-             stayed there; unfinished = it stopped above {tightest} for another reason (iteration cap, time \
-             limit, failed line search or linear solve); failed = the run did not finish. E* not certified = \
+             An energy with its own targets is solved at its own tightest (– at the targets it does not have). Each run went on to its target, its \
+             solver's stop rules recorded on the way; the others, by the harness's verdict: flipped = the final \
+             map flips triangles; stopped above target = a stop rule ended it above the target (an external \
+             solver's own, or a run without a reference to go to); other minimum = it ended stationary farther \
+             than the loosest target from E*, and a tight Newton polish from its final map stayed there; stalled \
+             = it ended stationary otherwise (no decrease beyond round-off over the stall window, or the \
+             gradient floor); broke down = the method broke down (a line search that found no decrease, a \
+             failed factorization); out of budget = the iteration cap or the time limit ended it; failed = the \
+             run did not finish. E* not certified = \
              the runs judged against a reference minimum without a certificate (the status matrix's †). Bold: \
              the most datasets solved at each target."
         ),
@@ -153,17 +170,19 @@ mod tests {
                 "flipped",
                 "stopped above target",
                 "other minimum",
-                "unfinished",
+                "stalled",
+                "broke down",
+                "out of budget",
                 "failed",
                 "E* not certified"
             ]
         );
-        assert_eq!(t.rows[0], ["sd", "kp-newton", "2", "2", "2", "0", "0", "0", "0", "0", "1"]);
-        assert_eq!(t.rows[1], ["sd", "slim", "2", "1", "0", "0", "1", "1", "0", "0", "1"]);
+        assert_eq!(t.rows[0], ["sd", "kp-newton", "2", "2", "2", "0", "0", "0", "0", "0", "0", "0", "1"]);
+        assert_eq!(t.rows[1], ["sd", "slim", "2", "1", "0", "0", "1", "1", "0", "0", "0", "0", "1"]);
         // The flipped run reached both targets but is solved at neither.
-        assert_eq!(t.rows[2], ["sd", "lbfgs", "2", "1", "0", "1", "0", "0", "1", "0", "1"]);
-        // akvf was skipped everywhere: no row.
-        assert_eq!(t.rows[3], ["bconf", "kp-newton", "1", "0", "0", "0", "0", "0", "0", "1", "0"]);
+        assert_eq!(t.rows[2], ["sd", "lbfgs", "2", "1", "0", "1", "0", "0", "0", "0", "1", "0", "1"]);
+        // akvf was skipped everywhere: no row; bconf was judged at no target (its one run failed).
+        assert_eq!(t.rows[3], ["bconf", "kp-newton", "1", "–", "–", "0", "0", "0", "0", "0", "0", "1", "0"]);
         assert_eq!(t.rows.len(), 4);
         // kp-newton solved the most at both targets; nobody solved bconf: nothing bold there.
         assert_eq!(t.bold, [(0, 3), (0, 4)]);

@@ -112,12 +112,24 @@ pub struct Meta {
     pub shard: Option<String>,
     pub started_unix: Option<u64>,
     pub stop_per_energy: Option<BTreeMap<String, Stop>>,
-    /// The convergence test's targets, loosest first.
+    /// The convergence test's targets, loosest first (every energy's but those of
+    /// `targets_per_energy`).
     pub targets: Option<Vec<f64>>,
+    /// The energies that set their own targets (`[energy.<name>] targets`), loosest first.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub targets_per_energy: Option<BTreeMap<String, Vec<f64>>>,
     pub threads_per_run: Option<usize>,
     /// The schema number ([`VERSION`]); `None` in folders from before it was recorded.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub version: Option<u32>,
+}
+
+impl Meta {
+    /// The batch's targets (none in a folder from before they were recorded).
+    pub fn targets(&self) -> crate::convergence::Targets {
+        let default = self.targets.clone().unwrap_or_default();
+        crate::convergence::Targets::new(default, self.targets_per_energy.clone().unwrap_or_default())
+    }
 }
 
 /// An energy's stop rules, as `stop_per_energy` records them.
@@ -127,6 +139,11 @@ pub struct Stop {
     pub energy_decrease_tol: Option<f64>,
     pub grad_tol: Option<f64>,
     pub max_iters: Option<usize>,
+    /// The stationary ends (absent in folders from before them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grad_floor: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stall_window: Option<usize>,
 }
 
 impl From<StopSettings> for Stop {
@@ -135,6 +152,8 @@ impl From<StopSettings> for Stop {
             energy_decrease_tol: Some(s.energy_decrease_tol),
             grad_tol: Some(s.grad_tol),
             max_iters: Some(s.max_iters),
+            grad_floor: Some(s.grad_floor),
+            stall_window: Some(s.stall_window),
         }
     }
 }

@@ -139,7 +139,7 @@ impl Default for AuthalicSettings {
 
 /// The paper's Table 1 protocol: a fixed budget of 100 iterations, no tolerance stop.
 pub fn default_stop() -> StopSettings {
-    StopSettings { grad_tol: 0.0, energy_decrease_tol: 0.0, max_iters: 100 }
+    StopSettings::rules_only(0.0, 0.0, 100)
 }
 
 /// Area-distortion metrics of a map (docs/src/reference/columns.md): the normalized ratio
