@@ -4,7 +4,8 @@
 //! without `meta.json`, or written before these keys existed, still renders.
 
 use crate::calibration::Calibration;
-use crate::run_folder::meta::Meta;
+use crate::external::probe::Probe;
+use crate::run_folder::meta::{Meta, Stop};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -13,6 +14,12 @@ use std::path::Path;
 pub struct Batch {
     /// `stop_per_energy.<energy>.max_iters`.
     pub max_iters: BTreeMap<String, usize>,
+    /// `stop_per_energy`: each energy's stop rules and ends (the first screen's words).
+    pub stop: BTreeMap<String, Stop>,
+    /// `external`: what the batch found out about its external solvers.
+    pub external: Vec<Probe>,
+    /// `expected_to_fail`.
+    pub expected_to_fail: Vec<String>,
     /// The config's `timeout`, in seconds.
     pub timeout_s: Option<f64>,
     /// `calibration`: the reference workload's samples.
@@ -34,7 +41,10 @@ impl Batch {
             meta.stop_per_energy.iter().flatten().filter_map(|(e, s)| Some((e.clone(), s.max_iters?))).collect();
         let timeout_s = meta.config_str("timeout").and_then(timeout_secs);
         let config = meta.config_name().map(str::to_string);
-        Batch { max_iters, timeout_s, calibration: meta.calibration.clone(), config }
+        let stop = meta.stop_per_energy.clone().unwrap_or_default();
+        let external = meta.external.clone().and_then(|v| serde_json::from_value(v).ok()).unwrap_or_default();
+        let expected_to_fail = meta.expected_to_fail.clone().unwrap_or_default();
+        Batch { max_iters, timeout_s, calibration: meta.calibration.clone(), config, stop, external, expected_to_fail }
     }
 
     /// The batch's median calibration time, when it has a positive one.

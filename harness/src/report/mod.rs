@@ -7,6 +7,7 @@ pub mod batch;
 pub mod changes;
 pub mod compare;
 pub mod corpus;
+pub mod count;
 pub mod html;
 pub mod label;
 pub mod plots;

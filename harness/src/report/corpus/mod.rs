@@ -6,7 +6,8 @@
 //! runs as [`crate::report::target::to_target`] ranks them: iterations and time to the tightest target.
 //!
 //! The rules, stated once (the captions and the book repeat them):
-//! - Skipped pairs are left out entirely; `runs` counts the others, `solved` the converged.
+//! - Skipped pairs are left out entirely, and so are the runs of a problem solved at its start
+//!   ([`counted_in`]); `runs` counts the others, `solved` the converged.
 //! - Shifts: [`ITERATION_SHIFT`] iterations; [`TIME_SHIFT_S`] seconds, or
 //!   [`TIME_NORM_SHIFT`] calibration units when times are normalized.
 //! - Unsolved runs (not converged or failed) enter at the cap: iterations at the energy's
@@ -23,6 +24,12 @@
 
 use super::batch::Batch;
 use super::select::{finished, skipped, unique};
+
+/// A run the aggregates and profiles count: not skipped, and not on a problem solved at its
+/// start (`SummaryRow::trivial`: every run of it is solved at row 0, which ranks nothing).
+pub(crate) fn counted_in(r: &SummaryRow) -> bool {
+    !skipped(r) && !r.trivial()
+}
 use crate::run_folder::timed::Timed;
 use crate::run_folder::{Status, SummaryRow};
 use crate::stats::shifted_geometric_mean;
@@ -175,7 +182,7 @@ pub fn iteration_cap(energy: &str, runs: &[&SummaryRow], batch: &Batch) -> Optio
     if let Some(&m) = batch.max_iters.get(energy) {
         return Some(Cap { value: m as f64, source: CapSource::Limit });
     }
-    let most = runs.iter().filter(|r| !skipped(r)).filter_map(|r| r.iterations).max()?;
+    let most = runs.iter().filter(|r| counted_in(r)).filter_map(|r| r.iterations).max()?;
     Some(Cap { value: most as f64, source: CapSource::Observed })
 }
 
@@ -185,7 +192,7 @@ pub fn time_cap(runs: &[&SummaryRow], batch: &Batch, unit: TimeUnit) -> Option<C
         return Some(Cap { value: t, source: CapSource::Limit });
     }
     let longest =
-        runs.iter().filter(|r| !skipped(r)).filter_map(|r| unit.timed(r)).map(|t| t.value).reduce(f64::max)?;
+        runs.iter().filter(|r| counted_in(r)).filter_map(|r| unit.timed(r)).map(|t| t.value).reduce(f64::max)?;
     Some(Cap { value: longest, source: CapSource::Observed })
 }
 
@@ -199,7 +206,7 @@ pub fn aggregate(rows: &[SummaryRow], batch: &Batch, unit: TimeUnit) -> Vec<Ener
             let runs: Vec<&SummaryRow> = rows.iter().filter(|r| r.energy == energy).collect();
             let iteration_cap = iteration_cap(energy, &runs, batch);
             let time_cap = time_cap(&runs, batch, unit);
-            let datasets = unique(runs.iter().filter(|r| !skipped(r)).map(|r| r.dataset.as_str())).len();
+            let datasets = unique(runs.iter().filter(|r| counted_in(r)).map(|r| r.dataset.as_str())).len();
             let solvers = solvers
                 .iter()
                 .filter(|s| runs.iter().any(|r| r.solver == **s))
@@ -220,8 +227,8 @@ fn solver_aggregate(
     time_cap: Option<Cap>,
     unit: TimeUnit,
 ) -> SolverAggregate {
-    let count = |st: Status| runs.iter().filter(|r| r.status == st).count();
-    let counted: Vec<&SummaryRow> = runs.iter().copied().filter(|r| !skipped(r)).collect();
+    let counted: Vec<&SummaryRow> = runs.iter().copied().filter(|r| counted_in(r)).collect();
+    let count = |st: Status| counted.iter().filter(|r| r.status == st).count();
     // Each run's cost: its own when solved, the cap (or its own, if larger) when not.
     let iterations: Option<Vec<f64>> = counted
         .iter()
@@ -253,7 +260,7 @@ fn solver_aggregate(
         solved: count(Status::Ok),
         not_converged: count(Status::NotConverged) + count(Status::Budget),
         failed: count(Status::Failed),
-        skipped: count(Status::Skipped),
+        skipped: runs.iter().filter(|r| skipped(r)).count(),
         shifted: counted.iter().filter(|r| r.shifted_iters.unwrap_or(0) > 0).count(),
         sgm_iterations: iterations.and_then(|v| shifted_geometric_mean(&v, ITERATION_SHIFT)),
         sgm_time: times.and_then(|v| {

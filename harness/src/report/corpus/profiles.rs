@@ -1,6 +1,7 @@
 //! Dolan–Moré performance profiles and Moré–Wild data profiles over the common problem set.
 
-use crate::report::select::{skipped, unique};
+use super::counted_in;
+use crate::report::select::unique;
 use crate::run_folder::{Status, SummaryRow};
 
 /// One solver's performance profile: its ratio to the best solver on each problem.
@@ -62,8 +63,8 @@ impl Profiles {
 /// skipped, the datasets on which each of them has one (the problems) and the others (left
 /// out), in first-appearance order.
 fn problem_set<'a>(runs: &[&'a SummaryRow]) -> (Vec<&'a str>, Vec<&'a str>, Vec<&'a str>) {
-    let solvers = unique(runs.iter().filter(|r| !skipped(r)).map(|r| r.solver.as_str()));
-    let datasets = unique(runs.iter().filter(|r| !skipped(r)).map(|r| r.dataset.as_str()));
+    let solvers = unique(runs.iter().filter(|r| counted_in(r)).map(|r| r.solver.as_str()));
+    let datasets = unique(runs.iter().filter(|r| counted_in(r)).map(|r| r.dataset.as_str()));
     let (problems, left_out): (Vec<&str>, Vec<&str>) =
         datasets.into_iter().partition(|d| solvers.iter().all(|s| run_of(runs, d, s).is_some()));
     (solvers, problems, left_out)
@@ -71,7 +72,7 @@ fn problem_set<'a>(runs: &[&'a SummaryRow]) -> (Vec<&'a str>, Vec<&'a str>, Vec<
 
 /// The run of solver `s` on dataset `d` that was not skipped.
 fn run_of<'a>(runs: &[&'a SummaryRow], d: &str, s: &str) -> Option<&'a SummaryRow> {
-    runs.iter().copied().find(|r| r.dataset == d && r.solver == s && !skipped(r))
+    runs.iter().copied().find(|r| r.dataset == d && r.solver == s && counted_in(r))
 }
 
 /// The cost of solver `s` on problem `d` when it solved it (status ok, finite cost), floored

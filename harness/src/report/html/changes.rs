@@ -2,8 +2,8 @@
 //! changed since the previous batch of the config in the history database, and the problems
 //! (failed and unsolved runs) as a short list; the status matrix and the rest follow.
 
-use super::status::is_problem;
 use super::timing::significant;
+use crate::report::count::{is_problem, Count};
 use crate::escape::{esc, href};
 use crate::gate::check::DEFAULT_ENERGY_RTOL;
 use crate::gate::rules::Change;
@@ -35,50 +35,116 @@ pub(super) fn changes_section(
     claims: &[crate::claims::Evaluated],
 ) {
     *h += "<section id=\"changes\">\n";
-    let _ = writeln!(h, "<p class=\"verdict\"><b>{}</b></p>", esc(&verdict_line(summaries)));
+    let count = Count::of(summaries, batch);
+    let _ = writeln!(h, "<p class=\"verdict\"><b>{}</b></p>", esc(&verdict_line(&count, summaries)));
+    count_list(h, &count);
     super::provenance::glance(h, meta);
     if batch.calibration.as_ref().is_some_and(|c| c.unsteady()) {
         *h += "<p class=\"warn\">The machine changed speed during this batch: time rankings are less certain \
                (<a href=\"#timing\">calibration</a>).</p>\n";
     }
     since_section(h, run_dir, meta);
-    let expected = meta.and_then(|m| m.expected_to_fail.as_deref()).unwrap_or_default();
-    super::rollup::rollup_section(h, summaries, expected);
+    super::rollup::rollup_section(h, summaries, batch);
     super::claims::glance(h, claims);
-    problems(h, run_dir, summaries, plots);
+    problems(h, run_dir, summaries, plots, batch);
     *h += "</section>\n";
 }
 
-/// `600 runs: 540 solved at the 1e-6 target, 22 not solved, 13 failed (8 the method broke
-/// down, 5 errors), 25 skipped`: a run whose method broke down (a failed factorization) is
-/// counted where a reader looks for failures.
-fn verdict_line(summaries: &[SummaryRow]) -> String {
-    let n = |st: Status| summaries.iter().filter(|s| s.status == st).count();
-    let broke = summaries.iter().filter(|s| crate::report::select::broke_down(s)).count();
-    let (ok, word) = match tightest_target(summaries) {
-        Some(tau) => (format!("solved at the {} target", tau_text(tau)), "solved"),
+/// `850 runs: 420 solved at the tightest target (1e-6, sarap 1e-3), 150 not solved, 30 failed,
+/// 100 skipped; apart, 28 on problems solved at their start and 122 of solvers expected to
+/// fail`: the classes of the batch's one count, which add up to its runs.
+fn verdict_line(c: &Count, summaries: &[SummaryRow]) -> String {
+    let (ok, word) = match targets_text(summaries) {
+        Some(t) => (format!("solved at the tightest target ({t})"), "solved"),
         None => ("converged".to_string(), "converged"),
     };
-    let budget = match n(Status::Budget) {
-        0 => String::new(),
-        b => format!("{b} at their fixed budget, "),
-    };
-    let errors = n(Status::Failed);
-    let failed = match broke {
-        0 => format!("{errors} failed"),
-        b => format!(
-            "{} failed ({b} the method broke down, {errors} error{})",
-            b + errors,
-            if errors == 1 { "" } else { "s" }
-        ),
+    let mut apart: Vec<String> = Vec::new();
+    if c.trivial > 0 {
+        apart.push(format!("{} on problems solved at their start", c.trivial));
+    }
+    if c.expected > 0 {
+        apart.push(format!("{} of solvers expected to fail", c.expected));
+    }
+    let apart = match apart.is_empty() {
+        true => String::new(),
+        false => format!("; apart, {}", apart.join(" and ")),
     };
     format!(
-        "{} runs: {} {ok}, {budget}{} not {word}, {failed}, {} skipped",
-        summaries.len(),
-        n(Status::Ok),
-        n(Status::NotConverged) - broke,
-        n(Status::Skipped)
+        "{} runs: {} {ok}, {} not {word}, {} failed, {} skipped{apart}",
+        c.runs,
+        c.solved,
+        c.not_solved_runs(),
+        c.failed,
+        c.skipped()
     )
+}
+
+/// The tightest targets the runs were judged at: `1e-6`, or `1e-6, sarap 1e-3` where an
+/// energy has its own; `None` when no run was judged.
+fn targets_text(summaries: &[SummaryRow]) -> Option<String> {
+    let tightest = tightest_target(summaries)?;
+    let mut own: Vec<(String, f64)> = Vec::new();
+    for r in summaries {
+        if let Some(t) = r.to_targets.last().filter(|t| t.tau != tightest) {
+            if !own.iter().any(|(e, _)| *e == r.energy) {
+                own.push((r.energy.clone(), t.tau));
+            }
+        }
+    }
+    let mut text = tau_text(tightest);
+    for (energy, tau) in own {
+        let _ = write!(text, ", {energy} {}", tau_text(tau));
+    }
+    Some(text)
+}
+
+/// The count's classes in words, each reason with its value.
+fn count_list(h: &mut String, c: &Count) {
+    *h += "<ul class=\"count\">\n";
+    if !c.reached.is_empty() {
+        let reached: Vec<String> = c.reached.iter().map(|(tau, n)| format!("{n} at {}", tau_text(*tau))).collect();
+        let _ = writeln!(h, "<li>reached a target: {}</li>", esc(&reached.join(", ")));
+    }
+    if !c.not_solved.is_empty() {
+        let why: Vec<String> = c.not_solved.iter().map(|(w, n)| format!("{n} {w}")).collect();
+        let _ = writeln!(h, "<li>not solved ({}): {}</li>", c.not_solved_runs(), esc(&why.join("; ")));
+    }
+    for (solver, n, why) in &c.environment {
+        let _ = writeln!(
+            h,
+            "<li class=\"warn\">{n} run{} of <b>{}</b> skipped: this machine cannot run it ({}). Install what it needs \
+             and run the batch again (<code>--resume</code> runs only those).</li>",
+            plural(*n),
+            esc(solver),
+            esc(why)
+        );
+    }
+    if c.not_defined > 0 {
+        let _ = writeln!(h, "<li>skipped: {} outside their solver's definition (the status matrix's notes)</li>", c.not_defined);
+    }
+    if c.trivial > 0 {
+        let _ = writeln!(
+            h,
+            "<li>apart: {} run{} on {} problem{} solved at the start (its energy within round-off of E*: {}), left \
+             out of the tables' means and profiles</li>",
+            c.trivial,
+            plural(c.trivial),
+            c.trivial_problems.len(),
+            plural(c.trivial_problems.len()),
+            esc(&c.trivial_problems.join(", "))
+        );
+    }
+    if c.expected > 0 {
+        let _ = writeln!(
+            h,
+            "<li>apart: {} run{} of the solvers the config expects to fail (<code>expected_to_fail</code>), {} of \
+             them solved</li>",
+            c.expected,
+            plural(c.expected),
+            c.expected_solved
+        );
+    }
+    *h += "</ul>\n";
 }
 
 /// "Since the previous batch of this config", from the history database `meta.json` names.
@@ -235,8 +301,8 @@ fn problem_kind(s: &SummaryRow) -> &'static str {
 
 /// The failed and unsolved runs, at most [`PROBLEMS_SHOWN`], each linking to its CSV when it
 /// has one.
-fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow], plots: &[Plot]) {
-    let mut list: Vec<&SummaryRow> = summaries.iter().filter(|s| is_problem(s)).collect();
+fn problems(h: &mut String, run_dir: &Path, summaries: &[SummaryRow], plots: &[Plot], batch: &Batch) {
+    let mut list: Vec<&SummaryRow> = summaries.iter().filter(|s| is_problem(s, batch)).collect();
     // The worst first: failures, then flipped maps (at the target, but unusable), then the runs
     // that stopped short of it for another reason, last those their own rule stopped above it.
     list.sort_by_key(|s| match (s.status, s.verdict) {

@@ -1,10 +1,12 @@
 //! The first screen's roll-up of what broke: per solver and energy, how many of its runs were
 //! left unsolved or failed and why (the stops that say so most often), the solvers the config
-//! expects to fail (`expected_to_fail`) apart from the news, and each run whose method broke
-//! down (`StopReason::is_breakdown`) counted as failed.
+//! expects to fail (`expected_to_fail`) apart from the news; the runs are those of the
+//! batch's count ([`crate::report::count`]), so the heading and the verdict line agree.
 
-use super::status::is_problem;
 use crate::escape::esc;
+use crate::judge::verdict::Verdict;
+use crate::report::batch::Batch;
+use crate::report::count::{class, is_problem, Class};
 use crate::report::select::{counted, unique};
 use crate::run_folder::{Status, SummaryRow, FAILED_STOP};
 use std::fmt::Write as _;
@@ -53,15 +55,21 @@ impl Line<'_> {
     }
 }
 
-/// The unsolved runs rolled up per (solver, energy), the most unsolved first (ties in the
-/// batch's order).
-fn lines(summaries: &[SummaryRow]) -> Vec<Line<'_>> {
-    let ran: Vec<&SummaryRow> = summaries.iter().filter(|s| s.status != Status::Skipped).collect();
+/// The unsolved runs (`unsolved`) rolled up per (solver, energy), the most unsolved first
+/// (ties in the batch's order); "of N" counts the runs of the pair that ran or failed, but
+/// those on problems solved at their start.
+fn lines<'a>(
+    summaries: &'a [SummaryRow],
+    batch: &Batch,
+    unsolved: impl Fn(&SummaryRow) -> bool,
+) -> Vec<Line<'a>> {
+    let counted_in = |s: &SummaryRow| !matches!(class(s, batch), Class::NotDefined | Class::Environment | Class::Trivial);
+    let ran: Vec<&SummaryRow> = summaries.iter().filter(|s| counted_in(s)).collect();
     let mut out: Vec<Line> = unique(ran.iter().map(|s| (s.solver.as_str(), s.energy.as_str())))
         .into_iter()
         .map(|(solver, energy)| {
             let of = || ran.iter().filter(move |s| s.solver == solver && s.energy == energy);
-            let mut reasons = counted(of().filter(|s| is_problem(s)).map(|s| why(s)));
+            let mut reasons = counted(of().filter(|s| unsolved(s)).map(|s| why(s)));
             reasons.sort_by_key(|r| std::cmp::Reverse(r.1));
             Line { solver, energy, unsolved: reasons.iter().map(|r| r.1).sum(), ran: of().count(), reasons }
         })
@@ -71,17 +79,20 @@ fn lines(summaries: &[SummaryRow]) -> Vec<Line<'_>> {
     out
 }
 
-/// `<h3>Unsolved per solver</h3>` with the news first and the expected failures apart.
-pub(super) fn rollup_section(h: &mut String, summaries: &[SummaryRow], expected: &[String]) {
-    let all = lines(summaries);
-    if all.is_empty() {
+/// `<h3>Not solved or failed per solver</h3>` with the news first and the expected failures
+/// apart.
+pub(super) fn rollup_section(h: &mut String, summaries: &[SummaryRow], batch: &Batch) {
+    let news = lines(summaries, batch, |s| is_problem(s, batch));
+    let expected = |s: &SummaryRow| class(s, batch) == Class::Expected && s.verdict != Some(Verdict::Solved);
+    let known = lines(summaries, batch, expected);
+    if news.is_empty() && known.is_empty() {
         return;
     }
-    let (known, news): (Vec<&Line>, Vec<&Line>) = all.iter().partition(|l| expected.iter().any(|e| e == l.solver));
+    let (news, known): (Vec<&Line>, Vec<&Line>) = (news.iter().collect(), known.iter().collect());
     let runs = |ls: &[&Line]| ls.iter().map(|l| l.unsolved).sum::<usize>();
     let _ = writeln!(
         h,
-        "<h3 id=\"rollup\">Unsolved per solver ({} run{} of {} solver-energy pair{})</h3>",
+        "<h3 id=\"rollup\">Not solved or failed per solver ({} run{} of {} solver-energy pair{})</h3>",
         runs(&news),
         if runs(&news) == 1 { "" } else { "s" },
         news.len(),
@@ -139,6 +150,10 @@ mod tests {
         }
     }
 
+    fn expecting(solvers: &[&str]) -> Batch {
+        Batch { expected_to_fail: solvers.iter().map(|s| s.to_string()).collect(), ..Batch::default() }
+    }
+
     fn batch() -> Vec<SummaryRow> {
         let failed = || Some(StopReason::LinearSolveFailed("the system at iterate 0".into()));
         let mut rows = vec![row("kp-newton", Status::Ok, Some(StopReason::GradientTolerance)); 3];
@@ -159,7 +174,8 @@ mod tests {
     #[test]
     fn unsolved_runs_roll_up_per_solver_and_energy_with_their_stops() {
         let rows = batch();
-        let texts: Vec<String> = lines(&rows).iter().map(Line::text).collect();
+        let none = expecting(&[]);
+        let texts: Vec<String> = lines(&rows, &none, |s| is_problem(s, &none)).iter().map(Line::text).collect();
         assert_eq!(
             texts,
             [
@@ -178,13 +194,13 @@ mod tests {
     #[test]
     fn expected_failures_are_shown_apart_from_the_news() {
         let mut h = String::new();
-        rollup_section(&mut h, &batch(), &["newton".to_string()]);
-        assert!(h.contains("Unsolved per solver (2 runs of 1 solver-energy pair)"), "{h}");
+        rollup_section(&mut h, &batch(), &expecting(&["newton"]));
+        assert!(h.contains("Not solved or failed per solver (2 runs of 1 solver-energy pair)"), "{h}");
         let (news, known) = h.split_once("Expected to fail").unwrap();
         assert!(news.contains("lbfgs / sd") && !news.contains("newton"), "{h}");
         assert!(known.contains("3 runs: newton / sd: 3 of 3 unsolved"), "{h}");
         let mut none = String::new();
-        rollup_section(&mut none, &batch()[..3], &[]);
+        rollup_section(&mut none, &batch()[..3], &expecting(&[]));
         assert!(none.is_empty(), "nothing unsolved, no section");
     }
 
@@ -198,7 +214,7 @@ mod tests {
             })
             .collect();
         let mut h = String::new();
-        rollup_section(&mut h, &rows, &[]);
+        rollup_section(&mut h, &rows, &expecting(&[]));
         let (shown, folded) = h.split_once("<details>").expect("the rest folded");
         assert_eq!(shown.matches("<li").count(), PAIRS_SHOWN);
         assert_eq!(folded.matches("<li").count(), 4);
