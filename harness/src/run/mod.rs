@@ -32,6 +32,7 @@ use one::RunResult;
 pub use options::RunOptions;
 use pages::conclude_history;
 pub use pages::Pages;
+pub use repeats::REPEAT_WITHIN;
 use progress::Progress;
 use record::{code_id, BatchRecord};
 use repeats::{Repeats, Slot};
@@ -169,6 +170,36 @@ fn run_rounds(
             Some((i, worker, slot)) => done.finish(i, worker, slot),
             None => Ok(()),
         })?;
+        if round == 0 && plan.repeat > 1 && !workers.opts.interrupt.load(Ordering::Relaxed) {
+            keep_one_sample(slots, plan, mine, progress, done)?;
+        }
+    }
+    Ok(())
+}
+
+/// After the first round: the runs whose times decide no ranking keep their one sample
+/// (`repeats::worth_repeating`) and are finished now; the others go on to their repeats.
+fn keep_one_sample(
+    slots: &mut [Option<Slot>],
+    plan: &Plan,
+    mine: &[&PlannedRun],
+    progress: &dyn Progress,
+    done: &mut Finisher,
+) -> Result<()> {
+    let waiting: Vec<usize> = (0..slots.len())
+        .filter(|&i| slots[i].as_ref().is_some_and(|s| s.repeats.is_some() && !s.complete(plan.repeat)))
+        .collect();
+    let firsts: Vec<(&str, &str, &one::RunResult)> = waiting
+        .iter()
+        .filter_map(|&i| slots[i].as_ref().map(|s| (s.first.summary.dataset.as_str(), mine[i].energy.as_str(), &s.first)))
+        .collect();
+    let worth = repeats::worth_repeating(&firsts);
+    let once: Vec<usize> = waiting.iter().zip(worth).filter(|(_, w)| !w).map(|(&i, _)| i).collect();
+    for i in once {
+        let Some(slot) = slots[i].take() else { continue };
+        let count = slot.repeats.as_ref().map_or(1, |r| r.count());
+        progress.fewer_solves(plan.repeat.saturating_sub(count));
+        done.finish(i, 0, slot)?;
     }
     Ok(())
 }

@@ -8,7 +8,32 @@
 use super::one::{fill_times, RunResult};
 use crate::run_folder::Status;
 use crate::stats::median;
-use solvers::solver::IterationRecord;
+use solvers::solver::{IterationRecord, StopReason};
+
+/// A ranked run is repeated when its time is within this factor of the fastest ranked run of
+/// its problem: the machine's noise (40% between batches) cannot make a run twice as slow as
+/// another tie with it, so repeats would not change which runs tie.
+pub const REPEAT_WITHIN: f64 = 2.0;
+
+/// Which of the runs whose first results are `firsts` (with their problem: dataset and energy)
+/// are worth repeating: those [`Repeats::ranked`] whose time is within [`REPEAT_WITHIN`] of the
+/// fastest ranked run of their problem. The rest keep their one sample.
+pub fn worth_repeating(firsts: &[(&str, &str, &RunResult)]) -> Vec<bool> {
+    let time = |r: &RunResult| r.summary.time_s.filter(|t| t.is_finite());
+    let fastest = |d: &str, e: &str| {
+        firsts
+            .iter()
+            .filter(|(d2, e2, r)| *d2 == d && *e2 == e && Repeats::ranked(r))
+            .filter_map(|(_, _, r)| time(r))
+            .reduce(f64::min)
+    };
+    firsts
+        .iter()
+        .map(|(d, e, r)| {
+            Repeats::ranked(r) && time(r).zip(fastest(d, e)).is_some_and(|(t, best)| t <= REPEAT_WITHIN * best)
+        })
+        .collect()
+}
 
 /// The timing columns of one row: assemble, project, solve, line search, iteration,
 /// cumulative, record-only.
@@ -68,6 +93,15 @@ impl Repeats {
     /// A run may be repeated: it ran (converged or not), and its repeats agreed so far.
     pub fn wanted(first: &RunResult) -> bool {
         first.summary.status.ran() && first.summary.time_s.is_some()
+    }
+
+    /// Whether a run's time is one the report ranks: it ended at its target, by its own rule
+    /// (a run without a target), or ran a fixed budget; a run that stalled, broke down or ran
+    /// out of budget counts at the cap, whatever its time.
+    pub fn ranked(first: &RunResult) -> bool {
+        let s = &first.summary;
+        let stop = s.stop_reason.as_ref().and_then(|r| r.solver());
+        s.status == Status::Budget || stop.is_some_and(|r| *r == StopReason::Target || r.is_converged())
     }
 
     /// Add repeat `again` of the run whose first result is `first`; a repeat whose iterates
@@ -239,6 +273,32 @@ mod tests {
         let d = first.summary.repeats_differ.as_deref().unwrap_or_default();
         assert!(d.contains("2 iterations vs 1, first difference at iteration 2"), "{d}");
         assert_eq!(first.summary.iterations, Some(2));
+    }
+
+    /// Runs whose times rank and are within twice the fastest of their problem are repeated;
+    /// a run that ran out of budget, and one far slower than the fastest, keep one sample.
+    #[test]
+    fn repeats_go_to_the_runs_whose_times_decide_a_ranking() {
+        let ended = |stop: StopReason, time: f64| {
+            let mut r = result(&[3.0, 1.0], time, 0.1);
+            r.summary.stop_reason = Some(crate::run_folder::RunStop::Solver(stop));
+            r
+        };
+        let (fast, near, slow) = (ended(StopReason::Target, 1.0), ended(StopReason::Target, 1.9), ended(StopReason::Target, 2.5));
+        let capped = ended(StopReason::MaxIterations, 1.2);
+        let other = ended(StopReason::GradientTolerance, 9.0);
+        let firsts = [
+            ("a", "sd", &fast),
+            ("a", "sd", &near),
+            ("a", "sd", &slow),
+            ("a", "sd", &capped),
+            ("b", "sd", &other),
+            ("a", "bconf", &slow),
+        ];
+        assert_eq!(worth_repeating(&firsts), [true, true, false, false, true, true]);
+        let mut budget = ended(StopReason::MaxIterations, 1.0);
+        budget.summary.status = Status::Budget;
+        assert!(Repeats::ranked(&budget) && !Repeats::ranked(&capped));
     }
 
     #[test]

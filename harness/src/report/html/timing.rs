@@ -10,10 +10,17 @@ use std::fmt::Write as _;
 /// its spread exceeds [`SPREAD_WARNING`], a visible warning.
 pub(super) fn timing_section(h: &mut String, summaries: &[SummaryRow], batch: &Batch) {
     let repeats = summaries.iter().filter_map(|s| s.repeats).max().unwrap_or(1);
+    let ran = summaries.iter().filter(|s| s.status.ran()).count();
+    let repeated = summaries.iter().filter(|s| s.status.ran() && s.repeats.is_some_and(|r| r > 1)).count();
     let mut p = if repeats > 1 {
         format!(
-            "Each run was repeated {repeats} times, round-robin over the plan; times are the median over \
-             the repeats, with their min–max in parentheses, and ranked times tie when these intervals overlap."
+            "{repeated} of the {ran} runs were repeated {repeats} times, round-robin over the plan: those whose \
+             times decide a ranking, the runs that reached their target (or ran a fixed budget) in at most {} \
+             times the fastest such run of their problem; times are the median over the repeats, with their \
+             min–max in parentheses, and ranked times tie when these intervals overlap. The others were timed \
+             once: a run far slower than the fastest cannot tie with it within the machine's noise, and a run \
+             that stalled, broke down or ran out of budget counts at the cap.",
+            crate::run::REPEAT_WITHIN
         )
     } else {
         "Each run was timed once (repeat = 1): times are single samples, so rankings cannot tell \
