@@ -251,7 +251,7 @@ fn the_config_page_lists_every_solver_option_and_energy_parameter() {
         with_options += usize::from(!accepted.is_empty());
     }
     assert!(with_options >= 8, "the energies' parameters were not read");
-    let any: BTreeSet<String> = ["smoothness", "smoothness_projection", "start"].map(String::from).into();
+    let any: BTreeSet<String> = ["smoothness", "smoothness_projection", "start", "targets"].map(String::from).into();
     assert_eq!(energies_doc.get("*").cloned().unwrap_or_default(), any, "the keys of any energy");
 }
 
