@@ -7,7 +7,7 @@ use solvers::energy::EnergyKind;
 use solvers::generate::{generate, generated_handles, generated_init};
 use solvers::mesh::Mesh;
 use solvers::solver::{
-    Events, Flow, IterationRecord, Observer, Outcome, Rule, RuleUse, Settings, StopReason, StopSettings,
+    Events, Flow, IterationRecord, Observer, Outcome, RuleUse, Settings, StopReason, StopRule, StopSettings,
 };
 use solvers::tasks::deform::{solve_deform, DeformSettings};
 use solvers::tasks::param::{solve_param, ParamSettings};
@@ -64,7 +64,7 @@ fn check(name: &str, solve: &Solve, stop: StopSettings) {
     let a: Vec<_> = ended.rows.iter().map(bits).collect();
     let b: Vec<_> = on.rows[..=k].iter().map(bits).collect();
     assert_eq!(a, b, "{name}: the rows up to where the rules ended the run");
-    match Rule::ALL.into_iter().find(|r| r.stop_reason() == stopped.stop_reason) {
+    match StopRule::ALL.into_iter().find(|r| r.stop_reason() == stopped.stop_reason) {
         // The rule that ended the first run held first at its last row in the second.
         Some(rule) => assert_eq!(went_on.events.of(rule), Some(k), "{name}: {:?}", went_on.events),
         // Ended otherwise before any rule held: the same end either way.
@@ -75,11 +75,11 @@ fn check(name: &str, solve: &Solve, stop: StopSettings) {
         ),
     }
     // Each rule alone ends a run at its event.
-    for r in Rule::ALL.into_iter().filter(|r| stop_has(&stop, *r)) {
+    for r in StopRule::ALL.into_iter().filter(|r| stop_has(&stop, *r)) {
         let Some(j) = went_on.events.of(r) else { continue };
         let only = StopSettings {
-            grad_tol: if r == Rule::GradientTolerance { stop.grad_tol } else { 0.0 },
-            energy_decrease_tol: if r == Rule::EnergyDecrease { stop.energy_decrease_tol } else { 0.0 },
+            grad_tol: if r == StopRule::GradientTolerance { stop.grad_tol } else { 0.0 },
+            energy_decrease_tol: if r == StopRule::EnergyDecrease { stop.energy_decrease_tol } else { 0.0 },
             ..end
         };
         let alone = solve(only, &mut Rows { rows: Vec::new(), target: f64::NEG_INFINITY });
@@ -108,7 +108,9 @@ fn check(name: &str, solve: &Solve, stop: StopSettings) {
     let waited = solve(event, &mut Rows { rows: Vec::new(), target: f64::INFINITY });
     match first_event {
         Some(first) => assert_eq!((waited.stop_reason, waited.iterations), (StopReason::Target, first), "{name}"),
-        None => assert_eq!((waited.stop_reason, waited.iterations), (went_on.stop_reason, went_on.iterations), "{name}"),
+        None => {
+            assert_eq!((waited.stop_reason, waited.iterations), (went_on.stop_reason, went_on.iterations), "{name}")
+        }
     }
 }
 
@@ -119,11 +121,14 @@ trait Until {
 
 impl Until for Events {
     fn clone_until(&self, k: usize) -> Events {
-        Events { grad_tol: self.grad_tol.filter(|&j| j <= k), energy_decrease: self.energy_decrease.filter(|&j| j <= k) }
+        Events {
+            grad_tol: self.grad_tol.filter(|&j| j <= k),
+            energy_decrease: self.energy_decrease.filter(|&j| j <= k),
+        }
     }
 }
 
-fn stop_has(stop: &StopSettings, rule: Rule) -> bool {
+fn stop_has(stop: &StopSettings, rule: StopRule) -> bool {
     stop.enabled().any(|r| r == rule)
 }
 
@@ -138,9 +143,11 @@ fn param_rules_are_events_on_the_trajectory_a_stopped_run_has() {
         let e = EnergyKind::default_for(energy).unwrap();
         let stop = ParamSettings::for_energy(&e).solver.stop;
         for solver in solvers {
-            let skip = solvers::tasks::catalogue::lookup(solver, solvers::tasks::Task::Param)
-                .unwrap()
-                .skip_reason(solvers::tasks::Task::Param, &e, &Default::default());
+            let skip = solvers::tasks::catalogue::lookup(solver, solvers::tasks::Task::Param).unwrap().skip_reason(
+                solvers::tasks::Task::Param,
+                &e,
+                &Default::default(),
+            );
             if skip.is_some() {
                 continue;
             }
@@ -165,7 +172,8 @@ fn deform_rules_are_events_each_at_its_own_row() {
                 settings.solver.stop = stop;
                 solve_deform(&bar, &handles, init.as_deref(), e, solver, &settings, rows).unwrap()
             });
-            let stop = StopSettings { energy_decrease_tol: 1e-6, max_iters: 400, ..DeformSettings::default().solver.stop };
+            let stop =
+                StopSettings { energy_decrease_tol: 1e-6, max_iters: 400, ..DeformSettings::default().solver.stop };
             check(&format!("planar_bar_2k {energy} {solver}"), &solve, stop);
         }
     }

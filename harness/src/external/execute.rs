@@ -257,7 +257,8 @@ fn run_and_read(
         )));
     }
     let rules = job.setup.task().2;
-    let read = rows_and_outcome(&records, snapshots, stop, &rules, &cost).map_err(|e| failed(format!("{}: {e}", job.name)))?;
+    let read =
+        rows_and_outcome(&records, snapshots, stop, &rules, &cost).map_err(|e| failed(format!("{}: {e}", job.name)))?;
     Ok((read, child))
 }
 

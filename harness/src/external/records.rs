@@ -174,7 +174,8 @@ fn events(records: &[Record], rows: &[IterationRecord], rules: &StopSettings) ->
     let mut events = Events::default();
     for (k, row) in rows.iter().enumerate() {
         let decrease = if k == 0 { f64::INFINITY } else { records[k - 1].energy - records[k].energy };
-        let at = RowState { grad_norm: row.grad_norm, last_decrease: decrease, iter: k, at_target: false, stalled: false };
+        let at =
+            RowState { grad_norm: row.grad_norm, last_decrease: decrease, iter: k, at_target: false, stalled: false };
         rules.mark(&at, &mut events);
     }
     events
@@ -275,7 +276,8 @@ mod tests {
         // within the bound, as reported
         let cheap =
             [record(0, 3.0, 0.5, serde_json::json!({})), record(1, 2.5, 1.5, serde_json::json!({"record_s": 0.2}))];
-        let within = rows_and_outcome(&cheap, vec![snapshot(0, 3.0), snapshot(1, 2.5)], StopReason::SolverRule, &RULES, &COST);
+        let within =
+            rows_and_outcome(&cheap, vec![snapshot(0, 3.0), snapshot(1, 2.5)], StopReason::SolverRule, &RULES, &COST);
         assert_eq!(within.unwrap().rows[1].t_record_s, 0.2);
         let names: Vec<&str> = r[1].extra.iter().map(|e| e.0).collect();
         assert_eq!(names, [VERIFIED_COLUMN, REPORTED_ENERGY_COLUMN, "decrease", "accepted"]);
@@ -297,14 +299,16 @@ mod tests {
             (serde_json::json!({"note": "x"}), "extra `note` = \"x\" is not a number"),
         ] {
             let bad = [record(0, 3.0, 0.0, extras)];
-            let err = rows_and_outcome(&bad, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &RULES, &COST).err().unwrap();
+            let err =
+                rows_and_outcome(&bad, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &RULES, &COST).err().unwrap();
             assert!(err.contains(says), "{err}");
         }
         // more names than a record may have, over the records
         let wide: Vec<Record> = (0..=protocol::EXTRA_COLUMNS_MAX)
             .map(|k| record(k, 3.0, k as f64, serde_json::json!({ format!("c{k}"): 1 })))
             .collect();
-        let err = rows_and_outcome(&wide, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &RULES, &COST).err().unwrap();
+        let err =
+            rows_and_outcome(&wide, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &RULES, &COST).err().unwrap();
         assert_eq!(err, "more than 32 extra columns (at iteration 32: `c32`)");
     }
 

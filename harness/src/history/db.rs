@@ -491,6 +491,12 @@ impl From<rusqlite::Error> for InsertError {
 }
 
 fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, InsertError> {
+    let id = insert_batch(tx, b)?;
+    insert_runs(tx, id, runs)?;
+    Ok(id)
+}
+
+fn insert_batch(tx: &Transaction, b: &BatchRow) -> rusqlite::Result<i64> {
     tx.execute(
         "INSERT INTO batches (config_name, config_hash, started_unix, ended_unix, git_revision, git_dirty, host, \
          cores, jobs, threads_per_run, repeats, calibration_median_s, calibration_spread, run_dir, recorded_unix, \
@@ -514,7 +520,10 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             b.source.as_str(),
         ],
     )?;
-    let id = tx.last_insert_rowid();
+    Ok(tx.last_insert_rowid())
+}
+
+fn insert_runs(tx: &Transaction, id: i64, runs: &[RunRow]) -> Result<(), InsertError> {
     let mut stmt = tx.prepare(
         "INSERT INTO runs (batch_id, dataset, task, energy, solver, vertices, iterations, status, stop_reason, \
          final_energy, grad_norm, flips, time_s, time_s_min, time_s_max, time_norm, repeats, shifted_iters, \
@@ -574,7 +583,7 @@ fn insert_in(tx: &Transaction, b: &BatchRow, runs: &[RunRow]) -> Result<i64, Ins
             source,
         })?;
     }
-    Ok(id)
+    Ok(())
 }
 
 fn insert_claims(tx: &Transaction, batch_id: i64, rows: &[ClaimRow]) -> rusqlite::Result<()> {

@@ -432,7 +432,8 @@ mod tests {
         judge_batch(dir, &mut rows, &references, &targets, tol).unwrap();
         let v: Vec<Verdict> = rows.iter().map(|r| r.verdict.unwrap()).collect();
         use Verdict::*;
-        let ends = [Solved, Stalled, Stalled, BrokeDown, Unfinished, Unfinished, StoppedAboveTarget, StoppedAboveTarget];
+        let ends =
+            [Solved, Stalled, Stalled, BrokeDown, Unfinished, Unfinished, StoppedAboveTarget, StoppedAboveTarget];
         assert_eq!(v, ends);
         assert_eq!(rows[0].to_targets.iter().map(|t| t.tau).collect::<Vec<_>>(), [1e-3]);
         assert_eq!(rows[1].to_targets.iter().map(|t| t.tau).collect::<Vec<_>>(), [1e-3, 1e-6]);

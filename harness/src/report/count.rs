@@ -50,7 +50,7 @@ pub fn class(r: &SummaryRow, batch: &Batch) -> Class {
         let env = batch.external.iter().any(|p| p.name == r.solver && p.unavailable.as_deref() == Some(&r.error));
         return if env { Class::Environment } else { Class::NotDefined };
     }
-    if batch.expected_to_fail.iter().any(|s| *s == r.solver) {
+    if batch.expected_to_fail.contains(&r.solver) {
         return Class::Expected;
     }
     if r.status == Status::Failed {
@@ -294,7 +294,10 @@ mod tests {
         );
         assert_eq!(c.reached, [(1e-3, 5), (1e-6, 1)]);
         assert_eq!(c.environment, [("igl-slim".to_string(), 1, "No module named 'igl'".to_string())]);
-        assert_eq!((c.trivial, c.trivial_problems.clone(), c.expected, c.expected_solved), (1, vec!["d sd".into()], 1, 0));
+        assert_eq!(
+            (c.trivial, c.trivial_problems.clone(), c.expected, c.expected_solved),
+            (1, vec!["d sd".into()], 1, 0)
+        );
         assert!(is_problem(&rows[1], &batch()) && is_problem(&rows[5], &batch()));
         assert!(!is_problem(&rows[6], &batch()) && !is_problem(&rows[7], &batch()) && !is_problem(&rows[0], &batch()));
     }

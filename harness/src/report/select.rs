@@ -22,6 +22,12 @@ pub(super) fn skipped(r: &SummaryRow) -> bool {
     r.status == Status::Skipped
 }
 
+/// A run the aggregates and profiles count: not skipped, and not on a problem solved at its
+/// start (`SummaryRow::trivial`: every run of it is solved at row 0, which ranks nothing).
+pub(crate) fn counted_in(r: &SummaryRow) -> bool {
+    !skipped(r) && !r.trivial()
+}
+
 /// The run ran to a stop (converged or not): it has iterations, curves and a map to show.
 pub(super) fn finished(r: &SummaryRow) -> bool {
     r.status.ran()

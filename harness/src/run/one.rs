@@ -3,8 +3,9 @@
 
 use super::progress::Progress;
 use crate::external::execute::{execute, Executed, ExternalError, Job, Setup};
-use crate::external::protocol::TargetSpec;
 use crate::external::probe::Probe;
+use crate::external::protocol::TargetSpec;
+use crate::judge::end::TargetEnd;
 use crate::plan::external::Declared;
 use crate::plan::{Plan, PlannedRun, RunSettings};
 use crate::run_folder::{RunStop, Status, SummaryRow};
@@ -12,8 +13,7 @@ use crate::stats::median;
 use anyhow::Result;
 use solvers::linear::AnalysisCache;
 use solvers::mesh::Mesh;
-use crate::judge::end::TargetEnd;
-use solvers::solver::{Flow, IterationRecord, Observer, Outcome, Rule, RuleUse, StopReason};
+use solvers::solver::{Flow, IterationRecord, Observer, Outcome, RuleUse, StopReason, StopRule};
 use solvers::tasks::authalic::{solve_authalic, AreaMetrics};
 use solvers::tasks::deform::solve_deform;
 use solvers::tasks::param::solve_param_with;
@@ -313,7 +313,7 @@ fn record_outcome(
     summary.iterations = Some(outcome.iterations);
     // Converged: its own rule held (whether it ended the run or was an event on its way).
     summary.converged = outcome.stop_reason.is_converged() || outcome.events.first().is_some();
-    for rule in Rule::ALL {
+    for rule in StopRule::ALL {
         let k = outcome.events.of(rule);
         summary.set_rule_event(rule, k, k.and_then(|k| rows.get(k)).map(|r| r.energy).filter(|e| !e.is_nan()));
     }

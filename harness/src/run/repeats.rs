@@ -284,7 +284,8 @@ mod tests {
             r.summary.stop_reason = Some(crate::run_folder::RunStop::Solver(stop));
             r
         };
-        let (fast, near, slow) = (ended(StopReason::Target, 1.0), ended(StopReason::Target, 1.9), ended(StopReason::Target, 2.5));
+        let (fast, near, slow) =
+            (ended(StopReason::Target, 1.0), ended(StopReason::Target, 1.9), ended(StopReason::Target, 2.5));
         let capped = ended(StopReason::MaxIterations, 1.2);
         let other = ended(StopReason::GradientTolerance, 9.0);
         let firsts = [

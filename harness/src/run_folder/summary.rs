@@ -7,7 +7,7 @@ use super::run_stop::{stop_text, RunStop};
 pub use super::status::{RefSource, Status, ToTarget, Verdict};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
-use solvers::solver::{Rule, StartMap};
+use solvers::solver::{StartMap, StopRule};
 use solvers::tasks::Task;
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -191,8 +191,7 @@ pub struct SummaryRow {
     /// own process group's peak. Empty otherwise.
     #[serde(default)]
     pub peak_growth_mb: Option<f64>,
-    /// `E0` of the run's group: the common start's energy, whatever start the run took
-    /// (`init_energy` is its own).
+    /// `E0` of the run's group: the common start's energy, whatever the run's start (`init_energy`).
     #[serde(default)]
     pub start_energy: Option<f64>,
     /// `E_iso`: the energy at an isometry, its lower bound, from which the accuracy scale
@@ -245,7 +244,7 @@ pub struct SummaryRow {
 /// Where a tolerance rule first held in a run: what a run that rule ended would report.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RuleEvent {
-    pub rule: Rule,
+    pub rule: StopRule,
     pub iters: usize,
     /// Empty before the batch is judged (times are the repeats' median's).
     pub time_s: Option<f64>,
@@ -260,10 +259,12 @@ impl SummaryRow {
     }
 
     /// Where `rule` first held, `None` where it never did.
-    pub fn rule_event(&self, rule: Rule) -> Option<RuleEvent> {
+    pub fn rule_event(&self, rule: StopRule) -> Option<RuleEvent> {
         let (iters, time_s, energy) = match rule {
-            Rule::GradientTolerance => (self.rule_grad_tol_iters, self.rule_grad_tol_time_s, self.rule_grad_tol_energy),
-            Rule::EnergyDecrease => {
+            StopRule::GradientTolerance => {
+                (self.rule_grad_tol_iters, self.rule_grad_tol_time_s, self.rule_grad_tol_energy)
+            }
+            StopRule::EnergyDecrease => {
                 (self.rule_energy_decrease_iters, self.rule_energy_decrease_time_s, self.rule_energy_decrease_energy)
             }
         };
@@ -271,10 +272,12 @@ impl SummaryRow {
     }
 
     /// Set where `rule` first held (the time is the judge's).
-    pub fn set_rule_event(&mut self, rule: Rule, iters: Option<usize>, energy: Option<f64>) {
+    pub fn set_rule_event(&mut self, rule: StopRule, iters: Option<usize>, energy: Option<f64>) {
         match rule {
-            Rule::GradientTolerance => (self.rule_grad_tol_iters, self.rule_grad_tol_energy) = (iters, energy),
-            Rule::EnergyDecrease => (self.rule_energy_decrease_iters, self.rule_energy_decrease_energy) = (iters, energy),
+            StopRule::GradientTolerance => (self.rule_grad_tol_iters, self.rule_grad_tol_energy) = (iters, energy),
+            StopRule::EnergyDecrease => {
+                (self.rule_energy_decrease_iters, self.rule_energy_decrease_energy) = (iters, energy)
+            }
         }
     }
 
@@ -282,7 +285,7 @@ impl SummaryRow {
     /// on a tie), `None` where none did (the run then ended as a run its rules end would:
     /// the same breakdown, stationary point or budget, or it went to its target first).
     pub fn rule_stop(&self) -> Option<RuleEvent> {
-        Rule::ALL.into_iter().filter_map(|r| self.rule_event(r)).min_by_key(|e| e.iters)
+        StopRule::ALL.into_iter().filter_map(|r| self.rule_event(r)).min_by_key(|e| e.iters)
     }
 
     /// The problem is solved at its start (the common start within round-off of `E*`): its
@@ -290,9 +293,7 @@ impl SummaryRow {
     pub fn trivial(&self) -> bool {
         self.start_energy.zip(self.ref_energy).is_some_and(|(e0, e_star)| crate::convergence::trivial(e0, e_star))
     }
-}
 
-impl SummaryRow {
     /// A row without the rules' events (a folder or history written before them): a run its
     /// own rule ended has that rule's event at its last row, the stop being the event. A row
     /// with them, or of a run no rule ended, is unchanged.
@@ -301,13 +302,12 @@ impl SummaryRow {
             return self;
         }
         let Some(RunStop::Solver(reason)) = &self.stop_reason else { return self };
-        let rule = Rule::ALL.into_iter().find(|r| r.stop_reason() == *reason);
+        let rule = StopRule::ALL.into_iter().find(|r| r.stop_reason() == *reason);
         if let (Some(rule), Some(iters)) = (rule, self.iterations) {
             self.set_rule_event(rule, Some(iters), self.final_energy);
-            let time = self.time_s;
             match rule {
-                Rule::GradientTolerance => self.rule_grad_tol_time_s = time,
-                Rule::EnergyDecrease => self.rule_energy_decrease_time_s = time,
+                StopRule::GradientTolerance => self.rule_grad_tol_time_s = self.time_s,
+                StopRule::EnergyDecrease => self.rule_energy_decrease_time_s = self.time_s,
             }
         }
         self
@@ -619,8 +619,8 @@ mod tests {
         let back = read_summary(dir.path()).unwrap();
         assert_eq!(back[0], went_on);
         let stop = |r: &SummaryRow| r.rule_stop().map(|e| (e.rule, e.iters, e.time_s, e.energy));
-        assert_eq!(stop(&back[0]), Some((Rule::GradientTolerance, 12, Some(0.5), Some(2.6))));
-        assert_eq!(stop(&back[1]), Some((Rule::EnergyDecrease, 40, Some(2.0), Some(2.5))));
+        assert_eq!(stop(&back[0]), Some((StopRule::GradientTolerance, 12, Some(0.5), Some(2.6))));
+        assert_eq!(stop(&back[1]), Some((StopRule::EnergyDecrease, 40, Some(2.0), Some(2.5))));
         assert_eq!(stop(&back[2]), None);
         // without the six columns: the stop of the run its rule ended is the event
         let text = std::fs::read_to_string(&path).unwrap();
@@ -628,7 +628,7 @@ mod tests {
         std::fs::write(&path, text.lines().map(cut).collect::<String>()).unwrap();
         let old = read_summary(dir.path()).unwrap();
         assert_eq!(stop(&old[0]), None, "a target end has no rule's event to read");
-        assert_eq!(stop(&old[1]), Some((Rule::EnergyDecrease, 40, Some(2.0), Some(2.5))));
+        assert_eq!(stop(&old[1]), Some((StopRule::EnergyDecrease, 40, Some(2.0), Some(2.5))));
     }
 
     #[test]

@@ -30,7 +30,7 @@ pub use options::RawOptions;
 pub use outcome::{AnalysisReport, Outcome, SolveError, StartMap};
 pub use settings::Settings;
 pub use stop::{
-    Events, RowState, Rule, RuleUse, Stall, StopOverrides, StopReason, StopSettings, UnknownStopReason, GRAD_FLOOR,
+    Events, RowState, RuleUse, Stall, StopOverrides, StopReason, StopRule, StopSettings, UnknownStopReason, GRAD_FLOOR,
     STALL_RTOL, STALL_WINDOW,
 };
 
@@ -57,7 +57,7 @@ mod tests {
         assert!(!StopReason::Timeout.is_converged() && StopReason::Timeout.is_budget());
         assert!(StopReason::NoDecrease.is_stationary() && StopReason::GradientFloor.is_stationary());
         assert!(StopReason::LineSearchFailed.is_breakdown() && !StopReason::Target.is_converged());
-        assert_eq!(Rule::ALL.map(|r| r.as_str()), ["grad_tol", "energy_decrease"]);
+        assert_eq!(StopRule::ALL.map(|r| r.as_str()), ["grad_tol", "energy_decrease"]);
         assert!("skipped".parse::<StopReason>().is_err(), "skipped is the harness's word (no solver returns it)");
     }
 
@@ -105,13 +105,16 @@ mod tests {
         let later = row(1e-5, 1e-7, 5);
         s.mark(&later, &mut events);
         assert_eq!(events, Events { grad_tol: Some(3), energy_decrease: Some(5) });
-        assert_eq!(events.first(), Some((Rule::GradientTolerance, 3)));
+        assert_eq!(events.first(), Some((StopRule::GradientTolerance, 3)));
         assert_eq!(s.end(&stop::RowState { at_target: true, ..later }, &events), Some(StopReason::Target));
         // the first iteration is kept
         s.mark(&row(1e-6, 1e-9, 6), &mut events);
         assert_eq!(events.grad_tol, Some(3));
         assert_eq!(s.end(&row(1e-11, 1.0, 6), &events), Some(StopReason::GradientFloor));
-        assert_eq!(s.end(&stop::RowState { stalled: true, ..row(1e-5, 1.0, 10) }, &events), Some(StopReason::NoDecrease));
+        assert_eq!(
+            s.end(&stop::RowState { stalled: true, ..row(1e-5, 1.0, 10) }, &events),
+            Some(StopReason::NoDecrease)
+        );
         assert_eq!(s.end(&row(1e-5, 1.0, 10), &events), Some(StopReason::MaxIterations));
         // without rules the target ends the run at once
         let budget = StopSettings { rules: RuleUse::Event, ..StopSettings::rules_only(0.0, 0.0, 10) };

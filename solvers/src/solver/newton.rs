@@ -219,10 +219,7 @@ mod tests {
     }
 
     fn settings() -> Settings {
-        Settings {
-            stop: StopSettings::rules_only(1e-9, 0.0, 100),
-            ..Settings::default()
-        }
+        Settings { stop: StopSettings::rules_only(1e-9, 0.0, 100), ..Settings::default() }
     }
 
     /// A broken strategy: negative definite blocks make every factorization fail.

@@ -152,16 +152,16 @@ impl<'de> serde::Deserialize<'de> for StopReason {
 
 /// A tolerance rule of `[stop]`: the papers' convergence tests.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Rule {
+pub enum StopRule {
     /// `|grad| <= grad_tol`.
     GradientTolerance,
     /// The last accepted step lowered the energy by less than `energy_decrease_tol`.
     EnergyDecrease,
 }
 
-impl Rule {
+impl StopRule {
     /// Every rule, in the order they are checked.
-    pub const ALL: [Rule; 2] = [Rule::GradientTolerance, Rule::EnergyDecrease];
+    pub const ALL: [StopRule; 2] = [StopRule::GradientTolerance, StopRule::EnergyDecrease];
 
     /// The rule's name: its stop reason's string (`grad_tol`, `energy_decrease`).
     pub fn as_str(self) -> &'static str {
@@ -171,8 +171,8 @@ impl Rule {
     /// The reason a run records when this rule ends it.
     pub fn stop_reason(self) -> StopReason {
         match self {
-            Rule::GradientTolerance => StopReason::GradientTolerance,
-            Rule::EnergyDecrease => StopReason::EnergyDecrease,
+            StopRule::GradientTolerance => StopReason::GradientTolerance,
+            StopRule::EnergyDecrease => StopReason::EnergyDecrease,
         }
     }
 }
@@ -200,25 +200,25 @@ pub struct Events {
 
 impl Events {
     /// The iteration at which `rule` first held.
-    pub fn of(&self, rule: Rule) -> Option<usize> {
+    pub fn of(&self, rule: StopRule) -> Option<usize> {
         match rule {
-            Rule::GradientTolerance => self.grad_tol,
-            Rule::EnergyDecrease => self.energy_decrease,
+            StopRule::GradientTolerance => self.grad_tol,
+            StopRule::EnergyDecrease => self.energy_decrease,
         }
     }
 
-    fn set(&mut self, rule: Rule, iter: usize) {
+    fn set(&mut self, rule: StopRule, iter: usize) {
         let slot = match rule {
-            Rule::GradientTolerance => &mut self.grad_tol,
-            Rule::EnergyDecrease => &mut self.energy_decrease,
+            StopRule::GradientTolerance => &mut self.grad_tol,
+            StopRule::EnergyDecrease => &mut self.energy_decrease,
         };
         slot.get_or_insert(iter);
     }
 
     /// The rule that would have ended the run first and its iteration: the earliest event,
     /// the gradient's on a tie (the order the rules are checked in).
-    pub fn first(&self) -> Option<(Rule, usize)> {
-        Rule::ALL.into_iter().filter_map(|r| self.of(r).map(|k| (r, k))).min_by_key(|&(_, k)| k)
+    pub fn first(&self) -> Option<(StopRule, usize)> {
+        StopRule::ALL.into_iter().filter_map(|r| self.of(r).map(|k| (r, k))).min_by_key(|&(_, k)| k)
     }
 }
 
@@ -321,26 +321,26 @@ impl StopSettings {
     }
 
     /// The rules that are on.
-    pub fn enabled(&self) -> impl Iterator<Item = Rule> + '_ {
-        Rule::ALL.into_iter().filter(|r| match r {
-            Rule::GradientTolerance => self.grad_tol > 0.0,
-            Rule::EnergyDecrease => self.energy_decrease_tol > 0.0,
+    pub fn enabled(&self) -> impl Iterator<Item = StopRule> + '_ {
+        StopRule::ALL.into_iter().filter(|r| match r {
+            StopRule::GradientTolerance => self.grad_tol > 0.0,
+            StopRule::EnergyDecrease => self.energy_decrease_tol > 0.0,
         })
     }
 
     /// Whether `rule` holds at a row of gradient norm `grad_norm` whose step lowered the
     /// energy by `last_decrease` (infinite before the first step). A tolerance of 0 turns its
     /// rule off (a rise of SEM's energy is no stall).
-    pub fn holds(&self, rule: Rule, grad_norm: f64, last_decrease: f64) -> bool {
+    pub fn holds(&self, rule: StopRule, grad_norm: f64, last_decrease: f64) -> bool {
         match rule {
-            Rule::GradientTolerance => self.grad_tol > 0.0 && grad_norm <= self.grad_tol,
-            Rule::EnergyDecrease => self.energy_decrease_tol > 0.0 && last_decrease < self.energy_decrease_tol,
+            StopRule::GradientTolerance => self.grad_tol > 0.0 && grad_norm <= self.grad_tol,
+            StopRule::EnergyDecrease => self.energy_decrease_tol > 0.0 && last_decrease < self.energy_decrease_tol,
         }
     }
 
     /// Record the rules that hold at `row` for the first time in `events`.
     pub fn mark(&self, row: &RowState, events: &mut Events) {
-        for rule in Rule::ALL {
+        for rule in StopRule::ALL {
             if self.holds(rule, row.grad_norm, row.last_decrease) {
                 events.set(rule, row.iter);
             }
@@ -354,7 +354,7 @@ impl StopSettings {
     /// holds only after the target (SARAP's gradient, which need not vanish) is not waited for.
     pub fn end(&self, row: &RowState, events: &Events) -> Option<StopReason> {
         if self.rules == RuleUse::End {
-            let now = Rule::ALL.into_iter().find(|&r| self.holds(r, row.grad_norm, row.last_decrease));
+            let now = StopRule::ALL.into_iter().find(|&r| self.holds(r, row.grad_norm, row.last_decrease));
             if let Some(rule) = now {
                 return Some(rule.stop_reason());
             }

@@ -7,7 +7,7 @@
 //!
 //! The rules, stated once (the captions and the book repeat them):
 //! - Skipped pairs are left out entirely, and so are the runs of a problem solved at its start
-//!   ([`counted_in`]); `runs` counts the others, `solved` the converged.
+//!   ([`counted_in`](super::select::counted_in)); `runs` counts the others, `solved` the converged.
 //! - Shifts: [`ITERATION_SHIFT`] iterations; [`TIME_SHIFT_S`] seconds, or
 //!   [`TIME_NORM_SHIFT`] calibration units when times are normalized.
 //! - Unsolved runs (not converged or failed) enter at the cap: iterations at the energy's
@@ -23,13 +23,7 @@
 //!   problem set.
 
 use super::batch::Batch;
-use super::select::{finished, skipped, unique};
-
-/// A run the aggregates and profiles count: not skipped, and not on a problem solved at its
-/// start (`SummaryRow::trivial`: every run of it is solved at row 0, which ranks nothing).
-pub(crate) fn counted_in(r: &SummaryRow) -> bool {
-    !skipped(r) && !r.trivial()
-}
+use super::select::{counted_in, finished, skipped, unique};
 use crate::run_folder::timed::Timed;
 use crate::run_folder::{Status, SummaryRow};
 use crate::stats::shifted_geometric_mean;

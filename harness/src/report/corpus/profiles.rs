@@ -1,7 +1,6 @@
 //! Dolan–Moré performance profiles and Moré–Wild data profiles over the common problem set.
 
-use super::counted_in;
-use crate::report::select::unique;
+use crate::report::select::{counted_in, unique};
 use crate::run_folder::{Status, SummaryRow};
 
 /// One solver's performance profile: its ratio to the best solver on each problem.

@@ -58,12 +58,9 @@ impl Line<'_> {
 /// The unsolved runs (`unsolved`) rolled up per (solver, energy), the most unsolved first
 /// (ties in the batch's order); "of N" counts the runs of the pair that ran or failed, but
 /// those on problems solved at their start.
-fn lines<'a>(
-    summaries: &'a [SummaryRow],
-    batch: &Batch,
-    unsolved: impl Fn(&SummaryRow) -> bool,
-) -> Vec<Line<'a>> {
-    let counted_in = |s: &SummaryRow| !matches!(class(s, batch), Class::NotDefined | Class::Environment | Class::Trivial);
+fn lines<'a>(summaries: &'a [SummaryRow], batch: &Batch, unsolved: impl Fn(&SummaryRow) -> bool) -> Vec<Line<'a>> {
+    let counted_in =
+        |s: &SummaryRow| !matches!(class(s, batch), Class::NotDefined | Class::Environment | Class::Trivial);
     let ran: Vec<&SummaryRow> = summaries.iter().filter(|s| counted_in(s)).collect();
     let mut out: Vec<Line> = unique(ran.iter().map(|s| (s.solver.as_str(), s.energy.as_str())))
         .into_iter()
