@@ -96,7 +96,8 @@ fn a_repeat_of_a_timed_out_run_replays_its_iterations() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = write_config(
         tmp.path(),
-        "name = \"t\"\ntimeout = \"0.001s\"\nrepeat = 2\ndatasets = [\"bumpy_5k\"]\nenergies = [\"sd\"]\nsolvers = [\"slim\"]\n",
+        "name = \"t\"\ntimeout = \"0.001s\"\nrepeat = 2\nrepeat_runs = \"all\"\ndatasets = [\"bumpy_5k\"]\nenergies = [\"sd\"]\n\
+         solvers = [\"slim\"]\n",
     );
     let out = tmp.path().join("out");
     let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()], tmp.path());
@@ -108,6 +109,28 @@ fn a_repeat_of_a_timed_out_run_replays_its_iterations() {
         ["timeout", "not_converged", "2"],
         "{rows:?}"
     );
+}
+
+/// By default the repeats go to the runs whose time decides a ranking: `kp-newton` reaches its
+/// target and is repeated; plain `newton`'s factorization fails at once (a breakdown), its time
+/// ranks nothing and it keeps its one sample; the report says how many were repeated.
+#[test]
+fn only_the_runs_whose_time_ranks_are_repeated() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        tmp.path(),
+        "name = \"r\"\nrepeat = 3\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"newton\"]\n",
+    );
+    let out = tmp.path().join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-history"], tmp.path());
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let of = |solver: &str| rows.iter().find(|r| r[col("solver")] == solver).unwrap();
+    assert_eq!([&of("kp-newton")[col("stop_reason")], &of("kp-newton")[col("repeats")]], ["target", "3"]);
+    assert_eq!([&of("newton")[col("stop_reason")], &of("newton")[col("repeats")]], ["linear_solve_failed", "1"]);
+    let index = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(index.contains("1 of the 2 runs were repeated 3 times"), "{index}");
 }
 
 #[test]

@@ -70,6 +70,8 @@ pub struct Plan {
     pub threads_per_run: Option<usize>,
     /// Times each run is repeated (`repeat`, or `--repeat`), at least 1.
     pub repeat: usize,
+    /// Which runs are repeated (`repeat_runs`).
+    pub repeat_runs: config::RepeatRuns,
     /// The history database the batch is appended to (`history`, `--history`); `None` with
     /// `--no-history`.
     pub history: Option<std::path::PathBuf>,
@@ -149,6 +151,7 @@ impl Plan {
             targets,
             references,
             repeat,
+            repeat_runs: c.repeat_runs.unwrap_or_default(),
             history,
             maps: c.maps.unwrap_or_default(),
             maps_keep: c.maps_keep.clone().unwrap_or_default(),

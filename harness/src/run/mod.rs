@@ -32,9 +32,9 @@ use one::RunResult;
 pub use options::RunOptions;
 use pages::conclude_history;
 pub use pages::Pages;
-pub use repeats::REPEAT_WITHIN;
 use progress::Progress;
 use record::{code_id, BatchRecord};
+pub use repeats::REPEAT_WITHIN;
 use repeats::{Repeats, Slot};
 use round::{run_round, Done, RoundSource, Todo, Workers};
 use solvers::solver::StopReason;
@@ -170,7 +170,8 @@ fn run_rounds(
             Some((i, worker, slot)) => done.finish(i, worker, slot),
             None => Ok(()),
         })?;
-        if round == 0 && plan.repeat > 1 && !workers.opts.interrupt.load(Ordering::Relaxed) {
+        let ranked_only = plan.repeat_runs == crate::plan::config::RepeatRuns::Ranked;
+        if round == 0 && plan.repeat > 1 && ranked_only && !workers.opts.interrupt.load(Ordering::Relaxed) {
             keep_one_sample(slots, plan, mine, progress, done)?;
         }
     }
@@ -191,7 +192,9 @@ fn keep_one_sample(
         .collect();
     let firsts: Vec<(&str, &str, &one::RunResult)> = waiting
         .iter()
-        .filter_map(|&i| slots[i].as_ref().map(|s| (s.first.summary.dataset.as_str(), mine[i].energy.as_str(), &s.first)))
+        .filter_map(|&i| {
+            slots[i].as_ref().map(|s| (s.first.summary.dataset.as_str(), mine[i].energy.as_str(), &s.first))
+        })
         .collect();
     let worth = repeats::worth_repeating(&firsts);
     let once: Vec<usize> = waiting.iter().zip(worth).filter(|(_, w)| !w).map(|(&i, _)| i).collect();

@@ -129,6 +129,10 @@ pub struct Config {
     /// again), so that a slow phase of the machine hits every solver alike; `time_s` is the
     /// median. Default 1; `--repeat N` overrides.
     pub repeat: Option<usize>,
+    /// Which runs the repeats are for: `ranked` (default: those whose time decides a ranking,
+    /// the runs that reached their target within twice the fastest of their problem) or
+    /// `all` (every run that ran, for a study of every run's time).
+    pub repeat_runs: Option<RepeatRuns>,
     /// The history database every batch is appended to, relative to the config's folder;
     /// default `reports/history.sqlite` relative to the current directory (`--history`,
     /// `--no-history` override).
@@ -157,6 +161,17 @@ pub struct Config {
     /// (the authalic reference runs AEM-CG 5000 iterations twice). `mapbench references`
     /// computes them regardless.
     pub compute_references: Option<bool>,
+}
+
+/// Which runs of a batch with `repeat` above 1 are repeated (`repeat_runs`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RepeatRuns {
+    /// The runs whose time decides a ranking (`run::repeats::worth_repeating`).
+    #[default]
+    Ranked,
+    /// Every run that ran.
+    All,
 }
 
 /// The default targets of the convergence test.
