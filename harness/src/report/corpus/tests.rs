@@ -210,3 +210,20 @@ fn time_spreads_and_units() {
     assert_eq!(time_cap(&rows.iter().collect::<Vec<_>>(), &batch, TimeUnit::Calibrated).unwrap().value, 20.0);
     assert_eq!(TimeUnit::Calibrated.from_seconds(10.0, &Batch::default()), None);
 }
+
+/// A problem solved at its start (the common start within round-off of `E*`) ranks nothing:
+/// the profiles and the aggregates leave its runs out, as they leave out skipped pairs.
+#[test]
+fn a_problem_solved_at_its_start_is_left_out_of_profiles_and_aggregates() {
+    let at = |d: &str, s: &str, it: usize, e0: f64| SummaryRow {
+        start_energy: Some(e0),
+        ref_energy: Some(2.0),
+        ..run(d, s, Status::Ok, it, it as f64)
+    };
+    let rows = [at("d1", "a", 10, 5.0), at("d1", "b", 20, 5.0), at("flat", "a", 0, 2.0), at("flat", "b", 0, 2.0)];
+    let refs: Vec<&SummaryRow> = rows.iter().collect();
+    let p = performance_profiles(&refs, |r| r.iterations.map(|i| i as f64), PROFILE_MIN_ITERATIONS);
+    assert_eq!(p.problems, ["d1"]);
+    let agg = aggregate(&rows, &Batch::default(), TimeUnit::Seconds);
+    assert_eq!((agg[0].datasets, agg[0].solvers[0].runs, agg[0].solvers[0].solved), (1, 1, 1));
+}

@@ -3,7 +3,6 @@
 //! (failed and unsolved runs) as a short list; the status matrix and the rest follow.
 
 use super::timing::significant;
-use crate::report::count::{is_problem, Count};
 use crate::escape::{esc, href};
 use crate::gate::check::DEFAULT_ENERGY_RTOL;
 use crate::gate::rules::Change;
@@ -11,6 +10,7 @@ use crate::history::{HistoryDb, HistoryOutcome};
 use crate::judge::verdict::Verdict;
 use crate::report::batch::Batch;
 use crate::report::changes::{since_previous, Changes, Since};
+use crate::report::count::{is_problem, Count};
 use crate::report::plots::Plot;
 use crate::report::select::{counted, unique};
 use crate::report::target::{tau_text, tightest_target, verdict_text};
@@ -120,13 +120,17 @@ fn count_list(h: &mut String, c: &Count) {
         );
     }
     if c.not_defined > 0 {
-        let _ = writeln!(h, "<li>skipped: {} outside their solver's definition (the status matrix's notes)</li>", c.not_defined);
+        let _ = writeln!(
+            h,
+            "<li>skipped: {} outside their solver's definition (the status matrix's notes)</li>",
+            c.not_defined
+        );
     }
     if c.trivial > 0 {
         let _ = writeln!(
             h,
             "<li>apart: {} run{} on {} problem{} solved at the start (its energy within round-off of E*: {}), left \
-             out of the tables' means and profiles</li>",
+             out of the aggregates and profiles</li>",
             c.trivial,
             plural(c.trivial),
             c.trivial_problems.len(),

@@ -147,7 +147,7 @@ pub(super) fn status_matrix(
 fn status_caption(h: &mut String, summaries: &[SummaryRow], explorer: bool) {
     *h += "<h2 id=\"status\">Run status</h2>\n<p class=\"caption\">Rows with a failed or unsolved run come first. \
            Each cell: iterations over the time in seconds (the median over the repeats); hover it for the \
-           whole story (“it” = iteration; the min–max of the repeats; the run's own stop; peak RSS = the \
+           whole story (“it” = iteration; the min–max of the repeats; how the run ended; peak RSS = the \
            process's peak resident memory, with other runs in flight unless its growth is given) and click it \
            for ";
     *h += if explorer {
@@ -156,33 +156,45 @@ fn status_caption(h: &mut String, summaries: &[SummaryRow], explorer: bool) {
         "its problem's plots (or the run's per-iteration CSV)."
     };
     *h += " A framed cell is the fastest solved run of its row by time to the target (those whose repeat \
-           spreads overlap it framed too). <span class=\"ok\">green</span> converged; \
-           <span class=\"nc\">yellow</span> stopped by another rule (the verdict in the cell, the rule in its \
-           tooltip); \
+           spreads overlap it framed too). <span class=\"ok\">green</span> solved; \
+           <span class=\"nc\">yellow</span> not solved (the verdict in the cell, how it ended in its tooltip); \
            <span class=\"failed\">failed</span> and <span class=\"skipped\">skip</span> (not run: the solver is \
-           not defined for the energy; left out of every aggregate and ranking) give the number of their reason \
-           in the notes under the table. A “+” after the iterations: some iterations solved their Newton system \
-           with a Tikhonov shift above the base (regularized Newton), stopped CG at its iteration cap short of the \
-           forcing term (truncated solvers; “CG capped”) or clamped SLIM weights (the solver outside the energies \
-           it is defined for; tables and profiles name it “slim (clamped)”); the tooltip counts them.";
+           not defined for the energy, or this machine cannot run an external solver; left out of every \
+           aggregate and ranking) give the number of their reason in the notes under the table. A “+” after the \
+           iterations: some iterations solved their Newton system with a Tikhonov shift above the base \
+           (regularized Newton), stopped CG at its iteration cap short of the forcing term (truncated solvers; \
+           “CG capped”) or clamped SLIM weights (the solver outside the energies it is defined for; tables and \
+           profiles name it “slim (clamped)”); the tooltip counts them.";
     if let Some(tau) = tightest_target(summaries) {
         let t = tau_text(tau);
+        let own: Vec<String> = crate::report::select::unique(
+            summaries
+                .iter()
+                .filter_map(|r| r.to_targets.last().filter(|x| x.tau != tau).map(|x| (r.energy.as_str(), x.tau))),
+        )
+        .into_iter()
+        .map(|(e, x)| format!("{e} at {}", tau_text(x)))
+        .collect();
+        let own = if own.is_empty() { String::new() } else { format!(" ({}: its config's own)", own.join(", ")) };
         let _ = write!(
             h,
-            " The harness judges every run against the reference minimum E* of their dataset and \
-             energy, whatever the solver's own stop rule said, from the common start's energy E0 for every \
-             solver: <span class=\"ok\">green</span> = solved, its final map has no flipped triangle and \
-             E − E* ≤ {t} × span, the span being min(E0 − E*, A) with A = max(E* − E_iso, 10⁻⁴ max(1, |E_iso|)) \
-             the minimum's own distortion (E_iso: the energy at an isometry, SD's 2), so that “solved” is the \
-             same accuracy on every problem; its cell counts the iterations and time <i>to the target</i> (the \
-             tooltip gives its own stop). A yellow cell names the harness's verdict over the final gap \
-             (E_final − E*)/span: <b>above</b> = stopped above target, its own rule called it converged above \
-             the target; <b>other</b> = other minimum, it stopped with a small gradient farther than the loosest \
-             target from E* and a tight Newton polish from its final map stayed there; <b>unfin.</b> = \
-             unfinished, it stopped for another reason above the target (iteration cap, time limit, failed line \
-             search or linear solve; the tooltip names it); <b>flipped</b> = its final map flips triangles. \
-             A <b>†</b> marks the runs of a group whose E* is not certified (its reason in the notes below), a \
-             <b>≠</b> a run whose repeats did not reproduce its first (its first repeat's result is shown)."
+            " Every run went on to its target, its solver's stop rules recorded on the way (the tooltip names \
+             the iteration where the first held, where the papers' protocol stops), and the harness judges it \
+             against the reference minimum E* of its dataset and energy from the common start's energy E0 for \
+             every solver: <span class=\"ok\">green</span> = solved, its final map has no flipped triangle and \
+             E − E* ≤ {t} × span{own}, the span being min(E0 − E*, A) with A = max(E* − E_iso, 10⁻⁴ max(1, \
+             |E_iso|)) the minimum's own distortion (E_iso: the energy at an isometry, SD's 2), so that “solved” \
+             is the same accuracy on every problem; its cell counts the iterations and time <i>to the target</i>. \
+             A yellow cell names the harness's verdict over the final gap (E_final − E*)/span: <b>budget</b> = \
+             out of budget, the iteration cap or the time limit ended it; <b>stalled</b> = it ended stationary \
+             (no decrease beyond round-off over the stall window, or the gradient floor); <b>broke</b> = the \
+             method broke down (a line search that found no decrease, a failed factorization); <b>other</b> = \
+             other minimum, it ended stationary farther than the loosest target from E* and a tight Newton polish \
+             from its final map stayed there; <b>above</b> = a stop rule ended it above the target (an external \
+             solver's own, or a run without a reference to go to); <b>flipped</b> = its final map flips \
+             triangles. A <b>†</b> marks the runs of a group whose E* is not certified (its reason in the notes \
+             below), a <b>≠</b> a run whose repeats did not reproduce its first (its first repeat's result is \
+             shown)."
         );
     }
 }
@@ -277,7 +289,7 @@ fn cell_story(s: &SummaryRow, shown: &SummaryRow, time: Option<Timed>) -> (Strin
             _ => "unknown".to_string(),
         };
         let at = time.map(|t| format!(", {}", seconds(t.value))).unwrap_or_default();
-        let _ = write!(more, "; {} target at it {i}{at}; own stop at {own}", tau_text(t.tau));
+        let _ = write!(more, "; {} target at it {i}{at}; ended at {own}", tau_text(t.tau));
     } else if let Some(i) = shown.iterations {
         let at = time.map(|t| format!(", {}", seconds(t.value))).unwrap_or_default();
         let _ = write!(more, "; {i} it{at}");
@@ -318,6 +330,16 @@ fn cell_story(s: &SummaryRow, shown: &SummaryRow, time: Option<Timed>) -> (Strin
     (more, marked)
 }
 
+/// ` at 1e-6`: the tightest target a judged run was held to (its energy's own where it has one).
+fn at_target(s: &SummaryRow) -> String {
+    s.to_targets.last().map(|t| format!(" at {}", tau_text(t.tau))).unwrap_or_default()
+}
+
+/// `; grad_tol held at iteration 8`: where the run's own rule would have ended it.
+fn rule_held(s: &SummaryRow) -> String {
+    s.rule_stop().map(|e| format!("; {} held at iteration {}", e.rule.as_str(), e.iters)).unwrap_or_default()
+}
+
 /// The row's fastest solved runs by their time to the target: the one rule of the tables
 /// ([`fastest`]), ties on overlapping spreads included.
 fn fastest_solved(runs: &[Option<&SummaryRow>]) -> Vec<usize> {
@@ -343,7 +365,12 @@ fn status_cell(h: &mut String, run: Option<&SummaryRow>, notes: &mut Notes, fast
     let (class, top, bottom, tip) = match (s.status, verdict) {
         (Status::Ok, _) => {
             let what = if s.verdict == Some(Verdict::Solved) { "solved" } else { "converged" };
-            ("ok", iterations, secs, format!("{what}, own stop {}{more}", s.stop_column()))
+            (
+                "ok",
+                iterations,
+                secs,
+                format!("{what}{}, ended: {}{}{more}", at_target(s), s.stop_column(), rule_held(s)),
+            )
         }
         (Status::NotConverged, Some(v)) => {
             let flips = match (v, s.flips) {
@@ -351,10 +378,12 @@ fn status_cell(h: &mut String, run: Option<&SummaryRow>, notes: &mut Notes, fast
                 _ => String::new(),
             };
             let tip = format!(
-                "not solved: {}{flips}; gap {}; own stop {}{more}",
+                "not solved{}: {}{flips}; gap {}; ended: {}{}{more}",
+                at_target(s),
                 verdict_text(v),
                 s.final_gap.map_or("unknown".to_string(), |g| format!("{g:.3e}")),
-                s.stop_column()
+                s.stop_column(),
+                rule_held(s)
             );
             let gap = s.final_gap.map(|g| format!("{g:.0e}")).unwrap_or_default();
             ("nc", verdict_short(v).to_string(), gap, tip)

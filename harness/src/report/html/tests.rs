@@ -177,14 +177,16 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
     write_index(p, &rows, &tables, &plots, &Batch::default()).unwrap();
     let html = std::fs::read_to_string(p.join("index.html")).unwrap();
     assert!(html.contains("<b>2</b><br><small>0.20</small>"), "the solved cell counts to the target");
-    assert!(html.contains("solved, own stop grad_tol; 1e-6 target at it 2, 0.200 s; own stop at 3 it, 0.250 s"));
+    assert!(html.contains("solved at 1e-6, ended: grad_tol; 1e-6 target at it 2, 0.200 s; ended at 3 it, 0.250 s"));
     assert!(html.contains("<b>above</b><br><small>3e-4</small>"), "the verdict cell: verdict and gap");
-    assert!(html.contains("not solved: stopped above target; gap 3.200e-4; own stop max_iters"));
+    assert!(html.contains("not solved at 1e-6: stopped above target; gap 3.200e-4; ended: max_iters"));
     // The legend explains the verdicts; the batch's references are named.
     for words in [
-        "<b>above</b> = stopped above target",
+        "<b>above</b> = a stop rule ended it above the target",
         "<b>other</b> = other minimum",
-        "<b>unfin.</b> = unfinished",
+        "<b>budget</b> = out of budget",
+        "<b>stalled</b> = it ended stationary",
+        "<b>broke</b> = the method broke down",
         "<b>flipped</b> = ",
         "the iterations and time <i>to the target</i>",
     ] {
@@ -206,7 +208,7 @@ fn status_cells_show_the_target_the_verdict_and_the_gap() {
     let html = std::fs::read_to_string(p.join("index.html")).unwrap();
     assert!(html.contains("<b>other</b><br><small>3e-4</small>"));
     assert!(html.contains("<b>flipped</b><br><small>0e0</small>"));
-    assert!(html.contains("not solved: flipped; 4 flipped triangles"));
+    assert!(html.contains("not solved at 1e-6: flipped; 4 flipped triangles"));
     assert!(!html.contains("No reference minimum"), "stored references: no line");
     // An uncertified reference marks its group's cells; a repeat that differed is flagged.
     for r in &mut rows[..2] {
@@ -431,4 +433,79 @@ fn the_first_screen_shows_what_changed_since_the_previous_batch() {
     assert!(html.contains(
         "<li class=\"failed\">tiny / sd / <a href=\"runs/tiny__sd__cm.csv\">cm</a>: failed: factorization failed: pivot &lt; 0"
     ));
+}
+
+/// The first screen's one count: its classes add up to the runs, each reason in words with its
+/// value, the runs on a problem solved at its start and those of a solver expected to fail
+/// apart, an external solver this machine cannot run named with why; the roll-up and the
+/// problems count the same runs.
+#[test]
+fn the_first_screen_counts_every_run_once_with_its_reason() {
+    use crate::external::probe::Probe;
+    use crate::run_folder::meta::Stop;
+    use crate::run_folder::summary::ToTarget;
+    use crate::run_folder::RunStop;
+    use solvers::solver::StopReason;
+    let (dir, rows) = tiny_run();
+    let p = dir.path();
+    let judged = |solver: &str, energy: &str, verdict: Verdict, stop: StopReason| SummaryRow {
+        solver: solver.into(),
+        energy: energy.into(),
+        status: if verdict == Verdict::Solved { Status::Ok } else { Status::NotConverged },
+        verdict: Some(verdict),
+        stop_reason: Some(RunStop::Solver(stop)),
+        start_energy: Some(10.0),
+        ref_energy: Some(2.0),
+        to_targets: vec![ToTarget { tau: 1e-6, iters: (verdict == Verdict::Solved).then_some(3), time_s: None }],
+        ..rows[0].clone()
+    };
+    let mut trivial = judged("kp-newton", "exp-sd", Verdict::Solved, StopReason::Target);
+    trivial.start_energy = Some(2.0);
+    let mut sarap = judged("kp-newton", "sarap", Verdict::Solved, StopReason::Target);
+    sarap.to_targets[0].tau = 1e-3;
+    let env = SummaryRow {
+        solver: "igl-slim".into(),
+        status: Status::Skipped,
+        error: "version command exited with code 1: No module named 'igl'".into(),
+        ..rows[0].clone()
+    };
+    let summaries = vec![
+        judged("kp-newton", "sd", Verdict::Solved, StopReason::Target),
+        sarap,
+        judged("slim", "sd", Verdict::Unfinished, StopReason::MaxIterations),
+        judged("aqp", "sd", Verdict::Stalled, StopReason::NoDecrease),
+        judged("lbfgs", "sd", Verdict::Stalled, StopReason::NoDecrease),
+        judged("newton", "sd", Verdict::BrokeDown, StopReason::LinearSolveFailed("pivot".into())),
+        trivial,
+        env,
+    ];
+    let batch = Batch {
+        max_iters: [("sd".to_string(), 1000)].into(),
+        stop: [("sd".to_string(), Stop { stall_window: Some(50), ..Stop::default() })].into(),
+        external: vec![Probe {
+            name: "igl-slim".into(),
+            command: vec!["python3".into()],
+            version: None,
+            unavailable: Some("version command exited with code 1: No module named 'igl'".into()),
+        }],
+        expected_to_fail: vec!["newton".into()],
+        ..Batch::default()
+    };
+    write_index(p, &summaries, &[], &[], &batch).unwrap();
+    let html = std::fs::read_to_string(p.join("index.html")).unwrap();
+    let section = &html[html.find("id=\"changes\"").unwrap()..html.find("</section>").unwrap()];
+    for needle in [
+        "8 runs: 2 solved at the tightest target (1e-6, sarap 1e-3), 3 not solved, 0 failed, 1 skipped; apart, 1 on \
+         problems solved at their start and 1 of solvers expected to fail",
+        "not solved (3): 2 stalled: no decrease in 50 iterations; 1 out of budget: 1000 iterations",
+        "1 run of <b>igl-slim</b> skipped: this machine cannot run it (version command exited with code 1: No \
+         module named &#39;igl&#39;)",
+        "1 run on 1 problem solved at the start (its energy within round-off of E*: tiny exp-sd)",
+        "1 run of the solvers the config expects to fail (<code>expected_to_fail</code>), 0 of them solved",
+        "Not solved or failed per solver (3 runs of 3 solver-energy pairs)",
+        "<h3>Problems (3: 1 out of budget, 2 stalled)</h3>",
+    ] {
+        assert!(section.contains(needle), "{needle}\nnot in\n{section}");
+    }
+    assert!(!section.contains("newton / sd: 1 of 1") || section.contains("Expected to fail"), "{section}");
 }
