@@ -32,7 +32,9 @@ fn ten_times_kp_iterations(dir: &Path) {
     let cols: Vec<usize> = head
         .iter()
         .enumerate()
-        .filter(|(_, h)| *h == "iterations" || h.starts_with("iters_to_") || h.starts_with("rule_") && h.ends_with("_iters"))
+        .filter(|(_, h)| {
+            *h == "iterations" || h.starts_with("iters_to_") || h.starts_with("rule_") && h.ends_with("_iters")
+        })
         .map(|(i, _)| i)
         .collect();
     assert!(cols.len() >= 2, "iterations and iterations to a target: {head:?}");

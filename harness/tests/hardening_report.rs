@@ -102,8 +102,8 @@ fn resume_reruns_a_finished_run_whose_map_was_deleted() {
     let log = text(&o);
     assert_eq!(o.status.code(), Some(0), "{log}");
     assert_eq!(log.matches("resumed, ").count(), 1, "{log}");
-    assert!(log.contains("bumpy_1k sd kp-newton: resumed, ran (grad_tol)"), "{log}");
-    assert!(log.contains("bumpy_1k sd cm: ran (grad_tol)"), "{log}");
+    assert!(log.contains("bumpy_1k sd kp-newton: resumed, ran (target)"), "{log}");
+    assert!(log.contains("bumpy_1k sd cm: ran (target)"), "{log}");
     // the map is back, and the same (the solvers are deterministic)
     assert_eq!(std::fs::read(&map).unwrap(), obj);
     assert!(out.join("plots/bumpy_1k__sd__cm__map.png").is_file());
@@ -148,5 +148,5 @@ fn a_run_whose_files_cannot_be_written_fails_alone() {
     let log = text(&o);
     assert_eq!(o.status.code(), Some(0), "{log}");
     assert_eq!(log.matches("resumed, ").count(), 1, "{log}");
-    assert!(log.contains("bumpy_1k sd kp-newton: ran (grad_tol)"), "{log}");
+    assert!(log.contains("bumpy_1k sd kp-newton: ran (target)"), "{log}");
 }

@@ -289,7 +289,7 @@ fn the_history_outcome_is_said_and_recorded_as_it_happened() {
     assert!(std::fs::read_to_string(out.join("index.html")).unwrap().contains("href=\"../h-trend/h/index.html\""));
 
     // a failed append: exit 2, meta.json says failed, no link
-    rusqlite::Connection::open(&db).unwrap().execute_batch("PRAGMA user_version = 9").unwrap();
+    rusqlite::Connection::open(&db).unwrap().execute_batch("PRAGMA user_version = 10").unwrap();
     let o = mapbench(&args, tmp.path());
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let m = meta(&out);

@@ -126,8 +126,9 @@ path = "grid.obj"
     assert_eq!(rows.len(), 16);
     for r in &rows[..12] {
         assert_eq!(r[col("status")], "ok", "{r:?}");
-        // the deform default, |grad| <= 1e-6, from the rest pose
-        assert_eq!((r[col("stop_reason")].as_str(), r[col("start")].as_str()), ("grad_tol", "rest"), "{r:?}");
+        // from the rest pose to the target, the deform default's rule (|grad| <= 1e-6) held on the way
+        assert_eq!((r[col("stop_reason")].as_str(), r[col("start")].as_str()), ("target", "rest"), "{r:?}");
+        assert!(!r[col("rule_grad_tol_iters")].is_empty(), "{r:?}");
         assert_eq!(r[col("flips")], "0");
     }
     for r in &rows[12..] {
@@ -196,20 +197,28 @@ fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
     shared_deform_batch("[energy.nh]\nmu = 0.2\nkappa = 0.8\n");
 }
 
-/// The same with the smoothness term (w = 0.25, Figure 6). About 85 s in release (raptor with SD
-/// alone needs 1009 iterations, 40 s), so it is ignored by default; CI runs it with
+/// The same with the smoothness term (w = 0.25, Figure 6). About 3 min in release (the runs go
+/// on to the target; raptor spends its 1500 iterations, 80 s each), so it is ignored by default;
+/// CI runs it with
 /// `MAPBENCH_MESHES=... cargo test --release -p mapbench --test tasks -- --ignored smoothness`.
 #[test]
 #[ignore = "minutes: run with --ignored and MAPBENCH_MESHES"]
 fn deform_with_smoothness_converges_on_every_shared_shape_with_sd_and_nh() {
-    // The paper's deform rule (Section 6.2): what is tested is that each run converges.
+    // The paper's deform rule (Section 6.2): what is tested is that each run converges by it.
     let extra =
         "[stop]\nmax_iters = 1500\nenergy_decrease_tol = 1e-6\ngrad_tol = 1e-10\n[energy.sd]\nsmoothness = 0.25\n\
                  [energy.nh]\nmu = 0.2\nkappa = 0.8\nsmoothness = 0.25\n";
     let Some((header, rows)) = shared_deform_batch(extra) else { return };
-    let stop = header.iter().position(|h| h == "stop_reason").unwrap();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     for r in &rows {
-        assert_eq!(r[stop], "energy_decrease", "{r:?}");
+        // The paper's rule held on every run (its trajectory up to that event is the run the
+        // rule would have stopped); past it, going on to the 1e-6 target is a study of its own:
+        // most reach it, others end at another minimum, stall, break down at round-off or spend
+        // the 1500 iterations (raptor SD: a gap of 7e-3 of the span, |grad| 1.5e-2). Each end
+        // is judged: a verdict for every run.
+        let held: usize = r[col("rule_energy_decrease_iters")].parse().unwrap_or_else(|_| panic!("{r:?}"));
+        assert!(held <= r[col("iterations")].parse::<usize>().unwrap(), "{r:?}");
+        assert!(!r[col("verdict")].is_empty(), "{r:?}");
     }
 }
 
