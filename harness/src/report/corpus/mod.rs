@@ -7,7 +7,7 @@
 //!
 //! The rules, stated once (the captions and the book repeat them):
 //! - Skipped pairs are left out entirely, and so are the runs of a problem solved at its start
-//!   ([`counted_in`](super::select::counted_in)); `runs` counts the others, `solved` the converged.
+//!   (`select::counted_in`); `runs` counts the others, `solved` the converged.
 //! - Shifts: [`ITERATION_SHIFT`] iterations; [`TIME_SHIFT_S`] seconds, or
 //!   [`TIME_NORM_SHIFT`] calibration units when times are normalized.
 //! - Unsolved runs (not converged or failed) enter at the cap: iterations at the energy's
