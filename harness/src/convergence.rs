@@ -119,11 +119,6 @@ impl Targets {
         self.of(energy).last().copied()
     }
 
-    /// The loosest target of `energy`'s runs (far from `E*` beyond it).
-    pub fn loosest(&self, energy: &str) -> Option<f64> {
-        self.of(energy).first().copied()
-    }
-
     /// The tightest targets in words: `1e-6`, or `1e-6 (sarap 1e-3)` where energies set their own.
     pub fn tightest_text(&self) -> String {
         let own: Vec<String> = self
@@ -228,7 +223,7 @@ mod tests {
     fn targets_per_energy_fall_back_to_the_default_loosest_first() {
         let t = Targets::new(vec![1e-6, 1e-3], [("sarap".to_string(), vec![1e-3])].into());
         assert_eq!((t.of("sd"), t.of("sarap")), (&[1e-3, 1e-6][..], &[1e-3][..]));
-        assert_eq!((t.tightest("sd"), t.tightest("sarap"), t.loosest("sd")), (Some(1e-6), Some(1e-3), Some(1e-3)));
+        assert_eq!((t.tightest("sd"), t.tightest("sarap"), t.of("sd").first()), (Some(1e-6), Some(1e-3), Some(&1e-3)));
         assert_eq!(t.all(), [1e-3, 1e-6]);
         assert_eq!(t.tightest_text(), "1e-6 (sarap 1e-3)");
         assert_eq!(Targets::uniform(vec![1e-3, 1e-6]).tightest_text(), "1e-6");

@@ -204,3 +204,30 @@ fn references_computes_what_no_store_holds_and_lists_every_group() {
     let e_star: f64 = rows[0][2].parse().unwrap();
     assert!((0.0..1e-10).contains(&e_star), "{log}");
 }
+
+/// KP-Newton's exp-SD run on the generated `finger_1k` ends at another minimum, 8.7e-4 of the
+/// span above the committed reference (SLIM's): its line search finds no decrease where the
+/// Newton decrement is at round-off (`round_off`, a stationary end, not a breakdown), and the
+/// polish from its map stays there, so the verdict is `other_minimum` at 1e-6, not `broke_down`.
+#[test]
+fn a_newton_run_at_round_off_above_the_reference_ends_at_another_minimum() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let cfg = write_config(
+        dir,
+        "name = \"roundoff\"\ndatasets = [\"finger_1k\"]\nenergies = [\"exp-sd\"]\nsolvers = [\"kp-newton\"]\n\
+         compute_references = false\n[energy.exp-sd]\ns = 1.0\n",
+    );
+    let out = dir.join("out");
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-history"], dir);
+    assert_eq!(o.status.code(), Some(0), "an unsolved run is not a failed one: {}", text(&o));
+    let (header, rows) = read_csv(&out.join("summary.csv"));
+    let col = |n: &str| header.iter().position(|h| h == n).unwrap();
+    let r = &rows[0];
+    assert_eq!(r[col("ref_source")], "reference", "the committed store's E*: {r:?}");
+    assert_eq!((r[col("stop_reason")].as_str(), r[col("verdict")].as_str()), ("round_off", "other_minimum"), "{r:?}");
+    let num = |n: &str| r[col(n)].parse::<f64>().unwrap();
+    assert!((num("final_gap") - 8.7e-4).abs() < 1e-5, "{r:?}");
+    // the polish stayed: it moved the energy by round-off only
+    assert!((num("polished_energy") - num("final_energy")).abs() <= 1e-9 * num("final_energy"), "{r:?}");
+}

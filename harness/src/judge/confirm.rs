@@ -1,5 +1,5 @@
 //! After a run: what its final map says beyond its rows. A run that ended stationary, or with
-//! a small gradient, far above `E*` may be at another local minimum, or merely slow in a flat
+//! a small gradient, above its tightest target may be at another local minimum, or merely slow in a flat
 //! valley; a tight KP-Newton polish from its final map tells them apart (`polished_energy`: the
 //! verdict claims `other_minimum` only when the polish stays far too). A run, or its polish,
 //! that ends below `E*` is a candidate to lower the reference (`improve`).
@@ -37,8 +37,9 @@ impl Observer for Until<'_> {
 }
 
 /// What the final map `x` of `run` (its row `summary`, before the judge) says: the energy a
-/// polish reached when the run is a candidate for another minimum (`loosest` target,
-/// `grad_tol` its gradient rule), and a candidate to lower the reference.
+/// polish reached when the run is a candidate for another minimum (farther than its
+/// `tightest` target, the one it is judged at; `grad_tol` its gradient rule), and a candidate
+/// to lower the reference.
 #[allow(clippy::too_many_arguments)]
 pub fn after_run(
     plan: &Plan,
@@ -47,7 +48,7 @@ pub fn after_run(
     summary: &SummaryRow,
     x: Vec<f64>,
     group: Option<&GroupReference>,
-    loosest: f64,
+    tightest: f64,
     interrupt: &AtomicBool,
 ) -> (Option<f64>, Option<Candidate>) {
     let (Some(group), Some(last)) = (group, summary.final_energy) else { return (None, None) };
@@ -77,7 +78,7 @@ pub fn after_run(
         return (None, Some(candidate(x, last, vec![run_step])));
     }
     let span = stick.span(summary.init_energy.unwrap_or(last));
-    let far = convergence::gap_on(last, stick.e_star, span) > loosest;
+    let far = convergence::gap_on(last, stick.e_star, span) > tightest;
     let grad_tol = run.settings.stop().grad_tol;
     let small = grad_tol > 0.0 && summary.grad_norm.is_some_and(|g| g <= grad_tol);
     let stationary = summary.stop_reason.as_ref().and_then(|s| s.solver()).is_some_and(|s| s.is_stationary());
@@ -85,7 +86,7 @@ pub fn after_run(
         return (None, None);
     }
     let Ok(problem) = Problem::with_mesh(plan, run, mesh.clone()) else { return (None, None) };
-    let mut until = Until { limit: stick.e_star + loosest * span, interrupt };
+    let mut until = Until { limit: stick.e_star + tightest * span, interrupt };
     let stop = StopSettings::rules_only(1e-12, 0.0, WINDOW);
     let polisher = super::reference::computation::polisher(&problem);
     let Ok(out) = problem.solve_from(polisher, x, stop, &mut until) else { return (None, None) };

@@ -154,7 +154,7 @@ fn judge_run(
     targets: &[f64],
     grad_tol: Option<f64>,
 ) {
-    let (loosest, tightest) = (targets[0], targets[targets.len() - 1]);
+    let tightest = targets[targets.len() - 1];
     let e_star = stick.e_star;
     r.ref_energy = Some(e_star);
     r.ref_source = Some(stick.source);
@@ -184,7 +184,7 @@ fn judge_run(
         final_gap,
         small_gradient,
         polished_gap: r.polished_energy.map(|e| convergence::gap_on(e, e_star, span)),
-        loosest,
+        tightest,
     });
     r.verdict = Some(v);
     r.status = match v {
@@ -336,7 +336,7 @@ mod tests {
             [(Status::NotConverged, Verdict::StoppedAboveTarget), (Status::Ok, Verdict::Solved)]
         );
         assert!(rows[0].to_targets.iter().all(|t| t.iters.is_none()));
-        assert_eq!(judge(Some(4.2019)).first().and_then(|r| r.verdict), Some(Verdict::OtherMinimum));
+        assert_eq!(judge(Some(4.201999)).first().and_then(|r| r.verdict), Some(Verdict::OtherMinimum));
         // a polish that went on down: not another minimum
         assert_eq!(judge(Some(4.188 + 1e-7)).first().and_then(|r| r.verdict), Some(Verdict::StoppedAboveTarget));
     }

@@ -183,6 +183,9 @@ fn words(reason: Reason, r: &SummaryRow, batch: &Batch) -> String {
                 Some(f) => format!("stalled: |grad| <= {f:e}, far from the target"),
                 None => "stalled at the gradient floor".into(),
             },
+            (Verdict::Stalled, Some(StopReason::RoundOff)) => {
+                "stalled: the line search's model predicts a decrease below round-off".into()
+            }
             (Verdict::Stalled, _) => match settings.and_then(|s| s.stall_window) {
                 Some(w) => format!("stalled: no decrease in {w} iterations"),
                 None => "stalled: no decrease".into(),

@@ -202,10 +202,10 @@ impl Workers<'_> {
         if let (Some(x), Ok(mesh)) = (result.final_x.take(), loaded.mesh.as_ref()) {
             if round == 0 && result.summary.status.ran() {
                 let group = references.iter().find(|g| g.dataset == ds.name && g.energy == p.energy);
-                let loosest = plan.targets.loosest(&p.energy).unwrap_or(0.0);
+                let tightest = plan.targets.tightest(&p.energy).unwrap_or(0.0);
                 let s = &result.summary;
                 let (polished, candidate) =
-                    crate::judge::confirm::after_run(plan, p, mesh, s, x, group, loosest, &opts.interrupt);
+                    crate::judge::confirm::after_run(plan, p, mesh, s, x, group, tightest, &opts.interrupt);
                 (result.summary.polished_energy, result.candidate) = (polished, candidate);
             }
         }

@@ -105,15 +105,15 @@ pub enum Verdict {
     /// group without a reference (nothing to go to), or the target of a reference this batch
     /// then lowered.
     StoppedAboveTarget,
-    /// Ended stationary (or with a small gradient) far above the reference (past the loosest
-    /// target), and a tight polish from its final map stayed far: at another local minimum,
-    /// not short of this one.
+    /// Ended stationary (or with a small gradient) above its tightest target, and a tight
+    /// polish from its final map stayed there: at another local minimum, not short of this one.
     OtherMinimum,
     /// Ended stationary above the target without another minimum to show for it: the
-    /// gradient floor, or no decrease beyond round-off over the stall window.
+    /// gradient floor, or no decrease beyond round-off (over the stall window, or in a line
+    /// search whose model predicts less).
     Stalled,
     /// The method broke down above the target: a failed factorization, a line search that
-    /// found no decrease, a direction that does not descend, a non-finite value.
+    /// found no decrease its model promised, a direction that does not descend, a non-finite value.
     BrokeDown,
     /// Its budget ended it above the target: the iteration cap or the time limit.
     Unfinished,

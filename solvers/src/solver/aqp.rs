@@ -194,7 +194,7 @@ impl<'a> Method for AqpStep<'a> {
         let (accepted, ls_evals) =
             armijo(problem, y_at, p, at_y.energy, g_dot_p, t_init, &settings.line_search, x_new, scratch);
         t_ls += t0.elapsed().as_secs_f64();
-        let accepted = accepted.ok_or(StopReason::LineSearchFailed)?;
+        let accepted = accepted.ok_or_else(|| StopReason::after_line_search(g_dot_p, at_y.energy))?;
         let energy_y = at_y.energy;
 
         // 4. x_prev = x, x = y + t p

@@ -273,7 +273,7 @@ impl<'a> Method for Lbfgs<'a> {
                     history.clear();
                     reset = true;
                 }
-                None if g_dot_d < 0.0 => return Err(StopReason::LineSearchFailed),
+                None if g_dot_d < 0.0 => return Err(StopReason::after_line_search(g_dot_d, at.ev.energy)),
                 None => return Err(StopReason::NotDescent),
             }
         };

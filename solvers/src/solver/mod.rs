@@ -61,6 +61,21 @@ mod tests {
         assert!("skipped".parse::<StopReason>().is_err(), "skipped is the harness's word (no solver returns it)");
     }
 
+    /// A line search that finds no decrease: stationary where the full step's first-order
+    /// decrease is within round-off of the energy (finger_1k's exp-SD minimum of the Newton
+    /// methods: E = 674, steps lowering it by 1e-12), a breakdown where it is not.
+    #[test]
+    fn a_line_search_without_decrease_is_stationary_only_at_round_off() {
+        let end = StopReason::after_line_search;
+        assert_eq!(end(-5e-12, 674.03), StopReason::RoundOff);
+        assert_eq!(end(-6.7e-10, 674.03), StopReason::RoundOff, "1e-12 of |E| and no more");
+        assert_eq!(end(-7e-10, 674.03), StopReason::LineSearchFailed);
+        assert_eq!(end(-1e-3, 2.6e11), StopReason::RoundOff, "relative to |E|");
+        assert_eq!(end(-0.9e-12, 1e-3), StopReason::RoundOff, "relative to 1 below |E| = 1");
+        assert_eq!(end(-1e-9, 1e-3), StopReason::LineSearchFailed);
+        assert!(end(-1e-13, 1.0).is_stationary() && end(-1.0, 1.0).is_breakdown());
+    }
+
     fn row(grad_norm: f64, last_decrease: f64, iter: usize) -> stop::RowState {
         stop::RowState { grad_norm, last_decrease, iter, at_target: false, stalled: false }
     }

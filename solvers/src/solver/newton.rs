@@ -172,7 +172,7 @@ impl<'a, L: Direction> Method for NewtonStep<'a, L> {
         let (accepted, ls_evals) =
             armijo(problem, &at.x, d, at.ev.energy, g_dot_d, t_init, &settings.line_search, x_new, scratch);
         let t_ls = t0.elapsed().as_secs_f64();
-        let acc = accepted.ok_or(StopReason::LineSearchFailed)?;
+        let acc = accepted.ok_or_else(|| StopReason::after_line_search(g_dot_d, at.ev.energy))?;
         std::mem::swap(&mut at.x, x_new);
         let decrease = at.ev.energy - acc.energy;
         // The model fit of the step actually taken, with the unfiltered Hessian at the old

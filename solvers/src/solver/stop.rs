@@ -15,9 +15,13 @@ pub enum StopReason {
     GradientFloor,
     /// The lowest energy so far fell by no more than round-off over `stall_window` iterations.
     NoDecrease,
+    /// A line search found no decrease where its full step's first-order model predicts less
+    /// than round-off ([`StopReason::after_line_search`]): stationary at working precision.
+    RoundOff,
     /// `max_iters` steps were taken.
     MaxIterations,
-    /// Armijo backtracking shrank the step below `t |d| <= min_step` without sufficient decrease.
+    /// Armijo backtracking shrank the step below `t |d| <= min_step` without sufficient
+    /// decrease, where the full step predicted a decrease above round-off.
     LineSearchFailed,
     /// The factorization failed even after increasing the regularization.
     LinearSolveFailed(String),
@@ -43,12 +47,13 @@ pub struct UnknownStopReason(pub String);
 
 impl StopReason {
     /// Every reason, payloads empty (parsing, listings).
-    pub const ALL: [StopReason; 14] = [
+    pub const ALL: [StopReason; 15] = [
         StopReason::GradientTolerance,
         StopReason::EnergyDecrease,
         StopReason::Target,
         StopReason::GradientFloor,
         StopReason::NoDecrease,
+        StopReason::RoundOff,
         StopReason::MaxIterations,
         StopReason::LineSearchFailed,
         StopReason::LinearSolveFailed(String::new()),
@@ -68,6 +73,7 @@ impl StopReason {
             StopReason::Target => "target",
             StopReason::GradientFloor => "grad_floor",
             StopReason::NoDecrease => "no_decrease",
+            StopReason::RoundOff => "round_off",
             StopReason::MaxIterations => "max_iters",
             StopReason::LineSearchFailed => "line_search_failed",
             StopReason::LinearSolveFailed(_) => "linear_solve_failed",
@@ -82,7 +88,7 @@ impl StopReason {
 
     /// The method broke down: a linear system it could not solve, a direction that does not
     /// descend, a non-finite value, an energy that rose where it must fall, a line search that
-    /// found no decrease (at round-off, near a minimum). Not a stop short of the target, which
+    /// found no decrease where its model predicted one above round-off. Not a stop short of the target, which
     /// another iteration or a looser rule would pass, but a failure of the method on this
     /// problem.
     pub fn is_breakdown(&self) -> bool {
@@ -96,9 +102,24 @@ impl StopReason {
         )
     }
 
-    /// A stationary end: the gradient floor, or no decrease beyond round-off over the window.
+    /// Why a line search that accepted no step ended a run at an iterate of energy `energy`
+    /// whose direction `d` has slope `g_dot_d = <g, d>`: [`StopReason::RoundOff`] when the
+    /// full step's first-order decrease `|<g, d>|` is within round-off ([`STALL_RTOL`]) of
+    /// `max(1, |E|)`, so no step can show a decrease (for a Newton direction `|<g, d>|` is the
+    /// squared Newton decrement, twice the model's decrease: Boyd and Vandenberghe's
+    /// stationarity test at working precision); else [`StopReason::LineSearchFailed`].
+    pub fn after_line_search(g_dot_d: f64, energy: f64) -> StopReason {
+        if g_dot_d.abs() <= STALL_RTOL * energy.abs().max(1.0) {
+            StopReason::RoundOff
+        } else {
+            StopReason::LineSearchFailed
+        }
+    }
+
+    /// A stationary end: the gradient floor, no decrease beyond round-off over the window, or a
+    /// line search whose model predicts less.
     pub fn is_stationary(&self) -> bool {
-        matches!(self, StopReason::GradientFloor | StopReason::NoDecrease)
+        matches!(self, StopReason::GradientFloor | StopReason::NoDecrease | StopReason::RoundOff)
     }
 
     /// The run's budget ended it: the iteration cap or the deadline.

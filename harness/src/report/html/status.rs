@@ -187,10 +187,10 @@ fn status_caption(h: &mut String, summaries: &[SummaryRow], explorer: bool) {
              is the same accuracy on every problem; its cell counts the iterations and time <i>to the target</i>. \
              A yellow cell names the harness's verdict over the final gap (E_final − E*)/span: <b>budget</b> = \
              out of budget, the iteration cap or the time limit ended it; <b>stalled</b> = it ended stationary \
-             (no decrease beyond round-off over the stall window, or the gradient floor); <b>broke</b> = the \
-             method broke down (a line search that found no decrease, a failed factorization); <b>other</b> = \
-             other minimum, it ended stationary farther than the loosest target from E* and a tight Newton polish \
-             from its final map stayed there; <b>above</b> = a stop rule ended it above the target (an external \
+             (no decrease beyond round-off over the stall window or in a line search, or the gradient floor); \
+             <b>broke</b> = the method broke down (a line search that found no decrease its model promised, a \
+             failed factorization); <b>other</b> = other minimum, it ended stationary above the target and a \
+             tight Newton polish from its final map stayed there; <b>above</b> = a stop rule ended it above the target (an external \
              solver's own, or a run without a reference to go to); <b>flipped</b> = its final map flips \
              triangles. A <b>†</b> marks the runs of a group whose E* is not certified (its reason in the notes \
              below), a <b>≠</b> a run whose repeats did not reproduce its first (its first repeat's result is \

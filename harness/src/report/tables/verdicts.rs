@@ -92,11 +92,11 @@ pub fn verdict_table(rows: &[SummaryRow]) -> Option<Table> {
              An energy with its own targets is solved at its own tightest (– at the targets it does not have). Each run went on to its target, its \
              solver's stop rules recorded on the way; the others, by the harness's verdict: flipped = the final \
              map flips triangles; stopped above target = a stop rule ended it above the target (an external \
-             solver's own, or a run without a reference to go to); other minimum = it ended stationary farther \
-             than the loosest target from E*, and a tight Newton polish from its final map stayed there; stalled \
-             = it ended stationary otherwise (no decrease beyond round-off over the stall window, or the \
-             gradient floor); broke down = the method broke down (a line search that found no decrease, a \
-             failed factorization); out of budget = the iteration cap or the time limit ended it; failed = the \
+             solver's own, or a run without a reference to go to); other minimum = it ended stationary above \
+             the target, and a tight Newton polish from its final map stayed there; stalled = it ended \
+             stationary otherwise (no decrease beyond round-off over the stall window or in a line search, or \
+             the gradient floor); broke down = the method broke down (a line search that found no decrease its \
+             model promised, a failed factorization); out of budget = the iteration cap or the time limit ended it; failed = the \
              run did not finish. E* not certified = \
              the runs judged against a reference minimum without a certificate (the status matrix's †). Bold: \
              the most datasets solved at each target."
