@@ -1,7 +1,8 @@
 //! After a run: what its final map says beyond its rows. A run that ended stationary, or with
 //! a small gradient, above its tightest target may be at another local minimum, or merely slow in a flat
 //! valley; a tight KP-Newton polish from its final map tells them apart (`polished_energy`: the
-//! verdict claims `other_minimum` only when the polish stays far too). A run, or its polish,
+//! verdict claims `other_minimum` only when the polish stays above the target, having closed
+//! at most `verdict::STAYED` of the gap). A run, or its polish,
 //! that ends below `E*` is a candidate to lower the reference (`improve`).
 
 use super::improve::{below, Candidate};

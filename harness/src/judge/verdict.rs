@@ -14,7 +14,8 @@ pub enum End {
     Rule,
     /// At the target of the reference the run started with.
     Target,
-    /// The gradient floor, or no decrease beyond round-off over the stall window.
+    /// The gradient floor, no decrease beyond round-off over the stall window, or a line
+    /// search at round-off (`round_off`).
     Stationary,
     /// The method broke down (`StopReason::is_breakdown`).
     Breakdown,
@@ -73,7 +74,7 @@ pub fn judge(f: Facts) -> Verdict {
     // Another minimum is claimed only when a polish from the final map stays: far too, and
     // having closed no more than round-off of the gap.
     let settled = f.small_gradient || f.end == End::Stationary;
-    let stayed = |p: f64| far(p) && !(f.final_gap - p > STAYED * f.final_gap);
+    let stayed = |p: f64| far(p) && p >= (1.0 - STAYED) * f.final_gap;
     if settled && far(f.final_gap) && f.polished_gap.is_some_and(stayed) {
         return Verdict::OtherMinimum;
     }
@@ -149,6 +150,10 @@ mod tests {
         // a polish that closed more than round-off of the gap found the run in a slow valley
         // (sack_1k's BARAP: kp-newton's 1000 iterations 5.6e-6 above, the polish 2% lower)
         assert_eq!(judge(Facts { polished_gap: Some(0.19), ..far }), Verdict::Stalled);
+        assert_eq!(judge(Facts { polished_gap: Some(0.2 * (1.0 - STAYED)), ..far }), Verdict::OtherMinimum);
+        // an infinite gap (a zero span) stays only where the polish's is infinite too
+        let endless = Facts { final_gap: f64::INFINITY, ..far };
+        assert_eq!(judge(Facts { polished_gap: Some(1e3), ..endless }), Verdict::Stalled);
         let capped = Facts { end: End::Budget, polished_gap: Some(0.1999), ..far };
         assert_eq!(judge(capped), Verdict::Unfinished);
         assert_eq!(judge(Facts { small_gradient: true, ..capped }), Verdict::OtherMinimum);

@@ -202,9 +202,9 @@ pub struct SummaryRow {
     /// run's verdict wherever it appears.
     #[serde(default)]
     pub ref_certified: Option<bool>,
-    /// The energy a tight KP-Newton polish from the final map reached, run when the run
-    /// stopped with a small gradient far above `E*`: `other_minimum` only when it stays far
-    /// (`judge::confirm`). Empty otherwise.
+    /// The energy a tight KP-Newton polish from the final map reached, run when the run ended
+    /// stationary or with a small gradient above its tightest target: `other_minimum` only
+    /// when the polish stays there (`judge::confirm`, `judge::verdict::STAYED`). Empty otherwise.
     #[serde(default)]
     pub polished_energy: Option<f64>,
     /// A later repeat that did not reproduce repeat 1 (the first difference); the run keeps
