@@ -88,9 +88,9 @@ impl StopReason {
 
     /// The method broke down: a linear system it could not solve, a direction that does not
     /// descend, a non-finite value, an energy that rose where it must fall, a line search that
-    /// found no decrease where its model predicted one above round-off. Not a stop short of the target, which
-    /// another iteration or a looser rule would pass, but a failure of the method on this
-    /// problem.
+    /// found no decrease where its model predicted one above round-off. Not a stop short of the
+    /// target, which another iteration or a looser rule would pass, but a failure of the method
+    /// on this problem.
     pub fn is_breakdown(&self) -> bool {
         matches!(
             self,
