@@ -69,12 +69,14 @@ def main(folder):
     norm, k = float(np.linalg.norm(grad)), 0
 
     # With a target, go on to it (the gradient rule is mapbench's event to record); without
-    # one, stop at the rule.
+    # one, stop at the rule. Either way a stall (no decrease beyond round-off over the
+    # problem's window) ends it.
     def done():
         return p.at_target(energy) if p.target_energy is not None else norm <= tol
 
-    p.record(0, energy, uv, final=done() or max_iters == 0, own_grad_norm=norm)
-    while not done() and k < max_iters:
+    stalled = p.stall.push(energy)
+    p.record(0, energy, uv, final=done() or stalled or max_iters == 0, own_grad_norm=norm)
+    while not done() and not stalled and k < max_iters:
         moved = step(p, uv, energy, grad)
         if moved is None:
             p.snapshot(k, uv)
@@ -83,13 +85,15 @@ def main(folder):
         (uv, energy), k = moved, k + 1
         grad = sd_gradient(p, uv) + p.penalty_gradient(uv)
         norm = float(np.linalg.norm(grad))
-        p.record(k, energy, uv, final=done() or k == max_iters, own_grad_norm=norm)
+        stalled = p.stall.push(energy)
+        p.record(k, energy, uv, final=done() or stalled or k == max_iters, own_grad_norm=norm)
     if p.at_target(energy):
         p.finish("target")
+    elif stalled:
+        p.finish("no_decrease")
     else:
         p.finish("converged" if norm <= tol else "max_iters")
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[-1]))

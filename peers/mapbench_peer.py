@@ -28,6 +28,9 @@ class Problem:
         targets = self.spec.get("targets") or []
         self.target_energy = float(targets[-1]["energy"]) if targets else None
         self.snapshot_every = int(self.spec.get("snapshot_every", 0))
+        # No decrease beyond round-off over `stall_window` iterations: stationary, as mapbench's
+        # own runs end (`finish("no_decrease")`; mapbench checks it on the records).
+        self.stall = Stall(int(self.stop.get("stall_window", 0)), float(self.stop.get("stall_rtol", 0.0)))
         self.rest = rest_frames(self.V, self.F)
         # deform: soft handles, lambda * sum |x_v - target|^2 added to the energy
         h = self.spec.get("handles")
@@ -95,11 +98,27 @@ class Problem:
         return self.target_energy is not None and energy <= self.target_energy
 
     def finish(self, stop_reason, message=""):
-        """`result.json`: why the solver stopped (converged, target, max_iters, line_search_failed,
-        timeout, error)."""
+        """`result.json`: why the solver stopped (converged, target, no_decrease, grad_floor,
+        max_iters, line_search_failed, timeout, error)."""
         self._records.close()
         with open(os.path.join(self.folder, "result.json"), "w") as f:
             json.dump({"stop_reason": stop_reason, "message": message}, f)
+
+
+class Stall:
+    """Whether the lowest energy so far fell by no more than `rtol * max(1, |E|)` over the last
+    `window` iterations (never with a window of 0), as mapbench tells a stall. Push every
+    recorded energy, iteration 0's too."""
+
+    def __init__(self, window, rtol):
+        self.window, self.rtol, self.best = window, rtol, []
+
+    def push(self, energy):
+        if self.window <= 0:
+            return False
+        best = min(energy, self.best[-1]) if self.best else energy
+        self.best = (self.best + [best])[-(self.window + 1):]
+        return len(self.best) > self.window and self.best[0] - best <= self.rtol * max(1.0, abs(best))
 
 
 def read_obj(path):

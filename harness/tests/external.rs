@@ -1,7 +1,8 @@
 //! External solvers in a batch: the template adapter runs under verification next to ours and
 //! resumes and repeats like them; a solver that lies about its energy, hangs past the timeout,
 //! exits non-zero, writes garbage or a map of the wrong size fails its run alone; one that
-//! cannot start is skipped with the reason; libigl's SLIM runs where `libigl` is installed.
+//! cannot start is skipped with the reason; a stationary end it claims is checked on its records;
+//! libigl's SLIM runs where `libigl` is installed.
 //!
 //! The Python peers need numpy (and `igl-slim` libigl): without them these tests are skipped
 //! with a notice, unless `MAPBENCH_REQUIRE_PEERS` is set (`.ci/run` sets it), which turns a
@@ -273,6 +274,51 @@ fn libigl_slim_runs_verified_where_libigl_is_installed_and_is_skipped_where_not(
 /// `deform`: the problem folder carries the handles, the template's objective adds their
 /// penalty, and every map it reports is verified against our energy with the penalty; its
 /// start is ours (the rest pose, or the shape's own).
+#[test]
+fn an_external_stationary_end_is_read_as_ours_and_one_its_records_do_not_bear_out_fails() {
+    if !peers_run() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // the start map again and again: the stall the problem's window of 3 asks for
+    let flat = peer(
+        d,
+        "flat",
+        "assert p.stop['stall_window'] == 3 and p.stop['stall_rtol'] == 1e-12, p.stop\n\
+         for k in range(4):\n    p.record(k, e, uv, final=k == 3)\np.finish('no_decrease')",
+    );
+    let early = peer(d, "early", "p.record(0, e, uv)\np.record(1, e, uv, final=True)\np.finish('no_decrease')");
+    let floor = peer(d, "floor", "p.record(0, e, uv, final=True)\np.finish('grad_floor')");
+    let mut config = String::from(
+        "name = \"x\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"flat\", \"early\", \"floor\"]\n\
+         [stop]\nstall_window = 3\n",
+    );
+    for (name, script) in [("flat", &flat), ("early", &early), ("floor", &floor)] {
+        config += &external(name, &["python3", script], "");
+    }
+    let cfg = write_config(d, &config);
+    let o = mapbench(&["run", cfg.to_str().unwrap(), "--out", "out", "--no-history"], d);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let (h, rows) = read_csv(&d.join("out/summary.csv"));
+    let get = |solver: &str, name: &str| column(&h, &rows, solver, name).to_string();
+    // stationary at the start, far above the minimum: a polish goes on down, so a stall
+    assert_eq!((get("flat", "stop_reason").as_str(), get("flat", "verdict").as_str()), ("no_decrease", "stalled"));
+    assert_eq!(get("flat", "iterations"), "3");
+    assert_eq!(get("early", "status"), "failed");
+    assert!(
+        get("early", "error").contains("says no_decrease after 1 iterations, fewer than the stall window of 3"),
+        "{}",
+        get("early", "error")
+    );
+    assert_eq!(get("floor", "status"), "failed");
+    assert!(
+        get("floor", "error").contains("says grad_floor, but the gradient norm of its final map (iteration 0) is"),
+        "{}",
+        get("floor", "error")
+    );
+}
+
 #[test]
 fn an_external_deform_run_is_verified_with_the_handles_penalty() {
     if !peers_run() {

@@ -37,9 +37,11 @@ def grid(n=5, side=1.0):
     return V, np.array(F)
 
 
-def problem(tmp_path, start, max_iters=50, grad_tol=1e-6, V=None, F=None, energy_decrease_tol=0.0):
+def problem(tmp_path, start, max_iters=50, grad_tol=1e-6, V=None, F=None, energy_decrease_tol=0.0, targets=(),
+            stall_window=0):
     if V is None:
         V, F = grid()
+    os.makedirs(tmp_path, exist_ok=True)
     with open(tmp_path / "mesh.obj", "w") as f:
         f.writelines(f"v {x!r} {y!r} {z!r}\n" for x, y, z in V.tolist())
         f.writelines(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in F.tolist())
@@ -50,8 +52,10 @@ def problem(tmp_path, start, max_iters=50, grad_tol=1e-6, V=None, F=None, energy
         "energy": {"name": "sd"},
         "mesh": "mesh.obj",
         "start": "start.uv",
-        "stop": {"max_iters": max_iters, "grad_tol": grad_tol, "energy_decrease_tol": energy_decrease_tol},
+        "stop": {"max_iters": max_iters, "grad_tol": grad_tol, "energy_decrease_tol": energy_decrease_tol,
+                 "grad_floor": 0.0, "stall_window": stall_window, "stall_rtol": 1e-12 if stall_window else 0.0},
         "snapshot_every": 4,
+        "targets": [{"tau": tau, "energy": e} for tau, e in targets],
     }
     (tmp_path / "problem.json").write_text(json.dumps(spec))
     return str(tmp_path)
@@ -131,7 +135,7 @@ def test_an_adapter_writes_records_snapshots_and_a_result(tmp_path, adapter):
     assert all(b <= a for a, b in zip(energies, energies[1:])), energies
     assert energies[-1] < energies[0] and energies[-1] >= 2.0
     result = json.load(open(os.path.join(folder, "result.json")))
-    assert result["stop_reason"] in ("converged", "max_iters", "line_search_failed")
+    assert result["stop_reason"] in ("converged", "max_iters", "line_search_failed", "no_decrease")
     snaps = sorted(int(n[:-3]) for n in os.listdir(os.path.join(folder, "maps")))
     last = rows[-1]["iter"]
     assert snaps == sorted({0, last} | set(range(4, last + 1, 4))), snaps
@@ -155,3 +159,41 @@ def test_igl_slim_reads_the_energy_decrease_tolerance_as_absolute(tmp_path):
     assert json.load(open(os.path.join(folder, "result.json")))["stop_reason"] == "converged"
     assert decreases[-1] < 1e-4 <= min(decreases[:-1]), decreases
     assert decreases[-2] < 1e-4 * energies[-2], "a relative reading would have stopped here"
+
+
+def test_a_stall_is_no_decrease_of_the_lowest_energy_beyond_round_off_over_the_window():
+    from mapbench_peer import Stall
+    stall = Stall(3, 1e-12)
+    # a rise does not count against it; the lowest energy 3 iterations back is the one now
+    assert [stall.push(e) for e in [3.0, 2.0, 2.0 + 1e-15, 2.0 - 1e-13, 2.0]] == [False] * 4 + [True]
+    falling = Stall(3, 1e-12)
+    assert not any(falling.push(e) for e in [3.0, 2.5, 2.2, 2.1, 2.05])
+    off = Stall(0, 0.0)
+    assert not any(off.push(2.0) for _ in range(10))
+
+
+def slim(folder):
+    done = subprocess.run([sys.executable, os.path.join(PEERS, "igl_slim.py"), folder], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    energies = [json.loads(line)["energy"] for line in open(os.path.join(folder, "iterations.jsonl"))]
+    return energies, json.load(open(os.path.join(folder, "result.json")))["stop_reason"]
+
+
+@pytest.mark.skipif(not HAS_IGL and not REQUIRED, reason=f"python3 has no libigl ({INSTALL})")
+def test_igl_slim_with_a_target_goes_past_the_rule_to_the_target_or_a_stall(tmp_path):
+    """With targets the papers' rule is the harness's event, not an end: SLIM goes on past the
+    first step that lowers the energy by less than 1e-4 (where it stops without targets, the
+    test above), to the target; below any SD (1.0) it ends at the stall, which the records
+    show."""
+    V, F = grid(7)
+    rule, _ = slim(problem(tmp_path / "rule", distorted(V), max_iters=200, V=V, F=F, energy_decrease_tol=1e-4))
+    low = rule[-1] - 1e-9
+    reached, why = slim(problem(tmp_path / "target", distorted(V), max_iters=200, V=V, F=F, energy_decrease_tol=1e-4,
+                                targets=[(1e-3, rule[-1]), (1e-6, low)], stall_window=50))
+    assert why == "target" and reached[-1] <= low < reached[-2], reached[-3:]
+    assert len(reached) > len(rule)
+    below, why = slim(problem(tmp_path / "stall", distorted(V), max_iters=1000, V=V, F=F, energy_decrease_tol=1e-4,
+                              targets=[(1e-6, 1.0)], stall_window=50))
+    assert why == "no_decrease", (len(below), below[-3:])
+    lowest = np.minimum.accumulate(below)
+    assert lowest[-51] - lowest[-1] <= 1e-12 * lowest[-1] and lowest[-52] - lowest[-2] > 1e-12 * lowest[-2]

@@ -157,11 +157,7 @@ pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
     let mut spec = ProblemSpec::new(
         task,
         energy,
-        StopSpec {
-            max_iters: job.stop_at.unwrap_or(stop.max_iters),
-            grad_tol: stop.grad_tol,
-            energy_decrease_tol: stop.energy_decrease_tol,
-        },
+        StopSpec::of(&stop, job.stop_at.unwrap_or(stop.max_iters)),
         job.timeout.filter(|_| job.stop_at.is_none()).map(|t| t.as_secs_f64()),
         job.threads,
         job.declared.snapshot_every,
@@ -344,6 +340,8 @@ fn stop_reason(s: ExternalStop, replay: bool) -> StopReason {
         _ if replay => StopReason::Timeout,
         ExternalStop::Converged => StopReason::SolverRule,
         ExternalStop::Target => StopReason::Target,
+        ExternalStop::NoDecrease => StopReason::NoDecrease,
+        ExternalStop::GradFloor => StopReason::GradientFloor,
         ExternalStop::MaxIters => StopReason::MaxIterations,
         ExternalStop::LineSearchFailed => StopReason::LineSearchFailed,
         ExternalStop::Timeout => StopReason::Timeout,
@@ -370,5 +368,8 @@ mod tests {
         assert_eq!(stop_reason(ExternalStop::MaxIters, false), StopReason::MaxIterations);
         assert_eq!(stop_reason(ExternalStop::LineSearchFailed, false), StopReason::LineSearchFailed);
         assert_eq!(stop_reason(ExternalStop::MaxIters, true), StopReason::Timeout);
+        assert_eq!(stop_reason(ExternalStop::NoDecrease, false), StopReason::NoDecrease);
+        assert_eq!(stop_reason(ExternalStop::GradFloor, false), StopReason::GradientFloor);
+        assert!(StopReason::NoDecrease.is_stationary() && StopReason::GradientFloor.is_stationary());
     }
 }

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use solvers::energy::EnergyKind;
 use solvers::mesh::Mesh;
 use solvers::problem::MapProblem;
+use solvers::solver::{StopSettings, STALL_RTOL};
 use solvers::tasks::Task;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -68,12 +69,36 @@ impl HandlesSpec {
     }
 }
 
-/// The stop rules the solver is asked to apply (the harness judges the run either way).
+/// The stop rules the solver is asked to apply (the harness judges the run either way): the
+/// papers' rules, and the stationary ends ours use where a run goes on to its target.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StopSpec {
     pub max_iters: usize,
     pub grad_tol: f64,
     pub energy_decrease_tol: f64,
+    /// `|grad| <= grad_floor` is stationary (`grad_floor`; 0: none).
+    #[serde(default)]
+    pub grad_floor: f64,
+    /// The lowest energy falling by no more than `stall_rtol * max(1, |E|)` over this many
+    /// iterations is stationary (`no_decrease`; 0: none).
+    #[serde(default)]
+    pub stall_window: usize,
+    #[serde(default)]
+    pub stall_rtol: f64,
+}
+
+impl StopSpec {
+    /// The rules of `stop` as a solver is asked to apply them, its cap `max_iters`.
+    pub fn of(stop: &StopSettings, max_iters: usize) -> StopSpec {
+        StopSpec {
+            max_iters,
+            grad_tol: stop.grad_tol,
+            energy_decrease_tol: stop.energy_decrease_tol,
+            grad_floor: stop.grad_floor,
+            stall_window: stop.stall_window,
+            stall_rtol: if stop.stall_window > 0 { STALL_RTOL } else { 0.0 },
+        }
+    }
 }
 
 impl ProblemSpec {
@@ -267,6 +292,11 @@ pub enum ExternalStop {
     Converged,
     /// At or below the tightest of `problem.json`'s `targets`.
     Target,
+    /// The lowest energy fell by no more than round-off over `stall_window` iterations (the
+    /// harness checks it on the records).
+    NoDecrease,
+    /// The final map's gradient is within `grad_floor` (the harness checks it on the map).
+    GradFloor,
     MaxIters,
     LineSearchFailed,
     Timeout,
@@ -394,7 +424,20 @@ mod tests {
     }
 
     fn stop() -> StopSpec {
-        StopSpec { max_iters: 10, grad_tol: 1e-3, energy_decrease_tol: 0.0 }
+        StopSpec::of(&StopSettings::default(), 10)
+    }
+
+    #[test]
+    fn the_problem_asks_for_our_stationary_ends_only_where_the_run_has_them() {
+        let ours = StopSpec::of(&StopSettings::default(), 7);
+        assert_eq!(
+            (ours.max_iters, ours.stall_window, ours.stall_rtol),
+            (7, solvers::solver::STALL_WINDOW, STALL_RTOL)
+        );
+        assert_eq!(ours.grad_floor, solvers::solver::GRAD_FLOOR);
+        let rules = StopSpec::of(&StopSettings::rules_only(1e-3, 1e-5, 10), 10);
+        assert_eq!((rules.grad_floor, rules.stall_window, rules.stall_rtol), (0.0, 0, 0.0));
+        assert_eq!((rules.grad_tol, rules.energy_decrease_tol), (1e-3, 1e-5));
     }
 
     #[test]

@@ -4,7 +4,7 @@
 use super::protocol::{self, quoted, Record, Snapshot};
 use crate::column_names::{intern, is_column_name};
 use crate::run_folder::ITERATION_COLUMNS;
-use solvers::solver::{Events, IterationRecord, Outcome, RowState, StopReason, StopSettings};
+use solvers::solver::{Events, IterationRecord, Outcome, RowState, Stall, StopReason, StopSettings};
 use std::path::Path;
 
 /// The extra column that says which rows the harness recomputed (1) and which it took from the
@@ -113,6 +113,7 @@ pub(super) fn rows_and_outcome(
     cost: &RecordCost,
 ) -> Result<Read, String> {
     let names = extra_names(records)?;
+    check_stationary(&stop, records, &snapshots[snapshots.len() - 1], rules)?;
     // Row k's record_s is the writing since row k - 1: its line, and its map if any. What is
     // left out over the run is bounded; past the bound every row's share is scaled down.
     let allowed: f64 = (1..records.len())
@@ -166,6 +167,49 @@ pub(super) fn rows_and_outcome(
         events: events(records, &rows, rules),
     };
     Ok(Read { outcome, rows, verified: snapshots.len() })
+}
+
+/// A solver that says it ended stationary must be: `no_decrease` where its recorded energies'
+/// lowest fell by no more than round-off over the problem's `stall_window`, as ours stall;
+/// `grad_floor` where the gradient we computed on its final map is within the floor.
+fn check_stationary(
+    stop: &StopReason,
+    records: &[Record],
+    last: &Snapshot,
+    rules: &StopSettings,
+) -> Result<(), String> {
+    match stop {
+        StopReason::NoDecrease => {
+            let mut stall = Stall::new(rules.stall_window);
+            let stalled = records.iter().fold(false, |_, r| stall.push(r.energy));
+            if stalled {
+                return Ok(());
+            }
+            let w = rules.stall_window;
+            let lowest = |rs: &[Record]| rs.iter().map(|r| r.energy).fold(f64::INFINITY, f64::min);
+            let fell = match records.len().checked_sub(w) {
+                Some(k) if w > 0 && k > 0 => lowest(&records[..k]) - lowest(records),
+                _ => f64::NAN,
+            };
+            Err(if w == 0 {
+                "says no_decrease, but the problem has no stall window".to_string()
+            } else if fell.is_nan() {
+                format!("says no_decrease after {} iterations, fewer than the stall window of {w}", records.len() - 1)
+            } else {
+                format!("says no_decrease, but its lowest energy fell by {fell:.2e} over the last {w} iterations")
+            })
+        }
+        StopReason::GradientFloor => match last.grad_norm {
+            Some(g) if rules.grad_floor > 0.0 && g <= rules.grad_floor => Ok(()),
+            g => Err(format!(
+                "says grad_floor, but the gradient norm of its final map (iteration {}) is {} (the floor: {:e})",
+                last.iter,
+                g.map_or("not finite".into(), |g| format!("{g:e}")),
+                rules.grad_floor
+            )),
+        },
+        _ => Ok(()),
+    }
 }
 
 /// Where the problem's rules first held in an external run, as ours mark them: the gradient's
@@ -310,6 +354,51 @@ mod tests {
         let err =
             rows_and_outcome(&wide, vec![snapshot(0, 3.0)], StopReason::MaxIterations, &RULES, &COST).err().unwrap();
         assert_eq!(err, "more than 32 extra columns (at iteration 32: `c32`)");
+    }
+
+    #[test]
+    fn a_stationary_end_holds_on_the_records_or_fails_the_run() {
+        let stop = StopSettings { stall_window: 3, grad_floor: 1e-8, ..RULES };
+        let run = |energies: &[f64]| -> Vec<Record> {
+            energies.iter().enumerate().map(|(k, &e)| record(k, e, k as f64, serde_json::json!({}))).collect()
+        };
+        let last = |grad: Option<f64>| Snapshot { grad_norm: grad, ..snapshot(5, 2.0) };
+        let says = |reason: StopReason, energies: &[f64], grad: Option<f64>, rules: &StopSettings| {
+            check_stationary(&reason, &run(energies), &last(grad), rules)
+        };
+        // the lowest energy of the last 3 iterations is the one 3 before, up to round-off
+        // (an iteration that rises does not count against it)
+        let flat = [3.0, 2.0, 2.0 + 1e-15, 2.0 - 1e-13, 2.0];
+        assert_eq!(says(StopReason::NoDecrease, &flat, None, &stop), Ok(()));
+        let falling = [3.0, 2.5, 2.2, 2.1, 2.05];
+        let err = says(StopReason::NoDecrease, &falling, None, &stop).unwrap_err();
+        assert_eq!(err, "says no_decrease, but its lowest energy fell by 4.50e-1 over the last 3 iterations");
+        let err = says(StopReason::NoDecrease, &flat[..3], None, &stop).unwrap_err();
+        assert_eq!(err, "says no_decrease after 2 iterations, fewer than the stall window of 3");
+        let err = says(StopReason::NoDecrease, &flat, None, &RULES).unwrap_err();
+        assert_eq!(err, "says no_decrease, but the problem has no stall window");
+        // the floor on the gradient we computed at the final map
+        assert_eq!(says(StopReason::GradientFloor, &falling, Some(1e-9), &stop), Ok(()));
+        let err = says(StopReason::GradientFloor, &falling, Some(1e-6), &stop).unwrap_err();
+        assert_eq!(
+            err,
+            "says grad_floor, but the gradient norm of its final map (iteration 5) is 1e-6 (the floor: 1e-8)"
+        );
+        assert!(says(StopReason::GradientFloor, &falling, None, &stop).unwrap_err().contains("is not finite"));
+        assert!(says(StopReason::GradientFloor, &falling, Some(0.0), &RULES).is_err());
+        // any other end is the solver's word
+        assert_eq!(says(StopReason::MaxIterations, &falling, None, &RULES), Ok(()));
+        // and the run fails with it
+        let err = rows_and_outcome(
+            &run(&falling),
+            vec![snapshot(0, 3.0), snapshot(4, 2.05)],
+            StopReason::NoDecrease,
+            &stop,
+            &COST,
+        )
+        .err()
+        .unwrap();
+        assert!(err.starts_with("says no_decrease"), "{err}");
     }
 
     #[test]
