@@ -177,6 +177,9 @@ mod tests {
         for (stem, t) in tables.iter().filter(|(s, _)| ["param", "per_mesh", tables::AGGREGATES].contains(&s.as_str()))
         {
             assert!(t.caption.contains("to the 1e-6 target (the harness's convergence test"), "{stem}: {}", t.caption);
+            // the verdict's test, on the span (not a fraction of the start's distance)
+            assert!(t.caption.contains("E − E* ≤ 1e-6 × span"), "{stem}: {}", t.caption);
+            assert!(t.caption.contains("the span min(E0 − E*, A) with A = max(E* − E_iso"), "{stem}: {}", t.caption);
         }
         let verdicts = table(tables::VERDICTS);
         assert_eq!(verdicts.rows[2][..5], ["sd", "slim", "1", "0", "0"]);

@@ -56,9 +56,9 @@ pub fn target_rule<'a>(rows: impl IntoIterator<Item = &'a SummaryRow>) -> String
     let t = tau_text(tau);
     format!(
         "Iterations and times are to the {t} target (the harness's convergence test: the first iteration \
-         with E0 − E ≥ (1 − {t})(E0 − E*), E* the reference minimum), not to the solver's own stop; ok = solved \
-         (reached {t} with no flipped triangle, the harness's verdict); a run that did not reach it counts as it \
-         ran, to its own stop."
+         with E − E* ≤ {t} × span, E* the reference minimum, the span min(E0 − E*, A) with A = max(E* − E_iso, \
+         10⁻⁴ max(1, |E_iso|))), not to where the solver's stop rules held; ok = solved (reached {t} with no \
+         flipped triangle, the harness's verdict); a run that did not reach it counts as it ran, to its end."
     )
 }
 
