@@ -271,9 +271,8 @@ fn libigl_slim_runs_verified_where_libigl_is_installed_and_is_skipped_where_not(
     }
 }
 
-/// `deform`: the problem folder carries the handles, the template's objective adds their
-/// penalty, and every map it reports is verified against our energy with the penalty; its
-/// start is ours (the rest pose, or the shape's own).
+/// A solver that says it ended stationary is read as ours did; one whose records or final map
+/// do not bear it out fails its run.
 #[test]
 fn an_external_stationary_end_is_read_as_ours_and_one_its_records_do_not_bear_out_fails() {
     if !peers_run() {
@@ -319,6 +318,9 @@ fn an_external_stationary_end_is_read_as_ours_and_one_its_records_do_not_bear_ou
     );
 }
 
+/// `deform`: the problem folder carries the handles, the template's objective adds their
+/// penalty, and every map it reports is verified against our energy with the penalty; its
+/// start is ours (the rest pose, or the shape's own).
 #[test]
 fn an_external_deform_run_is_verified_with_the_handles_penalty() {
     if !peers_run() {
