@@ -10,9 +10,10 @@ use std::path::PathBuf;
 fn repeats_run_round_robin_reproduce_the_iterates_and_report_median_min_max() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("quad.obj"), QUAD_OBJ).unwrap();
+    // every run is repeated: by default which are depends on their times (tested below)
     let cfg = write_config(
         tmp.path(),
-        "name = \"rep\"\nrepeat = 3\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n\
+        "name = \"rep\"\nrepeat = 3\nrepeat_runs = \"all\"\ndatasets = [\"bumpy_1k\"]\nenergies = [\"sd\"]\nsolvers = [\"kp-newton\", \"cm\"]\n\
          [[dataset]]\nname = \"broken\"\npath = \"quad.obj\"\n",
     );
     let out = tmp.path().join("out");
