@@ -58,9 +58,15 @@ fn peer(dir: &Path, name: &str, body: &str) -> String {
     path.display().to_string()
 }
 
+/// `[external.<name>]` running `command`; it may read `peers/` (where its scripts import
+/// `mapbench_peer` from), as the sandbox lets it read only what its declaration grants.
 fn external(name: &str, command: &[&str], extra: &str) -> String {
     let command: Vec<String> = command.iter().map(|c| format!("{c:?}")).collect();
-    format!("[external.{name}]\ncommand = [{}]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n{extra}", command.join(", "))
+    let peers = repo_root().join("peers").display().to_string();
+    format!(
+        "[external.{name}]\ncommand = [{}]\ntasks = [\"param\"]\nenergies = [\"sd\"]\nread = [{peers:?}]\n{extra}",
+        command.join(", ")
+    )
 }
 
 fn column<'a>(h: &[String], rows: &'a [Vec<String>], solver: &str, name: &str) -> &'a str {
@@ -522,7 +528,8 @@ fn hostile_peers_fail_alone_with_their_reason_and_leave_nothing_behind() {
     // the ones that solved honestly after their tries: judged like any run, confined
     for solver in ["outside", "escape"] {
         assert_eq!(get(solver, "stop_reason"), "max_iters", "{solver}: {}", get(solver, "error"));
-        assert_eq!(get(solver, "confined"), "true");
+        // the kernel's protections (signals from Linux 6.12, sockets by path from 7.1) vary
+        assert!(get(solver, "confined").starts_with("writes reads tracing"), "{}", get(solver, "confined"));
         assert!(get(solver, "cpu_s").parse::<f64>().unwrap() > 0.0);
     }
     let said = std::fs::read_to_string(d.join("out/external/bumpy_1k__sd__outside.stdout.txt")).unwrap();

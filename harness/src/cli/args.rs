@@ -79,6 +79,14 @@ pub(crate) enum Command {
     /// on standard input, prints its report. Not for hand use.
     #[command(hide = true)]
     Sandbox,
+    /// The solver's process in the sandbox: confines itself by RULES (JSON), then becomes
+    /// the command. Not for hand use.
+    #[command(hide = true)]
+    Confine {
+        rules: String,
+        #[arg(last = true, required = true)]
+        command: Vec<String>,
+    },
 }
 
 /// `--only`: the runs of a config a verb takes.

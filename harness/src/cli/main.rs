@@ -60,6 +60,9 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         Command::Claims(a) => claims::claims(a),
         Command::List(a) => inspect::list(a),
         Command::Sandbox => Ok(ExitCode::from(mapbench::external::sandbox::supervise())),
+        Command::Confine { rules, command } => {
+            Ok(ExitCode::from(mapbench::external::confine::become_solver(&rules, &command)))
+        }
     }
 }
 

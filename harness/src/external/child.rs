@@ -6,6 +6,7 @@
 //! the end of the run reach; its wall time and peak memory are measured from outside; its
 //! output is kept, truncated, and never waited for past its end.
 
+pub use super::confine::program_in;
 use serde::{Deserialize, Serialize};
 use std::io::Read;
 use std::path::Path;
@@ -50,7 +51,9 @@ pub struct ChildRun {
     /// 10 ms while it ran: an upper bound of its peak), in MB; `None` where `/proc` does not
     /// say or the child was gone before the first look.
     pub peak_rss_mb: Option<f64>,
-    /// Why it was not (wholly) confined; empty when the sandbox held it.
+    /// The sandbox's protections that held (none outside the sandbox).
+    pub held: Vec<super::confine::Protection>,
+    /// Why the others did not hold; empty when all did.
     pub unconfined: Vec<String>,
     /// Its standard output and error, each cut at the limit it was run with.
     pub stdout: String,
@@ -77,9 +80,11 @@ pub fn run(
     interrupt: &AtomicBool,
     keep: usize,
 ) -> Result<ChildRun, CannotStart> {
-    run_with(command, cwd, last, timeout, interrupt, keep, &[])
+    let env: Vec<(String, String)> = std::env::vars().collect();
+    run_with(command, cwd, last, timeout, interrupt, keep, &env)
 }
 
+/// [`run`] with exactly the environment `env`.
 pub(super) fn run_with(
     command: &[String],
     cwd: &Path,
@@ -95,12 +100,10 @@ pub(super) fn run_with(
         why: std::io::Error::new(std::io::ErrorKind::InvalidInput, "the command is empty"),
     })?;
     let mut cmd = Command::new(program_in(program, cwd));
-    // Python would write its bytecode cache beside the adapter's modules: outside the run
-    // folder, and shared by the runs at once.
     cmd.args(args)
         .args(last)
         .current_dir(cwd)
-        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .env_clear()
         .envs(env.iter().map(|(k, v)| (k, v)))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -136,19 +139,8 @@ pub(super) fn run_with(
     // What the child left running (a daemon, a worker pool) ends with it.
     kill_group(&mut child);
     let [stdout, stderr] = readers.map(|r| r.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default());
-    Ok(ChildRun { exit, wall_s, cpu_s: None, peak_rss_mb: peaks.total_mb(), unconfined: Vec::new(), stdout, stderr })
-}
-
-/// `program` as the child finds it: a relative path with a separator is relative to `cwd`
-/// (the child's folder; which folder the OS would take is not defined), a bare name is looked
-/// up in `PATH`.
-pub fn program_in(program: &str, cwd: &Path) -> std::path::PathBuf {
-    let p = Path::new(program);
-    if p.is_relative() && p.components().count() > 1 {
-        cwd.join(p)
-    } else {
-        p.to_path_buf()
-    }
+    let peak_rss_mb = peaks.total_mb();
+    Ok(ChildRun { exit, wall_s, cpu_s: None, peak_rss_mb, held: Vec::new(), unconfined: Vec::new(), stdout, stderr })
 }
 
 /// `command` with every argument that names a file of `folder` (relative, as a config gives
@@ -208,6 +200,23 @@ impl Reading {
     pub fn finish(self, grace: Duration) -> String {
         self.0.recv_timeout(grace).unwrap_or_default()
     }
+}
+
+/// `text` as [`Reading`] would have kept it with `keep` bytes: what it read with a larger
+/// limit (and its note of what it cut, if any) cut again.
+pub fn recut(text: &str, keep: usize) -> String {
+    let (body, cut) = match text.rsplit_once("\n[") {
+        Some((body, note)) if is_cut_note(&format!("[{}", note.trim_end())) => {
+            let n = note.split(' ').next().and_then(|n| n.parse::<usize>().ok()).unwrap_or(0);
+            (body, n)
+        }
+        _ => (text, 0),
+    };
+    if body.len() <= keep {
+        return text.to_string();
+    }
+    let at = (0..=keep).rev().find(|&i| body.is_char_boundary(i)).unwrap_or(0);
+    format!("{}\n[{} {CUT_NOTE}]\n", &body[..at], cut + body.len() - at)
 }
 
 fn exit_of(status: std::process::ExitStatus) -> Exit {
@@ -299,6 +308,14 @@ mod tests {
         let r = go(&sh("i=0; while [ $i -lt 100 ]; do echo 0123456789; i=$((i+1)); done"), 10.0);
         assert!(r.stdout.starts_with("0123456789\n0123456789\n"));
         assert!(r.stdout.ends_with("[1036 more bytes not kept]\n"), "{}", r.stdout);
+    }
+
+    #[test]
+    fn a_stream_kept_with_a_larger_limit_is_cut_again_as_with_the_smaller() {
+        assert_eq!(recut("0123456789", 10), "0123456789");
+        assert_eq!(recut("0123456789", 4), "0123\n[6 more bytes not kept]\n");
+        assert_eq!(recut("0123456789\n[5 more bytes not kept]\n", 4), "0123\n[11 more bytes not kept]\n");
+        assert_eq!(recut("01\n[5 more bytes not kept]\n", 4), "01\n[5 more bytes not kept]\n");
     }
 
     #[test]

@@ -2,10 +2,11 @@
 //! the run's rows and outcome from what it wrote, every snapshot recomputed by our code.
 
 use super::child::{self, ChildRun, Exit};
+use super::confine;
 use super::probe::ended;
 use super::protocol::{self, quoted, ExternalStop, HandlesSpec, ProblemSpec, Record, StopSpec, TargetSpec};
 use super::records::{check_clock, record_cost, rows_and_outcome, Read};
-use super::sandbox::{self, Limits, Spec};
+use super::sandbox::{self, SandboxError, Spec};
 use crate::plan::external::Declared;
 use solvers::energy::EnergyKind;
 use solvers::mesh::Handle;
@@ -29,12 +30,6 @@ pub const DEFAULT_KILL: Duration = Duration::from_secs(3600);
 /// A repeat of a run that timed out replays it to the same iteration (asked as `max_iters`),
 /// killed after this many times the timeout.
 const REPLAY_KILL_FACTOR: u32 = 4;
-
-/// A run's file-size limit without `file_size_mb`, MiB.
-pub const DEFAULT_FILE_SIZE_MB: u64 = 1024;
-
-/// A run's process limit without `processes`.
-pub const DEFAULT_PROCESSES: u64 = 64;
 
 /// The variables that set how many threads the usual runtimes and libraries start.
 pub const THREAD_VARIABLES: [&str; 9] = [
@@ -126,7 +121,9 @@ pub struct Executed {
     /// The CPU time of all its processes (`None` outside the sandbox).
     pub cpu_s: Option<f64>,
     pub peak_rss_mb: Option<f64>,
-    /// Why it was not (wholly) confined; empty when the sandbox held it.
+    /// The sandbox's protections that held.
+    pub held: Vec<confine::Protection>,
+    /// Why the others did not; empty when all held.
     pub unconfined: Vec<String>,
 }
 
@@ -183,6 +180,7 @@ pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
         wall_s: child.wall_s,
         cpu_s: child.cpu_s,
         peak_rss_mb: child.peak_rss_mb,
+        held: child.held,
         unconfined: child.unconfined,
     })
 }
@@ -205,17 +203,14 @@ fn run_and_read(
     // It runs in its problem folder, where alone it may write; what its command names in the
     // config's folder is given as absolute paths.
     let mut command = child::absolute_in(&job.declared.command, job.cwd);
+    let rules = confine::rules_for(job.declared, &command, job.cwd, Some(dir.clone()));
     command.push(dir.display().to_string());
-    let spec = Spec {
-        command,
-        cwd: dir.clone(),
-        writable: Some(dir.clone()),
-        env: environment(&dir, job.threads).map_err(|e| failed(e.to_string()))?,
-        timeout_s: Some(kill.as_secs_f64()),
-        limits: limits(job.declared),
-        keep: KEEP_OUTPUT,
-    };
-    let child = sandbox::run_sandboxed(&spec, job.interrupt).map_err(|e| ExternalError::CannotStart(e.to_string()))?;
+    let env = environment(&dir, job.threads, &job.declared.pass_env).map_err(|e| failed(e.to_string()))?;
+    let spec = Spec { command, cwd: dir.clone(), rules, env, timeout_s: Some(kill.as_secs_f64()), keep: KEEP_OUTPUT };
+    let child = sandbox::run_sandboxed(&spec, job.interrupt).map_err(|e| match e {
+        SandboxError::CannotStart(e) => ExternalError::CannotStart(e.to_string()),
+        SandboxError::Lost(why) => failed(format!("{}: {why}", job.name)),
+    })?;
     keep_output(&job.logs, &child);
     let said = || {
         let last = child.stderr.lines().map(str::trim).rfind(|l| !l.is_empty() && !child::is_cut_note(l));
@@ -278,35 +273,26 @@ fn kept_records(dir: &Path, killed: bool, max_iters: usize, name: &str) -> Resul
     Ok(records)
 }
 
-/// The solver's environment on top of ours: HOME and the temporary folder inside its problem
-/// folder (made here), its threads in the usual variables, Python's bytecode cache off
-/// (it would be written beside the adapter's modules) and Python's user packages where they
-/// were (under the real HOME).
-fn environment(dir: &Path, threads: usize) -> std::io::Result<Vec<(String, String)>> {
+/// The solver's whole environment: [`base_environment`], HOME and the temporary folder inside
+/// its problem folder (made here), its threads in the usual variables, and the harness's
+/// variables its declaration passes (`pass_env`). Nothing else of the harness's.
+fn environment(dir: &Path, threads: usize, pass: &[String]) -> std::io::Result<Vec<(String, String)>> {
     let (home, tmp) = (dir.join("home"), dir.join("tmp"));
     std::fs::create_dir_all(&home)?;
     std::fs::create_dir_all(&tmp)?;
-    let mut env: Vec<(String, String)> = vec![("HOME".into(), home.display().to_string())];
+    let mut env = confine::base_environment();
+    env.push(("HOME".into(), home.display().to_string()));
     for name in ["TMPDIR", "TMP", "TEMP"] {
         env.push((name.into(), tmp.display().to_string()));
     }
     env.extend(THREAD_VARIABLES.map(|name| (name.to_string(), threads.max(1).to_string())));
-    env.push(("PYTHONDONTWRITEBYTECODE".into(), "1".into()));
-    if let (None, Some(real)) = (std::env::var_os("PYTHONUSERBASE"), std::env::var_os("HOME")) {
-        env.push(("PYTHONUSERBASE".into(), Path::new(&real).join(".local").display().to_string()));
+    for name in pass {
+        if let Ok(value) = std::env::var(name) {
+            env.retain(|(k, _)| k != name);
+            env.push((name.clone(), value));
+        }
     }
     Ok(env)
-}
-
-/// The declared limits, with the defaults: the machine's memory, [`DEFAULT_FILE_SIZE_MB`],
-/// [`DEFAULT_PROCESSES`].
-fn limits(d: &Declared) -> Limits {
-    let memory = d.memory_mb.or_else(|| crate::hardware::Hardware::detect().memory_mb);
-    Limits {
-        memory_mb: memory,
-        file_size_mb: Some(d.file_size_mb.unwrap_or(DEFAULT_FILE_SIZE_MB)),
-        processes: Some(d.processes.unwrap_or(DEFAULT_PROCESSES)),
-    }
 }
 
 /// Whether the solver wrote no record (Python adapters open `iterations.jsonl` first).

@@ -2,6 +2,7 @@
 //! problem folder and judges what they write with its own code.
 
 pub mod child;
+pub mod confine;
 pub mod execute;
 pub mod probe;
 pub mod protocol;

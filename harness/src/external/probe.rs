@@ -3,7 +3,8 @@
 //! a missing mesh, and the batch goes on.
 
 use super::child::{program_in, Exit};
-use super::sandbox::{run_sandboxed, Limits, Spec};
+use super::confine;
+use super::sandbox::{run_sandboxed, Spec};
 use crate::plan::external::Declared;
 use serde::Serialize;
 use std::path::Path;
@@ -36,24 +37,21 @@ pub fn probe(name: &str, declared: &Declared, cwd: &Path, interrupt: &AtomicBool
     }
     let Some(version) = &declared.version else { return p };
     let shown = version.join(" ");
-    // In the sandbox too, with no folder it may write: it only has to print.
-    let spec = Spec {
-        command: version.clone(),
-        cwd: cwd.to_path_buf(),
-        writable: None,
-        env: vec![("PYTHONDONTWRITEBYTECODE".into(), "1".into())],
-        timeout_s: Some(VERSION_TIMEOUT.as_secs_f64()),
-        limits: Limits::default(),
-        keep: 4096,
-    };
+    // In the sandbox too, under the solver's limits, with no folder it may write: it only has
+    // to print.
+    let command = super::child::absolute_in(version, cwd);
+    let rules = confine::rules_for(declared, &command, cwd, None);
+    let (env, timeout_s) = (confine::base_environment(), Some(VERSION_TIMEOUT.as_secs_f64()));
+    let spec = Spec { command, cwd: cwd.to_path_buf(), rules, env, timeout_s, keep: 4096 };
     match run_sandboxed(&spec, interrupt) {
         Err(e) => p.unavailable = Some(format!("version command: {e}")),
         Ok(run) if run.exit == Exit::Code(0) => {
             let line = run.stdout.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("");
-            p.version = Some(line.chars().take(VERSION_CHARS).collect());
+            p.version = Some(line.chars().filter(|c| !c.is_control()).take(VERSION_CHARS).collect());
         }
         Ok(run) => {
             let said = run.stderr.lines().map(str::trim).rfind(|l| !l.is_empty()).unwrap_or("no error output");
+            let said = super::protocol::quoted(said);
             p.unavailable = Some(format!("version command `{shown}` {}: {said}", ended(&run.exit)));
         }
     }
@@ -109,6 +107,9 @@ mod tests {
             memory_mb: None,
             file_size_mb: None,
             processes: None,
+            read: Vec::new(),
+            pass_env: Vec::new(),
+            network: false,
         }
     }
 

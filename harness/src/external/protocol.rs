@@ -160,11 +160,16 @@ pub const MAP_SLACK_BYTES: u64 = 4096;
 /// wrote) quoted in a run's `error`.
 pub const QUOTED_CHARS: usize = 300;
 
-/// `text` cut at [`QUOTED_CHARS`], saying how much was left out.
+/// `text` cut at [`QUOTED_CHARS`], saying how much was left out, its control characters
+/// escaped (`\u{1b}`): a solver's text reaches the console and the CSV's cells, where an
+/// escape sequence would act.
 pub fn quoted(text: &str) -> String {
+    let shown = |t: &str| -> String {
+        t.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
+    };
     match text.char_indices().nth(QUOTED_CHARS) {
-        None => text.to_string(),
-        Some((at, _)) => format!("{}... ({} more characters)", &text[..at], text[at..].chars().count()),
+        None => shown(text),
+        Some((at, _)) => format!("{}... ({} more characters)", shown(&text[..at]), text[at..].chars().count()),
     }
 }
 
@@ -620,6 +625,7 @@ mod tests {
         assert!(read_capped(dir.path(), 9).unwrap_err().to_string().ends_with("is a folder, not a regular file"));
         assert!(read_capped(&at("absent"), 9).unwrap_err().to_string().ends_with("absent: cannot read"));
         assert_eq!(quoted("short"), "short");
+        assert_eq!(quoted("\u{1b}[31mred\u{1b}[0m\r"), "\\u{1b}[31mred\\u{1b}[0m\\r");
         let long = "é".repeat(QUOTED_CHARS + 7);
         assert_eq!(quoted(&long), format!("{}... (7 more characters)", "é".repeat(QUOTED_CHARS)));
     }

@@ -1,16 +1,18 @@
 //! The process between the harness and an external solver (`mapbench sandbox`, a hidden verb):
-//! it confines the solver and ends every process the solver started, whatever they do.
+//! it starts the solver confined, measures it from outside and ends every process the solver
+//! started, whatever they do. It is not confined itself: the solver's process confines itself
+//! before it executes the solver's command (`super::confine`), so neither this process nor the
+//! harness is in the solver's Landlock domain, and what this process reports is its own.
 //!
-//! - **Files** (Landlock, Linux 5.13+): the solver may read and execute everywhere but write
-//!   only beneath its problem folder (and to `/dev/null`); it may signal only processes of its
-//!   own sandbox (Linux 6.12+). Where the kernel cannot, the report says so and the run records
-//!   that it was not confined.
+//! - **Confinement** (`super::confine`): writes beneath the problem folder only, reads of the
+//!   system, the solver's own files and what its declaration grants, no tracing of or signals to
+//!   anything outside, no network, the rlimits; each run records which protections held.
 //! - **Processes**: this process is a child subreaper, so every process the solver starts
 //!   stays below it, one that calls `setsid` or whose parent exits included; when the solver
 //!   exits, passes its timeout, starts more processes than allowed or the harness says stop
 //!   (it closes our standard input, or dies), every one of them is killed and reaped. Nothing
 //!   then holds the output pipes open.
-//! - **Limits** (rlimits, inherited): address space, file size, processes.
+//! - **Environment**: exactly the one the harness gives, nothing of its own.
 //! - **Measures**: the solver's wall time from its start, the CPU time (user + system) of every
 //!   process of it (all are reaped here or by their parents), the sum of each process's peak
 //!   resident memory, and the first bytes of its output.
@@ -19,10 +21,12 @@
 //! we write the [`Report`] as JSON to our standard output.
 
 use super::child::{self, program_in, CannotStart, ChildRun, Exit, Reading, OUTPUT_GRACE, POLL};
+pub use super::confine::Limits;
+use super::confine::{Line, Protection, Rules};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -33,33 +37,22 @@ use std::time::{Duration, Instant};
 /// killed itself.
 const SANDBOX_GRACE: Duration = Duration::from_secs(5);
 
+/// Room in the error output for the confining process's line, on top of what is kept.
+const LINE_ROOM: usize = 4096;
+
 /// What to run and how.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Spec {
     /// The program (resolved against `cwd` as [`program_in`] does) and its arguments.
     pub command: Vec<String>,
     pub cwd: PathBuf,
-    /// The one folder the solver may write in (`None`: none, as for a version command).
-    pub writable: Option<PathBuf>,
-    /// Variables set on top of the harness's environment.
+    /// How it is confined: what it may write and read, the network, its limits.
+    pub rules: Rules,
+    /// Its whole environment.
     pub env: Vec<(String, String)>,
     pub timeout_s: Option<f64>,
-    pub limits: Limits,
     /// Bytes of each output stream kept.
     pub keep: usize,
-}
-
-/// The rlimits of the solver's processes (`None`: the harness's own).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Limits {
-    /// Address space of each process (`RLIMIT_AS`), MiB.
-    pub memory_mb: Option<u64>,
-    /// The largest file it may write (`RLIMIT_FSIZE`), MiB: a write past it fails and the
-    /// process gets `SIGXFSZ`.
-    pub file_size_mb: Option<u64>,
-    /// Processes at once below the sandbox (counted every 10 ms; `RLIMIT_NPROC`, which counts
-    /// every task of the user, is set to the user's tasks at the start plus this).
-    pub processes: Option<u64>,
 }
 
 /// What became of the solver.
@@ -71,11 +64,23 @@ pub struct Report {
     pub wall_s: f64,
     pub cpu_s: f64,
     pub peak_rss_mb: Option<f64>,
-    /// Why the sandbox is not whole (no Landlock, a limit that could not be set); empty when
-    /// it is.
+    /// The protections that held.
+    pub held: Vec<Protection>,
+    /// Why the others did not, and anything else not whole; empty when all held.
     pub unconfined: Vec<String>,
     pub stdout: String,
     pub stderr: String,
+}
+
+/// Why a sandboxed run has no report.
+#[derive(Debug, thiserror::Error)]
+pub enum SandboxError {
+    /// The command could not start: its runs are skipped with the reason.
+    #[error(transparent)]
+    CannotStart(#[from] CannotStart),
+    /// The sandbox ended without a report: the run fails with the reason.
+    #[error("{0}")]
+    Lost(String),
 }
 
 /// The `mapbench` binary, which runs the sandbox (`mapbench sandbox`); set by its `main`.
@@ -88,7 +93,7 @@ pub fn use_sandbox(program: PathBuf) {
 
 /// The harness's side: run `spec` in the sandbox until it ends, passes its timeout or `interrupt` is set; without
 /// the sandbox program (the library outside `mapbench`), directly, recorded as not confined.
-pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, CannotStart> {
+pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, SandboxError> {
     let shown = spec.command.join(" ");
     let Some(program) = SANDBOX_PROGRAM.get() else {
         let timeout = spec.timeout_s.map(Duration::from_secs_f64);
@@ -98,7 +103,9 @@ pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, Ca
     };
     let cannot = |why: std::io::Error| CannotStart { command: shown.clone(), why };
     let mut cmd = Command::new(program);
-    cmd.arg("sandbox").stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
+    // Nothing of the harness's environment: the solver gets the spec's, and /proc would show
+    // this process's to anyone who may read it.
+    cmd.arg("sandbox").env_clear().stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
     // Its own group: a Ctrl-C at the terminal reaches the harness, which stops it.
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     let mut sandbox = cmd.spawn().map_err(cannot)?;
@@ -115,7 +122,11 @@ pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, Ca
     let mut stopped_at: Option<Instant> = None;
     loop {
         match sandbox.try_wait() {
-            Ok(Some(_)) | Err(_) => break,
+            // Ended (or killed from outside: what it started in its group goes too).
+            Ok(Some(_)) | Err(_) => {
+                child::kill_group(&mut sandbox);
+                break;
+            }
             Ok(None) => {}
         }
         if stopped_at.is_none() && interrupt.load(Ordering::Relaxed) {
@@ -136,17 +147,18 @@ pub fn run_sandboxed(spec: &Spec, interrupt: &AtomicBool) -> Result<ChildRun, Ca
     let text = report.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
     let said = errors.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default();
     let report: Report = serde_json::from_str(text.trim()).map_err(|_| {
-        let why = format!("the sandbox (`{} sandbox`) gave no report: {}", program.display(), said.trim());
-        cannot(std::io::Error::other(why))
+        let said = super::protocol::quoted(said.trim());
+        SandboxError::Lost(format!("the sandbox (`{} sandbox`) ended without a report: {said}", program.display()))
     })?;
     if let Some(why) = report.cannot_start {
-        return Err(cannot(std::io::Error::other(why)));
+        return Err(cannot(std::io::Error::other(why)).into());
     }
     Ok(ChildRun {
         exit: report.exit.unwrap_or(Exit::Interrupted),
         wall_s: report.wall_s,
         cpu_s: Some(report.cpu_s),
         peak_rss_mb: report.peak_rss_mb,
+        held: report.held,
         unconfined: report.unconfined,
         stdout: report.stdout,
         stderr: report.stderr,
@@ -182,45 +194,47 @@ pub fn supervise() -> u8 {
     }
 }
 
-/// Run `spec` in this process's sandbox (which it sets up for good: call it once, in the
-/// process made for it).
+/// Run `spec`: start its solver through `mapbench confine` (this binary), which confines
+/// itself and becomes the solver, and watch it to its end.
 fn run(spec: &Spec) -> Report {
-    let mut unconfined = Vec::new();
-    if let Err(e) = nix::sys::prctl::set_child_subreaper(true) {
-        unconfined.push(format!("not a child subreaper ({e}): a process that leaves its parent may outlive the run"));
-    }
-    unconfined.extend(limit(&spec.limits));
-    if let Err(why) = confine(spec.writable.as_deref()) {
-        unconfined.push(why);
-    }
-    // The harness closes our standard input to stop the run (or dies, which closes it too).
-    let stop = Arc::new(AtomicBool::new(false));
-    let stopped = stop.clone();
-    thread::spawn(move || {
-        let mut sink = String::new();
-        while std::io::stdin().lock().read_line(&mut sink).is_ok_and(|n| n > 0) {
-            sink.clear();
-        }
-        stopped.store(true, Ordering::SeqCst);
-    });
     let mut report = Report {
         exit: None,
         cannot_start: None,
         wall_s: 0.0,
         cpu_s: 0.0,
         peak_rss_mb: None,
-        unconfined,
+        held: Vec::new(),
+        unconfined: Vec::new(),
         stdout: String::new(),
         stderr: String::new(),
     };
-    let Some((program, args)) = spec.command.split_first() else {
+    if let Err(e) = nix::sys::prctl::set_child_subreaper(true) {
+        report
+            .unconfined
+            .push(format!("not a child subreaper ({e}): a process that leaves its parent may outlive the run"));
+    }
+    let stop = stop_when_stdin_closes();
+    let Some(program) = spec.command.first() else {
         report.cannot_start = Some("the command is empty".into());
         return report;
     };
+    let me = match std::env::current_exe() {
+        Ok(me) => me,
+        Err(e) => {
+            report.cannot_start = Some(format!("the sandbox cannot find its own program: {e}"));
+            return report;
+        }
+    };
+    let rules = serde_json::to_string(&spec.rules).unwrap_or_default();
     let t0 = Instant::now();
-    let spawned = Command::new(program_in(program, &spec.cwd))
-        .args(args)
+    let spawned = Command::new(me)
+        .arg("confine")
+        .arg(rules)
+        .arg("--")
+        .arg(program_in(program, &spec.cwd))
+        .args(&spec.command[1..])
         .current_dir(&spec.cwd)
+        .env_clear()
         .envs(spec.env.iter().map(|(k, v)| (k, v)))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -235,7 +249,7 @@ fn run(spec: &Spec) -> Report {
     };
     let outputs = [
         child.stdout.take().map(|s| Reading::start(s, spec.keep)),
-        child.stderr.take().map(|s| Reading::start(s, spec.keep)),
+        child.stderr.take().map(|s| Reading::start(s, spec.keep + LINE_ROOM)),
     ];
     let mut peaks: BTreeMap<i32, u64> = BTreeMap::new();
     let exit = watch(child.id() as i32, spec, t0, &stop, &mut peaks);
@@ -249,15 +263,50 @@ fn run(spec: &Spec) -> Report {
     report.peak_rss_mb = (!peaks.is_empty()).then(|| peaks.values().sum::<u64>() as f64 / 1024.0);
     // Every writer of the pipes is gone: they end now.
     let [stdout, stderr] = outputs.map(|o| o.map(|r| r.finish(Duration::from_secs(5))).unwrap_or_default());
-    (report.stdout, report.stderr) = (stdout, stderr);
+    let (lines, solver) = Line::split(&stderr);
+    (report.stdout, report.stderr) = (stdout, child::recut(solver, spec.keep));
+    take_lines(&mut report, lines);
     report
+}
+
+/// The harness closes our standard input to stop the run (or dies, which closes it too).
+fn stop_when_stdin_closes() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let stopped = stop.clone();
+    thread::spawn(move || {
+        let mut sink = String::new();
+        while std::io::stdin().lock().read_line(&mut sink).is_ok_and(|n| n > 0) {
+            sink.clear();
+        }
+        stopped.store(true, Ordering::SeqCst);
+    });
+    stop
+}
+
+/// What the solver's process said of its confinement, into `report`.
+fn take_lines(report: &mut Report, lines: Vec<Line>) {
+    let mut said = false;
+    for line in lines {
+        match line {
+            Line::Held { held, not_held } => {
+                report.held = held;
+                report.unconfined.extend(not_held.into_iter().map(|(p, why)| format!("{}: {why}", p.as_str())));
+                said = true;
+            }
+            // Its command could not be executed.
+            Line::CannotStart(why) => report.cannot_start = Some(why),
+        }
+    }
+    if !said && report.cannot_start.is_none() {
+        report.unconfined.push("the solver's process said nothing of its confinement".into());
+    }
 }
 
 /// Poll the solver (`solver`, started at `t0`) until it ends, it has too many processes, the
 /// harness stops the run or its time is up; each process's peak memory goes to `peaks`.
 fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, peaks: &mut BTreeMap<i32, u64>) -> Exit {
     let timeout = spec.timeout_s.map(Duration::from_secs_f64);
-    let max_processes = spec.limits.processes.map(|p| p as usize);
+    let max_processes = spec.rules.limits.processes.map(|p| p as usize);
     loop {
         if let Some(exit) = reap(solver) {
             return exit;
@@ -279,54 +328,6 @@ fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, peaks: &mut B
             return Exit::TimedOut;
         }
         thread::sleep(POLL);
-    }
-}
-
-/// Set the rlimits; what could not be set, said.
-fn limit(limits: &Limits) -> Vec<String> {
-    use nix::sys::resource::{setrlimit, Resource};
-    let mb = |m: u64| m.saturating_mul(1 << 20);
-    let mut failed = Vec::new();
-    let mut set = |what: &str, r: Resource, value: Option<u64>| {
-        if let Some(v) = value {
-            if let Err(e) = setrlimit(r, v, v) {
-                failed.push(format!("{what} limit not set ({e})"));
-            }
-        }
-    };
-    set("memory", Resource::RLIMIT_AS, limits.memory_mb.map(mb));
-    set("file size", Resource::RLIMIT_FSIZE, limits.file_size_mb.map(mb));
-    // RLIMIT_NPROC counts the user's tasks (threads included) everywhere.
-    set("process", Resource::RLIMIT_NPROC, limits.processes.map(|p| user_tasks().saturating_add(p)));
-    failed
-}
-
-/// Landlock: read and execute everywhere, write beneath `writable` and to `/dev/null`, signal
-/// only inside the sandbox. `Err` says why the kernel did not confine (fully).
-fn confine(writable: Option<&Path>) -> Result<(), String> {
-    use landlock::{
-        path_beneath_rules, Access, AccessFs, Ruleset, RulesetAttr, RulesetCreatedAttr, RulesetStatus, Scope, ABI,
-    };
-    let abi = ABI::V6;
-    let status = Ruleset::default()
-        .handle_access(AccessFs::from_all(abi))
-        .and_then(|r| r.scope(Scope::from_all(abi)))
-        .and_then(|r| r.create())
-        .and_then(|r| r.add_rules(path_beneath_rules(["/"], AccessFs::from_read(abi))))
-        .and_then(|r| r.add_rules(path_beneath_rules(["/dev/null"], AccessFs::from_file(abi))))
-        .and_then(|r| r.add_rules(path_beneath_rules(writable, AccessFs::from_all(abi))))
-        .and_then(|r| r.restrict_self())
-        .map_err(|e| format!("no Landlock sandbox ({e}): it could write outside its problem folder"))?;
-    match status.ruleset {
-        RulesetStatus::FullyEnforced => Ok(()),
-        // An older kernel's Landlock: the file system is confined, signals may not be.
-        RulesetStatus::PartiallyEnforced => Err(format!(
-            "Landlock only partly enforced ({:?}): it may signal processes outside its sandbox",
-            status.landlock
-        )),
-        RulesetStatus::NotEnforced => {
-            Err("no Landlock on this kernel: it could write outside its problem folder".to_string())
-        }
     }
 }
 
@@ -408,25 +409,6 @@ fn high_water_kb(pid: i32) -> Option<u64> {
     line.split_whitespace().nth(1)?.parse().ok()
 }
 
-/// The tasks (threads) of this process's user now: what `RLIMIT_NPROC` counts.
-fn user_tasks() -> u64 {
-    use std::os::unix::fs::MetadataExt;
-    let Ok(uid) = std::fs::metadata("/proc/self").map(|m| m.uid()) else { return 0 };
-    let Ok(dir) = std::fs::read_dir("/proc") else { return 0 };
-    let mut n = 0;
-    for entry in dir.flatten() {
-        let name = entry.file_name();
-        let Some(pid) = name.to_str().filter(|s| s.bytes().all(|b| b.is_ascii_digit())) else { continue };
-        if entry.metadata().is_ok_and(|m| m.uid() == uid) {
-            let threads = std::fs::read_to_string(format!("/proc/{pid}/status"))
-                .ok()
-                .and_then(|s| s.lines().find_map(|l| l.strip_prefix("Threads:").and_then(|t| t.trim().parse().ok())));
-            n += threads.unwrap_or(1);
-        }
-    }
-    n
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -435,18 +417,19 @@ mod tests {
     fn without_the_sandbox_program_a_run_says_it_was_not_confined() {
         let dir = tempfile::tempdir().unwrap();
         let spec = Spec {
-            command: vec!["sh".into(), "-c".into(), "echo \"$HOME\"; exit 3".into()],
+            command: vec!["sh".into(), "-c".into(), "echo \"$HOME\" \"$CARGO\"; exit 3".into()],
             cwd: dir.path().to_path_buf(),
-            writable: Some(dir.path().to_path_buf()),
-            env: vec![("HOME".into(), "/nowhere".into())],
+            rules: Rules { writable: Some(dir.path().to_path_buf()), ..Rules::default() },
+            env: vec![("HOME".into(), "/nowhere".into()), ("PATH".into(), "/usr/bin:/bin".into())],
             timeout_s: Some(10.0),
-            limits: Limits::default(),
             keep: 64,
         };
-        // the library's tests run outside the mapbench binary, which never registered itself
+        // the library's tests run outside the mapbench binary, which never registered itself;
+        // the environment is the spec's alone (cargo's variables are not passed on)
         let run = run_sandboxed(&spec, &AtomicBool::new(false)).unwrap();
-        assert_eq!((run.exit, run.stdout.as_str(), run.cpu_s), (Exit::Code(3), "/nowhere\n", None));
+        assert_eq!((run.exit, run.stdout.as_str(), run.cpu_s), (Exit::Code(3), "/nowhere \n", None));
         assert_eq!(run.unconfined, ["run without the sandbox (not through the mapbench binary)"]);
+        assert!(run.held.is_empty());
     }
 
     #[test]
@@ -454,10 +437,14 @@ mod tests {
         let spec = Spec {
             command: vec!["python3".into(), "a b.py".into()],
             cwd: "/x".into(),
-            writable: None,
+            rules: Rules {
+                writable: None,
+                readable: vec!["/usr".into()],
+                network: true,
+                limits: Limits { memory_mb: Some(512), file_size_mb: None, processes: Some(8) },
+            },
             env: vec![("OMP_NUM_THREADS".into(), "2".into())],
             timeout_s: None,
-            limits: Limits { memory_mb: Some(512), file_size_mb: None, processes: Some(8) },
             keep: 10,
         };
         let back: Spec = serde_json::from_str(&serde_json::to_string(&spec).unwrap()).unwrap();
@@ -468,6 +455,7 @@ mod tests {
             wall_s: 1.5,
             cpu_s: 0.25,
             peak_rss_mb: Some(12.0),
+            held: vec![Protection::Writes],
             unconfined: vec!["no Landlock".into()],
             stdout: "out\n".into(),
             stderr: String::new(),

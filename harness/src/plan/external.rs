@@ -42,6 +42,18 @@ pub struct Declared {
     /// Processes it may have at once (default: 64).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub processes: Option<u64>,
+    /// Folders or files it may read besides its problem folder, its program's and its
+    /// arguments' folders and the system's (relative to the config's folder): a licence file,
+    /// a package installed elsewhere.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub read: Vec<String>,
+    /// The harness's environment variables it is given (besides the sandbox's own: `PATH`,
+    /// the locale, the thread variables, `HOME` and `TMPDIR` in its problem folder).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pass_env: Vec<String>,
+    /// Whether it may use the network (a licence server); default no.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub network: bool,
 }
 
 fn every_iteration() -> usize {

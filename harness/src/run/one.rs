@@ -285,9 +285,10 @@ fn external_result(
     (summary.shifted_iters, summary.clamped_iters, summary.cg_capped_iters) = (None, None, None);
     (summary.peak_rss_mb, summary.peak_growth_mb) = (executed.peak_rss_mb, executed.peak_rss_mb);
     summary.verified_snapshots = Some(executed.verified);
-    (summary.cpu_s, summary.confined) = (executed.cpu_s, Some(executed.unconfined.is_empty()));
-    if let Some(why) = executed.unconfined.first() {
-        ctx.progress.notice(&format!("{}: not confined: {why}", run.stem));
+    let confined = crate::external::confine::Protection::join(&executed.held);
+    (summary.cpu_s, summary.confined) = (executed.cpu_s, Some(confined));
+    if !executed.unconfined.is_empty() {
+        ctx.progress.notice(&format!("{}: sandbox not whole: {}", run.stem, executed.unconfined.join("; ")));
     }
     let map_uv = ctx.keep_map.then(|| crate::run_folder::map::encode_uv(mesh, &executed.outcome.x));
     let final_x = Some(executed.outcome.x);

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 /// harness verified, the peak memory growth; then the yardstick's common start energy, the
 /// energy's isometry value and whether `E*` is certified, the energy a polish from the final
 /// map reached, and why a repeat differed; then an external solver's CPU time and whether the
-/// sandbox confined it; then the iteration, time and energy at which each tolerance rule of
+/// sandbox's protections that held; then the iteration, time and energy at which each tolerance rule of
 /// `[stop]` first held, whether it ended the run or was an event on its way to the target
 /// (appended: a file written before them reads them as the run's own stop where a rule ended
 /// it, [`SummaryRow::with_rules_of_its_stop`]). After them, for each target `tau` of the batch, `iters_to_<tau>`
@@ -215,10 +215,11 @@ pub struct SummaryRow {
     /// time; empty for the catalogue's solvers and outside the sandbox.
     #[serde(default)]
     pub cpu_s: Option<f64>,
-    /// An external solver's run: whether the sandbox confined it (it could write only in its
-    /// problem folder; `false`: the kernel could not, and it was not). Empty for ours.
-    #[serde(default)]
-    pub confined: Option<bool>,
+    /// An external solver's run: the sandbox's protections that held, space-separated
+    /// (`external::confine::Protection`; a folder of an older version wrote `true` for
+    /// Landlock's write rule, `false` for none). Empty for ours.
+    #[serde(default, deserialize_with = "super::upgrade::confined")]
+    pub confined: Option<String>,
     /// The row at which `|grad| <= grad_tol` first held (empty: never, or the rule is off): a
     /// run that rule ends stops there, with the same rows.
     #[serde(default)]

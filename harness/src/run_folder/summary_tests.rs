@@ -98,7 +98,7 @@ fn gap_scale_round_trips_and_an_older_file_reads_without_it() {
         verified_snapshots: scale.map(|_| 12),
         peak_growth_mb: scale.map(|_| 41.5),
         cpu_s: scale.map(|_| 1.25),
-        confined: scale.map(|_| true),
+        confined: scale.map(|_| "writes reads tracing".to_string()),
         ..Default::default()
     };
     let rows = vec![row("kp-newton", Some(0.2103)), row("aqp", None)];

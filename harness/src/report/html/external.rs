@@ -23,20 +23,17 @@ pub(super) fn external_section(h: &mut String, probes: &[Probe], summaries: &[Su
            code; a reported energy that disagreed beyond round-off failed the run. Their time_s is the \
            process's wall time on the harness's clock (interpreter start-up included, record writing left \
            out); their per-iteration times are their own clock's; cpu_s and peak_rss_mb are their own \
-           processes'. Each ran in a sandbox: it could write only in its problem folder, and every process it \
-           started ended with its run; where the kernel could not confine it (no Landlock), the table says \
-           so.</p>\n\
+           processes'. Each ran in a sandbox (the book's security page): it could write only in its problem \
+           folder, read only its own files and the system's, not trace or signal the harness, not use the \
+           network, and every process it started ended with its run; the table names the protections that \
+           held in all its runs and those the kernel did not give.</p>\n\
            <table>\n<tr><th>solver</th><th>version</th><th>command</th><th>ran</th><th>failed</th>\
            <th>skipped</th><th>maps verified</th><th>confined</th></tr>\n";
     for p in probes {
         let mine: Vec<&SummaryRow> = summaries.iter().filter(|s| s.solver == p.name).collect();
         let n = |st: Status| mine.iter().filter(|s| s.status == st).count();
         let verified: usize = mine.iter().filter_map(|s| s.verified_snapshots).sum();
-        let loose = mine.iter().filter(|s| s.confined == Some(false)).count();
-        let confined = match loose {
-            0 => "yes".to_string(),
-            n => format!("no: {n} of its runs were not confined (they could write outside their folder)"),
-        };
+        let confined = protections(&mine);
         let version = match (&p.version, &p.unavailable) {
             (_, Some(why)) => format!("unavailable: {why}"),
             (Some(v), None) => v.clone(),
@@ -55,4 +52,25 @@ pub(super) fn external_section(h: &mut String, probes: &[Probe], summaries: &[Su
         );
     }
     *h += "</table>\n";
+}
+
+/// The protections that held in every run of a solver that ran, and those missing from some.
+fn protections(runs: &[&SummaryRow]) -> String {
+    use crate::external::confine::Protection;
+    let listed: Vec<&str> = runs.iter().filter_map(|s| s.confined.as_deref()).collect();
+    if listed.is_empty() {
+        return "no run".into();
+    }
+    let held = |p: &Protection| listed.iter().filter(|l| l.split(' ').any(|w| w == p.as_str())).count();
+    let all: Vec<&str> = Protection::ALL.iter().filter(|p| held(p) == listed.len()).map(|p| p.as_str()).collect();
+    let some: Vec<String> = Protection::ALL
+        .iter()
+        .filter(|p| held(p) < listed.len())
+        .map(|p| format!("{} (missing in {} of {})", p.as_str(), listed.len() - held(p), listed.len()))
+        .collect();
+    match (all.is_empty(), some.is_empty()) {
+        (_, true) => format!("all: {}", all.join(", ")),
+        (true, false) => format!("none; not: {}", some.join(", ")),
+        (false, false) => format!("{}; not: {}", all.join(", "), some.join(", ")),
+    }
 }
