@@ -532,6 +532,11 @@ fn hostile_peers_fail_alone_with_their_reason_and_leave_nothing_behind() {
         assert!(get(solver, "confined").starts_with("writes reads tracing"), "{}", get(solver, "confined"));
         assert!(get(solver, "cpu_s").parse::<f64>().unwrap() > 0.0);
     }
+    // one process each: within its thread (a run past it depends on free cores, so the
+    // check itself is `confine`'s unit test)
+    for solver in ["outside", "escape"] {
+        assert!(get(solver, "confined").split(' ').any(|p| p == "threads"), "{}", get(solver, "confined"));
+    }
     let said = std::fs::read_to_string(d.join("out/external/bumpy_1k__sd__outside.stdout.txt")).unwrap();
     assert!(!said.contains("wrote"), "{said}");
     assert_eq!(said.matches("refused").count(), 4, "{said}");

@@ -1,8 +1,9 @@
 //! The sandbox holds against a solver that tries to get out (peers/PROTOCOL.md, "The
 //! sandbox"): it cannot forge the sandbox's report, stop or kill the sandbox or the harness,
 //! read the certified answers or other runs, reach a listener on this machine, leave a process
-//! or an IPC object behind, see the harness's environment or print escape sequences to the
-//! console; the honest run beside it is what it is alone. A sandbox that dies without a report
+//! or an IPC object behind, pass its memory cap with many processes, see the harness's
+//! environment or print escape sequences to the console; the honest run beside it is what it
+//! is alone. A sandbox that dies without a report
 //! fails its run.
 //!
 //! The probes are plain Python (no numpy): these tests run wherever `python3` does.
@@ -111,9 +112,17 @@ fn a_solver_that_tries_every_way_out_fails_alone_and_gets_nowhere() {
         .replace("{path_socket!r}", &format!("{:?}", path_socket.display().to_string()));
     std::fs::create_dir_all(d.join("peer")).unwrap();
     std::fs::write(d.join("peer/probe.py"), probe).unwrap();
-    let external =
-        "[external.probe]\ncommand = [\"python3\", \"peer/probe.py\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n";
-    let cfg = write_config(d, &solvers_config("\"kp-newton\", \"probe\"", external));
+    // four processes of 60 MB each, under a cap of 150 MiB for them together
+    std::fs::write(
+        d.join("peer/hog.py"),
+        "import subprocess, sys, time\nkid = \"b = b'x' * 60_000_000\\nimport time\\ntime.sleep(30)\"\n\
+         ps = [subprocess.Popen([sys.executable, '-c', kid]) for _ in range(4)]\ntime.sleep(30)\n",
+    )
+    .unwrap();
+    let external = "[external.probe]\ncommand = [\"python3\", \"peer/probe.py\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n\
+                    [external.hog]\ncommand = [\"python3\", \"peer/hog.py\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n\
+                    memory_mb = 150\n";
+    let cfg = write_config(d, &solvers_config("\"kp-newton\", \"probe\", \"hog\"", external));
     let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
         .args(["run", cfg.to_str().unwrap(), "--out", "out", "--no-history", "--jobs", "2"])
         .current_dir(d)
@@ -129,6 +138,10 @@ fn a_solver_that_tries_every_way_out_fails_alone_and_gets_nowhere() {
     assert_eq!(get("status"), "failed", "{}", get("error"));
     assert!(get("error").contains("probe exited with code 1 (its last error line: \\u{1b}[2J"), "{}", get("error"));
     assert!(!std::fs::read_to_string(d.join("out/summary.csv")).unwrap().contains('\u{1b}'));
+    let hog = row(&h, &rows, "hog");
+    assert_eq!(hog("status"), "failed", "{}", hog("error"));
+    let too_much = "hog was killed with more than 150 MiB resident in its processes together";
+    assert!(hog("error").contains(too_much), "{}", hog("error"));
     let said = std::fs::read_to_string(d.join("out/external/bumpy_1k__sd__probe.stdout.txt")).unwrap();
     for what in [
         "forge_report",

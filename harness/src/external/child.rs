@@ -37,6 +37,8 @@ pub enum Exit {
     Interrupted,
     /// It had more than this many processes at once: all were killed.
     TooManyProcesses(usize),
+    /// Its processes had more than this many MiB resident together: all were killed.
+    TooMuchMemory(u64),
 }
 
 /// A finished child.

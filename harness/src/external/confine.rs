@@ -66,10 +66,31 @@ pub enum Protection {
     Ipc,
     /// Its memory, file size and process limits are set.
     Limits,
+    /// It kept to the threads it was granted: its processes' CPU time is at most
+    /// [`THREADS_SLACK`] times its wall time times its threads, plus [`THREADS_GRACE_S`]
+    /// (checked by the harness after the run, not by the kernel).
+    Threads,
+}
+
+/// How far a run's CPU time may pass its wall time times its threads (timer granularity, the
+/// interpreter's start-up threads) before it did not keep to them.
+pub const THREADS_SLACK: f64 = 1.2;
+pub const THREADS_GRACE_S: f64 = 0.2;
+
+/// Whether a run of `cpu_s` over `wall_s` kept to `threads`; `Err` says by how much it did not.
+pub fn kept_to_threads(cpu_s: f64, wall_s: f64, threads: usize) -> Result<(), String> {
+    let allowed = THREADS_SLACK * wall_s * threads.max(1) as f64 + THREADS_GRACE_S;
+    match cpu_s <= allowed {
+        true => Ok(()),
+        false => Err(format!(
+            "its processes used {cpu_s:.2} s of CPU in {wall_s:.2} s with {} thread(s) granted: more than {allowed:.2} s",
+            threads.max(1)
+        )),
+    }
 }
 
 impl Protection {
-    pub const ALL: [Protection; 8] = [
+    pub const ALL: [Protection; 9] = [
         Protection::Writes,
         Protection::Reads,
         Protection::Tracing,
@@ -78,6 +99,7 @@ impl Protection {
         Protection::UnixSockets,
         Protection::Ipc,
         Protection::Limits,
+        Protection::Threads,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -89,6 +111,7 @@ impl Protection {
             Protection::Network => "network",
             Protection::UnixSockets => "unix_sockets",
             Protection::Ipc => "ipc",
+            Protection::Threads => "threads",
             Protection::Limits => "limits",
         }
     }
@@ -290,7 +313,11 @@ pub fn become_solver(rules: &str, command: &[String]) -> u8 {
         }),
     };
     not_held.extend(landlock(&rules, own_network));
-    let held = Protection::ALL.into_iter().filter(|p| !not_held.iter().any(|(q, _)| q == p)).collect();
+    // The harness checks `threads` after the run.
+    let held = Protection::ALL
+        .into_iter()
+        .filter(|p| *p != Protection::Threads && !not_held.iter().any(|(q, _)| q == p))
+        .collect();
     say(Line::Held { held, not_held });
     // Signals the harness's threads block (to take Ctrl-C in one place) are the solver's to
     // handle; the environment and folder are those the sandbox gave this process.
@@ -463,6 +490,14 @@ mod tests {
             names(held_by(0, "none", Ok(()))),
             [Protection::Writes, Protection::Reads, Protection::Tracing, Protection::Signals, Protection::UnixSockets]
         );
+    }
+
+    #[test]
+    fn a_run_keeps_to_its_threads_up_to_the_slack() {
+        assert!(kept_to_threads(2.3, 1.0, 2).is_ok());
+        assert!(kept_to_threads(0.15, 0.0, 1).is_ok(), "start-up within the grace");
+        let err = kept_to_threads(4.0, 1.0, 2).unwrap_err();
+        assert!(err.contains("4.00 s of CPU in 1.00 s with 2 thread(s) granted: more than 2.60 s"), "{err}");
     }
 
     #[test]

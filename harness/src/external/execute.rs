@@ -207,10 +207,16 @@ fn run_and_read(
     command.push(dir.display().to_string());
     let env = environment(&dir, job.threads, &job.declared.pass_env).map_err(|e| failed(e.to_string()))?;
     let spec = Spec { command, cwd: dir.clone(), rules, env, timeout_s: Some(kill.as_secs_f64()), keep: KEEP_OUTPUT };
-    let child = sandbox::run_sandboxed(&spec, job.interrupt).map_err(|e| match e {
+    let mut child = sandbox::run_sandboxed(&spec, job.interrupt).map_err(|e| match e {
         SandboxError::CannotStart(e) => ExternalError::CannotStart(e.to_string()),
         SandboxError::Lost(why) => failed(format!("{}: {why}", job.name)),
     })?;
+    if let Some(cpu) = child.cpu_s {
+        match confine::kept_to_threads(cpu, child.wall_s, job.threads) {
+            Ok(()) => child.held.push(confine::Protection::Threads),
+            Err(why) => child.unconfined.push(format!("threads: {why}")),
+        }
+    }
     keep_output(&job.logs, &child);
     let said = || {
         let last = child.stderr.lines().map(str::trim).rfind(|l| !l.is_empty() && !child::is_cut_note(l));

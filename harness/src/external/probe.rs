@@ -66,6 +66,9 @@ pub fn ended(exit: &Exit) -> String {
         Exit::TimedOut => "passed its timeout".into(),
         Exit::Interrupted => "was interrupted".into(),
         Exit::TooManyProcesses(n) => format!("was killed with more than {n} processes at once (`processes`)"),
+        Exit::TooMuchMemory(mb) => {
+            format!("was killed with more than {mb} MiB resident in its processes together (`memory_mb`)")
+        }
     }
 }
 

@@ -307,19 +307,26 @@ fn take_lines(report: &mut Report, lines: Vec<Line>) {
 fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, peaks: &mut BTreeMap<i32, u64>) -> Exit {
     let timeout = spec.timeout_s.map(Duration::from_secs_f64);
     let max_processes = spec.rules.limits.processes.map(|p| p as usize);
+    let max_kb = spec.rules.limits.memory_mb.map(|m| m.saturating_mul(1024));
     loop {
         if let Some(exit) = reap(solver) {
             return exit;
         }
         let tree = descendants();
+        let mut resident_kb = 0;
         for &pid in &tree {
-            if let Some(kb) = high_water_kb(pid) {
+            if let Some((now, high)) = memory_kb(pid) {
                 let peak = peaks.entry(pid).or_default();
-                *peak = (*peak).max(kb);
+                *peak = (*peak).max(high);
+                resident_kb += now;
             }
         }
         if let Some(max) = max_processes.filter(|&m| tree.len() > m) {
             return Exit::TooManyProcesses(max);
+        }
+        // `RLIMIT_AS` caps each process; this caps them together.
+        if let Some(max) = max_kb.filter(|&m| resident_kb > m) {
+            return Exit::TooMuchMemory(max / 1024);
         }
         if stop.load(Ordering::SeqCst) {
             return Exit::Interrupted;
@@ -403,10 +410,14 @@ fn parent(pid: i32) -> Option<i32> {
     rest.split_whitespace().nth(1)?.parse().ok()
 }
 
-fn high_water_kb(pid: i32) -> Option<u64> {
+/// A process's resident memory now (`VmRSS`) and its peak (`VmHWM`), KiB.
+fn memory_kb(pid: i32) -> Option<(u64, u64)> {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    line.split_whitespace().nth(1)?.parse().ok()
+    let field = |name: &str| -> Option<u64> {
+        let line = status.lines().find(|l| l.starts_with(name))?;
+        line.split_whitespace().nth(1)?.parse().ok()
+    };
+    Some((field("VmRSS:")?, field("VmHWM:")?))
 }
 
 #[cfg(test)]

@@ -33,7 +33,8 @@ pub struct Declared {
     /// Keep each run's problem folder (`external/<run>/`) instead of removing it.
     #[serde(default)]
     pub keep_problem: bool,
-    /// The address space each of its processes may have, MiB (default: the machine's memory).
+    /// The address space each of its processes may have, and the resident memory of all of
+    /// them together, MiB (default: the machine's memory).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub memory_mb: Option<u64>,
     /// The largest file it may write, MiB (default: 1024).
