@@ -11,6 +11,9 @@
 mod common;
 
 use common::*;
+use mapbench::external::child::Exit;
+use mapbench::external::confine::{self, Limits, Rules};
+use mapbench::external::sandbox::{Report, Spec};
 use std::io::Read;
 use std::process::{Command, Stdio};
 
@@ -113,6 +116,12 @@ fn a_solver_that_tries_every_way_out_fails_alone_and_gets_nowhere() {
     std::fs::create_dir_all(d.join("peer")).unwrap();
     std::fs::write(d.join("peer/probe.py"), probe).unwrap();
     // four processes of 60 MB each, under a cap of 150 MiB for them together
+    // 1 MiB files, each well under `file_size_mb`, past 20 MiB together
+    std::fs::write(
+        d.join("peer/filler.py"),
+        "import os, sys, time\nfor i in range(200):\n    open(os.path.join(sys.argv[-1], f'fill{i}'), 'wb').write(os.urandom(1 << 20))\ntime.sleep(30)\n",
+    )
+    .unwrap();
     std::fs::write(
         d.join("peer/hog.py"),
         "import subprocess, sys, time\nkid = \"b = b'x' * 60_000_000\\nimport time\\ntime.sleep(30)\"\n\
@@ -121,10 +130,12 @@ fn a_solver_that_tries_every_way_out_fails_alone_and_gets_nowhere() {
     .unwrap();
     let external = "[external.probe]\ncommand = [\"python3\", \"peer/probe.py\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n\
                     [external.hog]\ncommand = [\"python3\", \"peer/hog.py\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n\
-                    memory_mb = 150\n";
-    let cfg = write_config(d, &solvers_config("\"kp-newton\", \"probe\", \"hog\"", external));
+                    memory_mb = 150\n\
+                    [external.filler]\ncommand = [\"python3\", \"peer/filler.py\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n\
+                    disk_mb = 20\n";
+    let cfg = write_config(d, &solvers_config("\"kp-newton\", \"probe\", \"hog\", \"filler\"", external));
     let o = Command::new(env!("CARGO_BIN_EXE_mapbench"))
-        .args(["run", cfg.to_str().unwrap(), "--out", "out", "--no-history", "--jobs", "2"])
+        .args(["run", cfg.to_str().unwrap(), "--out", "out", "--history", "h.sqlite", "--jobs", "2"])
         .current_dir(d)
         .env_remove("MAPBENCH_MESHES")
         .env("MAPBENCH_TEST_SECRET", "a token the solver must not see")
@@ -142,6 +153,11 @@ fn a_solver_that_tries_every_way_out_fails_alone_and_gets_nowhere() {
     assert_eq!(hog("status"), "failed", "{}", hog("error"));
     let too_much = "hog was killed with more than 150 MiB resident in its processes together";
     assert!(hog("error").contains(too_much), "{}", hog("error"));
+    let filler = row(&h, &rows, "filler");
+    assert_eq!(filler("status"), "failed", "{}", filler("error"));
+    assert!(filler("error").contains("filler was killed with more than 20 MiB in its problem folder (`disk_mb`)"));
+    // the batch is recorded, its hostile runs with it
+    assert!(log.contains("history: batch 1 (4 runs of s) appended to"), "{log}");
     let said = std::fs::read_to_string(d.join("out/external/bumpy_1k__sd__probe.stdout.txt")).unwrap();
     for what in [
         "forge_report",
@@ -247,4 +263,59 @@ fn a_sandbox_that_dies_without_a_report_fails_its_run() {
             && !gone(&e.file_name().to_string_lossy())
     });
     assert!(!sleeping, "the solver outlived its sandbox");
+}
+
+/// `mapbench sandbox` run directly, as the harness runs it: `script` in Python on a problem
+/// folder under `limits`; its report.
+fn sandboxed(folder: &std::path::Path, script: &str, limits: Limits) -> Report {
+    use std::io::Write;
+    std::fs::write(folder.join("solver.py"), script).unwrap();
+    let command = vec!["python3".to_string(), folder.join("solver.py").display().to_string()];
+    let rules = Rules {
+        writable: Some(folder.to_path_buf()),
+        readable: confine::readable(&command, folder, &[]),
+        network: false,
+        limits,
+    };
+    let spec = Spec {
+        command,
+        cwd: folder.to_path_buf(),
+        rules,
+        env: confine::base_environment(),
+        timeout_s: Some(60.0),
+        keep: 4096,
+    };
+    let mut sandbox = Command::new(env!("CARGO_BIN_EXE_mapbench"))
+        .arg("sandbox")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // the sandbox stops the run when its standard input closes: kept open until it reports
+    let mut stdin = sandbox.stdin.take().unwrap();
+    stdin.write_all((serde_json::to_string(&spec).unwrap() + "\n").as_bytes()).unwrap();
+    let mut report = String::new();
+    sandbox.stdout.take().unwrap().read_to_string(&mut report).unwrap();
+    drop(stdin);
+    assert!(sandbox.wait().unwrap().success());
+    serde_json::from_str(&report).unwrap_or_else(|e| panic!("{e}: {report}"))
+}
+
+/// What the sandbox measures it measures from outside, of every process: the CPU time of a
+/// child nobody waits for counts, and the problem folder's size is capped for all its files.
+#[test]
+fn the_sandbox_counts_what_no_parent_waits_for_and_caps_the_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    // a child that burns 1 s of CPU, its parent ignoring SIGCHLD: the kernel reaps it, and its
+    // time reaches no getrusage
+    let burner = "import os, signal, time\nsignal.signal(signal.SIGCHLD, signal.SIG_IGN)\npid = os.fork()\n\
+                  if pid == 0:\n    t = time.process_time()\n    while time.process_time() - t < 1.0: pass\n    os._exit(0)\n\
+                  while True:\n    try: os.kill(pid, 0)\n    except ProcessLookupError: break\n    time.sleep(0.02)\n";
+    let r = sandboxed(tmp.path(), burner, Limits::default());
+    assert_eq!(r.exit, Some(Exit::Code(0)), "{r:?}");
+    assert!(r.cpu_s >= 0.9, "{r:?}");
+    let filler = "import os, sys, time\nfor i in range(100):\n    open(f'fill{i}', 'wb').write(os.urandom(1 << 20))\ntime.sleep(30)\n";
+    let r = sandboxed(tmp.path(), filler, Limits { disk_mb: Some(10), ..Limits::default() });
+    assert_eq!(r.exit, Some(Exit::TooMuchDisk(10)), "{r:?}");
+    assert!(r.wall_s < 20.0, "{r:?}");
 }

@@ -7,6 +7,7 @@
 //! output is kept, truncated, and never waited for past its end.
 
 pub use super::confine::program_in;
+use super::processes::{self, Seen};
 use serde::{Deserialize, Serialize};
 use std::io::Read;
 use std::path::Path;
@@ -39,6 +40,8 @@ pub enum Exit {
     TooManyProcesses(usize),
     /// Its processes had more than this many MiB resident together: all were killed.
     TooMuchMemory(u64),
+    /// Its problem folder held more than this many MiB: all its processes were killed.
+    TooMuchDisk(u64),
 }
 
 /// A finished child.
@@ -115,9 +118,11 @@ pub(super) fn run_with(
     let mut child = cmd.spawn().map_err(|why| CannotStart { command: shown, why })?;
     let readers =
         [child.stdout.take().map(|s| Reading::start(s, keep)), child.stderr.take().map(|s| Reading::start(s, keep))];
-    let mut peaks = Peaks::default();
+    let mut seen = Seen::default();
+    let group = child.id() as i32;
     let exit = loop {
-        peaks.sample(child.id());
+        let members: Vec<_> = processes::all().into_iter().filter(|&(p, s)| p == group || s.group == group).collect();
+        seen.sample(&members);
         match child.try_wait() {
             Ok(Some(status)) => break exit_of(status),
             Ok(None) => {}
@@ -141,7 +146,7 @@ pub(super) fn run_with(
     // What the child left running (a daemon, a worker pool) ends with it.
     kill_group(&mut child);
     let [stdout, stderr] = readers.map(|r| r.map(|r| r.finish(OUTPUT_GRACE)).unwrap_or_default());
-    let peak_rss_mb = peaks.total_mb();
+    let peak_rss_mb = seen.peak_rss_mb();
     Ok(ChildRun { exit, wall_s, cpu_s: None, peak_rss_mb, held: Vec::new(), unconfined: Vec::new(), stdout, stderr })
 }
 
@@ -235,49 +240,6 @@ pub(super) fn kill_group(child: &mut std::process::Child) {
     // ESRCH: the group is gone already.
     let _ = killpg(Pid::from_raw(child.id() as i32), Signal::SIGKILL);
     let _ = child.kill();
-}
-
-/// The peak resident memory of each process seen in the child's process group.
-#[derive(Default)]
-struct Peaks {
-    by_pid: std::collections::BTreeMap<u32, u64>,
-    seen: bool,
-}
-
-impl Peaks {
-    /// Read `/proc/<pid>/stat` (the group) and `/proc/<pid>/status` (`VmHWM`) of the group's
-    /// processes; nothing where there is no `/proc`.
-    fn sample(&mut self, group: u32) {
-        let Ok(dir) = std::fs::read_dir("/proc") else { return };
-        for entry in dir.flatten() {
-            let Some(pid) = entry.file_name().to_str().and_then(|s| s.parse::<u32>().ok()) else { continue };
-            if pid != group && process_group(pid) != Some(group) {
-                continue;
-            }
-            if let Some(kb) = high_water_kb(pid) {
-                self.seen = true;
-                let peak = self.by_pid.entry(pid).or_default();
-                *peak = (*peak).max(kb);
-            }
-        }
-    }
-
-    fn total_mb(&self) -> Option<f64> {
-        self.seen.then(|| self.by_pid.values().sum::<u64>() as f64 / 1024.0)
-    }
-}
-
-/// Field 5 of `/proc/<pid>/stat` (after the parenthesized command, which may hold spaces).
-fn process_group(pid: u32) -> Option<u32> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    let rest = &stat[stat.rfind(')')? + 1..];
-    rest.split_whitespace().nth(2)?.parse().ok()
-}
-
-fn high_water_kb(pid: u32) -> Option<u64> {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    line.split_whitespace().nth(1)?.parse().ok()
 }
 
 #[cfg(test)]

@@ -39,6 +39,10 @@ pub struct Limits {
     /// Processes at once below the sandbox (counted every 10 ms; `RLIMIT_NPROC`, which counts
     /// every task of the user, is set to the user's tasks at the start plus this).
     pub processes: Option<u64>,
+    /// The problem folder's disk use, all its files together, MiB (measured by the sandbox every
+    /// [`DISK_EVERY`] polls; no rlimit holds it).
+    #[serde(default)]
+    pub disk_mb: Option<u64>,
 }
 
 /// One protection of the sandbox; a run records those that held (`confined`).
@@ -227,12 +231,30 @@ pub const DEFAULT_FILE_SIZE_MB: u64 = 1024;
 /// A run's process limit without `processes`.
 pub const DEFAULT_PROCESSES: u64 = 64;
 
+/// A run's disk limit without `disk_mb`, MiB, unless half of the free space is less.
+pub const DEFAULT_DISK_MB: u64 = 8192;
+
+/// The sandbox measures the problem folder every this many polls (of 10 ms): a walk of the
+/// folder costs more than a read of `/proc`.
+pub const DISK_EVERY: u32 = 5;
+
 /// How a command of `declared` (`command` as it runs: the files it names absolute) is confined,
 /// run from the config's folder `cwd`, writing only in `writable`.
 pub fn rules_for(declared: &Declared, command: &[String], cwd: &Path, writable: Option<PathBuf>) -> Rules {
     let grants: Vec<PathBuf> =
         declared.read.iter().map(|p| std::path::absolute(cwd.join(p)).unwrap_or_else(|_| cwd.join(p))).collect();
-    Rules { writable, readable: readable(command, cwd, &grants), network: declared.network, limits: limits(declared) }
+    let mut limits = limits(declared);
+    limits.disk_mb = declared.disk_mb.or_else(|| Some(default_disk_mb(writable.as_deref()?)));
+    Rules { writable, readable: readable(command, cwd, &grants), network: declared.network, limits }
+}
+
+/// [`DEFAULT_DISK_MB`], or half the space free where `folder` is when that is less: a solver
+/// never fills the disk the harness writes its reports on.
+fn default_disk_mb(folder: &Path) -> u64 {
+    let free = nix::sys::statvfs::statvfs(folder)
+        .map(|s| s.blocks_available().saturating_mul(s.fragment_size()) / (1 << 20))
+        .unwrap_or(u64::MAX);
+    DEFAULT_DISK_MB.min((free / 2).max(1))
 }
 
 /// The declared limits, with the defaults: the machine's memory, [`DEFAULT_FILE_SIZE_MB`],
@@ -243,6 +265,7 @@ fn limits(d: &Declared) -> Limits {
         memory_mb: memory,
         file_size_mb: Some(d.file_size_mb.unwrap_or(DEFAULT_FILE_SIZE_MB)),
         processes: Some(d.processes.unwrap_or(DEFAULT_PROCESSES)),
+        disk_mb: None,
     }
 }
 
@@ -518,5 +541,20 @@ mod tests {
         }
         assert!(!r.contains(&dir.path().to_path_buf()) && !r.iter().any(|p| p.ends_with("absent")), "{r:?}");
         assert!(r.contains(&PathBuf::from("/usr")) && !r.contains(&PathBuf::from("/tmp")), "{r:?}");
+    }
+
+    #[test]
+    fn the_limits_come_from_the_declaration_or_the_defaults() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut d: Declared = toml::from_str("command = [\"x\"]\ntasks = [\"param\"]\nenergies = [\"sd\"]\n").unwrap();
+        let rules = |d: &Declared, w: Option<PathBuf>| rules_for(d, &["x".to_string()], dir.path(), w).limits;
+        let l = rules(&d, Some(dir.path().to_path_buf()));
+        assert_eq!((l.file_size_mb, l.processes), (Some(DEFAULT_FILE_SIZE_MB), Some(DEFAULT_PROCESSES)));
+        assert!(l.disk_mb.is_some_and(|mb| (1..=DEFAULT_DISK_MB).contains(&mb)), "{l:?}");
+        // a version command writes nowhere: nothing to measure
+        assert_eq!(rules(&d, None).disk_mb, None);
+        (d.disk_mb, d.memory_mb) = (Some(3), Some(100));
+        let l = rules(&d, Some(dir.path().to_path_buf()));
+        assert_eq!((l.disk_mb, l.memory_mb), (Some(3), Some(100)));
     }
 }

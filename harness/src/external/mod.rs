@@ -5,6 +5,7 @@ pub mod child;
 pub mod confine;
 pub mod execute;
 pub mod probe;
+pub mod processes;
 pub mod protocol;
 pub mod records;
 pub mod sandbox;

@@ -69,6 +69,7 @@ pub fn ended(exit: &Exit) -> String {
         Exit::TooMuchMemory(mb) => {
             format!("was killed with more than {mb} MiB resident in its processes together (`memory_mb`)")
         }
+        Exit::TooMuchDisk(mb) => format!("was killed with more than {mb} MiB in its problem folder (`disk_mb`)"),
     }
 }
 
@@ -110,6 +111,7 @@ mod tests {
             memory_mb: None,
             file_size_mb: None,
             processes: None,
+            disk_mb: None,
             read: Vec::new(),
             pass_env: Vec::new(),
             network: false,

@@ -13,18 +13,18 @@
 //!   (it closes our standard input, or dies), every one of them is killed and reaped. Nothing
 //!   then holds the output pipes open.
 //! - **Environment**: exactly the one the harness gives, nothing of its own.
-//! - **Measures**: the solver's wall time from its start, the CPU time (user + system) of every
-//!   process of it (all are reaped here or by their parents), the sum of each process's peak
-//!   resident memory, and the first bytes of its output.
+//! - **Measures** (`super::processes`): the solver's wall time from its start, the CPU time
+//!   (user + system) of every process of it (those nobody waits for included), the sum of each
+//!   process's peak resident memory, its problem folder's size against `disk_mb`, and the first
+//!   bytes of its output.
 //!
 //! The harness writes the [`Spec`] as one JSON line to our standard input and keeps it open;
 //! we write the [`Report`] as JSON to our standard output.
 
 use super::child::{self, program_in, CannotStart, ChildRun, Exit, Reading, OUTPUT_GRACE, POLL};
-pub use super::confine::Limits;
-use super::confine::{Line, Protection, Rules};
+use super::confine::{Line, Protection, Rules, DISK_EVERY};
+use super::processes::{self, Seen};
 use serde::{Deserialize, Serialize};
-use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, Write};
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
@@ -251,16 +251,19 @@ fn run(spec: &Spec) -> Report {
         child.stdout.take().map(|s| Reading::start(s, spec.keep)),
         child.stderr.take().map(|s| Reading::start(s, spec.keep + LINE_ROOM)),
     ];
-    let mut peaks: BTreeMap<i32, u64> = BTreeMap::new();
-    let exit = watch(child.id() as i32, spec, t0, &stop, &mut peaks);
+    let mut seen = Seen::default();
+    let exit = watch(child.id() as i32, spec, t0, &stop, &mut seen);
     report.wall_s = t0.elapsed().as_secs_f64();
     end_all();
     report.exit = Some(exit);
+    // Both count too little: the first misses processes nobody waits for (a parent ignoring
+    // SIGCHLD), the second what each did after its last sample.
     if let Ok(usage) = nix::sys::resource::getrusage(nix::sys::resource::UsageWho::RUSAGE_CHILDREN) {
         let s = |t: nix::sys::time::TimeVal| t.tv_sec() as f64 + t.tv_usec() as f64 * 1e-6;
         report.cpu_s = s(usage.user_time()) + s(usage.system_time());
     }
-    report.peak_rss_mb = (!peaks.is_empty()).then(|| peaks.values().sum::<u64>() as f64 / 1024.0);
+    report.cpu_s = report.cpu_s.max(seen.cpu_s());
+    report.peak_rss_mb = seen.peak_rss_mb();
     // Every writer of the pipes is gone: they end now.
     let [stdout, stderr] = outputs.map(|o| o.map(|r| r.finish(Duration::from_secs(5))).unwrap_or_default());
     let (lines, solver) = Line::split(&stderr);
@@ -302,31 +305,34 @@ fn take_lines(report: &mut Report, lines: Vec<Line>) {
     }
 }
 
-/// Poll the solver (`solver`, started at `t0`) until it ends, it has too many processes, the
-/// harness stops the run or its time is up; each process's peak memory goes to `peaks`.
-fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, peaks: &mut BTreeMap<i32, u64>) -> Exit {
+/// Poll the solver (`solver`, started at `t0`) until it ends, passes a limit, the harness stops
+/// the run or its time is up; what its processes use goes to `seen`.
+fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, seen: &mut Seen) -> Exit {
     let timeout = spec.timeout_s.map(Duration::from_secs_f64);
-    let max_processes = spec.rules.limits.processes.map(|p| p as usize);
-    let max_kb = spec.rules.limits.memory_mb.map(|m| m.saturating_mul(1024));
+    let limits = &spec.rules.limits;
+    let max_processes = limits.processes.map(|p| p as usize);
+    let max_kb = limits.memory_mb.map(|m| m.saturating_mul(1024));
+    let disk = spec.rules.writable.as_deref().zip(limits.disk_mb);
+    let mut poll: u32 = 0;
     loop {
+        poll = poll.wrapping_add(1);
         if let Some(exit) = reap(solver) {
             return exit;
         }
         let tree = descendants();
-        let mut resident_kb = 0;
-        for &pid in &tree {
-            if let Some((now, high)) = memory_kb(pid) {
-                let peak = peaks.entry(pid).or_default();
-                *peak = (*peak).max(high);
-                resident_kb += now;
-            }
-        }
+        let resident_kb = seen.sample(&tree);
         if let Some(max) = max_processes.filter(|&m| tree.len() > m) {
             return Exit::TooManyProcesses(max);
         }
         // `RLIMIT_AS` caps each process; this caps them together.
         if let Some(max) = max_kb.filter(|&m| resident_kb > m) {
             return Exit::TooMuchMemory(max / 1024);
+        }
+        // `RLIMIT_FSIZE` caps each file; this caps them together.
+        if let Some((folder, mb)) = disk.filter(|_| poll % DISK_EVERY == 1) {
+            if processes::folder_kb(folder) > mb.saturating_mul(1024) {
+                return Exit::TooMuchDisk(mb);
+            }
         }
         if stop.load(Ordering::SeqCst) {
             return Exit::Interrupted;
@@ -361,7 +367,7 @@ fn end_all() {
     let give_up = Instant::now() + Duration::from_secs(30);
     loop {
         let tree = descendants();
-        for &pid in &tree {
+        for &(pid, _) in &tree {
             let _ = kill(Pid::from_raw(pid), Signal::SIGKILL);
         }
         loop {
@@ -380,49 +386,15 @@ fn end_all() {
     }
 }
 
-/// The processes below this one (zombies included), from `/proc`'s parent links.
-fn descendants() -> Vec<i32> {
-    let me = std::process::id() as i32;
-    let mut children: BTreeMap<i32, Vec<i32>> = BTreeMap::new();
-    let Ok(dir) = std::fs::read_dir("/proc") else { return Vec::new() };
-    for entry in dir.flatten() {
-        let Some(pid) = entry.file_name().to_str().and_then(|s| s.parse::<i32>().ok()) else { continue };
-        if let Some(ppid) = parent(pid) {
-            children.entry(ppid).or_default().push(pid);
-        }
-    }
-    let mut seen = BTreeSet::new();
-    let mut todo = vec![me];
-    while let Some(p) = todo.pop() {
-        for &c in children.get(&p).map_or(&[][..], |v| &v[..]) {
-            if seen.insert(c) {
-                todo.push(c);
-            }
-        }
-    }
-    seen.into_iter().collect()
-}
-
-/// Field 4 of `/proc/<pid>/stat` (after the parenthesized command, which may hold spaces).
-fn parent(pid: i32) -> Option<i32> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    let rest = &stat[stat.rfind(')')? + 1..];
-    rest.split_whitespace().nth(1)?.parse().ok()
-}
-
-/// A process's resident memory now (`VmRSS`) and its peak (`VmHWM`), KiB.
-fn memory_kb(pid: i32) -> Option<(u64, u64)> {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    let field = |name: &str| -> Option<u64> {
-        let line = status.lines().find(|l| l.starts_with(name))?;
-        line.split_whitespace().nth(1)?.parse().ok()
-    };
-    Some((field("VmRSS:")?, field("VmHWM:")?))
+/// The processes below this one (zombies included).
+fn descendants() -> Vec<(i32, processes::Stat)> {
+    processes::below(std::process::id() as i32, &processes::all())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::external::confine::Limits;
 
     #[test]
     fn without_the_sandbox_program_a_run_says_it_was_not_confined() {
@@ -452,7 +424,7 @@ mod tests {
                 writable: None,
                 readable: vec!["/usr".into()],
                 network: true,
-                limits: Limits { memory_mb: Some(512), file_size_mb: None, processes: Some(8) },
+                limits: Limits { memory_mb: Some(512), file_size_mb: None, processes: Some(8), disk_mb: Some(64) },
             },
             env: vec![("OMP_NUM_THREADS".into(), "2".into())],
             timeout_s: None,

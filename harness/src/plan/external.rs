@@ -43,6 +43,10 @@ pub struct Declared {
     /// Processes it may have at once (default: 64).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub processes: Option<u64>,
+    /// Its problem folder's size, all files together, MiB (default: 8192, or half the space
+    /// free on the run folder's disk when that is less).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disk_mb: Option<u64>,
     /// Folders or files it may read besides its problem folder, its program's and its
     /// arguments' folders and the system's (relative to the config's folder): a licence file,
     /// a package installed elsewhere.
@@ -83,9 +87,12 @@ impl Declared {
         if self.energies.is_empty() {
             bail!("[external.{name}] energies is empty: name the energies it minimizes");
         }
-        for (key, value) in
-            [("memory_mb", self.memory_mb), ("file_size_mb", self.file_size_mb), ("processes", self.processes)]
-        {
+        for (key, value) in [
+            ("memory_mb", self.memory_mb),
+            ("file_size_mb", self.file_size_mb),
+            ("processes", self.processes),
+            ("disk_mb", self.disk_mb),
+        ] {
             if value == Some(0) {
                 bail!("[external.{name}] {key} = 0: give a limit above 0, or leave it out for the default");
             }

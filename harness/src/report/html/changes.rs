@@ -43,6 +43,7 @@ pub(super) fn changes_section(
         *h += "<p class=\"warn\">The machine changed speed during this batch: time rankings are less certain \
                (<a href=\"#timing\">calibration</a>).</p>\n";
     }
+    super::external::sandbox_warning(h, summaries);
     since_section(h, run_dir, meta);
     super::rollup::rollup_section(h, summaries, batch);
     super::claims::glance(h, claims);

@@ -74,3 +74,61 @@ fn protections(runs: &[&SummaryRow]) -> String {
         (false, false) => format!("{}; not: {}", all.join(", "), some.join(", ")),
     }
 }
+
+/// The first screen's warning when a protection of the sandbox was missing from an external run
+/// (the kernel lacked it, or the run used more CPU than its threads): which, in how many runs.
+pub(super) fn sandbox_warning(h: &mut String, summaries: &[SummaryRow]) {
+    use crate::external::confine::Protection;
+    let listed: Vec<&str> = summaries.iter().filter_map(|s| s.confined.as_deref()).collect();
+    let missing: Vec<String> = Protection::ALL
+        .iter()
+        .map(|p| (p, listed.iter().filter(|l| !l.split(' ').any(|w| w == p.as_str())).count()))
+        .filter(|&(_, n)| n > 0)
+        .map(|(p, n)| format!("{} in {n}", p.as_str()))
+        .collect();
+    if missing.is_empty() {
+        return;
+    }
+    let not_whole = listed.iter().filter(|l| Protection::ALL.iter().any(|p| !l.split(' ').any(|w| w == p.as_str())));
+    let _ = writeln!(
+        h,
+        "<p class=\"warn\">The sandbox was not whole in {} of {} external runs (missing: {}): see \
+         <a href=\"#external\">External solvers</a> and the batch's log for why.</p>",
+        not_whole.count(),
+        listed.len(),
+        esc(&missing.join(", "))
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(solver: &str, confined: Option<&str>) -> SummaryRow {
+        SummaryRow {
+            solver: solver.into(),
+            status: Status::Ok,
+            confined: confined.map(Into::into),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_protection_missing_from_some_runs_is_named_in_the_table_and_on_the_first_screen() {
+        let whole = "writes reads tracing signals network unix_sockets ipc limits threads";
+        let no_sockets = "writes reads tracing signals network ipc limits threads";
+        let runs = [run("p", Some(whole)), run("p", Some(no_sockets)), run("q", Some(whole)), run("kp-newton", None)];
+        let p: Vec<&SummaryRow> = runs.iter().filter(|r| r.solver == "p").collect();
+        assert_eq!(
+            protections(&p),
+            "writes, reads, tracing, signals, network, ipc, limits, threads; not: unix_sockets (missing in 1 of 2)"
+        );
+        assert!(protections(&[&runs[3]]).starts_with("no run"));
+        let mut h = String::new();
+        sandbox_warning(&mut h, &runs);
+        assert!(h.contains("not whole in 1 of 3 external runs (missing: unix_sockets in 1)"), "{h}");
+        let mut h = String::new();
+        sandbox_warning(&mut h, &runs[2..]);
+        assert!(h.is_empty(), "{h}");
+    }
+}
