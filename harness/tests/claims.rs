@@ -3,7 +3,7 @@
 //! `kp-newton`'s iterations made ten times larger turns the claims about KP to "not held", and
 //! once both batches are in the history the second's first screen says which stopped holding.
 
-mod common;
+use crate::common;
 
 use common::{mapbench, text, write_config};
 use mapbench::history::{Decision, HistoryOutcome};

@@ -1,6 +1,6 @@
 //! The `mapbench` binary end to end, in temporary folders.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::path::{Path, PathBuf};

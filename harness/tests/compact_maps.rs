@@ -1,7 +1,7 @@
 //! The run folder's compact maps end to end: `maps = "best" | "all" | "none"`, `--resume`,
 //! `report` on them and on a folder of the older one-OBJ-per-map format, and `map`.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! `max_iters` (a real regression), its exit codes 0/1/2, the settings heading the output,
 //! the time flags on hand-made folders, and `--html`.
 
-mod common;
+use crate::common;
 use common::{mapbench, text, write_config};
 use mapbench::plan::Task;
 use mapbench::run_folder::{self, Status, SummaryRow};

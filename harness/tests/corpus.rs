@@ -3,7 +3,7 @@
 //! local path with `--from` on the shared corpus (when `MAPBENCH_MESHES` names it) and a
 //! batch on what it installed, and the hint a config gets when its corpus meshes are missing.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::collections::HashMap;

@@ -6,7 +6,7 @@
 //! command-line example names flags the binary's `--help` lists and scripts that run. The
 //! generated reference pages (CLI, solvers) are checked by the binary's own tests.
 
-mod common;
+use crate::common;
 
 use common::{prose, repo_root};
 use std::collections::{BTreeMap, BTreeSet, HashMap};

@@ -2,7 +2,7 @@
 //! frames against a closed form (the identity map of a planar mesh is an isometry); a mirror
 //! image is all flips; maps of another mesh are refused with the reason.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::path::Path;

@@ -8,7 +8,7 @@
 //! with a notice, unless `MAPBENCH_REQUIRE_PEERS` is set (`.ci/run` sets it), which turns a
 //! missing package into a failure.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! Bad configs and registries end before any run starts (exit 2, naming the entry), and
 //! nothing is ever written outside the run folder, whatever a name says.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::collections::BTreeSet;

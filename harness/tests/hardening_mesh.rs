@@ -2,7 +2,7 @@
 //! run of task `T` refuses, for the same reason, and the probe's bad meshes (clockwise planar,
 //! huge coordinates, BOM, CR line ends) either work or fail with a message naming the mesh.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! FIFO or device instead of replacing it, `-` is standard output, and a run folder's own
 //! files are never overwritten.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! line, `--resume` re-runs a run with a missing file, and a run whose
 //! files cannot be written fails alone.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::path::{Path, PathBuf};

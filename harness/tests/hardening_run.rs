@@ -1,7 +1,7 @@
 //! `run` hardening, second pass: `--jobs` bounded like `threads_per_run`, output
 //! folders of another batch refused, interrupted repeats kept for `--resume`.
 
-mod common;
+use crate::common;
 
 use common::*;
 

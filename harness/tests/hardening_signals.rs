@@ -2,7 +2,7 @@
 //! any moment of a batch, METIS's orderings included, stops it cleanly: exit 143, the report
 //! written, `interrupted: true` in meta.json.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::io::BufRead;

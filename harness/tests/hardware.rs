@@ -1,7 +1,7 @@
 //! Hardware fingerprints end to end: a batch records its machine in `meta.json`, `merge`
 //! keeps each shard's, and the report warns when the shards ran on different machines.
 
-mod common;
+use crate::common;
 
 use common::{mapbench, text, write_config};
 use serde_json::Value;

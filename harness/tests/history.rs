@@ -2,7 +2,7 @@
 //! `history` verb renders the trend page, `--no-history` writes nothing, a database this
 //! build cannot use costs the batch nothing but the exit code, and `sqlite3` reads the file.
 
-mod common;
+use crate::common;
 
 use common::{mapbench, read_csv, text, write_config};
 use mapbench::history::HistoryDb;

@@ -1,7 +1,7 @@
 //! The growth of the resident memory during a run, measured in a batch of one run at a time
 //! (`--jobs 1`): it grows with the mesh and stays under the process's peak.
 
-mod common;
+use crate::common;
 
 use common::{mapbench, read_csv, text, write_config};
 

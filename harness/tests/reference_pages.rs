@@ -4,7 +4,7 @@
 //! value the code writes, and the history schema page the migrations. (The links, examples and
 //! commands of every page are `docs.rs`'s.)
 
-mod common;
+use crate::common;
 
 use common::{mapbench, prose, repo_root};
 use std::collections::{BTreeMap, BTreeSet};

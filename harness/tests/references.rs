@@ -2,7 +2,7 @@
 //! beats lowers the store for the next batch; a subset of the solvers gets the same verdicts;
 //! the build's provenance is the binary's.
 
-mod common;
+use crate::common;
 
 use common::{mapbench, read_csv, text, write_config, QUAD_OBJ};
 use mapbench::judge::problem::Problem;

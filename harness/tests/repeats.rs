@@ -1,7 +1,7 @@
 //! A batch run again: repeats round-robin (medians, spreads, a timed-out run replayed), shards
 //! merged with their calibrations, and `--resume` rerunning only what changed.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::path::PathBuf;

@@ -4,7 +4,7 @@
 //! (`.ci/run` installs it and sets `MAPBENCH_REQUIRE_LATEX=1`, which turns a missing
 //! `pdflatex` into a failure instead of a skip).
 
-mod common;
+use crate::common;
 
 use common::{mapbench, text, write_config};
 use std::io::Write;

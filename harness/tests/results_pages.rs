@@ -4,7 +4,7 @@
 //! at — but for the pages not yet measured again since revisions were recorded, which are
 //! listed here so that the list can only shrink.
 
-mod common;
+use crate::common;
 
 use common::repo_root;
 use mapbench::plan::config::LoadedConfig;

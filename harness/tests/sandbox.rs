@@ -8,7 +8,7 @@
 //!
 //! The probes are plain Python (no numpy): these tests run wherever `python3` does.
 
-mod common;
+use crate::common;
 
 use common::*;
 use mapbench::external::child::Exit;

@@ -5,7 +5,7 @@
 //! plain `run` of them (the same runs, bit-identical iterates, one history batch), and
 //! a cancelled shard: `merge` refuses the incomplete set, `submit --resume` completes it.
 
-mod common;
+use crate::common;
 
 use common::{read_csv, repo_root, text};
 use std::collections::BTreeMap;

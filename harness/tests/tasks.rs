@@ -2,7 +2,7 @@
 //! shape), `deform` (generated, file and rule handles; every shared shape, with and without
 //! the smoothness term) and the smoothness table.
 
-mod common;
+use crate::common;
 
 use common::*;
 use std::process::Command;

@@ -1,6 +1,6 @@
 //! What the `mapbench` binary's end-to-end tests share: running it in a folder, its output,
 //! configs on the repository's registry, CSVs, and a batch stopped by a signal.
-// Each test file compiles this module on its own and uses part of it.
+// Each test file uses part of it.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
