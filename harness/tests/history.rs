@@ -201,7 +201,7 @@ fn a_history_that_cannot_be_written_keeps_the_run_folder_and_exits_2() {
 /// The history's benchmark (docs/src/results/benchmarks.md): 30 nights of one run folder (`MAPBENCH_BENCH_RUN`, e.g. a
 /// `configs/param.toml` run) appended with distinct revisions and start times into
 /// `MAPBENCH_BENCH_DB`; prints the database size and how long the trend page took. Run with
-/// `cargo test -p mapbench --test history -- --ignored --nocapture thirty`.
+/// `cargo test -p mapbench --test suite -- --ignored --nocapture history::thirty`.
 #[test]
 #[ignore = "a benchmark: needs MAPBENCH_BENCH_RUN (a run folder) and MAPBENCH_BENCH_DB"]
 fn thirty_simulated_batches() {

@@ -200,7 +200,7 @@ fn deform_converges_on_every_shared_shape_with_sd_and_nh() {
 /// The same with the smoothness term (w = 0.25, Figure 6). About 3 min in release (the runs go
 /// on to the target; raptor spends its 1100 iterations, 60 s each: its SD rule holds at 1009), so
 /// it is ignored by default; CI runs it with
-/// `MAPBENCH_MESHES=... cargo test --release -p mapbench --test tasks -- --ignored smoothness`.
+/// `MAPBENCH_MESHES=... cargo test --release -p mapbench --test suite -- --ignored tasks::deform_with_smoothness`.
 #[test]
 #[ignore = "minutes: run with --ignored and MAPBENCH_MESHES"]
 fn deform_with_smoothness_converges_on_every_shared_shape_with_sd_and_nh() {

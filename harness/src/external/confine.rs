@@ -39,8 +39,8 @@ pub struct Limits {
     /// Processes at once below the sandbox (counted every 10 ms; `RLIMIT_NPROC`, which counts
     /// every task of the user, is set to the user's tasks at the start plus this).
     pub processes: Option<u64>,
-    /// The problem folder's disk use, all its files together, MiB (measured by the sandbox every
-    /// [`DISK_EVERY`] polls; no rlimit holds it).
+    /// What it may write in its problem folder, all its files together, MiB (measured by the
+    /// sandbox every [`DISK_EVERY`] polls at most; no rlimit holds it).
     #[serde(default)]
     pub disk_mb: Option<u64>,
 }
@@ -231,8 +231,9 @@ pub const DEFAULT_FILE_SIZE_MB: u64 = 1024;
 /// A run's process limit without `processes`.
 pub const DEFAULT_PROCESSES: u64 = 64;
 
-/// A run's disk limit without `disk_mb`, MiB, unless half of the free space is less.
-pub const DEFAULT_DISK_MB: u64 = 8192;
+/// A run's disk limit without `disk_mb`, MiB, unless half of the free space is less: a map
+/// takes about 40 bytes a vertex, and every map a run writes is kept until it is verified.
+pub const DEFAULT_DISK_MB: u64 = 32768;
 
 /// The sandbox measures the problem folder every this many polls (of 10 ms): a walk of the
 /// folder costs more than a read of `/proc`.
@@ -248,8 +249,9 @@ pub fn rules_for(declared: &Declared, command: &[String], cwd: &Path, writable: 
     Rules { writable, readable: readable(command, cwd, &grants), network: declared.network, limits }
 }
 
-/// [`DEFAULT_DISK_MB`], or half the space free where `folder` is when that is less: a solver
-/// never fills the disk the harness writes its reports on.
+/// [`DEFAULT_DISK_MB`], or half the space free where `folder` is at the run's start when that
+/// is less: one solver alone cannot fill the disk the harness writes its reports on (runs in
+/// parallel each get half of what is free when they start).
 fn default_disk_mb(folder: &Path) -> u64 {
     let free = nix::sys::statvfs::statvfs(folder)
         .map(|s| s.blocks_available().saturating_mul(s.fragment_size()) / (1 << 20))

@@ -161,14 +161,14 @@ pub fn execute(job: &Job, mesh: &Mesh) -> Result<Executed, ExternalError> {
     );
     spec.handles = problem.penalty.as_ref().map(HandlesSpec::of);
     spec.targets = job.targets.clone();
-    let _ = std::fs::remove_dir_all(&job.dir);
+    let _ = super::processes::remove_folder(&job.dir);
     std::fs::create_dir_all(&job.dir)
         .map_err(|e| failed(format!("{}: cannot create the problem folder: {e}", job.dir.display())))?;
     let result = protocol::write_problem(&job.dir, &spec, &mesh, &x0)
         .map_err(|e| failed(format!("{e:#}")))
         .and_then(|()| run_and_read(job, &problem, &x0, &failed));
     if !job.declared.keep_problem {
-        let _ = std::fs::remove_dir_all(&job.dir);
+        let _ = super::processes::remove_folder(&job.dir);
     }
     let (done, child) = result?;
     let mut outcome = done.outcome;

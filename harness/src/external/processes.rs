@@ -118,15 +118,16 @@ impl Seen {
 }
 
 /// The disk space the files beneath `folder` take, KiB (allocated blocks, so a sparse file
-/// counts what it holds); links are not followed.
+/// counts what it holds); links are not followed. A folder closed to us (`chmod 000`) is opened
+/// again: the solver's files are our user's, and what it hides would not count.
 pub fn folder_kb(folder: &Path) -> u64 {
     use std::os::unix::fs::MetadataExt;
     let mut total = 0;
     let mut todo = vec![folder.to_path_buf()];
     while let Some(dir) = todo.pop() {
-        let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+        let Some(entries) = read_dir_opened(&dir) else { continue };
         for entry in entries.flatten() {
-            let Ok(meta) = entry.path().symlink_metadata() else { continue };
+            let Ok(meta) = entry.metadata() else { continue };
             total += meta.blocks() / 2;
             if meta.is_dir() {
                 todo.push(entry.path());
@@ -134,6 +135,36 @@ pub fn folder_kb(folder: &Path) -> u64 {
         }
     }
     total
+}
+
+/// `dir`'s entries; when its permissions refuse them, after giving its owner every permission.
+fn read_dir_opened(dir: &Path) -> Option<std::fs::ReadDir> {
+    use std::os::unix::fs::PermissionsExt;
+    match std::fs::read_dir(dir) {
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+            std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700)).ok()?;
+            std::fs::read_dir(dir).ok()
+        }
+        r => r.ok(),
+    }
+}
+
+/// Remove `folder` and everything beneath, its folders opened first where the solver closed
+/// them (`remove_dir_all` cannot empty a folder it may not read).
+pub fn remove_folder(folder: &Path) -> std::io::Result<()> {
+    if std::fs::remove_dir_all(folder).is_ok() || !folder.exists() {
+        return Ok(());
+    }
+    let mut todo = vec![folder.to_path_buf()];
+    while let Some(dir) = todo.pop() {
+        let Some(entries) = read_dir_opened(&dir) else { continue };
+        for entry in entries.flatten() {
+            if entry.file_type().is_ok_and(|t| t.is_dir()) {
+                todo.push(entry.path());
+            }
+        }
+    }
+    std::fs::remove_dir_all(folder)
 }
 
 #[cfg(test)]
@@ -176,13 +207,24 @@ mod tests {
     }
 
     #[test]
-    fn a_folder_counts_its_files_and_subfolders() {
+    fn a_folder_counts_its_files_and_subfolders_closed_or_not() {
+        use std::os::unix::fs::PermissionsExt;
+        // bytes no file system compresses much
+        let noise =
+            |n: usize| (0..n as u64).map(|i| (i.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 56) as u8).collect::<Vec<u8>>();
         let tmp = tempfile::tempdir().unwrap();
-        std::fs::create_dir(tmp.path().join("maps")).unwrap();
-        std::fs::write(tmp.path().join("a"), vec![1u8; 300_000]).unwrap();
-        std::fs::write(tmp.path().join("maps/b"), vec![1u8; 200_000]).unwrap();
+        std::fs::create_dir_all(tmp.path().join("maps/hidden")).unwrap();
+        std::fs::write(tmp.path().join("a"), noise(300_000)).unwrap();
+        std::fs::write(tmp.path().join("maps/b"), noise(200_000)).unwrap();
+        std::fs::write(tmp.path().join("maps/hidden/c"), noise(100_000)).unwrap();
+        let closed = std::fs::Permissions::from_mode(0o000);
+        std::fs::set_permissions(tmp.path().join("maps/hidden"), closed).unwrap();
+        // at least what the files hold, at most what a file system may set aside beside it
         let kb = folder_kb(tmp.path());
-        assert!((488..600).contains(&kb), "{kb}");
+        assert!((585..4096).contains(&kb), "{kb}");
         assert_eq!(folder_kb(&tmp.path().join("nowhere")), 0);
+        std::fs::set_permissions(tmp.path().join("maps/hidden"), std::fs::Permissions::from_mode(0o000)).unwrap();
+        remove_folder(&tmp.path().join("maps")).unwrap();
+        assert!(!tmp.path().join("maps").exists());
     }
 }

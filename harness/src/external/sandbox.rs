@@ -26,6 +26,7 @@ use super::confine::{Line, Protection, Rules, DISK_EVERY};
 use super::processes::{self, Seen};
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, Write};
+use std::path::Path;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -312,10 +313,8 @@ fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, seen: &mut Se
     let limits = &spec.rules.limits;
     let max_processes = limits.processes.map(|p| p as usize);
     let max_kb = limits.memory_mb.map(|m| m.saturating_mul(1024));
-    let disk = spec.rules.writable.as_deref().zip(limits.disk_mb);
-    let mut poll: u32 = 0;
+    let mut disk = spec.rules.writable.as_deref().zip(limits.disk_mb).map(|(f, mb)| Disk::new(f, mb));
     loop {
-        poll = poll.wrapping_add(1);
         if let Some(exit) = reap(solver) {
             return exit;
         }
@@ -329,10 +328,8 @@ fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, seen: &mut Se
             return Exit::TooMuchMemory(max / 1024);
         }
         // `RLIMIT_FSIZE` caps each file; this caps them together.
-        if let Some((folder, mb)) = disk.filter(|_| poll % DISK_EVERY == 1) {
-            if processes::folder_kb(folder) > mb.saturating_mul(1024) {
-                return Exit::TooMuchDisk(mb);
-            }
+        if let Some(exit) = disk.as_mut().and_then(Disk::check) {
+            return exit;
         }
         if stop.load(Ordering::SeqCst) {
             return Exit::Interrupted;
@@ -341,6 +338,32 @@ fn watch(solver: i32, spec: &Spec, t0: Instant, stop: &AtomicBool, seen: &mut Se
             return Exit::TimedOut;
         }
         thread::sleep(POLL);
+    }
+}
+
+/// The problem folder's size against `disk_mb`: what the solver wrote beyond the problem the
+/// harness wrote, walked every [`DISK_EVERY`] polls, and less often when a walk takes long (a
+/// folder of many maps), so that measuring never takes more than a tenth of a core.
+struct Disk<'a> {
+    folder: &'a Path,
+    mb: u64,
+    problem_kb: u64,
+    next: Instant,
+}
+
+impl<'a> Disk<'a> {
+    fn new(folder: &'a Path, mb: u64) -> Self {
+        Disk { folder, mb, problem_kb: processes::folder_kb(folder), next: Instant::now() }
+    }
+
+    fn check(&mut self) -> Option<Exit> {
+        let t = Instant::now();
+        if t < self.next {
+            return None;
+        }
+        let written = processes::folder_kb(self.folder).saturating_sub(self.problem_kb);
+        self.next = Instant::now() + (POLL * DISK_EVERY).max(t.elapsed() * 10);
+        (written > self.mb.saturating_mul(1024)).then_some(Exit::TooMuchDisk(self.mb))
     }
 }
 

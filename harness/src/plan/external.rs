@@ -43,8 +43,8 @@ pub struct Declared {
     /// Processes it may have at once (default: 64).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub processes: Option<u64>,
-    /// Its problem folder's size, all files together, MiB (default: 8192, or half the space
-    /// free on the run folder's disk when that is less).
+    /// What it may write in its problem folder, all files together, MiB (default: 32768, or
+    /// half the space free on the run folder's disk when that is less).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disk_mb: Option<u64>,
     /// Folders or files it may read besides its problem folder, its program's and its
